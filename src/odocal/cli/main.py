@@ -1,0 +1,53 @@
+"""The ``odocal`` command: parses arguments, runs one command, turns known errors into one line.
+
+Each command lives in its own module with ``add_parser(subparsers)`` and ``run(args) -> int``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from .. import __version__
+from ..errors import OdocalError
+from . import calibrate, simulate
+
+COMMANDS = [simulate, calibrate]
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (exit status 2), as every other odocal error."""
+
+    def error(self, message: str):  # noqa: D401 - argparse API
+        self.exit(2, f"odocal: error: {message} (see '{self.prog} --help')\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="odocal",
+        description="Odometry calibration and test-track design for differential-drive robots.",
+    )
+    parser.add_argument("--version", action="version", version=f"odocal {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+    for module in COMMANDS:
+        module.add_parser(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.run(args) or 0)
+    except OdocalError as exc:
+        print(f"odocal: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("odocal: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

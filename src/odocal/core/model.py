@@ -1,0 +1,238 @@
+"""The robot model: wheel geometry, systematic and non-systematic errors, measurement noise.
+
+Conventions follow docs/conventions.md (frames, signs, E_b and E_d, k in metres). Every length is
+in metres and every angle in radians unless the name says otherwise.
+
+Geometry values may be Python floats or numpy arrays of one shape (a batch of robots, e.g. one
+calibrated parameter set per Monte-Carlo trial); arithmetic broadcasts.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..errors import ModelError
+
+__all__ = [
+    "ModelError",
+    "WheelGeometry",
+    "SystematicError",
+    "NonSystematicError",
+    "MeasurementNoise",
+    "Robot",
+    "check_positive",
+    "check_nonnegative",
+]
+
+
+def _finite(name: str, value) -> None:
+    arr = np.asarray(value, dtype=float)
+    if not np.all(np.isfinite(arr)):
+        raise ModelError(f"{name} must be finite, got {value!r}")
+
+
+def check_positive(name: str, value) -> None:
+    """Raise ModelError unless every element of ``value`` is finite and > 0."""
+    _finite(name, value)
+    if not np.all(np.asarray(value, dtype=float) > 0):
+        raise ModelError(f"{name} must be > 0, got {value!r}")
+
+
+def check_nonnegative(name: str, value) -> None:
+    """Raise ModelError unless every element of ``value`` is finite and >= 0."""
+    _finite(name, value)
+    if not np.all(np.asarray(value, dtype=float) >= 0):
+        raise ModelError(f"{name} must be >= 0, got {value!r}")
+
+
+@dataclass(frozen=True)
+class WheelGeometry:
+    """Wheel diameters and wheelbase of a differential-drive robot.
+
+    Used both for what a robot BELIEVES (the parameters in its controller and odometry) and for
+    what is TRUE (the physical wheels).
+
+    Attributes
+    ----------
+    diameter_right_m, diameter_left_m : float or ndarray
+        Wheel diameters (m), not radii.
+    wheelbase_m : float or ndarray
+        Distance between the wheel contact points, b (m).
+    """
+
+    diameter_right_m: float | np.ndarray
+    diameter_left_m: float | np.ndarray
+    wheelbase_m: float | np.ndarray
+
+    def __post_init__(self) -> None:
+        check_positive("diameter_right_m", self.diameter_right_m)
+        check_positive("diameter_left_m", self.diameter_left_m)
+        check_positive("wheelbase_m", self.wheelbase_m)
+
+    @classmethod
+    def symmetric(cls, wheel_diameter_m: float, wheelbase_m: float) -> WheelGeometry:
+        """Both wheels of diameter ``wheel_diameter_m`` (m), wheelbase ``wheelbase_m`` (m)."""
+        return cls(wheel_diameter_m, wheel_diameter_m, wheelbase_m)
+
+    @property
+    def mean_diameter_m(self):
+        """Mean of the two wheel diameters (m)."""
+        return 0.5 * (self.diameter_right_m + self.diameter_left_m)
+
+    @property
+    def diameter_ratio(self):
+        """D_R / D_L (dimensionless)."""
+        return self.diameter_right_m / self.diameter_left_m
+
+    def with_systematic(self, error: SystematicError) -> WheelGeometry:
+        """The TRUE geometry of a robot whose nominal geometry is ``self`` (model.md).
+
+        D_R = E_s D_n 2 E_d / (E_d + 1), D_L = E_s D_n 2 / (E_d + 1), b = E_b b_n, with D_n the
+        mean nominal diameter. E_d is the absolute ratio of the true diameters.
+        """
+        d_n = self.mean_diameter_m * error.E_s
+        return WheelGeometry(
+            diameter_right_m=d_n * 2.0 * error.E_d / (error.E_d + 1.0),
+            diameter_left_m=d_n * 2.0 / (error.E_d + 1.0),
+            wheelbase_m=self.wheelbase_m * error.E_b,
+        )
+
+    def corrected(self, E_b, E_d) -> WheelGeometry:
+        """Compose a calibration (E_b, E_d, relative to ``self``) with ``self``.
+
+        c_R = 2 E_d/(E_d + 1), c_L = 2/(E_d + 1) multiply the diameters per wheel (so the new ratio
+        is E_d times the old one and the mean scale is kept); the wheelbase is multiplied by E_b.
+        """
+        c_r = 2.0 * E_d / (E_d + 1.0)
+        c_l = 2.0 / (E_d + 1.0)
+        return WheelGeometry(
+            diameter_right_m=self.diameter_right_m * c_r,
+            diameter_left_m=self.diameter_left_m * c_l,
+            wheelbase_m=self.wheelbase_m * E_b,
+        )
+
+    def take(self, index) -> WheelGeometry:
+        """Select one robot (or a sub-batch) from a batched geometry."""
+
+        def pick(v):
+            return np.asarray(v)[index] if np.ndim(v) else v
+
+        return WheelGeometry(
+            pick(self.diameter_right_m), pick(self.diameter_left_m), pick(self.wheelbase_m)
+        )
+
+    def as_dict(self) -> dict:
+        """Plain-float dictionary (scalar geometry only)."""
+        return {
+            "wheel_diameter_right_m": float(self.diameter_right_m),
+            "wheel_diameter_left_m": float(self.diameter_left_m),
+            "wheelbase_m": float(self.wheelbase_m),
+        }
+
+
+@dataclass(frozen=True)
+class SystematicError:
+    """Borenstein's systematic error parameters (dimensionless).
+
+    E_b = b_true / b_nominal, E_d = D_R / D_L (true diameters), E_s = mean true diameter / nominal.
+    All three default to 1 (no error).
+    """
+
+    E_b: float = 1.0
+    E_d: float = 1.0
+    E_s: float = 1.0
+
+    def __post_init__(self) -> None:
+        check_positive("E_b", self.E_b)
+        check_positive("E_d", self.E_d)
+        check_positive("E_s", self.E_s)
+
+
+@dataclass(frozen=True)
+class NonSystematicError:
+    """Random wheel-travel error in the paper's (Siegwart) form.
+
+    Over an increment, each wheel's true travel gets independent zero-mean Gaussian noise of
+    variance ``k_r_m * |ds_r|`` and ``k_l_m * |ds_l|``. k is in METRES (Chong & Kleeman's own k,
+    in m^0.5, is the square root of this one).
+    """
+
+    k_r_m: float = 0.0
+    k_l_m: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_nonnegative("k_r_m", self.k_r_m)
+        check_nonnegative("k_l_m", self.k_l_m)
+
+    @property
+    def is_zero(self) -> bool:
+        return self.k_r_m == 0.0 and self.k_l_m == 0.0
+
+    @property
+    def k_sum_m(self) -> float:
+        return self.k_r_m + self.k_l_m
+
+
+@dataclass(frozen=True)
+class MeasurementNoise:
+    """Noise of the instrument that measures the final pose (ground truth).
+
+    Attributes
+    ----------
+    sigma_xy_m : float
+        Standard deviation of each measured position coordinate (m).
+    sigma_theta_rad : float
+        Standard deviation of the measured heading (rad).
+    """
+
+    sigma_xy_m: float = 0.0
+    sigma_theta_rad: float = 0.0
+
+    def __post_init__(self) -> None:
+        check_nonnegative("sigma_xy_m", self.sigma_xy_m)
+        check_nonnegative("sigma_theta_rad", self.sigma_theta_rad)
+
+    @property
+    def is_zero(self) -> bool:
+        return self.sigma_xy_m == 0.0 and self.sigma_theta_rad == 0.0
+
+    @classmethod
+    def from_degrees(cls, sigma_xy_m: float, sigma_theta_deg: float) -> MeasurementNoise:
+        return cls(sigma_xy_m, math.radians(sigma_theta_deg))
+
+
+@dataclass(frozen=True)
+class Robot:
+    """A differential-drive robot: nominal geometry, its errors, and what it believes.
+
+    Attributes
+    ----------
+    nominal : WheelGeometry
+        The nominal (datasheet) geometry. Systematic errors are defined relative to it.
+    systematic, nonsystematic, measurement
+        Error models (default: no error).
+    believed : WheelGeometry or None
+        The parameters the robot's controller and odometry use; ``None`` means the nominal ones.
+        A calibration result is installed here to re-drive a calibrated robot.
+    """
+
+    nominal: WheelGeometry
+    systematic: SystematicError = field(default_factory=SystematicError)
+    nonsystematic: NonSystematicError = field(default_factory=NonSystematicError)
+    measurement: MeasurementNoise = field(default_factory=MeasurementNoise)
+    believed: WheelGeometry | None = None
+
+    @property
+    def true_geometry(self) -> WheelGeometry:
+        return self.nominal.with_systematic(self.systematic)
+
+    @property
+    def believed_geometry(self) -> WheelGeometry:
+        return self.nominal if self.believed is None else self.believed
+
+    def with_believed(self, believed: WheelGeometry | None) -> Robot:
+        """The same physical robot running with other parameters (e.g. a calibration result)."""
+        return replace(self, believed=believed)

@@ -1,0 +1,206 @@
+"""Monte-Carlo execution of a track (model.md, "Executing a track").
+
+The robot drives each segment open loop on its encoders: it turns the segment into wheel
+rotations with the parameters it BELIEVES; the true wheel travel is that rotation times the TRUE
+radius, plus Gaussian noise of variance k |ds| per increment; the true pose follows the midpoint
+update (Siegwart eq. 5.6) over increments of at most ``max_step_m`` of wheel travel.
+
+Everything is vectorised over a batch of runs (axis 0) and, within a segment, over its increments
+(axis 1, through cumulative sums), so there is no Python loop per increment. Geometry values and
+segment values may be arrays of shape (runs,): one robot or one track size per run.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .model import ModelError, NonSystematicError, Robot, WheelGeometry
+from .tracks import Track
+
+__all__ = ["SimulationResult", "simulate", "drive", "odometric_pose", "measure", "compose"]
+
+# Work arrays are at most about this many elements (chunks of runs); 2e6 doubles = 16 MB each.
+_MAX_ELEMENTS = 2_000_000
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """Outcome of ``runs`` simulated runs of one track.
+
+    Attributes
+    ----------
+    true_final : ndarray, shape (runs, 3)
+        True final pose (x_m, y_m, theta_rad) in the start frame; theta unwrapped.
+    odometric_final : ndarray, shape (3,) or (runs, 3)
+        The pose the robot believes it reached (the commanded one).
+    trajectory : ndarray, shape (runs, K + 1, 3) or None
+        True pose after every increment, starting with the start pose (only on request).
+    """
+
+    true_final: np.ndarray
+    odometric_final: np.ndarray
+    trajectory: np.ndarray | None = None
+
+    @property
+    def errors(self) -> np.ndarray:
+        """Final pose error, actual - odometric, shape (runs, 3) (x_m, y_m, theta_rad)."""
+        return self.true_final - self.odometric_final
+
+
+def compose(pose: np.ndarray, distance, angle) -> np.ndarray:
+    """Exact pose after a constant-curvature motion (distance m, heading change rad).
+
+    ``pose`` has shape (..., 3); ``distance`` and ``angle`` broadcast against pose[..., 0].
+    """
+    pose = np.asarray(pose, dtype=float)
+    distance = np.asarray(distance, dtype=float)
+    angle = np.asarray(angle, dtype=float)
+    chord = distance * np.sinc(angle / (2.0 * math.pi))  # d sin(a/2)/(a/2)
+    mid = pose[..., 2] + 0.5 * angle
+    return np.stack(
+        np.broadcast_arrays(
+            pose[..., 0] + chord * np.cos(mid),
+            pose[..., 1] + chord * np.sin(mid),
+            pose[..., 2] + angle,
+        ),
+        axis=-1,
+    )
+
+
+def odometric_pose(track: Track) -> np.ndarray:
+    """The believed (commanded) final pose of ``track`` from the origin, shape (3,) or (runs, 3)
+    when segment values are arrays."""
+    pose = np.zeros(3)
+    for seg in track.segments:
+        pose = compose(pose, seg.distance_m, seg.angle_rad)
+    return pose
+
+
+def _steps(s_r, s_l, max_step_m: float | None, steps_per_segment: int | None) -> int:
+    if steps_per_segment is not None:
+        return int(steps_per_segment)
+    longest = float(np.max(np.maximum(np.abs(s_r), np.abs(s_l))))
+    return max(1, math.ceil(longest / max_step_m - 1e-9))
+
+
+def drive(
+    track: Track,
+    true: WheelGeometry,
+    believed: WheelGeometry,
+    noise: NonSystematicError,
+    runs: int,
+    rng: np.random.Generator | None,
+    *,
+    max_step_m: float | None = 0.01,
+    steps_per_segment: int | None = None,
+    integration: str = "midpoint",
+    trajectory: bool = False,
+) -> SimulationResult:
+    """Drive ``track`` ``runs`` times open loop; see the module docstring.
+
+    Parameters
+    ----------
+    true, believed : WheelGeometry
+        True and believed geometry; values are scalars or arrays of shape (runs,).
+    noise : NonSystematicError
+        Wheel-travel noise (k in metres). Zero noise needs no ``rng``.
+    max_step_m : float
+        Largest wheel travel (m) of one increment (default 1 cm, model.md).
+    steps_per_segment : int, optional
+        Fixed number of increments per segment (overrides ``max_step_m``).
+    integration : {'midpoint', 'exact'}
+        'midpoint' is eq. (8); 'exact' integrates each increment as an exact arc, which makes the
+        deterministic part exact at any step size (used for fast design sweeps).
+    trajectory : bool
+        Also return the pose after every increment (memory: runs x increments x 3 doubles).
+    """
+    if runs < 1:
+        raise ModelError(f"runs must be >= 1, got {runs}")
+    if integration not in ("midpoint", "exact"):
+        raise ModelError(f"integration must be 'midpoint' or 'exact', got {integration!r}")
+    if steps_per_segment is None and not (max_step_m and max_step_m > 0):
+        raise ModelError(f"max_step_m must be > 0, got {max_step_m!r}")
+    if not noise.is_zero and rng is None:
+        raise ModelError("a numpy.random.Generator is needed to simulate noise")
+
+    def batch(v):
+        return np.broadcast_to(np.asarray(v, dtype=float), (runs,))
+
+    # per-wheel travel factor true/believed and true wheelbase, shape (runs,)
+    f_r = batch(true.diameter_right_m / believed.diameter_right_m)
+    f_l = batch(true.diameter_left_m / believed.diameter_left_m)
+    b_true = batch(true.wheelbase_m)
+    b_hat = batch(believed.wheelbase_m)
+
+    pose = np.zeros((runs, 3))
+    pieces = [pose[:, None, :].copy()] if trajectory else None
+    for seg in track.segments:
+        s_hat_r, s_hat_l = seg.wheel_travel(b_hat)
+        s_r = batch(s_hat_r * f_r)  # true wheel travel over the segment (m)
+        s_l = batch(s_hat_l * f_l)
+        n = _steps(s_r, s_l, max_step_m, steps_per_segment)
+        chunk = max(1, _MAX_ELEMENTS // n)
+        seg_traj = np.empty((runs, n, 3)) if trajectory else None
+        for lo in range(0, runs, chunk):
+            hi = min(runs, lo + chunk)
+            dr = np.repeat((s_r[lo:hi] / n)[:, None], n, axis=1)
+            dl = np.repeat((s_l[lo:hi] / n)[:, None], n, axis=1)
+            if noise.k_r_m > 0:
+                dr = dr + np.sqrt(noise.k_r_m * np.abs(dr)) * rng.standard_normal(dr.shape)
+            if noise.k_l_m > 0:
+                dl = dl + np.sqrt(noise.k_l_m * np.abs(dl)) * rng.standard_normal(dl.shape)
+            ds = 0.5 * (dr + dl)
+            dth = (dr - dl) / b_true[lo:hi, None]
+            theta_after = pose[lo:hi, 2:3] + np.cumsum(dth, axis=1)
+            mid = theta_after - 0.5 * dth
+            if integration == "exact":
+                ds = ds * np.sinc(dth / (2.0 * math.pi))
+            dx = ds * np.cos(mid)
+            dy = ds * np.sin(mid)
+            if trajectory:
+                seg_traj[lo:hi, :, 0] = pose[lo:hi, 0:1] + np.cumsum(dx, axis=1)
+                seg_traj[lo:hi, :, 1] = pose[lo:hi, 1:2] + np.cumsum(dy, axis=1)
+                seg_traj[lo:hi, :, 2] = theta_after
+            pose[lo:hi, 0] += dx.sum(axis=1)
+            pose[lo:hi, 1] += dy.sum(axis=1)
+            pose[lo:hi, 2] = theta_after[:, -1]
+        if trajectory:
+            pieces.append(seg_traj)
+    traj = np.concatenate(pieces, axis=1) if trajectory else None
+    return SimulationResult(pose, odometric_pose(track), traj)
+
+
+def simulate(
+    track: Track,
+    robot: Robot,
+    runs: int,
+    rng: np.random.Generator | None,
+    **options,
+) -> SimulationResult:
+    """Drive ``track`` ``runs`` times with ``robot`` (true geometry from its systematic errors,
+    believed geometry from ``robot.believed`` or nominal). Options as in :func:`drive`.
+    Measurement noise is NOT applied here; see :func:`measure`."""
+    return drive(
+        track,
+        robot.true_geometry,
+        robot.believed_geometry,
+        robot.nonsystematic,
+        runs,
+        rng,
+        **options,
+    )
+
+
+def measure(errors: np.ndarray, robot: Robot, rng: np.random.Generator | None) -> np.ndarray:
+    """Add the ground-truth instrument's noise to final pose errors, shape (..., 3)."""
+    m = robot.measurement
+    if m.is_zero:
+        return np.asarray(errors, dtype=float)
+    if rng is None:
+        raise ModelError("a numpy.random.Generator is needed to simulate measurement noise")
+    z = rng.standard_normal(np.shape(errors))
+    scale = np.array([m.sigma_xy_m, m.sigma_xy_m, m.sigma_theta_rad])
+    return errors + z * scale

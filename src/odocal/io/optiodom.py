@@ -1,0 +1,130 @@
+"""OptiOdom data sets (Sousa et al. 2022): ``<id>_run-NN.csv`` plus ``<id>_metadata.csv``.
+
+Run files: no header, columns time_s, x_gt_m, y_gt_m, theta_gt_rad, ticks_R, ticks_L; ticks are
+increments per 50 ms at the motor encoder (before the gearbox), forward positive. Ticks per wheel
+revolution = ngear x encRes. Run order: square and circular data sets hold N/2 CW runs then N/2
+CCW runs; ivanjko data sets hold N/3 straight runs, N/3 CW spins, N/3 CCW spins.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..core.model import WheelGeometry
+from ..core.recording import Recording
+from ..errors import InputError
+from .textfile import read_text
+
+__all__ = ["load_optiodom_dataset", "is_optiodom_dataset", "read_metadata"]
+
+_RUN = re.compile(r"^(?P<id>.+)_run-(?P<n>\d+)\.csv$")
+
+
+def is_optiodom_dataset(folder) -> bool:
+    folder = Path(folder)
+    return folder.is_dir() and any(folder.glob("*_metadata.csv"))
+
+
+def read_metadata(path) -> dict[str, list[str]]:
+    """The metadata file as key -> list of non-empty values."""
+    meta: dict[str, list[str]] = {}
+    for row in csv.reader(io.StringIO(read_text(path))):
+        if row and row[0].strip():
+            meta[row[0].strip()] = [v.strip() for v in row[1:] if v.strip()]
+    return meta
+
+
+def _meta_float(meta, key, path, index=0, required=True):
+    vals = meta.get(key, [])
+    if len(vals) <= index:
+        if required:
+            raise InputError(f"metadata key '{key}' is missing", path)
+        return None
+    try:
+        v = float(vals[index])
+    except ValueError:
+        raise InputError(f"not a number: {vals[index]!r}", path, None, key) from None
+    if not math.isfinite(v):
+        raise InputError(f"must be finite, got {vals[index]!r}", path, None, key)
+    return v
+
+
+def _read_run(path: Path) -> np.ndarray:
+    text = read_text(path)
+    rows = []
+    for i, line in enumerate(text.splitlines(), 1):
+        if not line.strip():
+            continue
+        parts = line.split(",")
+        if len(parts) != 6:
+            raise InputError(f"expected 6 fields, got {len(parts)}", path, i)
+        try:
+            vals = [float(p) for p in parts]
+        except ValueError:
+            raise InputError("not a number", path, i) from None
+        if not all(math.isfinite(v) for v in vals):
+            raise InputError("values must be finite", path, i)
+        rows.append(vals)
+    if len(rows) < 2:
+        raise InputError("a run needs at least two samples", path)
+    data = np.array(rows)
+    t = data[:, 0]
+    bad = np.nonzero(np.diff(t) <= 0)[0]
+    if len(bad):
+        raise InputError("time is not strictly increasing", path, int(bad[0]) + 2, "time_s")
+    return data
+
+
+def _labels(kind: str, n: int) -> list[str | None]:
+    if kind in ("square", "circular") and n % 2 == 0:
+        return ["cw"] * (n // 2) + ["ccw"] * (n // 2)
+    if kind == "ivanjko" and n % 3 == 0:
+        k = n // 3
+        return ["straight"] * k + ["spin-cw"] * k + ["spin-ccw"] * k
+    return [None] * n
+
+
+def load_optiodom_dataset(folder) -> list[Recording]:
+    """All runs of one OptiOdom data set folder (e.g. ``square/230620202042``), in run order."""
+    folder = Path(folder)
+    metas = sorted(folder.glob("*_metadata.csv"))
+    if not metas:
+        raise InputError("not an OptiOdom data set folder (no *_metadata.csv)", folder)
+    meta_path = metas[0]
+    meta = read_metadata(meta_path)
+    ticks_per_rev = _meta_float(meta, "ngear", meta_path) * _meta_float(meta, "encRes", meta_path)
+    d_r = _meta_float(meta, "Di", meta_path, 0)
+    d_l = _meta_float(meta, "Di", meta_path, 1, required=False) or d_r
+    ran_with = WheelGeometry(d_r, d_l, _meta_float(meta, "Li", meta_path))
+    side = _meta_float(meta, "L", meta_path, required=False)
+    kind = folder.parent.name
+    runs = sorted(
+        (int(m.group("n")), p) for p in folder.glob("*_run-*.csv") if (m := _RUN.match(p.name))
+    )
+    if not runs:
+        raise InputError("no *_run-NN.csv files", folder)
+    labels = _labels(kind, len(runs))
+    out = []
+    for (num, path), label in zip(runs, labels, strict=True):
+        data = _read_run(path)
+        scale = 2.0 * math.pi / ticks_per_rev
+        out.append(
+            Recording(
+                name=str(path),
+                time_s=data[:, 0],
+                wheel_angle_right_rad=np.cumsum(data[:, 4]) * scale,
+                wheel_angle_left_rad=np.cumsum(data[:, 5]) * scale,
+                ground_truth=data[:, 1:4],
+                ran_with=ran_with,
+                label=label,
+                meta={"dataset": folder.name, "kind": kind, "run": num, "side_m": side,
+                      "ticks_per_rev": ticks_per_rev},
+            )
+        )
+    return out

@@ -1,0 +1,116 @@
+"""ROBOT.yaml (a robot and its errors) and PARAMS.yaml (a calibrated geometry).
+
+ROBOT.yaml::
+
+    wheel_diameter_m: 0.15          # nominal, both wheels (m)
+    wheelbase_m: 0.385              # nominal (m)
+    # optional nominal per-wheel diameters (default: wheel_diameter_m)
+    wheel_diameter_right_m: 0.15
+    wheel_diameter_left_m: 0.15
+    systematic: {E_b: 1.028, E_d: 0.999, E_s: 1.0}      # default 1 (no error)
+    nonsystematic: {k_r_m: 1.69e-6, k_l_m: 1.69e-6}     # metres; default 0
+    measurement: {sigma_xy_m: 0.001, sigma_theta_deg: 0.1}   # default 0
+    believed:                        # optional: parameters the robot runs with (default nominal)
+      wheel_diameter_right_m: 0.15
+      wheel_diameter_left_m: 0.15
+      wheelbase_m: 0.385
+
+PARAMS.yaml holds ``wheel_diameter_right_m``, ``wheel_diameter_left_m`` and ``wheelbase_m`` at the
+top level (other keys, such as those ``odocal calibrate --out`` writes beside them, are kept for
+the record and ignored).
+"""
+
+from __future__ import annotations
+
+from ..core.model import MeasurementNoise, NonSystematicError, Robot, SystematicError, WheelGeometry
+from ..errors import InputError, ModelError
+from ..presets import PRESETS
+from .yamlfile import YamlDoc, load_yaml
+
+__all__ = ["load_robot", "load_params", "robot_from_doc", "params_yaml"]
+
+_TOP = (
+    "name",
+    "wheel_diameter_m",
+    "wheelbase_m",
+    "wheel_diameter_right_m",
+    "wheel_diameter_left_m",
+    "systematic",
+    "nonsystematic",
+    "measurement",
+    "believed",
+)
+_GEOMETRY = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
+
+
+def _geometry(doc: YamlDoc, mapping: dict, prefix: str) -> WheelGeometry:
+    vals = {}
+    for key in _GEOMETRY:
+        if key not in mapping:
+            raise InputError(f"missing required key '{prefix}{key}'", doc.path)
+        vals[key] = doc.number(f"{prefix}{key}", mapping[key], positive=True)
+    return WheelGeometry(*(vals[k] for k in _GEOMETRY))
+
+
+def robot_from_doc(doc: YamlDoc) -> Robot:
+    d = doc.data
+    doc.check_keys(d, _TOP)
+    for key in ("wheel_diameter_m", "wheelbase_m"):
+        if key not in d:
+            raise InputError(f"missing required key '{key}'", doc.path)
+    diameter = doc.number("wheel_diameter_m", d["wheel_diameter_m"], positive=True)
+    wheelbase = doc.number("wheelbase_m", d["wheelbase_m"], positive=True)
+    d_r = d_l = diameter
+    if "wheel_diameter_right_m" in d:
+        d_r = doc.number("wheel_diameter_right_m", d["wheel_diameter_right_m"], positive=True)
+    if "wheel_diameter_left_m" in d:
+        d_l = doc.number("wheel_diameter_left_m", d["wheel_diameter_left_m"], positive=True)
+    nominal = WheelGeometry(d_r, d_l, wheelbase)
+
+    s = doc.section("systematic", ("E_b", "E_d", "E_s"))
+    systematic = SystematicError(
+        **{k: doc.number(f"systematic.{k}", v, positive=True) for k, v in s.items()}
+    )
+    n = doc.section("nonsystematic", ("k_r_m", "k_l_m"))
+    nonsys = NonSystematicError(
+        **{k: doc.number(f"nonsystematic.{k}", v, nonnegative=True) for k, v in n.items()}
+    )
+    m = doc.section("measurement", ("sigma_xy_m", "sigma_theta_deg"))
+    measurement = MeasurementNoise.from_degrees(
+        doc.number("measurement.sigma_xy_m", m.get("sigma_xy_m", 0.0), nonnegative=True),
+        doc.number("measurement.sigma_theta_deg", m.get("sigma_theta_deg", 0.0), nonnegative=True),
+    )
+    believed = None
+    if d.get("believed") is not None:
+        b = doc.section("believed", _GEOMETRY)
+        believed = _geometry(doc, b, "believed.")
+    return Robot(nominal, systematic, nonsys, measurement, believed)
+
+
+def load_robot(spec) -> Robot:
+    """A Robot from a ROBOT.yaml path, or a built-in preset name (see ``odocal.presets``)."""
+    if spec is None:
+        spec = "paper-fig5"
+    if str(spec) in PRESETS:
+        return PRESETS[str(spec)]
+    doc = load_yaml(spec, "robot file")
+    try:
+        return robot_from_doc(doc)
+    except ModelError as exc:
+        raise InputError(str(exc), doc.path) from None
+
+
+def load_params(path) -> WheelGeometry:
+    """The geometry in a PARAMS.yaml (e.g. written by ``odocal calibrate --out``)."""
+    doc = load_yaml(path, "parameter file")
+    return _geometry(doc, doc.data, "")
+
+
+def params_yaml(geometry: WheelGeometry, **record) -> str:
+    """PARAMS.yaml text for ``geometry``, with ``record`` (method, E_b, ...) kept beside it."""
+    lines = ["# odocal calibrated parameters (metres); read by --params and ROBOT.yaml 'believed'"]
+    for k, v in geometry.as_dict().items():
+        lines.append(f"{k}: {v:.9g}")
+    for k, v in record.items():
+        lines.append(f"{k}: {v if isinstance(v, str) else format(v, '.9g')}")
+    return "\n".join(lines) + "\n"

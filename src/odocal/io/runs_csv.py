@@ -1,0 +1,105 @@
+"""RUNS.csv: the measured final pose of each test run.
+
+Header row, then one row per run::
+
+    direction,x_m,y_m,theta_deg
+    cw,-0.2531,-0.2770,7.49
+    ccw,-0.3958,0.4690,-12.12
+
+``x_m``, ``y_m``, ``theta_deg`` are the final pose ERROR, actual - odometric, in the start frame
+(+x the start heading, +y to the left, theta CCW positive and unwrapped; for a closed track this
+is simply the robot's final pose measured from its start pose). Extra columns are ignored; blank
+lines and lines starting with '#' are skipped.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+
+import numpy as np
+
+from ..calibration.result import EndPoseRuns
+from ..errors import InputError
+from .textfile import atomic_write, read_text
+
+__all__ = ["read_runs", "write_runs", "runs_csv_text", "REQUIRED_COLUMNS"]
+
+REQUIRED_COLUMNS = ("direction", "x_m", "y_m", "theta_deg")
+
+
+def read_runs(path, directions: tuple[str, ...] = ("cw", "ccw")) -> EndPoseRuns:
+    """Parse RUNS.csv; every problem raises InputError naming the file, line and field."""
+    text = read_text(path)
+    rows = [
+        (i + 1, line)
+        for i, line in enumerate(text.splitlines())
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
+    if not rows:
+        raise InputError("empty file, expected a header row 'direction,x_m,y_m,theta_deg'", path)
+    header_line, header_text = rows[0]
+    header = [h.strip() for h in next(csv.reader([header_text]))]
+    missing = [c for c in REQUIRED_COLUMNS if c not in header]
+    if missing:
+        raise InputError(
+            f"missing column(s) {', '.join(missing)}; the header must contain "
+            f"{','.join(REQUIRED_COLUMNS)}",
+            path,
+            header_line,
+        )
+    col = {c: header.index(c) for c in REQUIRED_COLUMNS}
+    dirs: list[str] = []
+    values: list[list[float]] = []
+    for line_no, line in rows[1:]:
+        fields = next(csv.reader(io.StringIO(line)))
+        if len(fields) != len(header):
+            raise InputError(
+                f"expected {len(header)} fields as in the header, got {len(fields)}", path, line_no
+            )
+        d = fields[col["direction"]].strip().lower()
+        if d not in directions:
+            raise InputError(
+                f"unknown direction {fields[col['direction']].strip()!r}; expected "
+                f"{' or '.join(directions)}",
+                path,
+                line_no,
+                "direction",
+            )
+        row = []
+        for name in REQUIRED_COLUMNS[1:]:
+            raw = fields[col[name]].strip()
+            try:
+                v = float(raw)
+            except ValueError:
+                raise InputError(f"not a number: {raw!r}", path, line_no, name) from None
+            if not math.isfinite(v):
+                raise InputError(f"must be finite, got {raw!r}", path, line_no, name)
+            row.append(v)
+        dirs.append(d)
+        values.append(row)
+    if not values:
+        raise InputError("no runs: the file has a header but no data rows", path)
+    err = np.array(values)
+    err[:, 2] = np.radians(err[:, 2])
+    return EndPoseRuns(tuple(dirs), err)
+
+
+def runs_csv_text(runs: EndPoseRuns, extra: dict[str, list] | None = None) -> str:
+    """RUNS.csv text for ``runs``; ``extra`` adds columns (e.g. ``run``)."""
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    extra = extra or {}
+    w.writerow([*REQUIRED_COLUMNS, *extra])
+    for i, (d, e) in enumerate(zip(runs.directions, runs.errors, strict=True)):
+        w.writerow(
+            [d, f"{e[0]:.9g}", f"{e[1]:.9g}", f"{math.degrees(e[2]):.9g}"]
+            + [v[i] for v in extra.values()]
+        )
+    return buf.getvalue()
+
+
+def write_runs(path, runs: EndPoseRuns, extra: dict[str, list] | None = None) -> None:
+    """Write RUNS.csv atomically."""
+    atomic_write(path, runs_csv_text(runs, extra))
