@@ -20,5 +20,7 @@ class InputError(OdocalError):
             where.append(f"line {line}")
         if field is not None:
             where.append(f"field '{field}'")
-        super().__init__(f"{': '.join([', '.join(where)] if where else [])}{': ' if where else ''}{message}")
+        super().__init__(
+            f"{': '.join([', '.join(where)] if where else [])}{': ' if where else ''}{message}"
+        )
         self.path, self.line, self.field = path, line, field

@@ -112,4 +112,3 @@ def check_both_directions(runs: EndPoseRuns) -> None:
         raise CalibrationError(
             f"runs in both directions are needed; there are no {' and no '.join(missing)} runs"
         )
-

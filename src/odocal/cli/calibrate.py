@@ -17,14 +17,27 @@ def add_parser(sub) -> None:
         description="Calibrate the wheelbase and wheel-diameter ratio from the measured final "
         "pose errors of CW and CCW runs on a regular N-gon.",
     )
-    p.add_argument("runs_csv", metavar="RUNS.csv", help="measured runs (direction,x_m,y_m,theta_deg)")
-    add_robot_args(p, "the parameters the robot RAN WITH during the runs (default: ROBOT.yaml's "
-                      "'believed', else nominal)")
+    p.add_argument(
+        "runs_csv", metavar="RUNS.csv", help="measured runs (direction,x_m,y_m,theta_deg)"
+    )
+    add_robot_args(
+        p,
+        "the parameters the robot RAN WITH during the runs (default: ROBOT.yaml's "
+        "'believed', else nominal)",
+    )
     add_track_args(p)
-    p.add_argument("--method", choices=("heading", "umbmark"), default="heading",
-                   help="heading-error method (any N-gon, default) or UMBmark (squares)")
-    p.add_argument("--umbmark-form", choices=UMBMARK_FORMS, default="mean",
-                   help="UMBmark equations from x, y or their mean (default mean)")
+    p.add_argument(
+        "--method",
+        choices=("heading", "umbmark"),
+        default="heading",
+        help="heading-error method (any N-gon, default) or UMBmark (squares)",
+    )
+    p.add_argument(
+        "--umbmark-form",
+        choices=UMBMARK_FORMS,
+        default="mean",
+        help="UMBmark equations from x, y or their mean (default mean)",
+    )
     p.add_argument("--out", metavar="PARAMS.yaml", help="write the corrected parameters")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=run)
@@ -38,7 +51,9 @@ def calibrate_file(path, robot, method: str, sides: int, side_m: float, form: st
     ran_with = robot.believed_geometry
     if method == "umbmark":
         if sides != 4:
-            raise InputError(f"UMBmark is defined for squares only (--sides 4), got --sides {sides}")
+            raise InputError(
+                f"UMBmark is defined for squares only (--sides 4), got --sides {sides}"
+            )
         return calibrate_umbmark(runs, side_m, ran_with, form)
     return calibrate_heading(runs, sides, side_m, ran_with)
 
@@ -52,27 +67,35 @@ def run(args) -> int:
         args.runs_csv, robot, args.method, args.sides, args.side_length, args.umbmark_form
     )
     if args.out:
-        atomic_write(args.out, params_yaml(result.corrected, method=result.method,
-                                           E_b=result.E_b, E_d=result.E_d))
+        atomic_write(
+            args.out,
+            params_yaml(result.corrected, method=result.method, E_b=result.E_b, E_d=result.E_d),
+        )
     if args.json:
         print_json(result.as_dict())
         return 0
     ins = result.inputs
     label = result.method + (f" ({ins['form']}-form)" if "form" in ins else "")
-    print(f"{label} from {ins['runs_cw']} CW and {ins['runs_ccw']} CCW runs, "
-          f"{args.sides}-gon side {args.side_length:g} m")
+    print(
+        f"{label} from {ins['runs_cw']} CW and {ins['runs_ccw']} CCW runs, "
+        f"{args.sides}-gon side {args.side_length:g} m"
+    )
     r, c = result.ran_with, result.corrected
-    print_table([
-        ("", "ran with", "calibrated"),
-        ("E_b", "", f"{result.E_b:.6f}"),
-        ("E_d", "", f"{result.E_d:.6f}"),
-        ("wheel_diameter_right_m", f"{r.diameter_right_m:.6f}", f"{c.diameter_right_m:.6f}"),
-        ("wheel_diameter_left_m", f"{r.diameter_left_m:.6f}", f"{c.diameter_left_m:.6f}"),
-        ("wheelbase_m", f"{r.wheelbase_m:.6f}", f"{c.wheelbase_m:.6f}"),
-    ])
+    print_table(
+        [
+            ("", "ran with", "calibrated"),
+            ("E_b", "", f"{result.E_b:.6f}"),
+            ("E_d", "", f"{result.E_d:.6f}"),
+            ("wheel_diameter_right_m", f"{r.diameter_right_m:.6f}", f"{c.diameter_right_m:.6f}"),
+            ("wheel_diameter_left_m", f"{r.diameter_left_m:.6f}", f"{c.diameter_left_m:.6f}"),
+            ("wheelbase_m", f"{r.wheelbase_m:.6f}", f"{c.wheelbase_m:.6f}"),
+        ]
+    )
     if "mean_theta_cw_rad" in ins:
-        print(f"  mean heading error: CW {math.degrees(ins['mean_theta_cw_rad']):+.4f} deg, "
-              f"CCW {math.degrees(ins['mean_theta_ccw_rad']):+.4f} deg")
+        print(
+            f"  mean heading error: CW {math.degrees(ins['mean_theta_cw_rad']):+.4f} deg, "
+            f"CCW {math.degrees(ins['mean_theta_ccw_rad']):+.4f} deg"
+        )
     if args.out:
         print(f"wrote {args.out}")
     return 0

@@ -77,11 +77,17 @@ def add_robot_args(p: argparse.ArgumentParser, params_help: str) -> None:
 
 def add_track_args(p: argparse.ArgumentParser, default_sides=4, default_side=4.0) -> None:
     p.add_argument(
-        "--sides", type=sides_int, default=default_sides, metavar="N",
+        "--sides",
+        type=sides_int,
+        default=default_sides,
+        metavar="N",
         help=f"regular N-gon test track (default {default_sides}, a square)",
     )
     p.add_argument(
-        "--side-length", type=positive_float, default=default_side, metavar="L",
+        "--side-length",
+        type=positive_float,
+        default=default_side,
+        metavar="L",
         help=f"side length in m (default {default_side:g})",
     )
 
@@ -110,4 +116,3 @@ def print_table(rows: list[tuple], title: str | None = None) -> None:
     for r in cells:
         parts = [r[0].ljust(widths[0])] + [c.rjust(widths[i + 1]) for i, c in enumerate(r[1:])]
         print("  " + "  ".join(parts).rstrip())
-

@@ -33,14 +33,22 @@ def add_parser(sub) -> None:
     add_track_args(p)
     p.add_argument("--track", metavar="TRACK.yaml", help="a custom track file instead of --sides")
     p.add_argument(
-        "--direction", choices=("cw", "ccw", "both"), default="both",
+        "--direction",
+        choices=("cw", "ccw", "both"),
+        default="both",
         help="driving direction (default both: n CW runs, then n CCW runs)",
     )
-    p.add_argument("--runs", type=positive_int, default=5, metavar="n",
-                   help="runs per direction (default 5)")
+    p.add_argument(
+        "--runs", type=positive_int, default=5, metavar="n", help="runs per direction (default 5)"
+    )
     p.add_argument("--seed", type=seed_int, default=0, metavar="S", help="random seed (default 0)")
-    p.add_argument("--max-step", type=positive_float, default=0.01, metavar="M",
-                   help="largest wheel travel of one integration increment, m (default 0.01)")
+    p.add_argument(
+        "--max-step",
+        type=positive_float,
+        default=0.01,
+        metavar="M",
+        help="largest wheel travel of one integration increment, m (default 0.01)",
+    )
     p.add_argument("--out", metavar="RUNS.csv", help="write the runs in RUNS.csv format")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=run)
@@ -97,14 +105,33 @@ def run(args) -> int:
         print_json(summary)
         return 0
     print(f"{name}: {args.runs} run(s) per direction, seed {args.seed}")
-    rows = [("direction", "runs", "mean x_m", "mean y_m", "mean theta_deg",
-             "std x_m", "std y_m", "std theta_deg")]
+    rows = [
+        (
+            "direction",
+            "runs",
+            "mean x_m",
+            "mean y_m",
+            "mean theta_deg",
+            "std x_m",
+            "std y_m",
+            "std theta_deg",
+        )
+    ]
     for d, s in summary["by_direction"].items():
         m, sd = s["mean"], s["std"]
         fmt = lambda v, f: "-" if v is None else format(v, f)  # noqa: E731
-        rows.append((d, s["runs"], fmt(m["x_m"], ".4f"), fmt(m["y_m"], ".4f"),
-                     fmt(m["theta_deg"], ".3f"), fmt(sd["x_m"], ".4f"), fmt(sd["y_m"], ".4f"),
-                     fmt(sd["theta_deg"], ".3f")))
+        rows.append(
+            (
+                d,
+                s["runs"],
+                fmt(m["x_m"], ".4f"),
+                fmt(m["y_m"], ".4f"),
+                fmt(m["theta_deg"], ".3f"),
+                fmt(sd["x_m"], ".4f"),
+                fmt(sd["y_m"], ".4f"),
+                fmt(sd["theta_deg"], ".3f"),
+            )
+        )
     print_table(rows)
     if args.out:
         print(f"wrote {args.out}")

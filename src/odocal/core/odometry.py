@@ -6,7 +6,7 @@ import numpy as np
 
 from .model import WheelGeometry
 
-__all__ = ["dead_reckon", "final_error"]
+__all__ = ["dead_reckon", "final_error", "position_errors", "evaluate"]
 
 
 def dead_reckon(angle_right_rad, angle_left_rad, geometry: WheelGeometry) -> np.ndarray:
@@ -29,3 +29,25 @@ def dead_reckon(angle_right_rad, angle_left_rad, geometry: WheelGeometry) -> np.
 def final_error(ground_truth: np.ndarray, odometry: np.ndarray) -> np.ndarray:
     """Final pose error actual - odometric in the start frame, shape (3,) (theta unwrapped)."""
     return np.asarray(ground_truth[-1], dtype=float) - np.asarray(odometry[-1], dtype=float)
+
+
+def position_errors(ground_truth: np.ndarray, odometry: np.ndarray) -> np.ndarray:
+    """Position error norm ||p_true - p_odo|| (m) at every sample, shape (K,)."""
+    return np.hypot(ground_truth[:, 0] - odometry[:, 0], ground_truth[:, 1] - odometry[:, 1])
+
+
+def evaluate(recording, geometry: WheelGeometry) -> dict:
+    """Dead-reckon ``recording`` with ``geometry`` and compare with its ground truth.
+
+    Returns final and maximum position error (m) and final and maximum heading error (rad, abs).
+    """
+    odo = dead_reckon(recording.wheel_angle_right_rad, recording.wheel_angle_left_rad, geometry)
+    gt = recording.ground_truth
+    pos = position_errors(gt, odo)
+    head = np.abs(gt[:, 2] - odo[:, 2])
+    return {
+        "final_error_m": float(pos[-1]),
+        "max_error_m": float(pos.max()),
+        "final_heading_error_rad": float(head[-1]),
+        "max_heading_error_rad": float(head.max()),
+    }

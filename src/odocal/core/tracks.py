@@ -130,9 +130,7 @@ def out_and_back(distance_m: float) -> Track:
     """Forward ``distance_m`` then backward ``distance_m`` without turning (systematic curvature
     cancels: the robot retraces its arc)."""
     check_positive("distance", distance_m)
-    return Track(
-        f"out-and-back {distance_m:g} m", (straight(distance_m), straight(-distance_m))
-    )
+    return Track(f"out-and-back {distance_m:g} m", (straight(distance_m), straight(-distance_m)))
 
 
 def circle(radius_m: float, direction: str, turns: float = 1.0) -> Track:

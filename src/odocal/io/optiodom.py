@@ -123,8 +123,13 @@ def load_optiodom_dataset(folder) -> list[Recording]:
                 ground_truth=data[:, 1:4],
                 ran_with=ran_with,
                 label=label,
-                meta={"dataset": folder.name, "kind": kind, "run": num, "side_m": side,
-                      "ticks_per_rev": ticks_per_rev},
+                meta={
+                    "dataset": folder.name,
+                    "kind": kind,
+                    "run": num,
+                    "side_m": side,
+                    "ticks_per_rev": ticks_per_rev,
+                },
             )
         )
     return out

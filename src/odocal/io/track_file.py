@@ -34,9 +34,11 @@ def load_track(path) -> tuple[Track, str]:
         if not isinstance(item, dict) or len(item) != 1:
             raise InputError(
                 "each segment is one of straight_m: D, turn_deg: A, arc: {radius_m, angle_deg}",
-                path, doc.lines.get("segments"), where,
+                path,
+                doc.lines.get("segments"),
+                where,
             )
-        (kind, value), = item.items()
+        ((kind, value),) = item.items()
         try:
             if kind == "straight_m":
                 segs.append(straight(doc.number(where, value)))
@@ -54,7 +56,9 @@ def load_track(path) -> tuple[Track, str]:
             else:
                 raise InputError(
                     f"unknown segment kind {kind!r}; expected straight_m, turn_deg or arc",
-                    path, None, where,
+                    path,
+                    None,
+                    where,
                 )
         except ModelError as exc:
             raise InputError(str(exc), path, None, where) from None
