@@ -1,0 +1,170 @@
+"""The simulator against exact relations and closed-form statistics (model.md)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from odocal.core.model import (
+    MeasurementNoise,
+    NonSystematicError,
+    Robot,
+    SystematicError,
+    WheelGeometry,
+)
+from odocal.core.simulate import compose, drive, measure, odometric_pose, simulate
+from odocal.core.tracks import Track, arc, polygon, spot_turn, straight, straight_line
+
+NOMINAL = WheelGeometry.symmetric(0.15, 0.385)
+
+
+@pytest.mark.parametrize("E_b", [0.93, 1.0, 1.028, 1.07])
+@pytest.mark.parametrize("psi", [math.pi / 2, -2 * math.pi / 3, 0.3])
+def test_spot_turn_really_turns_psi_over_E_b(E_b, psi):
+    # E_d must not matter: the mean diameter is preserved (model.md, DERIVED).
+    robot = Robot(NOMINAL, SystematicError(E_b=E_b, E_d=1.006))
+    turn = Track("turn", (spot_turn(psi),))
+    res = simulate(turn, robot, 1, None, integration="exact")
+    assert simulate(turn, robot, 1, None).true_final[0, 2] == pytest.approx(psi / E_b, rel=1e-12)
+    assert res.true_final[0, 2] == pytest.approx(psi / E_b, rel=1e-12)
+    # with unequal wheels the axle centre moves on a small arc: ds = psi b (c_R - c_L) / 4
+    c_r, c_l = 2 * 1.006 / 2.006, 2 / 2.006
+    ds = psi * NOMINAL.wheelbase_m * (c_r - c_l) / 4
+    np.testing.assert_allclose(res.true_final[0], compose(np.zeros(3), ds, psi / E_b), atol=1e-12)
+
+
+@pytest.mark.parametrize("E_d", [0.992, 0.999, 1.0017, 1.008])
+@pytest.mark.parametrize("L", [0.5, 4.0, 10.0])
+def test_straight_leg_curvature(E_d, L):
+    E_b = 1.025
+    robot = Robot(NOMINAL, SystematicError(E_b=E_b, E_d=E_d))
+    res = simulate(straight_line(L), robot, 1, None)
+    beta = 2 * L * (E_d - 1) / ((E_d + 1) * E_b * NOMINAL.wheelbase_m)
+    assert res.true_final[0, 2] == pytest.approx(beta, rel=1e-12)
+    # the leg is an arc of length L (mean diameter kept): chord = L sinc(beta/2)
+    exact = compose(np.zeros(3), L, beta)
+    # midpoint over 1 cm increments differs from the exact arc by O(step^2 curvature^2)
+    np.testing.assert_allclose(res.true_final[0], exact, atol=1e-9)
+
+
+def test_perfect_robot_closes_every_polygon():
+    robot = Robot(NOMINAL)
+    for n in range(3, 9):
+        for d in ("cw", "ccw"):
+            res = simulate(polygon(n, 3.3, d), robot, 1, None)
+            np.testing.assert_allclose(res.errors, 0.0, atol=1e-12)
+            assert res.odometric_final[2] == pytest.approx((1 if d == "ccw" else -1) * 2 * math.pi)
+
+
+def test_errors_are_actual_minus_odometric_and_unwrapped():
+    robot = Robot(NOMINAL, SystematicError(E_b=1.03))
+    res = simulate(polygon(4, 4.0, "cw"), robot, 1, None)
+    # true heading ends near -2 pi; under-rotation (E_b > 1) on right turns leaves it above -2 pi
+    assert -2 * math.pi < res.true_final[0, 2] < -2 * math.pi + 0.5
+    assert 0 < res.errors[0, 2] < 0.5
+    assert res.errors[0, 2] == pytest.approx(4 * (math.pi / 2 - (math.pi / 2) / 1.03), rel=1e-12)
+
+
+def test_believed_parameters_other_than_nominal():
+    # a robot that believes its true geometry drives every track perfectly
+    robot = Robot(NOMINAL, SystematicError(1.04, 0.995, 1.01))
+    perfect = robot.with_believed(robot.true_geometry)
+    res = simulate(polygon(5, 2.0, "ccw"), perfect, 1, None)
+    np.testing.assert_allclose(res.errors, 0.0, atol=1e-12)
+
+
+def test_arc_track_and_exact_integration_agree():
+    robot = Robot(NOMINAL, SystematicError(1.02, 1.004))
+    track = Track("arcs", (arc(1.0, math.pi), straight(0.7), arc(0.5, -math.pi / 2)))
+    fine = simulate(track, robot, 1, None, max_step_m=0.001)
+    exact = simulate(track, robot, 1, None, steps_per_segment=1, integration="exact")
+    np.testing.assert_allclose(fine.true_final, exact.true_final, atol=1e-7)
+
+
+def test_odometric_pose_of_open_track():
+    track = Track("L", (straight(2.0), spot_turn(math.pi / 2), straight(1.0)))
+    np.testing.assert_allclose(odometric_pose(track), [2.0, 1.0, math.pi / 2], atol=1e-12)
+
+
+def test_trajectory_matches_final_pose_and_starts_at_origin():
+    robot = Robot(NOMINAL, SystematicError(1.03, 0.998), NonSystematicError(1e-6, 2e-6))
+    res = simulate(polygon(4, 1.0, "ccw"), robot, 3, np.random.default_rng(4), trajectory=True)
+    assert res.trajectory.shape[0] == 3 and res.trajectory.shape[2] == 3
+    np.testing.assert_allclose(res.trajectory[:, 0], 0.0)
+    np.testing.assert_allclose(res.trajectory[:, -1], res.true_final)
+
+
+def test_same_seed_same_runs_and_chunking_does_not_matter(monkeypatch):
+    robot = Robot(NOMINAL, SystematicError(1.03, 0.998), NonSystematicError(1e-6, 1e-6))
+    track = polygon(3, 2.0, "cw")
+    a = simulate(track, robot, 50, np.random.default_rng(11)).true_final
+    b = simulate(track, robot, 50, np.random.default_rng(11)).true_final
+    np.testing.assert_array_equal(a, b)
+    c = simulate(track, robot, 50, np.random.default_rng(12)).true_final
+    assert not np.allclose(a, c)
+
+
+def _straight_cov(k_r, k_l, b, d):
+    """model.md's closed-form straight-line covariance in the robot frame (f, s, theta)."""
+    kp, km = k_r + k_l, k_r - k_l
+    return np.array(
+        [
+            [kp * d / 4, km * d**2 / (4 * b), km * d / (2 * b)],
+            [km * d**2 / (4 * b), kp * d**3 / (3 * b**2), kp * d**2 / (2 * b**2)],
+            [km * d / (2 * b), kp * d**2 / (2 * b**2), kp * d / b**2],
+        ]
+    )
+
+
+def test_closed_form_test_case_of_model_md():
+    expected = np.array([[0.01, 0, 0], [0, 0.21333, 0.16], [0, 0.16, 0.16]])
+    np.testing.assert_allclose(1e4 * _straight_cov(1e-6, 1e-6, 0.5, 2.0), expected, atol=1e-5)
+
+
+@pytest.mark.parametrize("k_r,k_l", [(1e-6, 1e-6), (3e-6, 0.5e-6)])
+def test_straight_line_statistics_match_closed_form(k_r, k_l):
+    b, d, n = 0.5, 2.0, 6000
+    geom = WheelGeometry.symmetric(0.15, b)
+    res = drive(
+        straight_line(d),
+        geom,
+        geom,
+        NonSystematicError(k_r, k_l),
+        n,
+        np.random.default_rng(2024),
+    )
+    e = res.errors
+    mc = np.cov(e.T)
+    cf = _straight_cov(k_r, k_l, b, d)
+    # Variances: the sample variance of n Gaussian draws has relative std sqrt(2/(n-1)) = 1.8 %;
+    # 5 sigma gives a tolerance that a correct simulator never misses at this fixed seed but a
+    # wrong factor (2, b vs b/2, d^2 vs d^3) always does.
+    tol = 5 * math.sqrt(2 / (n - 1))
+    for i in range(3):
+        assert mc[i, i] == pytest.approx(cf[i, i], rel=tol)
+    # Covariances: compare correlations; the std of a sample correlation is <= 1/sqrt(n) = 0.013.
+    corr_mc = mc / np.sqrt(np.outer(np.diag(mc), np.diag(mc)))
+    corr_cf = cf / np.sqrt(np.outer(np.diag(cf), np.diag(cf)))
+    np.testing.assert_allclose(corr_mc, corr_cf, atol=5 / math.sqrt(n))
+    # the means are zero (no systematic error)
+    assert np.all(np.abs(e.mean(axis=0)) < 5 * np.sqrt(np.diag(cf) / n))
+
+
+def test_measurement_noise_is_added_with_the_stated_sigmas():
+    robot = Robot(NOMINAL, measurement=MeasurementNoise.from_degrees(0.01, 1.0))
+    n = 20000
+    noisy = measure(np.zeros((n, 3)), robot, np.random.default_rng(3))
+    sd = noisy.std(axis=0, ddof=1)
+    # relative std of a sample std is about 1/sqrt(2n) = 0.5 %; allow 5 sigma
+    np.testing.assert_allclose(sd, [0.01, 0.01, math.radians(1.0)], rtol=5 / math.sqrt(2 * n))
+    # no noise configured: the input comes back unchanged and no generator is needed
+    same = measure(np.ones((2, 3)), Robot(NOMINAL), None)
+    np.testing.assert_array_equal(same, np.ones((2, 3)))
+
+
+def test_noise_needs_a_generator():
+    from odocal.errors import ModelError
+
+    robot = Robot(NOMINAL, nonsystematic=NonSystematicError(1e-6, 1e-6))
+    with pytest.raises(ModelError, match="Generator"):
+        simulate(polygon(4, 1.0, "cw"), robot, 2, None)
