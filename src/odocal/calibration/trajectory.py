@@ -7,9 +7,8 @@ estimator (``calibration.linear``).
 Residuals (``residual=``):
 
 - ``'pose'`` (default): the pose error ground truth - odometry at up to ``samples_per_run``
-  evenly spaced samples of each run, position (m) and heading times ``heading_weight_m`` (m/rad),
-  each run's block divided by sqrt(its number of samples) so every run weighs the same however
-  long it is. It keeps the accumulated heading drift that the final error of a long run is made
+  evenly spaced samples of each run, position (m) and heading times ``heading_weight_m`` (m/rad).
+  It keeps the accumulated heading drift that the final error of a long run is made
   of. Its samples are strongly correlated along a run, so late samples (which carry the whole
   drift) dominate within a run, and the formal standard errors are optimistic.
 - ``'segment'``: the OptiOdom idea (Sousa et al. 2022): cut every run into segments of
@@ -19,12 +18,19 @@ Residuals (``residual=``):
   stretch (a slip, a tracking glitch) cannot bend the rest of the run; segment residuals are
   closer to independent.
 
+Run weights (``run_weight=``): each run's residual block is scaled so that its total weight is
+its travel in metres (``'travel'``, default: a run carries information on the systematic
+parameters in proportion to how far it drives, and many short spins must not outvote a few long
+runs) or 1 (``'equal'``). Travel = mean absolute wheel travel, so spot turns count.
+
 Standard errors: cov = s^2 (J^T J)^-1 at the solution, s^2 = SSR / (m - 3), with J the Jacobian
 of the (weighted) residuals. This assumes independent residuals of equal variance and a locally
 linear model; trajectory residuals are correlated along a run, so treat the errors as a lower
 bound (the spread between runs, ``per_run``, is the honest check).
 
-Outliers: the RMS of each run's residual block at the solution, robust z-score
+Outliers: the RMS of each run's SEGMENT residuals at the solution (whatever ``residual`` the fit
+used: every segment has the same travel, so short and long runs are comparable; the RMS of a
+whole-run pose residual grows with the run's length and would flag long runs), robust z-score
 z = 0.6745 (rms - median) / MAD; runs with z > ``outlier_z`` (default 3.5, Iglewicz & Hoaglin)
 are flagged. ``drop_outliers=True`` refits once without them; ``exclude`` leaves named runs out.
 """
@@ -41,9 +47,10 @@ from ..core.odometry import dead_reckon
 from .linear import GeometryFit, check_physical, fit_linear, stderr_dict
 from .result import CalibrationError
 
-__all__ = ["fit_trajectory", "RESIDUALS", "robust_z", "match_runs"]
+__all__ = ["fit_trajectory", "RESIDUALS", "RUN_WEIGHTS", "robust_z", "match_runs"]
 
 RESIDUALS = ("pose", "segment")
+RUN_WEIGHTS = ("travel", "equal")
 
 
 def robust_z(values) -> np.ndarray:
@@ -70,35 +77,41 @@ def match_runs(names, patterns) -> list[str]:
 class _Run:
     """Pre-computed arrays of one run for fast residual evaluation."""
 
-    def __init__(self, rec, kind, samples, segment_m, start: WheelGeometry):
+    def __init__(self, rec, kind, samples, segment_m, start: WheelGeometry, run_weight="travel"):
         self.name = rec.name
         self.phi_r = np.asarray(rec.wheel_angle_right_rad, dtype=float)
         self.phi_l = np.asarray(rec.wheel_angle_left_rad, dtype=float)
         self.gt = np.asarray(rec.ground_truth, dtype=float)
         n = len(self.gt)
+        # travel = mean absolute wheel travel (m) with the start geometry: spins count too
+        travel = np.concatenate(
+            [
+                [0.0],
+                np.cumsum(
+                    0.25
+                    * (
+                        np.abs(np.diff(self.phi_r)) * start.diameter_right_m
+                        + np.abs(np.diff(self.phi_l)) * start.diameter_left_m
+                    )
+                ),
+            ]
+        )
+        self.travel_m = float(travel[-1])
         if kind == "pose":
             self.idx = np.unique(np.linspace(1, n - 1, min(samples, n - 1)).round().astype(int))
-            self.weight = 1.0 / np.sqrt(len(self.idx))
+            count = len(self.idx)
         else:
-            travel = np.concatenate(
-                [
-                    [0.0],
-                    np.cumsum(
-                        0.25
-                        * (
-                            np.abs(np.diff(self.phi_r)) * start.diameter_right_m
-                            + np.abs(np.diff(self.phi_l)) * start.diameter_left_m
-                        )
-                    ),
-                ]
-            )
             marks = np.searchsorted(travel, np.arange(0.0, travel[-1], segment_m))
             marks = np.unique(np.append(marks, n - 1))
             if len(marks) < 2:
                 marks = np.array([0, n - 1])
             self.i0, self.i1 = marks[:-1], marks[1:]
-            self.weight = 1.0
             self.gt_rel = _relative(self.gt, self.i0, self.i1)
+            count = len(self.i0)
+        # a run's block is scaled so that its total weight is 1 ('equal') or its travel in m
+        # ('travel'), however many residual rows it has
+        total = 1.0 if run_weight == "equal" else max(self.travel_m, 1e-9)
+        self.weight = float(np.sqrt(total / count))
 
 
 def _relative(P, i0, i1):
@@ -149,6 +162,7 @@ def fit_trajectory(
     exclude=(),
     drop_outliers: bool = False,
     outlier_z: float = 3.5,
+    run_weight: str = "travel",
 ) -> GeometryFit:
     """Fit (D_R, D_L, b) to the ground truth of ``recordings`` (module docstring).
 
@@ -156,6 +170,10 @@ def fit_trajectory(
     heading_weight_m : metres of residual per radian of heading error (0 = position only).
     exclude : run names (or file names, or substrings) to leave out.
     """
+    if run_weight not in RUN_WEIGHTS:
+        raise CalibrationError(
+            f"run_weight must be one of {', '.join(RUN_WEIGHTS)}, got {run_weight!r}"
+        )
     if residual not in RESIDUALS:
         raise CalibrationError(f"residual must be one of {', '.join(RESIDUALS)}, got {residual!r}")
     names = [r.name for r in recordings]
@@ -186,7 +204,9 @@ def fit_trajectory(
         best = None
         for g in starts:
             x0 = np.array([g.diameter_right_m, g.diameter_left_m, g.wheelbase_m], float)
-            runs = [_Run(r, residual, samples_per_run, segment_m, starts[0]) for r in rs]
+            runs = [
+                _Run(r, residual, samples_per_run, segment_m, starts[0], run_weight) for r in rs
+            ]
             sol = _solve(runs, x0, residual, heading_weight_m)
             if np.all(np.isfinite(sol.x)) and np.all(sol.x > 0):
                 if best is None or sol.cost < best[1].cost:
@@ -196,16 +216,16 @@ def fit_trajectory(
         return best[0], best[1]
 
     runs, sol = fit(use)
+    # outlier statistic: RMS of the SEGMENT residuals whatever residual the fit used, because
+    # segments have the same travel in every run, so short and long runs are comparable
+    seg_runs = [_Run(r, "segment", samples_per_run, segment_m, starts[0]) for r in use]
     rms = np.array(
-        [
-            np.sqrt(np.mean(_run_residual(r, sol.x, residual, heading_weight_m) ** 2))
-            for r in runs
-        ]
+        [np.sqrt(np.mean(_run_residual(r, sol.x, "segment", heading_weight_m) ** 2)) for r in seg_runs]
     )
     z = robust_z(rms) if len(rms) >= 3 else np.zeros(len(rms))
     outliers = [r.name for r, zi in zip(runs, z, strict=True) if zi > outlier_z]
     per_run = [
-        {"name": r.name, "rms": float(v), "robust_z": float(zi), "outlier": bool(zi > outlier_z)}
+        {"name": r.name, "segment_rms": float(v), "robust_z": float(zi), "outlier": bool(zi > outlier_z)}
         for r, v, zi in zip(runs, rms, z, strict=True)
     ]
     if drop_outliers and outliers:
@@ -244,6 +264,7 @@ def fit_trajectory(
             "residual": residual,
             "segment_m": segment_m if residual == "segment" else None,
             "heading_weight_m": heading_weight_m,
+            "run_weight": run_weight,
             "residual_rms": float(np.sqrt(2.0 * sol.cost / max(m, 1))),
             "optimizer": {"nfev": int(sol.nfev), "status": int(sol.status)},
             "starts_tried": len(starts),

@@ -77,6 +77,12 @@ def add_parser(sub) -> None:
         help="metres of residual per radian of heading error (default 0.1)",
     )
     t.add_argument(
+        "--run-weight",
+        choices=("travel", "equal"),
+        default="travel",
+        help="weight of each run: its travel in m (default) or equal",
+    )
+    t.add_argument(
         "--exclude",
         action="append",
         default=[],
@@ -157,6 +163,7 @@ def fit_recordings(
     heading_weight_m: float = 0.1,
     exclude=(),
     drop_outliers: bool = False,
+    run_weight: str = "travel",
     side_m: float | None = None,
     umbmark_form: str = "mean",
 ):
@@ -178,6 +185,7 @@ def fit_recordings(
             heading_weight_m=heading_weight_m,
             exclude=exclude,
             drop_outliers=drop_outliers,
+            run_weight=run_weight,
         )
     if method in ("umbmark", "heading"):
         return fit_recorded_squares(
@@ -279,6 +287,7 @@ def run(args) -> int:
         heading_weight_m=args.heading_weight,
         exclude=args.exclude,
         drop_outliers=args.drop_outliers,
+        run_weight=args.run_weight,
         side_m=args.side_length,
         umbmark_form=args.umbmark_form,
     )
