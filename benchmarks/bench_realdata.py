@@ -47,8 +47,9 @@ def published(data: Path) -> list[tuple[str, WheelGeometry]]:
                 label = "published OptiOdom, ALL_DATASETS_COMBINED"
                 if row["note"]:
                     label += f" {row['note']}"
-                geo = WheelGeometry(float(row["cal_Dr_m"]), float(row["cal_Dl_m"]),
-                                    float(row["cal_b_m"]))
+                geo = WheelGeometry(
+                    float(row["cal_Dr_m"]), float(row["cal_Dl_m"]), float(row["cal_b_m"])
+                )
                 out.append((label, geo))
     return out
 
@@ -130,15 +131,23 @@ def main(argv=None) -> int:
         if fit.outliers:
             note = "outliers: " + ", ".join(Path(n).stem for n in fit.outliers)
             if kw.get("drop_outliers"):
-                note = "dropped " + note[len("outliers: "):]
+                note = "dropped " + note[len("outliers: ") :]
         add(name, "square + ivanjko", fit.geometry, note)
     for label, geo in published(data):
         add(label, "all 171 runs (incl. held-out)", geo, "not held-out")
     fit = fit_recordings(held, "trajectory", nominal=nominal)
-    add("trajectory fitted ON the held-out runs", "circular + free", fit.geometry,
-        "in-sample reference, not held-out")
-    add("best possible: D_R, D_L, b minimising the held-out final errors", "circular + free",
-        floor_geometry(held, nominal), "floor for ANY parameters")
+    add(
+        "trajectory fitted ON the held-out runs",
+        "circular + free",
+        fit.geometry,
+        "in-sample reference, not held-out",
+    )
+    add(
+        "best possible: D_R, D_L, b minimising the held-out final errors",
+        "circular + free",
+        floor_geometry(held, nominal),
+        "floor for ANY parameters",
+    )
 
     # diagnostic: the effective turning gain mean(D)/b each kind of motion implies
     gains = {}
@@ -153,14 +162,19 @@ def main(argv=None) -> int:
     elapsed = time.perf_counter() - t0
 
     if args.json:
-        json.dump({"rows": rows, "turning_gain_D_over_b": gains, "seconds": elapsed},
-                  sys.stdout, indent=2)
+        json.dump(
+            {"rows": rows, "turning_gain_D_over_b": gains, "seconds": elapsed}, sys.stdout, indent=2
+        )
         print()
         return 0
-    print(f"Held-out: {len(circular)} circular + {len(free)} free runs; calibration runs: "
-          f"{len(squares)} square + {len(ivanjko)} ivanjko.\n")
-    print("| method | calibrated on | D_R (m) | D_L (m) | b (m) | held-out mean final error (mm) "
-          "| mean max error (mm) | circular / free (mm) | note |")
+    print(
+        f"Held-out: {len(circular)} circular + {len(free)} free runs; calibration runs: "
+        f"{len(squares)} square + {len(ivanjko)} ivanjko.\n"
+    )
+    print(
+        "| method | calibrated on | D_R (m) | D_L (m) | b (m) | held-out mean final error (mm) "
+        "| mean max error (mm) | circular / free (mm) | note |"
+    )
     print("|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         print(

@@ -115,12 +115,14 @@ def test_trajectory_noise_stderr_and_outlier():
             [rng.normal(0, 2e-3, n), rng.normal(0, 2e-3, n), rng.normal(0, 3.5e-3, n)]
         )
         noise[0] = 0
-        runs.append(make_run(base.name, square("cw" if i % 2 else "ccw") + [("arc", 1.0, 2.0)],
-                             noise=noise))
+        runs.append(
+            make_run(base.name, square("cw" if i % 2 else "ccw") + [("arc", 1.0, 2.0)], noise=noise)
+        )
     fit = fit_trajectory(runs, nominal=NOMINAL)
     err = values(fit.geometry) - values(TRUE)
-    se = np.array([fit.stderr[k] for k in ("wheel_diameter_right_m", "wheel_diameter_left_m",
-                                              "wheelbase_m")])
+    se = np.array(
+        [fit.stderr[k] for k in ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")]
+    )
     # white noise on 8 long runs: the estimate lies within 5 formal standard errors (the formal
     # errors assume exactly this independent noise), and those are below 0.1 % of the values
     assert np.all(np.abs(err) < 5 * se)
@@ -131,8 +133,9 @@ def test_trajectory_noise_stderr_and_outlier():
     right = bad.wheel_angle_right_rad.copy()
     k = len(right) // 2
     right[k:] = right[k] + 1.03 * (right[k:] - right[k])
-    runs[3] = Recording(bad.name, bad.time_s, right, bad.wheel_angle_left_rad,
-                        bad.ground_truth, ran_with=NOMINAL)
+    runs[3] = Recording(
+        bad.name, bad.time_s, right, bad.wheel_angle_left_rad, bad.ground_truth, ran_with=NOMINAL
+    )
     flagged = fit_trajectory(runs, nominal=NOMINAL)
     assert flagged.outliers == ["run3"] and flagged.warnings
     dropped = fit_trajectory(runs, nominal=NOMINAL, drop_outliers=True)
@@ -147,8 +150,14 @@ def test_trajectory_noise_stderr_and_outlier():
 def test_swapped_wheels_are_reported():
     runs = mixed_runs()
     swapped = [
-        Recording(r.name, r.time_s, r.wheel_angle_left_rad, r.wheel_angle_right_rad,
-                  r.ground_truth, ran_with=NOMINAL)
+        Recording(
+            r.name,
+            r.time_s,
+            r.wheel_angle_left_rad,
+            r.wheel_angle_right_rad,
+            r.ground_truth,
+            ran_with=NOMINAL,
+        )
         for r in runs
     ]
     with pytest.raises(CalibrationError, match="swapped"):
@@ -206,18 +215,24 @@ def test_fit_cli_json_out_and_ros2(tmp_path, cli):
     robot = tmp_path / "robot.yaml"
     robot.write_text("wheel_diameter_m: 0.15\nwheelbase_m: 0.385\n")
     out, ros2 = tmp_path / "params.yaml", tmp_path / "ros2.yaml"
-    status, stdout, err = cli("fit", folder, "--robot", robot, "--json", "--out", out,
-                              "--ros2", ros2)
+    status, stdout, err = cli(
+        "fit", folder, "--robot", robot, "--json", "--out", out, "--ros2", ros2
+    )
     assert status == 0, err
     d = json.loads(stdout)
-    for key in ("method", "wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m",
-                "stderr", "runs"):
+    for key in (
+        "method",
+        "wheel_diameter_right_m",
+        "wheel_diameter_left_m",
+        "wheelbase_m",
+        "stderr",
+        "runs",
+    ):
         assert key in d
     assert d["method"] == "trajectory" and len(d["runs"]) == 6
     # the CSV stores 10 significant digits, so the fit is exact to about 1e-8
     np.testing.assert_allclose(values(load_params(out)), values(TRUE), rtol=1e-7)
-    np.testing.assert_allclose(values(read_ros2_params(ros2)), values(load_params(out)),
-                               rtol=1e-8)
+    np.testing.assert_allclose(values(read_ros2_params(ros2)), values(load_params(out)), rtol=1e-8)
     status, stdout, _ = cli("fit", folder, "--robot", robot, "--method", "linear")
     assert status == 0 and "linear fit from 6 run(s)" in stdout
 
@@ -225,13 +240,11 @@ def test_fit_cli_json_out_and_ros2(tmp_path, cli):
 def test_fit_cli_errors(tmp_path, cli):
     # runs without metadata (no 'ran with' parameters): the nominal geometry is unknown
     runs = [
-        Recording(r.name, r.time_s, r.wheel_angle_right_rad, r.wheel_angle_left_rad,
-                  r.ground_truth)
+        Recording(r.name, r.time_s, r.wheel_angle_right_rad, r.wheel_angle_left_rad, r.ground_truth)
         for r in mixed_runs()
     ]
     swapped = [
-        Recording(r.name, r.time_s, r.wheel_angle_left_rad, r.wheel_angle_right_rad,
-                  r.ground_truth)
+        Recording(r.name, r.time_s, r.wheel_angle_left_rad, r.wheel_angle_right_rad, r.ground_truth)
         for r in runs
     ]
     folder = _write_runs(tmp_path / "swapped", swapped)
@@ -244,8 +257,16 @@ def test_fit_cli_errors(tmp_path, cli):
     assert status == 2 and "--robot" in err and not (tmp_path / "r.yaml").exists()
     status, _, err = cli("fit", good, "--exclude", "zzz")
     assert status == 2 and "'zzz' matches no run" in err
-    status, _, err = cli("fit", good, "--robot", "paper-fig5", "--ros2", tmp_path / "r.yaml",
-                         "--controller-name", "1bad name")
+    status, _, err = cli(
+        "fit",
+        good,
+        "--robot",
+        "paper-fig5",
+        "--ros2",
+        tmp_path / "r.yaml",
+        "--controller-name",
+        "1bad name",
+    )
     assert status == 2 and "controller name" in err and not (tmp_path / "r.yaml").exists()
 
 
@@ -262,8 +283,9 @@ def test_real_data_umbmark_reproduces_the_published_values(realdata, cli):
 
 def test_real_data_trajectory_golden(realdata, cli):
     base = realdata / "optiodom_diff"
-    status, out, err = cli("fit", base / "square" / "231220200048",
-                           base / "ivanjko" / "231220200104", "--json")
+    status, out, err = cli(
+        "fit", base / "square" / "231220200048", base / "ivanjko" / "231220200104", "--json"
+    )
     assert status == 0, err
     d = json.loads(out)
     # golden values of this commit (5 runs); the published OptiOdom fits of these categories

@@ -90,7 +90,10 @@ def test_16_bit_wrap_around_is_unwrapped_with_the_modulus(tmp_path):
         ("time_s,a,b\n0,0,0\n", "missing wheel columns"),
         ("time_s,wheel_right_rad,wheel_left_rad,x_m,y_m\n0,0,0,0,0\n", "theta_rad"),
         ("time_s,wheel_right_rad,wheel_left_rad\n0,0,0\n", "at least two samples"),
-        ("time_s,wheel_right_rad,wheel_left_rad\n0,0,0\n0.1,nan,0\n", r"line 3, field 'wheel_right"),
+        (
+            "time_s,wheel_right_rad,wheel_left_rad\n0,0,0\n0.1,nan,0\n",
+            r"line 3, field 'wheel_right",
+        ),
         ("time_s,wheel_right_rad,wheel_left_rad\n0,0,0\n0.1,x,0\n", r"line 3.*not a number"),
         ("time_s,wheel_right_rad,wheel_left_rad\n0,0,0\n0.1,1\n", r"line 3.*expected 3 fields"),
         (

@@ -111,8 +111,10 @@ def check_physical(values, nominal: WheelGeometry | None, method: str) -> list[s
     warnings = []
     if nominal is not None:
         for name, v, n in zip(
-            _KEYS, (d_r, d_l, b), (nominal.diameter_right_m, nominal.diameter_left_m,
-                                   nominal.wheelbase_m), strict=True
+            _KEYS,
+            (d_r, d_l, b),
+            (nominal.diameter_right_m, nominal.diameter_left_m, nominal.wheelbase_m),
+            strict=True,
         ):
             if abs(v / n - 1) > 0.25:
                 warnings.append(

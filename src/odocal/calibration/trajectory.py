@@ -117,7 +117,9 @@ class _Run:
 def _relative(P, i0, i1):
     d = P[i1, :2] - P[i0, :2]
     c, s = np.cos(P[i0, 2]), np.sin(P[i0, 2])
-    return np.column_stack([c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1], P[i1, 2] - P[i0, 2]])
+    return np.column_stack(
+        [c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1], P[i1, 2] - P[i0, 2]]
+    )
 
 
 def _run_residual(run: _Run, p, kind, w_head) -> np.ndarray:
@@ -220,12 +222,20 @@ def fit_trajectory(
     # segments have the same travel in every run, so short and long runs are comparable
     seg_runs = [_Run(r, "segment", samples_per_run, segment_m, starts[0]) for r in use]
     rms = np.array(
-        [np.sqrt(np.mean(_run_residual(r, sol.x, "segment", heading_weight_m) ** 2)) for r in seg_runs]
+        [
+            np.sqrt(np.mean(_run_residual(r, sol.x, "segment", heading_weight_m) ** 2))
+            for r in seg_runs
+        ]
     )
     z = robust_z(rms) if len(rms) >= 3 else np.zeros(len(rms))
     outliers = [r.name for r, zi in zip(runs, z, strict=True) if zi > outlier_z]
     per_run = [
-        {"name": r.name, "segment_rms": float(v), "robust_z": float(zi), "outlier": bool(zi > outlier_z)}
+        {
+            "name": r.name,
+            "segment_rms": float(v),
+            "robust_z": float(zi),
+            "outlier": bool(zi > outlier_z),
+        }
         for r, v, zi in zip(runs, rms, z, strict=True)
     ]
     if drop_outliers and outliers:

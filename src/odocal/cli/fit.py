@@ -268,9 +268,7 @@ def run(args) -> int:
         return 0
     if args.method == "gyro":
         return _run_gyro(args)
-    recordings = load_recordings(
-        args.paths, ticks_per_rev=args.ticks_per_rev, **bag_options(args)
-    )
+    recordings = load_recordings(args.paths, ticks_per_rev=args.ticks_per_rev, **bag_options(args))
     nominal = nominal_geometry(args.robot, recordings)
     ran_with = None
     if args.robot:

@@ -148,8 +148,17 @@ def run(args) -> int:
     def deg(v):
         return "-" if v is None else f"{math.degrees(v):.2f}"
 
-    rows = [("run", "final mm", "max mm", "final deg", "nominal final mm", "nominal max mm",
-             "nominal final deg")]
+    rows = [
+        (
+            "run",
+            "final mm",
+            "max mm",
+            "final deg",
+            "nominal final mm",
+            "nominal max mm",
+            "nominal final deg",
+        )
+    ]
     for r in result.runs:
         rows.append(
             (

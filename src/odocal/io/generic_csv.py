@@ -152,9 +152,7 @@ def load_generic_csv(path, ticks_per_rev: float | None = None) -> Recording:
             header_no,
             missing,
         )
-    wanted = ["time_s", *wheel_cols, *present] + (
-        ["gyro_yaw_rad"] if "gyro_yaw_rad" in col else []
-    )
+    wanted = ["time_s", *wheel_cols, *present] + (["gyro_yaw_rad"] if "gyro_yaw_rad" in col else [])
 
     rows, line_nos = [], []
     for no, line in body[1:]:

@@ -40,7 +40,10 @@ def _check_name(name: str) -> None:
 
 
 def ros2_params_yaml(
-    calibrated: WheelGeometry, nominal: WheelGeometry, controller: str = DEFAULT_CONTROLLER, **record
+    calibrated: WheelGeometry,
+    nominal: WheelGeometry,
+    controller: str = DEFAULT_CONTROLLER,
+    **record,
 ) -> str:
     """The YAML text (module docstring); ``record`` (method, ...) goes into header comments."""
     _check_name(controller)

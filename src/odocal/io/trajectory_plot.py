@@ -37,13 +37,18 @@ def plot_run(path, title: str, ground_truth, trajectories: dict) -> Path:
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 6.0), dpi=110)
     try:
-        ax.plot(ground_truth[:, 0], ground_truth[:, 1], color="black", lw=2.0,
-                label="ground truth")
+        ax.plot(ground_truth[:, 0], ground_truth[:, 1], color="black", lw=2.0, label="ground truth")
         styles = [("tab:red", "--"), ("tab:blue", "-"), ("tab:green", "-."), ("tab:purple", ":")]
         for (name, traj), (color, ls) in zip(trajectories.items(), styles, strict=False):
             err = float(np.hypot(*(ground_truth[-1, :2] - traj[-1, :2])))
-            ax.plot(traj[:, 0], traj[:, 1], color=color, ls=ls, lw=1.4,
-                    label=f"{name} (final error {1000 * err:.1f} mm)")
+            ax.plot(
+                traj[:, 0],
+                traj[:, 1],
+                color=color,
+                ls=ls,
+                lw=1.4,
+                label=f"{name} (final error {1000 * err:.1f} mm)",
+            )
             ax.plot(traj[-1, 0], traj[-1, 1], "o", color=color, ms=5)
         ax.plot(ground_truth[-1, 0], ground_truth[-1, 1], "o", color="black", ms=5)
         ax.plot(0, 0, marker="s", color="gray", ms=7, ls="none", label="start")
