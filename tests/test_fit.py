@@ -297,3 +297,16 @@ def test_real_data_trajectory_golden(realdata, cli):
 
 
 GOLDEN = (0.083884, 0.083923, 0.201740)
+
+
+def test_list_topics_needs_a_bag(tmp_path, cli):
+    path = tmp_path / "run.csv"
+    path.write_text("time_s,wheel_right_rad,wheel_left_rad\n0,0,0\n1,1,1\n")
+    status, _, err = cli("fit", path, "--list-topics")
+    assert status == 2 and "run.csv" in err and "needs a ROS bag" in err
+
+
+def test_real_data_square_methods_refuse_non_square_runs(realdata, cli):
+    path = realdata / "optiodom_diff" / "ivanjko" / "231220200104"
+    status, _, err = cli("fit", path, "--method", "heading")
+    assert status == 2 and "231220200104_run-01.csv" in err and "not a closed square" in err

@@ -258,10 +258,11 @@ def run(args) -> int:
     from ..io.recordings import is_bag, load_recordings
 
     if args.list_topics:
-        bags = _bags()
         for path in args.paths:
             if not is_bag(path):
-                raise InputError("--list-topics needs a ROS bag", path)
+                raise InputError("--list-topics needs a ROS bag (.bag, .db3, .mcap)", path)
+        bags = _bags()
+        for path in args.paths:
             if len(args.paths) > 1:
                 print(f"{path}:")
             print(bags.format_topics(bags.list_topics(path)))
@@ -307,6 +308,11 @@ def run(args) -> int:
         err = "-" if se.get(key) is None else f"{se[key]:.2e}"
         rows.append((label, nom, f"{g.as_dict()[key]:.6f}", err))
     print_table(rows)
+    if "data_sets" in result.extras:
+        print(
+            f"pooled from {len(result.extras['data_sets'])} data set(s): per data set, "
+            "composed with its ran-with parameters; scale = nominal mean diameter"
+        )
     if result.excluded:
         print("excluded: " + ", ".join(Path(n).name for n in result.excluded))
     for w in result.warnings:
