@@ -162,6 +162,9 @@ def test_swapped_wheels_are_reported():
     ]
     with pytest.raises(CalibrationError, match="swapped"):
         fit_linear(swapped, NOMINAL)
+    # the trajectory fit lands in a positive but absurd minimum (b 68 % below nominal): warned
+    fit = fit_trajectory(swapped, nominal=NOMINAL)
+    assert any("absurd" in w and "swapped" in w for w in fit.warnings)
 
 
 def test_heading_and_umbmark_on_recorded_squares_directions_from_the_data():
