@@ -72,19 +72,33 @@ class GeometryFit:
 
     def as_dict(self) -> dict:
         """The JSON contract of ``odocal fit --json`` (plus extras)."""
-        cov = None if self.covariance is None else np.asarray(self.covariance).tolist()
+        cov = None if self.covariance is None else _finite_or_none(self.covariance)
         return {
             "method": self.method,
             **self.geometry.as_dict(),
             "stderr": self.stderr,
             "runs": list(self.runs),
             "covariance_m2": cov,
-            "per_run": self.per_run,
+            "per_run": [
+                {
+                    k: (None if isinstance(v, float) and not np.isfinite(v) else v)
+                    for k, v in row.items()
+                }
+                for row in self.per_run
+            ],
             "outliers": list(self.outliers),
             "excluded": list(self.excluded),
             "warnings": list(self.warnings),
             **self.extras,
         }
+
+
+def _finite_or_none(a):
+    """Nested lists of floats with non-finite entries as None (JSON has no NaN)."""
+    return [
+        _finite_or_none(v) if np.ndim(v) else (float(v) if np.isfinite(v) else None)
+        for v in np.asarray(a, dtype=float)
+    ]
 
 
 _KEYS = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
