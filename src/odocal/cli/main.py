@@ -10,9 +10,9 @@ import sys
 
 from .. import __version__
 from ..errors import OdocalError
-from . import calibrate, simulate
+from . import calibrate, fit, simulate, validate
 
-COMMANDS = [simulate, calibrate]
+COMMANDS = [simulate, calibrate, fit, validate]
 
 
 class _Parser(argparse.ArgumentParser):

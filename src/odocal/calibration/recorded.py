@@ -1,0 +1,177 @@
+"""UMBmark and the heading-error method on RECORDED square runs.
+
+For each run, the final error is actual - odometric (model.md): the ground-truth final pose minus
+the final pose dead-reckoned from the wheel rotations with the parameters the robot RAN WITH
+(``Recording.ran_with``, its firmware values; the ``ran_with`` argument is the fallback for
+runs without that metadata). For a closed
+square driven on the robot's own odometry the odometric final pose is near the start, so this is
+the classic closing error.
+
+Direction from the data: a run is CW if its total true rotation (ground truth theta, unwrapped)
+is negative, CCW if positive; a run whose total rotation is not within 45 degrees of +-2 pi
+(one closed square) is rejected. A label that disagrees with the data is reported in the
+warnings (the data win).
+
+Pooling several data sets: each data set (``meta['dataset']``, else the run's folder) may have run
+with its own firmware parameters, so each is calibrated on its own and its correction composed
+with ITS parameters (``CalibrationResult.corrected``). Neither method sees the absolute wheel
+scale (a closed square cannot; model.md), so the data sets are combined through scale-free
+quantities, weighted by their number of runs: the diameter ratio D_R/D_L and the ratio of the
+wheelbase to the mean diameter, b/D; the pooled geometry then takes the mean diameter of the
+nominal geometry (``nominal``; default the most common ``ran_with``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+
+from ..core.model import WheelGeometry
+from ..core.odometry import dead_reckon
+from .heading import calibrate_heading
+from .linear import GeometryFit
+from .result import CalibrationError, EndPoseRuns
+from .umbmark import calibrate_umbmark
+
+__all__ = ["recorded_end_errors", "direction_from_data", "fit_recorded_squares"]
+
+_TOL = math.radians(45.0)
+
+
+def direction_from_data(total_rotation_rad: float) -> str | None:
+    """'cw' / 'ccw' for a total rotation within 45 deg of -2 pi / +2 pi, else None."""
+    if abs(total_rotation_rad + 2 * math.pi) < _TOL:
+        return "cw"
+    if abs(total_rotation_rad - 2 * math.pi) < _TOL:
+        return "ccw"
+    return None
+
+
+def recorded_end_errors(recordings, ran_with: WheelGeometry | None = None):
+    """EndPoseRuns (directions from the data) and warnings, for square runs with ground truth."""
+    dirs, errs, warnings = [], [], []
+    for r in recordings:
+        geo = r.ran_with or ran_with
+        if geo is None:
+            raise CalibrationError(
+                f"{r.name}: the parameters the robot ran with are unknown (no metadata): "
+                "give --robot ROBOT.yaml"
+            )
+        total = float(r.ground_truth[-1, 2] - r.ground_truth[0, 2])
+        d = direction_from_data(total)
+        if d is None:
+            raise CalibrationError(
+                f"{r.name}: not a closed square run (total rotation {math.degrees(total):+.0f} "
+                "deg, expected about -360 (CW) or +360 (CCW)); UMBmark and the heading method "
+                "need square runs"
+            )
+        if r.label in ("cw", "ccw") and r.label != d:
+            warnings.append(
+                f"{Path(r.name).name}: labelled {r.label.upper()} but the data turn "
+                f"{d.upper()} ({math.degrees(total):+.0f} deg); using {d.upper()}"
+            )
+        odo = dead_reckon(r.wheel_angle_right_rad, r.wheel_angle_left_rad, geo)
+        errs.append(r.ground_truth[-1] - odo[-1])
+        dirs.append(d)
+    return EndPoseRuns(tuple(dirs), np.array(errs)), warnings
+
+
+def _group(recordings):
+    groups: dict[str, list] = {}
+    for r in recordings:
+        key = r.meta.get("dataset") or str(Path(r.name).parent)
+        groups.setdefault(key, []).append(r)
+    return groups
+
+
+def fit_recorded_squares(
+    recordings,
+    method: str,
+    *,
+    side_m: float | None = None,
+    ran_with: WheelGeometry | None = None,
+    nominal: WheelGeometry | None = None,
+    umbmark_form: str = "mean",
+) -> GeometryFit:
+    """UMBmark (``method='umbmark'``) or the heading method (``'heading'``) on recorded squares,
+    per data set, pooled as the module docstring says."""
+    if method not in ("umbmark", "heading"):
+        raise CalibrationError(f"method must be umbmark or heading, got {method!r}")
+    per_set, warnings = [], []
+    for key, runs in _group(recordings).items():
+        ends, w = recorded_end_errors(runs, ran_with)
+        side = side_m or runs[0].meta.get("side_m")
+        if not side:
+            raise CalibrationError(
+                f"{runs[0].name}: the square side length is unknown: give --side-length"
+            )
+        geo = runs[0].ran_with or ran_with
+        warnings += w
+        try:
+            if method == "umbmark":
+                res = calibrate_umbmark(ends, side, geo, umbmark_form)
+            else:
+                res = calibrate_heading(ends, 4, side, geo)
+        except CalibrationError as exc:
+            raise CalibrationError(f"data set {key}: {exc}") from None
+        per_set.append((key, len(runs), res, ends))
+    if nominal is None:
+        counts = Counter((r.ran_with or ran_with) for r in recordings)
+        if None in counts:
+            del counts[None]
+        nominal = counts.most_common(1)[0][0]
+    w = np.array([n for _, n, _, _ in per_set], dtype=float)
+    ratio = np.array([res.corrected.diameter_ratio for _, _, res, _ in per_set])
+    b_over_d = np.array(
+        [res.corrected.wheelbase_m / res.corrected.mean_diameter_m for _, _, res, _ in per_set]
+    )
+    e_d = float(np.average(ratio, weights=w))
+    k = float(np.average(b_over_d, weights=w))
+    d_mean = float(nominal.mean_diameter_m)
+    geometry = WheelGeometry(d_mean * 2 * e_d / (e_d + 1), d_mean * 2 / (e_d + 1), k * d_mean)
+    data_sets = []
+    for key, n, res, ends in per_set:
+        data_sets.append(
+            {
+                "data_set": key,
+                "runs": n,
+                "runs_cw": ends.count("cw"),
+                "runs_ccw": ends.count("ccw"),
+                "E_b": float(res.E_b),
+                "E_d": float(res.E_d),
+                "ran_with": res.ran_with.as_dict(),
+                **{f"calibrated_{k2}": v for k2, v in res.corrected.as_dict().items()},
+            }
+        )
+    stderr = dict.fromkeys(("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m"))
+    if len(per_set) > 1:
+        # spread of the per-data-set results (rescaled to the pooled mean diameter)
+        vals = np.array(
+            [
+                [
+                    d_mean * 2 * r / (r + 1),
+                    d_mean * 2 / (r + 1),
+                    kb * d_mean,
+                ]
+                for r, kb in zip(ratio, b_over_d, strict=True)
+            ]
+        )
+        sd = vals.std(axis=0, ddof=1) / math.sqrt(len(per_set))
+        stderr = dict(zip(stderr, map(float, sd), strict=True))
+    return GeometryFit(
+        method=method,
+        geometry=geometry,
+        stderr=stderr,
+        covariance=None,
+        runs=[r.name for r in recordings],
+        warnings=warnings,
+        extras={
+            "data_sets": data_sets,
+            "pooling": "per data set, composed with its own ran-with parameters; pooled by run "
+            "count through D_R/D_L and b/D, at the nominal mean diameter (scale not observable)",
+            **({"umbmark_form": umbmark_form} if method == "umbmark" else {}),
+        },
+    )

@@ -1,0 +1,172 @@
+"""Run loaders: generic run CSV, OptiOdom folders, the dispatcher, and their bad-input errors."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from odocal.core.recording import Recording
+from odocal.errors import InputError
+from odocal.io.generic_csv import load_generic_csv, write_generic_csv
+from odocal.io.recordings import load_recordings
+
+
+def _write(path, text):
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def _recording():
+    t = np.arange(6) * 0.05
+    gt = np.column_stack([np.linspace(0, 0.5, 6), np.linspace(0, 0.1, 6), np.linspace(0, 0.3, 6)])
+    return Recording(
+        name="x",
+        time_s=t,
+        wheel_angle_right_rad=np.linspace(0, 3.0, 6),
+        wheel_angle_left_rad=np.linspace(0, 2.5, 6),
+        ground_truth=gt,
+        gyro_yaw_rad=np.linspace(0, 0.29, 6),
+        label="ccw",
+        meta={"side_m": 4.0},
+    )
+
+
+def test_generic_csv_round_trip(tmp_path):
+    rec = _recording()
+    path = tmp_path / "run.csv"
+    write_generic_csv(path, rec)
+    back = load_generic_csv(path)
+    np.testing.assert_allclose(back.wheel_angle_right_rad, rec.wheel_angle_right_rad)
+    np.testing.assert_allclose(back.ground_truth, rec.ground_truth, atol=1e-12)
+    np.testing.assert_allclose(back.gyro_yaw_rad, rec.gyro_yaw_rad)
+    assert back.label == "ccw" and back.meta["side_m"] == 4.0
+
+
+def test_ground_truth_is_expressed_in_the_start_frame(tmp_path):
+    # the robot starts at (1, 2) heading +90 deg and drives 1 m forward: in the start frame
+    # that is (1, 0, 0)
+    path = _write(
+        tmp_path / "r.csv",
+        "time_s,wheel_right_rad,wheel_left_rad,x_m,y_m,theta_rad\n"
+        f"0,0,0,1,2,{math.pi / 2}\n0.1,10,10,1,3,{math.pi / 2}\n",
+    )
+    rec = load_generic_csv(path)
+    np.testing.assert_allclose(rec.ground_truth[-1], [1.0, 0.0, 0.0], atol=1e-12)
+
+
+def test_ticks_with_ticks_per_rev_from_the_header(tmp_path):
+    path = _write(
+        tmp_path / "r.csv",
+        "# ticks_per_rev: 1000\ntime_s,ticks_right,ticks_left\n0,500,500\n1,1500,1000\n",
+    )
+    rec = load_generic_csv(path)
+    # cumulative counts, relative to the first row: 1000 and 500 counts = 1 and 0.5 revolutions
+    assert rec.wheel_angle_right_rad[-1] == pytest.approx(2 * math.pi)
+    assert rec.wheel_angle_left_rad[-1] == pytest.approx(math.pi)
+    assert rec.ground_truth is None
+
+
+def test_16_bit_wrap_around_is_unwrapped_with_the_modulus(tmp_path):
+    # counter 65000 -> 65500 -> 464 (= 66000 mod 65536) -> 964: steady +500 per sample
+    body = "time_s,ticks_right,ticks_left\n0,65000,0\n1,65500,500\n2,464,1000\n3,964,1500\n"
+    path = _write(tmp_path / "r.csv", "# ticks_per_rev: 1000\n# ticks_wrap: 65536\n" + body)
+    rec = load_generic_csv(path)
+    np.testing.assert_allclose(rec.wheel_angle_right_rad, rec.wheel_angle_left_rad)
+    # without the modulus the jump is refused, naming the line and the column
+    path2 = _write(tmp_path / "r2.csv", "# ticks_per_rev: 1000\n" + body)
+    with pytest.raises(InputError, match=r"r2.csv, line 5, field 'ticks_right'.*wrap-around"):
+        load_generic_csv(path2)
+
+
+@pytest.mark.parametrize(
+    "text, match",
+    [
+        ("", "empty file"),
+        ("# only a comment\n", "empty file"),
+        ("time_s,wheel_right_rad\n0,0\n", "missing column 'wheel_left_rad'"),
+        ("t,wheel_right_rad,wheel_left_rad\n0,0,0\n", "missing column 'time_s'"),
+        ("time_s,a,b\n0,0,0\n", "missing wheel columns"),
+        ("time_s,wheel_right_rad,wheel_left_rad,x_m,y_m\n0,0,0,0,0\n", "theta_rad"),
+        ("time_s,wheel_right_rad,wheel_left_rad\n0,0,0\n", "at least two samples"),
+        (
+            "time_s,wheel_right_rad,wheel_left_rad\n0,0,0\n0.1,nan,0\n",
+            r"line 3, field 'wheel_right",
+        ),
+        ("time_s,wheel_right_rad,wheel_left_rad\n0,0,0\n0.1,x,0\n", r"line 3.*not a number"),
+        ("time_s,wheel_right_rad,wheel_left_rad\n0,0,0\n0.1,1\n", r"line 3.*expected 3 fields"),
+        (
+            "time_s,wheel_right_rad,wheel_left_rad\n0,0,0\n0.2,1,1\n0.1,2,2\n",
+            r"line 4, field 'time_s'.*not strictly increasing",
+        ),
+        ("time_s,ticks_right,ticks_left\n0,0,0\n1,5,5\n", "ticks_per_rev"),
+        ("# ticks_per_rev: -3\ntime_s,ticks_right,ticks_left\n0,0,0\n", r"line 1.*> 0"),
+        ("# wheelbase_m: 0.3\ntime_s,wheel_right_rad,wheel_left_rad\n0,0,0\n1,1,1\n", "all three"),
+    ],
+)
+def test_generic_csv_bad_input_names_file_line_and_field(tmp_path, text, match):
+    path = _write(tmp_path / "bad.csv", text)
+    with pytest.raises(InputError, match=match) as info:
+        load_generic_csv(path)
+    assert "bad.csv" in str(info.value)
+
+
+def test_bad_input_through_the_cli_is_one_line_exit_2(tmp_path, cli):
+    path = _write(tmp_path / "bad.csv", "time_s,wheel_right_rad,wheel_left_rad\n0,0,0\n0,1,1\n")
+    out_file = tmp_path / "p.yaml"
+    status, out, err = cli("fit", path, "--out", out_file)
+    assert status == 2
+    assert err.startswith("odocal: error: ") and err.count("\n") == 1
+    assert "bad.csv, line 3, field 'time_s'" in err and "Traceback" not in err
+    assert not out_file.exists()
+
+
+def test_dispatcher_folder_of_generic_runs_and_errors(tmp_path):
+    folder = tmp_path / "runs"
+    folder.mkdir()
+    for i in range(3):
+        write_generic_csv(folder / f"r{i}.csv", _recording())
+    assert len(load_recordings([folder])) == 3
+    assert len(load_recordings([folder / "r0.csv", folder / "r1.csv"])) == 2
+    with pytest.raises(InputError, match="no such file"):
+        load_recordings([tmp_path / "missing.csv"])
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    with pytest.raises(InputError, match="no runs found"):
+        load_recordings([empty])
+    other = _write(tmp_path / "notes.txt", "hello\n")
+    with pytest.raises(InputError, match="unknown run file type"):
+        load_recordings([other])
+
+
+def test_optiodom_run_files_without_metadata_are_refused(tmp_path):
+    folder = tmp_path / "123"
+    folder.mkdir()
+    _write(folder / "123_run-01.csv", "0,0,0,0,0,0\n0.05,0,0,0,1,1\n")
+    with pytest.raises(InputError, match=r"123_metadata.csv is missing"):
+        load_recordings([folder / "123_run-01.csv"])
+    with pytest.raises(InputError, match="without a \\*_metadata.csv"):
+        load_recordings([folder])
+    _write(folder / "123_metadata.csv", "type,diff\nngear,43.7\nLi,0.2\nDi,0.084,0.084\nN,1\n")
+    with pytest.raises(InputError, match="123_metadata.csv: metadata key 'encRes' is missing"):
+        load_recordings([folder])
+
+
+def test_optiodom_data_set_category_and_single_run(realdata):
+    base = realdata / "optiodom_diff"
+    runs = load_recordings([base / "square" / "230620202042"])
+    assert [r.label for r in runs] == ["cw"] * 3 + ["ccw"] * 3
+    assert runs[0].meta["ticks_per_rev"] == pytest.approx(43.7 * 64)
+    assert runs[0].ran_with.wheelbase_m == 0.2 and runs[0].meta["side_m"] == 0.75
+    one = load_recordings([base / "square" / "230620202042" / "230620202042_run-04.csv"])
+    assert len(one) == 1 and one[0].label == "ccw" and one[0].meta["run"] == 4
+    free = load_recordings([base / "free"])
+    assert len(free) == 7 and {r.meta["dataset"] for r in free} == {
+        "020120212354",
+        "030120210001",
+        "030120210006",
+    }
+    # the firmware parameters differ per data set and are kept per run
+    sq = load_recordings([base / "square" / "230620202258"])
+    assert sq[0].ran_with.diameter_right_m == 0.085 and sq[0].ran_with.wheelbase_m == 0.205
