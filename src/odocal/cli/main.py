@@ -10,9 +10,9 @@ import sys
 
 from .. import __version__
 from ..errors import OdocalError
-from . import calibrate, simulate
+from . import calibrate, noise, plan, simulate
 
-COMMANDS = [simulate, calibrate]
+COMMANDS = [simulate, calibrate, noise, plan]
 
 
 class _Parser(argparse.ArgumentParser):

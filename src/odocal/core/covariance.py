@@ -70,9 +70,9 @@ class PosePrediction:
         return self.covariance + self.measurement_covariance
 
     def std(self, measured: bool = True) -> np.ndarray:
-        """Standard deviations (x_m, y_m, theta_rad), shape (3,)."""
+        """Standard deviations (x_m, y_m, theta_rad), shape (3,) (or (B, 3))."""
         c = self.measured_covariance if measured else self.covariance
-        return np.sqrt(np.maximum(np.diag(c), 0.0))
+        return np.sqrt(np.maximum(np.diagonal(c, axis1=-2, axis2=-1), 0.0))
 
 
 def measurement_covariance(measurement: MeasurementNoise) -> np.ndarray:
@@ -92,28 +92,26 @@ def correlation(covariance: np.ndarray) -> np.ndarray:
     return r
 
 
-def _scalar(name: str, value) -> float:
-    if np.ndim(value) != 0:
-        raise ModelError(
-            f"{name} must be a scalar for covariance propagation, got shape {np.shape(value)}"
-        )
-    return float(value)
-
-
 def _increments(track, true, believed, max_step_m, steps_per_segment):
-    """Per-increment true wheel travel (dr, dl) in m, in driving order, as drive() makes them."""
-    f_r = _scalar("true/believed right diameter", true.diameter_right_m / believed.diameter_right_m)
-    f_l = _scalar("true/believed left diameter", true.diameter_left_m / believed.diameter_left_m)
-    b_hat = _scalar("believed wheelbase", believed.wheelbase_m)
+    """True wheel travel per increment (dr, dl), shape (B..., K), as drive() makes them.
+
+    As in drive(), a segment has the same number of increments for every batch element (set by
+    the longest wheel travel in the batch).
+    """
+    f_r = np.asarray(true.diameter_right_m / believed.diameter_right_m, dtype=float)
+    f_l = np.asarray(true.diameter_left_m / believed.diameter_left_m, dtype=float)
+    b_hat = believed.wheelbase_m
     drs, dls = [], []
     for seg in track.segments:
         s_hat_r, s_hat_l = seg.wheel_travel(b_hat)
-        s_r = _scalar("segment", s_hat_r) * f_r
-        s_l = _scalar("segment", s_hat_l) * f_l
+        s_r, s_l = np.broadcast_arrays(s_hat_r * f_r, s_hat_l * f_l)
         n = _steps(s_r, s_l, max_step_m, steps_per_segment)
-        drs.append(np.full(n, s_r / n))
-        dls.append(np.full(n, s_l / n))
-    return np.concatenate(drs), np.concatenate(dls)
+        drs.append(np.repeat((s_r / n)[..., None], n, axis=-1))
+        dls.append(np.repeat((s_l / n)[..., None], n, axis=-1))
+    shape = np.broadcast_shapes(*(d.shape for d in drs))
+    dr = np.concatenate([np.broadcast_to(d, shape[:-1] + d.shape[-1:]) for d in drs], axis=-1)
+    dl = np.concatenate([np.broadcast_to(d, shape[:-1] + d.shape[-1:]) for d in dls], axis=-1)
+    return dr, dl
 
 
 def propagate(
@@ -133,9 +131,10 @@ def propagate(
     Parameters
     ----------
     track : Track
-        Segments in the robot's belief; scalar segment values.
+        Segments in the robot's belief. Segment values may be arrays of shape (B,) (a batch of
+        tracks, e.g. candidate sizes), as in :func:`odocal.core.simulate.drive`.
     true, believed : WheelGeometry
-        True and believed geometry (scalars).
+        True and believed geometry; scalars or arrays of shape (B,).
     noise : NonSystematicError
         k_r_m, k_l_m in METRES (variance k |ds| per increment of wheel travel ds).
     measurement : MeasurementNoise, optional
@@ -146,47 +145,56 @@ def propagate(
         is of second order in the increment).
     initial_covariance : ndarray, shape (3, 3), optional
         Covariance of the start pose (default 0).
+
+    Returns
+    -------
+    PosePrediction whose ``mean`` has shape (3,) and ``covariance`` (3, 3), or (B, 3) and
+    (B, 3, 3) for a batch.
     """
     if integration not in ("midpoint", "exact"):
         raise ModelError(f"integration must be 'midpoint' or 'exact', got {integration!r}")
     if steps_per_segment is None and not (max_step_m and max_step_m > 0):
         raise ModelError(f"max_step_m must be > 0, got {max_step_m!r}")
     dr, dl = _increments(track, true, believed, max_step_m, steps_per_segment)
-    b = _scalar("true wheelbase", true.wheelbase_m)
+    b = np.asarray(true.wheelbase_m, dtype=float)[..., None]
+    dr, dl, b = np.broadcast_arrays(dr, dl, b)
     ds = 0.5 * (dr + dl)
     dth = (dr - dl) / b
-    theta_after = np.cumsum(dth)
+    theta_after = np.cumsum(dth, axis=-1)
     mid = theta_after - 0.5 * dth
     c, s = np.cos(mid), np.sin(mid)
     ds_eff = ds * np.sinc(dth / (2.0 * math.pi)) if integration == "exact" else ds
-    x_after = np.cumsum(ds_eff * c)
-    y_after = np.cumsum(ds_eff * s)
-    x_n, y_n = x_after[-1], y_after[-1]
-    mean = np.array([x_n, y_n, theta_after[-1]])
+    x_after = np.cumsum(ds_eff * c, axis=-1)
+    y_after = np.cumsum(ds_eff * s, axis=-1)
+    x_n, y_n = x_after[..., -1:], y_after[..., -1:]
+    mean = np.stack([x_n[..., 0], y_n[..., 0], theta_after[..., -1]], axis=-1)
 
-    # F_d (eq. 5.11), columns (right, left), per increment: shape (K, 3, 2)
+    # F_d (eq. 5.11), columns (right, left), per increment: shape (B..., K, 3, 2)
     h = ds / (2.0 * b)
-    g = np.empty((len(ds), 3, 2))
-    g[:, 0, 0] = 0.5 * c - h * s
-    g[:, 0, 1] = 0.5 * c + h * s
-    g[:, 1, 0] = 0.5 * s + h * c
-    g[:, 1, 1] = 0.5 * s - h * c
-    g[:, 2, 0] = 1.0 / b
-    g[:, 2, 1] = -1.0 / b
+    g = np.empty(ds.shape + (3, 2))
+    g[..., 0, 0] = 0.5 * c - h * s
+    g[..., 0, 1] = 0.5 * c + h * s
+    g[..., 1, 0] = 0.5 * s + h * c
+    g[..., 1, 1] = 0.5 * s - h * c
+    g[..., 2, 0] = 1.0 / b
+    g[..., 2, 1] = -1.0 / b
     # transport to the end: rows x and y pick up -(y_N - y_i) and (x_N - x_i) times the theta row
-    a = g.copy()
-    a[:, 0, :] -= (y_n - y_after)[:, None] * g[:, 2, :]
-    a[:, 1, :] += (x_n - x_after)[:, None] * g[:, 2, :]
-    q = np.stack([noise.k_r_m * np.abs(dr), noise.k_l_m * np.abs(dl)], axis=1)  # (K, 2)
-    cov = np.einsum("kiw,kw,kjw->ij", a, q, a)
+    g[..., 0, :] -= (y_n - y_after)[..., None] * g[..., 2, :]
+    g[..., 1, :] += (x_n - x_after)[..., None] * g[..., 2, :]
+    q = np.stack([noise.k_r_m * np.abs(dr), noise.k_l_m * np.abs(dl)], axis=-1)  # (B..., K, 2)
+    g *= np.sqrt(q)[..., None, :]
+    aw = np.moveaxis(g, -2, -3).reshape(ds.shape[:-1] + (3, -1))  # (B..., 3, 2K)
+    cov = aw @ np.swapaxes(aw, -1, -2)
     if initial_covariance is not None:
-        phi = np.eye(3)
-        phi[0, 2] = -y_n
-        phi[1, 2] = x_n
-        cov = cov + phi @ np.asarray(initial_covariance, dtype=float) @ phi.T
-    cov = 0.5 * (cov + cov.T)
+        phi = np.zeros(ds.shape[:-1] + (3, 3))
+        phi[..., :, :] = np.eye(3)
+        phi[..., 0, 2] = -y_n[..., 0]
+        phi[..., 1, 2] = x_n[..., 0]
+        cov = cov + phi @ np.asarray(initial_covariance, dtype=float) @ np.swapaxes(phi, -1, -2)
+    cov = 0.5 * (cov + np.swapaxes(cov, -1, -2))
     meas = measurement_covariance(measurement or MeasurementNoise())
-    return PosePrediction(mean, np.asarray(odometric_pose(track), dtype=float), cov, meas)
+    odo = np.broadcast_to(np.asarray(odometric_pose(track), dtype=float), mean.shape)
+    return PosePrediction(mean, odo, cov, meas)
 
 
 def predict(track: Track, robot: Robot, **options) -> PosePrediction:
