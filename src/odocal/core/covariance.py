@@ -108,9 +108,9 @@ def _increments(track, true, believed, max_step_m, steps_per_segment):
         n = _steps(s_r, s_l, max_step_m, steps_per_segment)
         drs.append(np.repeat((s_r / n)[..., None], n, axis=-1))
         dls.append(np.repeat((s_l / n)[..., None], n, axis=-1))
-    shape = np.broadcast_shapes(*(d.shape for d in drs))
-    dr = np.concatenate([np.broadcast_to(d, shape[:-1] + d.shape[-1:]) for d in drs], axis=-1)
-    dl = np.concatenate([np.broadcast_to(d, shape[:-1] + d.shape[-1:]) for d in dls], axis=-1)
+    batch = np.broadcast_shapes(*(d.shape[:-1] for d in drs + dls))
+    dr = np.concatenate([np.broadcast_to(d, batch + d.shape[-1:]) for d in drs], axis=-1)
+    dl = np.concatenate([np.broadcast_to(d, batch + d.shape[-1:]) for d in dls], axis=-1)
     return dr, dl
 
 
