@@ -18,8 +18,13 @@ with unbiased (ddof = 1) sample (co)variances over the runs. (N - 1) s^2 / sigma
 with N - 1 degrees of freedom, which gives the 95 % interval. The instrument's heading variance
 (ROBOT.yaml ``measurement``) is subtracted from s_theta^2 when it is known.
 
-k_r and k_l separately need the x-theta covariance, which is small and noisy: they are reported
-only when its standard error is below a quarter of k_r + k_l (otherwise None, with the reason).
+The k_r - k_l formulas above hold for a straight mean path only: a systematic curvature (E_d != 1)
+couples the along-track error x to the heading, and already E_d = 1.004 over 10 m flips the sign
+of s_xtheta. So k_r - k_l is solved from cov(x, theta) = k_r a_r + k_l a_l with the coefficients
+a propagated (eqs. (8)-(10)) along the mean path: its curvature is the mean heading / d for
+straight runs, and must be given (from the robot's systematic errors) for out-and-back runs,
+whose end poses cannot show it. s_xtheta is small and noisy, so k_r and k_l are reported only when
+the standard error of k_r - k_l is below a quarter of k_r + k_l (otherwise None, with the reason).
 """
 
 from __future__ import annotations
@@ -30,7 +35,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import stats
 
-from ..core.model import MeasurementNoise
+from ..core.covariance import propagate
+from ..core.model import MeasurementNoise, NonSystematicError, WheelGeometry
+from ..core.tracks import out_and_back, straight_line
 from .result import CalibrationError, EndPoseRuns
 
 __all__ = ["NoiseEstimate", "estimate_k", "NOISE_TRACKS", "MIN_RUNS", "RECOMMENDED_RUNS"]
@@ -109,6 +116,18 @@ class NoiseEstimate:
         }
 
 
+def _coefficients(track: str, d: float, b: float, curvature_rad_per_m: float):
+    """Final-pose covariance per unit k_r and per unit k_l, ((3, 3), (3, 3)), on the mean path."""
+    half = 0.5 * curvature_rad_per_m * b  # (f_r - f_l) / 2 for a path of this curvature
+    believed = WheelGeometry.symmetric(1.0, b)
+    true = WheelGeometry(1.0 + half, 1.0 - half, b)
+    tr = out_and_back(d) if track == "out-and-back" else straight_line(d)
+    return tuple(
+        propagate(tr, true, believed, NonSystematicError(*k), steps_per_segment=400).covariance
+        for k in ((1.0, 0.0), (0.0, 1.0))
+    )
+
+
 def _trend(values: np.ndarray) -> tuple[float, float, float]:
     """Least-squares slope of ``values`` against run order, its t statistic and R^2."""
     n = len(values)
@@ -125,6 +144,7 @@ def estimate_k(
     wheelbase_m: float,
     measurement: MeasurementNoise | None = None,
     *,
+    curvature_rad_per_m: float = 0.0,
     strict: bool = True,
 ) -> NoiseEstimate:
     """Estimate k_r + k_l (and k_r, k_l) from the final pose errors of repeated runs.
@@ -141,6 +161,10 @@ def estimate_k(
         b (m); the best known value (a calibrated one if available).
     measurement : MeasurementNoise, optional
         Instrument noise; its heading variance is subtracted from the heading spread.
+    curvature_rad_per_m : float
+        Systematic curvature of the forward path (rad/m, CCW +), needed for k_r - k_l from
+        out-and-back runs (their end poses cannot show it); straight runs measure it themselves
+        (mean heading / d) and ignore this.
     strict : bool
         If True, an obviously systematic spread (see below) raises CalibrationError; if False it
         becomes a warning.
@@ -187,10 +211,19 @@ def estimate_k(
             f"{RECOMMENDED_RUNS} to 20 runs are recommended"
         )
 
-    # k_r - k_l from the x-theta covariance; normal-theory standard error of a sample covariance
-    g = b / d if track == "out-and-back" else 2.0 * b / d
-    k_diff = g * c_xth
-    k_diff_se = g * math.sqrt((s2_x * s2_th + c_xth**2) / dof)
+    # k_r - k_l from the x-theta covariance. Its coefficients depend on the mean path (a
+    # curving path couples x to the heading), so they come from the propagation of eqs. (8)-(10)
+    # along the mean path: cov(x, theta) = k_r a_r + k_l a_l, var(theta) = (k_r + k_l) t.
+    mean_th = float(np.mean(th))
+    if track == "straight":
+        curvature_rad_per_m = mean_th / d  # the runs show the path's curvature directly
+    coef = _coefficients(track, d, b, curvature_rad_per_m)
+    a_mean, a_half = 0.5 * (coef[0][0, 2] + coef[1][0, 2]), 0.5 * (coef[0][0, 2] - coef[1][0, 2])
+    w = a_mean / coef[0][2, 2]
+    k_diff = (c_xth - w * (s2_th - var_m_theta)) / a_half
+    # normal-theory variance of s_xtheta - w s_theta^2 (sample moments in place of the true ones)
+    var_stat = (s2_x * s2_th + c_xth**2 - 4 * w * c_xth * s2_th + 2 * w**2 * s2_th**2) / dof
+    k_diff_se = math.sqrt(max(var_stat, 0.0)) / abs(a_half)
     k_r, k_l = 0.5 * (k_sum + k_diff), 0.5 * (k_sum - k_diff)
     if k_diff_se > 0.25 * k_sum:
         note = (
@@ -205,9 +238,13 @@ def estimate_k(
         k_r = k_l = None
     else:
         note = f"k_r - k_l = {k_diff:.3g} m (standard error {k_diff_se:.3g} m)"
+    if track == "out-and-back":
+        note += (
+            f"; the split assumes a path curvature of {curvature_rad_per_m:.3g} rad/m "
+            "(from the robot's systematic errors; out-and-back runs cannot show it)"
+        )
 
     sd_th = math.sqrt(s2_th)
-    mean_th = float(np.mean(th))
     if track == "out-and-back":
         t = mean_th / (sd_th / math.sqrt(n))
         if abs(t) > _OBVIOUS_SE:
@@ -226,8 +263,7 @@ def estimate_k(
                 "session (battery, tyre temperature, floor); the spread overstates k"
             )
     # lateral spread predicted from k_sum (plus the instrument) vs observed
-    k_y = 2.0 / 3.0 if track == "out-and-back" else 1.0 / 3.0
-    pred_y = k_sum * k_y * d**3 / b**2 + var_m_xy
+    pred_y = k_sum * 0.5 * (coef[0][1, 1] + coef[1][1, 1]) + var_m_xy
     s2_y = float(np.var(y, ddof=1))
     if pred_y > 0 and s2_y > 0:
         # log of a ratio of two sample variances with correlation ~0.87 under the model:

@@ -65,12 +65,22 @@ def noise_file(path, robot, track: str, distance_m: float, force: bool = False):
     from ..io.runs_csv import read_runs
 
     runs = read_runs(path, directions=("fwd",))
+    true, believed = robot.true_geometry, robot.believed_geometry
+    # systematic curvature of the forward path (rad/m), from ROBOT.yaml's systematic errors
+    curvature = float(
+        (
+            true.diameter_right_m / believed.diameter_right_m
+            - true.diameter_left_m / believed.diameter_left_m
+        )
+        / true.wheelbase_m
+    )
     return estimate_k(
         runs,
         track,
         distance_m,
-        float(robot.believed_geometry.wheelbase_m),
+        float(believed.wheelbase_m),
         robot.measurement,
+        curvature_rad_per_m=curvature,
         strict=not force,
     )
 

@@ -186,9 +186,7 @@ def analytic_reference(
     true = robot.true_geometry
     out = []
     for believed in (true, robot.believed_geometry):
-        pred = propagate(
-            validate_track, true, believed, robot.nonsystematic, **_cov_options(steps)
-        )
+        pred = propagate(validate_track, true, believed, robot.nonsystematic, **_cov_options(steps))
         m, s, lo, hi = norm_stats(pred.error_mean[:2], pred.covariance[:2, :2])
         out.append((float(m), float(s), (float(lo), float(hi))))
     return AnalyticReference(*out[0], *out[1])
