@@ -39,8 +39,8 @@ def add_parser(sub) -> None:
     p.add_argument("runs_csv", metavar="RUNS.csv", help="measured runs (fwd,x_m,y_m,theta_deg)")
     add_robot_args(
         p,
-        "parameters the robot ran with; the wheelbase b used in the estimators comes from here "
-        "(default: ROBOT.yaml's 'believed', else nominal)",
+        "parameters the robot ran with (default: ROBOT.yaml's 'believed', else nominal); the "
+        "wheelbase b of the estimators is ROBOT.yaml's true one, nominal x systematic E_b",
     )
     p.add_argument(
         "--track",
@@ -78,7 +78,7 @@ def noise_file(path, robot, track: str, distance_m: float, force: bool = False):
         runs,
         track,
         distance_m,
-        float(believed.wheelbase_m),
+        float(true.wheelbase_m),
         robot.measurement,
         curvature_rad_per_m=curvature,
         strict=not force,
@@ -106,19 +106,15 @@ def run(args) -> int:
     lo, hi = est.k_sum_ci95_m
     rows = [
         ("", "k (m)", "95 % interval (m)", "Chong & Kleeman k (m^0.5)"),
-        ("k_r + k_l", _fmt(est.k_sum_m), f"{lo:.4g} .. {hi:.4g}", _fmt(math.sqrt(est.k_sum_m))),
+        ("k_r + k_l", _fmt(est.k_sum_m), f"{lo:.4g} .. {hi:.4g}", ""),
         (
-            "k_r",
-            _fmt(est.k_r_m),
-            "",
-            "-" if est.k_r_m is None else _fmt(math.sqrt(est.k_r_m)),
+            "k each, if k_r = k_l",
+            _fmt(est.k_sum_m / 2),
+            f"{lo / 2:.4g} .. {hi / 2:.4g}",
+            _fmt(math.sqrt(est.k_sum_m / 2)),
         ),
-        (
-            "k_l",
-            _fmt(est.k_l_m),
-            "",
-            "-" if est.k_l_m is None else _fmt(math.sqrt(est.k_l_m)),
-        ),
+        ("k_r", _fmt(est.k_r_m), "", "-" if est.k_r_m is None else _fmt(math.sqrt(est.k_r_m))),
+        ("k_l", _fmt(est.k_l_m), "", "-" if est.k_l_m is None else _fmt(math.sqrt(est.k_l_m))),
     ]
     print_table(rows)
     print(f"  {est.split_note}")

@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from ..core.covariance import PosePrediction, predict
 from ..core.model import Robot
 from ..core.tracks import Track, out_and_back, polygon, straight_line
@@ -96,7 +98,7 @@ _OPEN_LOOP = (
 )
 
 
-def _measure_step(closed: bool, extra: str = "") -> str:
+def _measure_step(closed: bool, extra: str = "", example: str = "") -> str:
     what = (
         "Since the track ends where it starts, the error (actual - odometric) is simply the "
         "measured final pose."
@@ -106,8 +108,10 @@ def _measure_step(closed: bool, extra: str = "") -> str:
     return (
         "At the end of each run, measure the final pose in the START frame: x_m along the start "
         "line, y_m to its left (m), and theta_deg, the final heading minus the start heading, CCW "
-        "positive, unwrapped: the small deviation from the commanded total turn (a CW square "
-        "turns -360 deg; ending 2 deg to the left of the start line is +2, not -358). " + what
+        "positive, unwrapped: the small deviation from the commanded total turn"
+        + (example or " (ending 2 deg to the left of the start line is +2)")
+        + ". "
+        + what
     )
 
 
@@ -148,7 +152,11 @@ def build_plan(
             "floor) then affects both directions alike and cancels, instead of becoming a "
             "CW - CCW difference that the calibration would read as a wheelbase error.",
             _PLACE,
-            _measure_step(True),
+            _measure_step(
+                True,
+                example=" (a CW run turns -360 deg; ending 2 deg to the left of the start line is "
+                "+2, not -358)",
+            ),
             "Write each run into the template row of the same number. Measure all three values: "
             "the heading-error method (default) uses theta_deg, UMBmark (--method umbmark) x_m "
             "and y_m, and every field of RUNS.csv must hold a number.",
@@ -265,7 +273,7 @@ def run(args) -> int:
     print("What to expect (this robot's errors; mean and spread of the measured end errors):")
     rows = [("direction", "x_m", "y_m", "theta_deg")]
     for d, p in plan.predictions.items():
-        m, s = p.error_mean, p.std(measured=True)
+        m, s = np.round(p.error_mean, 12) + 0.0, p.std(measured=True)  # no "-0.0000"
         rows.append(
             (
                 d,
