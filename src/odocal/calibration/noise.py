@@ -33,7 +33,6 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
 
 from ..core.covariance import propagate
 from ..core.model import MeasurementNoise, NonSystematicError, WheelGeometry
@@ -131,9 +130,9 @@ def _coefficients(track: str, d: float, b: float, curvature_rad_per_m: float):
 
 def _trend(values: np.ndarray) -> tuple[float, float, float]:
     """Least-squares slope of ``values`` against run order, its t statistic and R^2."""
-    n = len(values)
-    i = np.arange(n, dtype=float)
-    res = stats.linregress(i, values)
+    from scipy import stats
+
+    res = stats.linregress(np.arange(len(values), dtype=float), values)
     t = res.slope / res.stderr if res.stderr > 0 else (math.inf if res.slope else 0.0)
     return float(res.slope), float(t), float(res.rvalue**2)
 
@@ -176,6 +175,8 @@ def estimate_k(
     systematic part changes between runs). A lateral spread inconsistent with the heading spread
     (misaligned start, not a straight path) is a warning.
     """
+    from scipy import stats
+
     if track not in NOISE_TRACKS:
         raise CalibrationError(f"track must be one of {', '.join(NOISE_TRACKS)}, got {track!r}")
     d, b = float(distance_m), float(wheelbase_m)

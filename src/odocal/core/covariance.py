@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .model import MeasurementNoise, ModelError, NonSystematicError, Robot, WheelGeometry
-from .simulate import _steps, odometric_pose
+from .simulate import _steps, compose, odometric_pose
 from .tracks import Track
 
 __all__ = [
@@ -44,11 +44,11 @@ class PosePrediction:
 
     Attributes
     ----------
-    mean : ndarray, shape (3,)
+    mean : ndarray, shape (3,) or (B, 3) for a batch
         Mean true final pose (x_m, y_m, theta_rad), start frame, theta unwrapped.
-    odometric : ndarray, shape (3,)
+    odometric : ndarray, shape (3,) or (B, 3)
         The pose the robot believes it reached (the commanded one).
-    covariance : ndarray, shape (3, 3)
+    covariance : ndarray, shape (3, 3) or (B, 3, 3)
         Covariance of the true final pose from wheel-travel noise (m^2, m rad, rad^2).
     measurement_covariance : ndarray, shape (3, 3)
         Covariance the ground-truth instrument adds to a MEASURED final pose (diagonal).
@@ -223,23 +223,8 @@ def mean_final_pose(track: Track, true: WheelGeometry, believed: WheelGeometry) 
     for seg in track.segments:
         s_hat_r, s_hat_l = seg.wheel_travel(believed.wheelbase_m)
         s_r, s_l = s_hat_r * f_r, s_hat_l * f_l
-        pose = _compose(pose, 0.5 * (s_r + s_l), (s_r - s_l) / true.wheelbase_m)
+        pose = compose(pose, 0.5 * (s_r + s_l), (s_r - s_l) / true.wheelbase_m)
     return pose
-
-
-def _compose(pose, distance, angle):
-    distance = np.asarray(distance, dtype=float)
-    angle = np.asarray(angle, dtype=float)
-    chord = distance * np.sinc(angle / (2.0 * math.pi))
-    mid = pose[..., 2] + 0.5 * angle
-    return np.stack(
-        np.broadcast_arrays(
-            pose[..., 0] + chord * np.cos(mid),
-            pose[..., 1] + chord * np.sin(mid),
-            pose[..., 2] + angle,
-        ),
-        axis=-1,
-    )
 
 
 def straight_line_covariance(distance_m: float, wheelbase_m: float, k_r_m: float, k_l_m: float):

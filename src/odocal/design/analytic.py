@@ -28,11 +28,13 @@ enough for sin/cos to bend.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.special import ndtri
 from scipy.stats import qmc
 
 from ..calibration.heading import heading_factors
@@ -51,19 +53,15 @@ __all__ = [
     "systematic_share",
 ]
 
-# Sobol sample of the standard 2-D normal, fixed once (deterministic on every machine).
 _SOBOL_LOG2 = 14
-_Z: np.ndarray | None = None
 
 
+@functools.lru_cache(maxsize=1)
 def _normal_sample() -> np.ndarray:
-    global _Z
-    if _Z is None:
-        from scipy.special import ndtri
-
-        u = qmc.Sobol(d=2, scramble=True, seed=20140201).random_base2(_SOBOL_LOG2)
-        _Z = ndtri(u)  # shape (2^14, 2)
-    return _Z
+    """A fixed scrambled Sobol sample of the standard 2-D normal, shape (2^14, 2); the same on
+    every machine (fixed scrambling seed)."""
+    u = qmc.Sobol(d=2, scramble=True, seed=20140201).random_base2(_SOBOL_LOG2)
+    return ndtri(u)
 
 
 def norm_stats(mean_xy, cov_xy) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
