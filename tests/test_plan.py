@@ -54,6 +54,7 @@ def test_plan_writes_an_alternating_template_and_predicts(cli, tmp_path):
     # the printed expectation is the covariance propagation of the robot's errors
     p = predict(polygon(4, 4.0, "cw"), PRESETS["paper-experiment"], max_step_m=0.02)
     assert f"{math.degrees(p.error_mean[2]):+.3f} ± {math.degrees(p.std()[2]):.3f}" in text
+    assert "E_b 1.0255 ±" in text and "uncalibrated" in text
 
 
 def test_unfilled_template_is_a_clear_error_in_calibrate(cli, tmp_path):

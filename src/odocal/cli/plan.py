@@ -41,6 +41,10 @@ class FloorPlan:
         The protocol, one step per item.
     next_command : str
         The odocal command that reads the filled-in RUNS.csv.
+    calibration, reference : AnalyticCandidate, AnalyticReference or None
+        For polygons: the analytic design's prediction of the heading-error calibration from
+        these runs and of the error on the paper's 4 m CCW validation square (with the true
+        parameters: the floor; uncalibrated).
     """
 
     kind: str
@@ -49,6 +53,8 @@ class FloorPlan:
     predictions: dict[str, PosePrediction]
     steps: tuple[str, ...]
     next_command: str
+    calibration: object | None = None
+    reference: object | None = None
 
     def template_csv(self) -> str:
         """Blank RUNS.csv: comment lines, header, one row per run with the direction filled in."""
@@ -67,7 +73,22 @@ class FloorPlan:
         def pose(v):
             return {"x_m": float(v[0]), "y_m": float(v[1]), "theta_deg": math.degrees(v[2])}
 
-        return {
+        extra = {}
+        if self.calibration is not None:
+            c, r = self.calibration, self.reference
+            extra["calibration_prediction"] = {
+                "method": "heading",
+                "E_b_mean": c.E_b_mean,
+                "E_b_std": c.E_b_std,
+                "E_d_mean": c.E_d_mean,
+                "E_d_std": c.E_d_std,
+                "validation": "4-gon 4 m ccw",
+                "post_error_mean_m": c.post_error_mean_m,
+                "post_error_ci95_m": list(c.post_error_ci95_m),
+                "floor_m": r.floor_m,
+                "uncalibrated_m": r.uncalibrated_m,
+            }
+        return extra | {
             "kind": self.kind,
             "title": self.title,
             "order": list(self.order),
@@ -200,7 +221,14 @@ def build_plan(
         )
         next_cmd = f"odocal noise {runs_path} --robot {robot_arg} --track {kind}:{d:g}"
     predictions = {lab: predict(t, robot, max_step_m=0.02) for lab, t in tracks.items()}
-    return FloorPlan(kind, title, order, predictions, steps, next_cmd)
+    calibration = reference = None
+    if kind == "polygon":
+        from ..design.analytic import analytic_design, analytic_reference
+
+        validate = polygon(4, 4.0, "ccw")
+        calibration = analytic_design(robot, sides, [side_m], n, "heading", validate)[0]
+        reference = analytic_reference(robot, validate)
+    return FloorPlan(kind, title, order, predictions, steps, next_cmd, calibration, reference)
 
 
 def add_parser(sub) -> None:
@@ -287,6 +315,16 @@ def run(args) -> int:
         "  (± one standard deviation of a single run, including the instrument noise in "
         "ROBOT.yaml; values far outside these usually mean a frame or sign mistake)"
     )
+    c, r = plan.calibration, plan.reference
+    if c is not None and np.isfinite(c.post_error_mean_m):
+        lo, hi = c.post_error_ci95_m
+        print(
+            f"  Calibration from these runs (heading-error method, first-order prediction): "
+            f"E_b {c.E_b_mean:.4f} ± {c.E_b_std:.4f}, E_d {c.E_d_mean:.5f} ± {c.E_d_std:.5f}; "
+            f"then a 4 m x 4 m CCW square should end {c.post_error_mean_m:.3f} m from its start "
+            f"(95 %: {lo:.3f} .. {hi:.3f} m), against {r.uncalibrated_m:.3f} m uncalibrated and "
+            f"{r.floor_m:.3f} m with perfect parameters. 'odocal design' compares track sizes."
+        )
     print()
     print(f"wrote {args.out} ({len(plan.order)} rows to fill in); then run:")
     print(f"  {plan.next_command}")
