@@ -10,9 +10,9 @@ import sys
 
 from .. import __version__
 from ..errors import OdocalError
-from . import calibrate, fit, simulate, validate
+from . import calibrate, fit, noise, plan, simulate, validate
 
-COMMANDS = [simulate, calibrate, fit, validate]
+COMMANDS = [simulate, calibrate, fit, validate, noise, plan]
 
 
 class _Parser(argparse.ArgumentParser):

@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from ..calibration.result import EndPoseRuns
+from ..core.covariance import correlation, predict
 from ..core.simulate import measure, simulate
 from ..core.tracks import polygon
 from .common import (
@@ -49,6 +50,12 @@ def add_parser(sub) -> None:
         metavar="M",
         help="largest wheel travel of one integration increment, m (default 0.01)",
     )
+    p.add_argument(
+        "--predict",
+        action="store_true",
+        help="also print the final-pose covariance predicted by first-order propagation "
+        "(eqs. (8)-(10), plus the instrument noise) beside the Monte-Carlo one",
+    )
     p.add_argument("--out", metavar="RUNS.csv", help="write the runs in RUNS.csv format")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=run)
@@ -66,6 +73,68 @@ def _stats(e: np.ndarray) -> dict:
         } | ({} if not math.isnan(v[0]) else {"x_m": None, "y_m": None})
 
     return {"runs": n, "mean": pose(e.mean(axis=0)), "std": pose(std)}
+
+
+def _cov_list(c: np.ndarray) -> list:
+    return [[float(v) for v in row] for row in c]
+
+
+_PAIRS = (("x", "y", 0, 1), ("x", "theta", 0, 2), ("y", "theta", 1, 2))
+
+
+def _prediction_dict(p) -> dict:
+    """JSON of a PosePrediction: mean error, std and correlations of a MEASURED final pose."""
+    mean, std, c = p.error_mean, p.std(measured=True), p.measured_covariance
+    r = correlation(c)
+    return {
+        "mean": {"x_m": float(mean[0]), "y_m": float(mean[1]), "theta_deg": math.degrees(mean[2])},
+        "std": {"x_m": float(std[0]), "y_m": float(std[1]), "theta_deg": math.degrees(std[2])},
+        "correlation": {f"{a}_{b}": float(r[i, j]) for a, b, i, j in _PAIRS},
+        "covariance": _cov_list(c),
+        "covariance_units": "x_m, y_m, theta_rad (m^2, m rad, rad^2)",
+        "includes_measurement_noise": True,
+    }
+
+
+def _print_prediction(runs: EndPoseRuns, predicted: dict) -> None:
+    print("predicted (first-order propagation + instrument noise) vs Monte Carlo:")
+    rows = [
+        (
+            "direction",
+            "",
+            "mean x_m",
+            "mean y_m",
+            "mean theta_deg",
+            "std x_m",
+            "std y_m",
+            "std theta_deg",
+            "r_xy",
+            "r_xth",
+            "r_yth",
+        )
+    ]
+    for d, p in predicted.items():
+        e = runs.select(d)
+        cases = [("predicted", p.error_mean, p.measured_covariance)]
+        if len(e) > 1:
+            cases.append((f"MC ({len(e)} runs)", e.mean(axis=0), np.cov(e.T, ddof=1)))
+        for label, m, c in cases:
+            s = np.sqrt(np.maximum(np.diag(c), 0.0))
+            r = correlation(c)
+            rows.append(
+                (
+                    d,
+                    label,
+                    f"{m[0]:.4f}",
+                    f"{m[1]:.4f}",
+                    f"{math.degrees(m[2]):.3f}",
+                    f"{s[0]:.4f}",
+                    f"{s[1]:.4f}",
+                    f"{math.degrees(s[2]):.3f}",
+                    *(f"{r[i, j]:+.3f}" for _, _, i, j in _PAIRS),
+                )
+            )
+    print_table(rows)
 
 
 def simulate_runs(robot, track_for, directions, runs: int, seed: int, max_step: float):
@@ -101,6 +170,13 @@ def run(args) -> int:
         "track": name,
         "by_direction": {d: _stats(runs.select(d)) for d in directions},
     }
+    if args.predict:
+        predicted = {d: predict(track_for(d), robot, max_step_m=args.max_step) for d in directions}
+        summary["predicted"] = {d: _prediction_dict(p) for d, p in predicted.items()}
+        summary["monte_carlo_covariance"] = {
+            d: _cov_list(np.cov(runs.select(d).T, ddof=1)) if runs.count(d) > 1 else None
+            for d in directions
+        }
     if args.json:
         print_json(summary)
         return 0
@@ -133,6 +209,8 @@ def run(args) -> int:
             )
         )
     print_table(rows)
+    if args.predict:
+        _print_prediction(runs, predicted)
     if args.out:
         print(f"wrote {args.out}")
     return 0

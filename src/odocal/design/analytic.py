@@ -1,0 +1,349 @@
+"""Analytic test-track design: first-order propagation instead of Monte Carlo.
+
+For every candidate test track (regular N-gon of side L) this predicts what the Monte-Carlo design
+measures over its trials, in milliseconds for a whole sweep:
+
+1. The final pose errors of the CW and CCW test runs: mean (exact, noise free) and covariance
+   (eqs. (8)-(10), :mod:`odocal.core.covariance`) plus the instrument's noise (ROBOT.yaml
+   ``measurement``); the mean of n runs per direction has 1/n of that covariance.
+2. The calibrated E_b, E_d: the calibration equations (``heading_factors`` or
+   ``umbmark_factors``) at the mean errors, and their covariance J S J^T with J the numeric
+   Jacobian of the equations with respect to the two mean end poses.
+3. The final position error p (x, y; actual - odometric) of the validation track driven with the
+   calibrated parameters: mean at the mean E_b, E_d (the systematic residual), covariance
+   H Cov(E) H^T + P_run, where H is the numeric Jacobian of the noise-free validation error with
+   respect to (E_b, E_d) and P_run the validation run's own noise covariance.
+4. ||p|| for p ~ N(mean, covariance): its mean, std and 95 % interval from a fixed scrambled
+   Sobol sample of 2^14 points of the 2-D Gaussian (deterministic; relative error ~1e-4).
+
+Assumptions (docs/nonsystematic-errors.md): noise small enough that everything is linear in it
+over one standard deviation (the calibration equations and the validation error as functions of
+the mean end poses and of E_b, E_d); Gaussian end poses (exact for the heading, which is linear in
+the wheel noise); the mean of the calibrated parameters is taken as the equations at the mean
+errors (no second-order bias). First order degrades when the test track is tiny and the noise
+large: then the CW/CCW heading errors are dominated by noise, E_b = (2 pi/N)/(2 pi/N - alpha)
+and E_d = (1 + q)/(1 - q) are curved over the spread, and the validation headings wander far
+enough for sin/cos to bend.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.special import ndtri
+from scipy.stats import qmc
+
+from ..calibration.heading import heading_factors
+from ..calibration.umbmark import umbmark_factors
+from ..core.covariance import mean_final_pose, propagate
+from ..core.model import ModelError, Robot, WheelGeometry
+from ..core.simulate import odometric_pose
+from ..core.tracks import Track, polygon
+
+__all__ = [
+    "AnalyticCandidate",
+    "AnalyticReference",
+    "analytic_design",
+    "analytic_reference",
+    "norm_stats",
+    "systematic_share",
+]
+
+_SOBOL_LOG2 = 14
+
+
+@functools.lru_cache(maxsize=1)
+def _normal_sample() -> np.ndarray:
+    """A fixed scrambled Sobol sample of the standard 2-D normal, shape (2^14, 2); the same on
+    every machine (fixed scrambling seed)."""
+    u = qmc.Sobol(d=2, scramble=True, seed=20140201).random_base2(_SOBOL_LOG2)
+    return ndtri(u)
+
+
+def norm_stats(mean_xy, cov_xy) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Mean, std, 2.5 % and 97.5 % quantiles of ||p|| for p ~ N(mean_xy, cov_xy).
+
+    ``mean_xy`` has shape (..., 2), ``cov_xy`` shape (..., 2, 2) (m, m^2); results have shape
+    (...). Computed on a fixed scrambled Sobol sample of 2^14 points (deterministic).
+    """
+    mu = np.asarray(mean_xy, dtype=float)
+    c = np.asarray(cov_xy, dtype=float)
+    # symmetric square root (robust for singular covariances, unlike Cholesky)
+    w, v = np.linalg.eigh(c)
+    root = v * np.sqrt(np.maximum(w, 0.0))[..., None, :]
+    z = _normal_sample()
+    p = mu[..., None, :] + z @ np.swapaxes(root, -1, -2)
+    r = np.sqrt(np.sum(p * p, axis=-1))
+    lo, hi = np.quantile(r, [0.025, 0.975], axis=-1)
+    return r.mean(axis=-1), r.std(axis=-1), lo, hi
+
+
+@dataclass(frozen=True)
+class AnalyticCandidate:
+    """Predicted outcome of calibrating on one candidate test track (same attribute names as the
+    Monte-Carlo design's candidates; ``trials`` is None here).
+
+    Attributes
+    ----------
+    sides : int
+    side_m, travel_m : float
+        Side length and total travel N L of the test track (m).
+    systematic_share : float
+        beta^2 / (beta^2 + sigma_theta^2 / n) of one straight leg (model.md).
+    post_error_mean_m, post_error_std_m : float
+        Mean and std of the final position error ||p|| on the validation track after calibration
+        (m).
+    post_error_ci95_m : tuple of float
+        2.5 % and 97.5 % quantiles of ||p|| (m).
+    E_b_mean, E_b_std, E_d_mean, E_d_std : float
+        Calibrated factors relative to the parameters the robot ran with (first order).
+    trials : None
+    leg_heading_systematic_rad, leg_heading_nonsystematic_rad : float
+        beta (signed, rad) and sigma_theta (rad) of one straight leg of a single run (Fig. 3).
+    E_corr : float
+        Correlation of the calibrated E_b and E_d.
+    post_error_mean_xy_m : tuple of float
+        Mean validation position error vector (x, y), the systematic residual (m).
+    post_error_cov_xy_m2 : tuple of tuple of float
+        Its covariance (m^2).
+    """
+
+    sides: int
+    side_m: float
+    travel_m: float
+    systematic_share: float
+    post_error_mean_m: float
+    post_error_std_m: float
+    post_error_ci95_m: tuple[float, float]
+    E_b_mean: float
+    E_b_std: float
+    E_d_mean: float
+    E_d_std: float
+    trials: int | None = None
+    leg_heading_systematic_rad: float = math.nan
+    leg_heading_nonsystematic_rad: float = math.nan
+    E_corr: float = math.nan
+    post_error_mean_xy_m: tuple[float, float] = (math.nan, math.nan)
+    post_error_cov_xy_m2: tuple[tuple[float, float], tuple[float, float]] = (
+        (math.nan, math.nan),
+        (math.nan, math.nan),
+    )
+
+
+@dataclass(frozen=True)
+class AnalyticReference:
+    """The validation-track error with the TRUE parameters (the floor calibration can reach) and
+    with the parameters the robot runs with before calibration (m)."""
+
+    floor_m: float
+    floor_std_m: float
+    floor_ci95_m: tuple[float, float]
+    uncalibrated_m: float
+    uncalibrated_std_m: float
+    uncalibrated_ci95_m: tuple[float, float]
+
+
+def systematic_share(robot: Robot, side_m, runs_per_direction: int):
+    """(share, beta_rad, sigma_theta_rad) of one straight leg of length ``side_m`` (m; array ok).
+
+    beta is the leg's systematic heading change, sigma_theta the std of its noise part in one
+    run; share = beta^2 / (beta^2 + sigma_theta^2 / n) (model.md, Fig. 4).
+    """
+    true, believed = robot.true_geometry, robot.believed_geometry
+    L = np.asarray(side_m, dtype=float)
+    s_r = L * true.diameter_right_m / believed.diameter_right_m
+    s_l = L * true.diameter_left_m / believed.diameter_left_m
+    b = true.wheelbase_m
+    beta = (s_r - s_l) / b
+    k = robot.nonsystematic
+    var = (k.k_r_m * np.abs(s_r) + k.k_l_m * np.abs(s_l)) / b**2
+    total = beta**2 + var / runs_per_direction
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share = np.where(total > 0, beta**2 / np.where(total > 0, total, 1.0), math.nan)
+    return share, beta, np.sqrt(var)
+
+
+def _validation_error(track: Track, true: WheelGeometry, believed: WheelGeometry) -> np.ndarray:
+    """Noise-free final position error (x, y) of ``track``, shape (..., 2)."""
+    return (mean_final_pose(track, true, believed) - odometric_pose(track))[..., :2]
+
+
+def _cov_options(steps_per_segment: int) -> dict:
+    return {"steps_per_segment": steps_per_segment, "integration": "exact"}
+
+
+def analytic_reference(
+    robot: Robot, validate_track: Track, *, steps: int = 64
+) -> AnalyticReference:
+    """Floor (believed = true geometry) and uncalibrated (the parameters the robot runs with:
+    ROBOT.yaml's ``believed``, else nominal) final position error on ``validate_track``."""
+    true = robot.true_geometry
+    out = []
+    for believed in (true, robot.believed_geometry):
+        pred = propagate(validate_track, true, believed, robot.nonsystematic, **_cov_options(steps))
+        m, s, lo, hi = norm_stats(pred.error_mean[:2], pred.covariance[:2, :2])
+        out.append((float(m), float(s), (float(lo), float(hi))))
+    return AnalyticReference(*out[0], *out[1])
+
+
+def _calibration_function(method: str, sides: int, side_m: np.ndarray, wheelbase_m, form: str):
+    """g(z) -> (E_b, E_d) for z = (mean CW error (3), mean CCW error (3)), shape (..., 6)."""
+    if method == "heading":
+        return lambda z: heading_factors(z[..., 2], z[..., 5], sides, side_m, wheelbase_m)
+    if method == "umbmark":
+        if sides != 4:
+            raise ModelError(f"UMBmark is defined for squares only (sides 4), got {sides}")
+        return lambda z: umbmark_factors(z[..., 0:2], z[..., 3:5], side_m, wheelbase_m, form)
+    raise ModelError(f"method must be 'heading' or 'umbmark', got {method!r}")
+
+
+def _jacobian(fun, z: np.ndarray, steps: np.ndarray) -> np.ndarray:
+    """Central-difference Jacobian of fun: (..., m) -> tuple of arrays (...), shape (..., k, m)."""
+    cols = []
+    for j in range(z.shape[-1]):
+        dz = np.zeros(z.shape[-1])
+        dz[j] = steps[j]
+        hi = np.stack(fun(z + dz), axis=-1)
+        lo = np.stack(fun(z - dz), axis=-1)
+        cols.append((hi - lo) / (2.0 * steps[j]))
+    return np.stack(cols, axis=-1)
+
+
+def analytic_design(
+    robot: Robot,
+    sides: int | Sequence[int],
+    side_lengths_m,
+    runs_per_direction: int = 5,
+    method: str = "heading",
+    validate_track: Track | None = None,
+    *,
+    umbmark_form: str = "mean",
+    measured_validation: bool = False,
+    steps: int = 64,
+) -> list[AnalyticCandidate]:
+    """First-order prediction of the Monte-Carlo design for every (sides, side length) candidate.
+
+    Parameters
+    ----------
+    robot : Robot
+        True errors (systematic, nonsystematic k in m, instrument noise) and the parameters it
+        runs with during the test runs (``believed``, else nominal).
+    sides : int or sequence of int
+        Polygon side counts to compare (N >= 3).
+    side_lengths_m : array_like, shape (S,)
+        Candidate side lengths (m).
+    runs_per_direction : int
+        n CW and n CCW test runs, averaged.
+    method : {'heading', 'umbmark'}
+    validate_track : Track
+        The validation run (default: 4 m x 4 m square CCW, the paper's).
+    umbmark_form : {'x', 'y', 'mean'}
+    measured_validation : bool
+        Also add the instrument's position noise to the validation error (default False: the
+        true error, as the Monte-Carlo design reports it).
+    steps : int
+        Increments per segment of the covariance propagation (its discretisation error falls as
+        1/steps^2: below 1e-3 relative at 64); the means are exact.
+
+    Returns
+    -------
+    list of AnalyticCandidate, sides-major then side length, in the order given.
+    """
+    n = int(runs_per_direction)
+    if n < 1:
+        raise ModelError(f"runs_per_direction must be >= 1, got {runs_per_direction!r}")
+    if validate_track is None:
+        validate_track = polygon(4, 4.0, "ccw")
+    sides_list = [sides] if np.ndim(sides) == 0 else list(sides)
+    L = np.atleast_1d(np.asarray(side_lengths_m, dtype=float))
+    if L.ndim != 1 or not np.all(np.isfinite(L) & (L > 0)):
+        raise ModelError(f"side lengths must be finite and > 0 m, got {side_lengths_m!r}")
+    true, ran_with = robot.true_geometry, robot.believed_geometry
+    meas = np.diag([robot.measurement.sigma_xy_m**2] * 2 + [robot.measurement.sigma_theta_rad**2])
+    share, beta, sig = systematic_share(robot, L, n)
+    out: list[AnalyticCandidate] = []
+    for N in sides_list:
+        # 1. test runs: mean end-pose errors exactly, covariances by propagation
+        z = np.empty((len(L), 6))
+        S = np.zeros((len(L), 6, 6))
+        for j, d in enumerate(("cw", "ccw")):
+            pred = propagate(
+                polygon(N, L, d), true, ran_with, robot.nonsystematic, **_cov_options(steps)
+            )
+            z[:, 3 * j : 3 * j + 3] = pred.error_mean
+            S[:, 3 * j : 3 * j + 3, 3 * j : 3 * j + 3] = (pred.covariance + meas) / n
+        # 2. calibrated factors
+        g = _calibration_function(method, N, L, ran_with.wheelbase_m, umbmark_form)
+        E_b, E_d = g(z)
+        J = _jacobian(g, z, np.full(6, 1e-7))  # (S, 2, 6)
+        cov_E = J @ S @ np.swapaxes(J, -1, -2)
+
+        # 3. validation error: mean at the mean factors, linearised in the factors
+        def val(eb, ed):
+            return _validation_error(validate_track, true, ran_with.corrected(eb, ed))
+
+        ok = np.isfinite(E_b) & np.isfinite(E_d) & (E_b > 0) & (E_d > 0)
+        E_b = np.where(ok, E_b, math.nan)
+        E_d = np.where(ok, E_d, math.nan)
+        eb, ed = np.where(ok, E_b, 1.0), np.where(ok, E_d, 1.0)  # placeholders where undefined
+        p0 = val(eb, ed)
+        h = 1e-7
+        H = np.stack(
+            [
+                (val(eb + h, ed) - val(eb - h, ed)) / (2 * h),
+                (val(eb, ed + h) - val(eb, ed - h)) / (2 * h),
+            ],
+            axis=-1,
+        )  # (S, 2, 2)
+        C = H @ cov_E @ np.swapaxes(H, -1, -2)
+        run = propagate(
+            validate_track,
+            true,
+            ran_with.corrected(eb, ed),
+            robot.nonsystematic,
+            **_cov_options(steps),
+        )
+        C += run.covariance[..., :2, :2]
+        if measured_validation:
+            C += meas[:2, :2]
+        # 4. ||p||
+        m, s, lo, hi = norm_stats(
+            np.where(ok[:, None], p0, 0.0), np.where(ok[:, None, None], C, 0.0)
+        )
+        for i, side in enumerate(L):
+            nan2 = (math.nan, math.nan)
+            good = bool(ok[i])
+            sd = np.sqrt(np.maximum(np.diag(cov_E[i]), 0.0)) if good else np.full(2, math.nan)
+            out.append(
+                AnalyticCandidate(
+                    sides=int(N),
+                    side_m=float(side),
+                    travel_m=float(N * side),
+                    systematic_share=float(share[i]),
+                    post_error_mean_m=float(m[i]) if good else math.nan,
+                    post_error_std_m=float(s[i]) if good else math.nan,
+                    post_error_ci95_m=(float(lo[i]), float(hi[i])) if good else nan2,
+                    E_b_mean=float(E_b[i]),
+                    E_b_std=float(sd[0]),
+                    E_d_mean=float(E_d[i]),
+                    E_d_std=float(sd[1]),
+                    trials=None,
+                    leg_heading_systematic_rad=float(beta[i]),
+                    leg_heading_nonsystematic_rad=float(sig[i]),
+                    E_corr=float(cov_E[i, 0, 1] / (sd[0] * sd[1]))
+                    if good and sd[0] > 0 and sd[1] > 0
+                    else math.nan,
+                    post_error_mean_xy_m=(float(p0[i, 0]), float(p0[i, 1])) if good else nan2,
+                    post_error_cov_xy_m2=(
+                        (float(C[i, 0, 0]), float(C[i, 0, 1])),
+                        (float(C[i, 1, 0]), float(C[i, 1, 1])),
+                    )
+                    if good
+                    else (nan2, nan2),
+                )
+            )
+    return out
