@@ -10,9 +10,9 @@ import sys
 
 from .. import __version__
 from ..errors import OdocalError
-from . import calibrate, simulate
+from . import bag_info, calibrate, simulate
 
-COMMANDS = [simulate, calibrate]
+COMMANDS = [simulate, calibrate, bag_info]
 
 
 class _Parser(argparse.ArgumentParser):

@@ -145,7 +145,9 @@ class _Bag:
         except OdocalError:
             raise
         except Exception as exc:  # corrupt or truncated data can raise anything
-            raise InputError(f"cannot read the bag ({_why(exc)})", self.path) from None
+            raise InputError(
+                f"cannot read the bag; is it truncated or corrupt? ({_why(exc)})", self.path
+            ) from None
 
     def __enter__(self):
         return self
@@ -521,21 +523,31 @@ def _check_wheel_signs(time_s, right, left, gt, path, topic, names):
     fwd = np.diff(gt[idx, 0]) * np.cos(th[:-1]) + np.diff(gt[idx, 1]) * np.sin(th[:-1])
     dth = np.diff(th)
     dr, dl = np.diff(right[idx]), np.diff(left[idx])
-    travel = float(np.sum(np.abs(fwd)))
 
     def corr(a, b):
         den = math.sqrt(float(np.dot(a, a) * np.dot(b, b)))
         return float(np.dot(a, b) / den) if den > 0 else 0.0
 
     rn, ln = names
-    if travel > 0.2:
-        cr, cl = corr(dr, fwd), corr(dl, fwd)
+    # straight stretches: moving (> 1 mm per step) while turning less than 1 mrad per step
+    straight = (np.abs(fwd) > 1e-3) & (np.abs(dth) < 1e-3)
+    if float(np.sum(np.abs(fwd[straight]))) > 0.2:
+        cr, cl = corr(dr[straight], fwd[straight]), corr(dl[straight], fwd[straight])
+        if cr < -0.5 and cl < -0.5:
+            raise InputError(
+                "both wheel joints turn backwards while the ground truth drives forward "
+                f"(correlations {cr:.2f}, {cl:.2f}): the joints or the ground-truth frame are "
+                "reversed",
+                path,
+                None,
+                topic,
+            )
         for c, joint, side in ((cr, rn, "right"), (cl, ln, "left")):
-            if c < -0.5 and (cr > 0.5 or cl > 0.5):
+            if c < -0.5:
                 raise InputError(
                     f"the {side} wheel joint '{joint}' turns backwards while the robot drives "
-                    f"forward (correlation {c:.2f}): its axis is mirrored; invert it with the "
-                    f"invert_{side} option (--invert-{side})",
+                    f"straight forward (correlation {c:.2f}): its axis is mirrored; invert it "
+                    f"with the invert_{side} option (--invert-{side})",
                     path,
                     None,
                     topic,
