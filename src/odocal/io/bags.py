@@ -169,17 +169,19 @@ class _Bag:
         wanted = set(topics)
         out: dict[str, list] = {t: [] for t in wanted}
         conns = [c for c in self.reader.connections if c.topic in wanted]
-        topic = None
+        topic, count = None, 0
         try:
             for conn, t_ns, raw in self.reader.messages(connections=conns):
                 topic = conn.topic
                 out[topic].append((int(t_ns), self.reader.deserialize(raw, conn.msgtype)))
+                count += 1
         except OdocalError:
             raise
         except Exception as exc:
-            where = f" on topic '{topic}' after {len(out[topic])} messages" if topic else ""
+            last = f", the last on '{topic}'" if topic else ""
             raise InputError(
-                f"cannot read the bag{where} ({_why(exc)}); is it truncated or corrupt?",
+                f"cannot read the bag after {count} good messages{last} ({_why(exc)}); is it "
+                "truncated or corrupt?",
                 self.path,
             ) from None
         return out
