@@ -567,11 +567,20 @@ def _check_wheel_signs(time_s, right, left, gt, path, topic, names):
             )
 
 
-def _gyro_yaw(bag, imu: TopicSeries, t_ref, diff_rate, imu_axis, base_frames):
-    """Integrated gyro heading (rad) at ``t_ref`` (starting at 0) and how it was obtained."""
+def _gyro_yaw(bag, imu: TopicSeries, t_ref, right, left, imu_axis, base_frames):
+    """Integrated gyro heading (rad) at ``t_ref`` (starting at 0) and how it was obtained.
+
+    Without a geometry the wheels' angular rates stand in for the odometry: right minus left for
+    the heading rate (axis detection) and both for standing still (bias).
+    """
     from ..calibration import gyro
 
     w, t_i = imu.values["angular_velocity"], imu.time_s
+    if len(t_ref) > 2:
+        diff_rate = np.gradient(right - left, t_ref)
+        mean_rate = np.gradient(0.5 * (right + left), t_ref)
+    else:
+        diff_rate = mean_rate = np.zeros_like(t_ref)
     rot, parent = static_rotation(bag, imu.frame_id, base_frames) if imu.frame_id else (None, None)
     warnings = []
     if imu_axis is not None:
@@ -591,8 +600,9 @@ def _gyro_yaw(bag, imu: TopicSeries, t_ref, diff_rate, imu_axis, base_frames):
         n, source = gyro.axis_vector(name), "detected"
         warnings.append(f"IMU yaw axis detected from the data: {name} (correlation {c:.3f})")
     rate = w @ n
+    # still: both wheels turn slower than 0.02 rad/s (the thresholds are wheel rates here)
     intervals = gyro.still_intervals(
-        t_ref, diff_rate, None, max_yaw_rate_rad_s=0.02, min_duration_s=1.0
+        t_ref, diff_rate, mean_rate, max_speed_m_s=0.02, max_yaw_rate_rad_s=0.02, min_duration_s=1.0
     )
     est, se, _, _ = gyro.still_bias(t_i, rate, intervals)
     bias, bias_source, note = gyro.choose_bias("auto", est, se)
@@ -703,9 +713,8 @@ def load_bag_recording(
     gyro_yaw = None
     if it:
         imu = imu_series(bag, it)
-        dt_rate = np.gradient(right - left, t) if len(t) > 2 else np.zeros_like(t)
         base = (ps.child_frame_id,) if gt is not None and ps.child_frame_id else ()
-        gyro_yaw, gmeta, gw = _gyro_yaw(bag, imu, t, dt_rate, imu_axis, base + _BASE_FRAMES)
+        gyro_yaw, gmeta, gw = _gyro_yaw(bag, imu, t, right, left, imu_axis, base + _BASE_FRAMES)
         meta.update(gmeta)
         warnings += gw
     if warnings:
