@@ -471,6 +471,14 @@ def test_husky_forced_bias_and_axis_flag(realdata):
     assert not any("detected" in w for w in r.warnings)
 
 
+def test_husky_mount_from_the_test_launch(husky, realdata):
+    """robot_localization's launch: static_transform_publisher 0 -0.3 0.52 -pi/2 0 pi/2
+    (yaw pitch roll) base_link imu_link; as a rotation it gives the detected result."""
+    r = bags.fit_gyro_from_bag(realdata / "husky" / "husky_test1_ros2", imu_rotation=R_BASE_IMU)
+    assert r.mounting_source == "rotation" and r.axis == "y"
+    assert r.rotation_ratio == pytest.approx(husky["ros2"].rotation_ratio, abs=1e-12)
+
+
 def test_husky_bag_info_cli(cli, realdata):
     status, out, err = cli("bag-info", realdata / "husky" / "husky_test1_ros2")
     assert status == 0 and err == ""
@@ -602,6 +610,18 @@ def test_swapped_wheels_are_detected(tmp_path, run):
     with pytest.raises(InputError, match="wheels look swapped"):
         bags.load_bag_recording(
             path, right_joint="left_wheel_joint", left_joint="right_wheel_joint"
+        )
+
+
+def test_gyro_with_swapped_joints_says_so(synthetic):
+    kind, path = synthetic
+    with pytest.raises(InputError, match="opposite directions.*or the wheel joints are swapped"):
+        bags.fit_gyro_from_bag(
+            path,
+            joint_topic="/joint_states",
+            wheel_geometry=NOMINAL,
+            right_joint="left_wheel_joint",
+            left_joint="right_wheel_joint",
         )
 
 

@@ -742,8 +742,11 @@ def fit_gyro_from_bag(
     joint_topic: str | None = None,
     imu_axis: str | None = None,
     wheel_geometry: WheelGeometry | None = None,
+    imu_rotation=None,
     right_joint: str | None = None,
     left_joint: str | None = None,
+    invert_right: bool = False,
+    invert_left: bool = False,
     bias="auto",
     min_still_s: float = 1.0,
 ):
@@ -756,6 +759,8 @@ def fit_gyro_from_bag(
     Topic defaults: explicit topics win; else the only Odometry topic; else the JointState topic
     (needs ``wheel_geometry``). IMU mounting: ``imu_axis`` if given, else ``/tf_static`` (base
     frame = the odometry's child frame, or base_link / base_footprint), else detected.
+    ``imu_rotation`` (shape (3, 3), R_base_imu, e.g. from
+    :func:`~odocal.calibration.gyro.rotation_from_rpy`) overrides ``/tf_static``.
     Returns a :class:`~odocal.calibration.gyro.GyroResult`.
     """
     from ..calibration import gyro
@@ -784,8 +789,8 @@ def fit_gyro_from_bag(
     if use_joints:
         js = joint_series(bag, src, right_joint, left_joint)
         g = wheel_geometry
-        s_r = js.values["right"] * 0.5 * g.diameter_right_m
-        s_l = js.values["left"] * 0.5 * g.diameter_left_m
+        s_r = js.values["right"] * (0.5 * g.diameter_right_m * (-1.0 if invert_right else 1.0))
+        s_l = js.values["left"] * (0.5 * g.diameter_left_m * (-1.0 if invert_left else 1.0))
         t_o, yaw = js.time_s, (s_r - s_l) / g.wheelbase_m
         speed = np.gradient(0.5 * (s_r + s_l), t_o) if len(t_o) > 2 else None
         base_frames = _BASE_FRAMES
@@ -799,8 +804,8 @@ def fit_gyro_from_bag(
             yaw = gyro.integrate_rate(t_o, od.values["yaw_rate"])
             meta["odometry_source"] = "twist_integrated"
         base_frames = ((od.child_frame_id,) if od.child_frame_id else ()) + _BASE_FRAMES
-    rotation, source = None, None
-    if imu_axis is None and imu.frame_id:
+    rotation, source = imu_rotation, ("rotation" if imu_rotation is not None else None)
+    if imu_axis is None and imu_rotation is None and imu.frame_id:
         rot, parent = static_rotation(bag, imu.frame_id, base_frames)
         if rot is not None:
             rotation, source = rot, "tf_static"
@@ -820,7 +825,10 @@ def fit_gyro_from_bag(
             meta=meta,
         )
     except CalibrationError as exc:
-        raise InputError(f"{exc} (IMU '{it}', odometry '{src}')", p) from None
+        hint = ""
+        if use_joints and "opposite directions" in str(exc):
+            hint = "; or the wheel joints are swapped"
+        raise InputError(f"{exc}{hint} (IMU '{it}', odometry '{src}')", p) from None
     if wheel_geometry is not None:
         result.meta["wheelbase_used_m"] = float(wheel_geometry.wheelbase_m)
         result.meta["wheelbase_corrected_m"] = float(
