@@ -586,7 +586,11 @@ def _gyro_yaw(bag, imu: TopicSeries, t_ref, right, left, imu_axis, base_frames):
     if imu_axis is not None:
         n, source = gyro.axis_vector(imu_axis), "flag"
     elif rot is not None:
-        n, source = rot[2, :], f"tf_static ({parent} -> {imu.frame_id})"
+        same = parent == imu.frame_id
+        n = rot[2, :]
+        source = (
+            "imu frame_id is the base frame" if same else f"tf_static ({parent} -> {imu.frame_id})"
+        )
     else:
         name, c, _ = gyro.detect_yaw_axis(t_i, w, t_ref, gyro.integrate_rate(t_ref, diff_rate))
         if c < 0.5:
@@ -808,7 +812,8 @@ def fit_gyro_from_bag(
     if imu_axis is None and imu_rotation is None and imu.frame_id:
         rot, parent = static_rotation(bag, imu.frame_id, base_frames)
         if rot is not None:
-            rotation, source = rot, "tf_static"
+            same = parent == imu.frame_id.lstrip("/")
+            rotation, source = rot, ("imu frame_id is the base frame" if same else "tf_static")
             meta["tf_chain"] = f"{parent} -> {imu.frame_id}"
     try:
         result = gyro.gyro_calibration(
