@@ -608,6 +608,27 @@ def test_mirrored_wheel_is_detected(tmp_path, run):
     np.testing.assert_allclose(rec.wheel_angle_left_rad, run.left - run.left[0], atol=1e-12)
 
 
+def test_mirrored_wheel_with_a_rotated_mocap_body(tmp_path, run):
+    """With the ground truth's body frame turned 90 deg, the opposite wheel signs on straight
+    stretches are still detected (the check does not rely on the ground truth's heading)."""
+    rotated = run.true_pose.copy()
+    rotated[:, 2] += math.pi / 2
+    turned = Run(run.time_s, run.right, run.left, rotated, run.odo_pose)
+    pos = np.column_stack([-run.right, run.left])
+    path = write_bag(tmp_path / "mirror90.bag", "ros1", turned, positions=pos, imu=False)
+    with pytest.raises(InputError, match="turn in opposite directions while the robot drives"):
+        bags.load_bag_recording(path)
+
+
+def test_backwards_mocap_body_warns(tmp_path, run):
+    rotated = run.true_pose.copy()
+    rotated[:, 2] += math.pi
+    turned = Run(run.time_s, run.right, run.left, rotated, run.odo_pose)
+    path = write_bag(tmp_path / "back.bag", "ros1", turned, imu=False)
+    rec = bags.load_bag_recording(path)
+    assert any("points backwards" in w for w in rec.meta["warnings"])
+
+
 def test_swapped_wheels_are_detected(tmp_path, run):
     path = write_bag(tmp_path / "swap.bag", "ros1", run, imu=False)
     with pytest.raises(InputError, match="wheels look swapped"):

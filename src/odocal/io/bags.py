@@ -511,18 +511,23 @@ def _start_frame(x, y, yaw):
     return np.column_stack([c * dx + s * dy, -s * dx + c * dy, yaw - yaw[0]])
 
 
-def _check_wheel_signs(time_s, right, left, gt, path, topic, names):
+def _check_wheel_signs(time_s, right, left, gt, path, topic, names) -> list[str]:
     """Detect a mirrored wheel joint or swapped left/right joints against the ground truth.
 
-    Increments over about 0.5 s: forward travel of the ground truth (along its heading) must go
-    with positive rotation of BOTH wheels, and its heading change with right minus left.
+    Increments over about 0.5 s. On straight stretches (the ground truth moves but does not
+    turn) both wheels must turn the same way; the one turning against the ground truth's heading
+    is named when that is clear. Where the ground truth turns, right minus left must turn with
+    it. Both checks do not depend on the ground truth's heading offset except the naming.
+    Returns warnings (a ground-truth heading pointing backwards).
     """
     if len(time_s) < 3:
-        return
+        return []
     step = max(1, int(round(0.5 / max(float(np.median(np.diff(time_s))), 1e-9))))
     idx = np.r_[np.arange(0, len(time_s) - 1, step), len(time_s) - 1]
     th = gt[idx, 2]
-    fwd = np.diff(gt[idx, 0]) * np.cos(th[:-1]) + np.diff(gt[idx, 1]) * np.sin(th[:-1])
+    dx, dy = np.diff(gt[idx, 0]), np.diff(gt[idx, 1])
+    moved = np.hypot(dx, dy)
+    fwd = dx * np.cos(th[:-1]) + dy * np.sin(th[:-1])
     dth = np.diff(th)
     dr, dl = np.diff(right[idx]), np.diff(left[idx])
 
@@ -531,29 +536,38 @@ def _check_wheel_signs(time_s, right, left, gt, path, topic, names):
         return float(np.dot(a, b) / den) if den > 0 else 0.0
 
     rn, ln = names
+    warnings = []
     # straight stretches: moving (> 1 mm per step) while turning less than 1 mrad per step
-    straight = (np.abs(fwd) > 1e-3) & (np.abs(dth) < 1e-3)
-    if float(np.sum(np.abs(fwd[straight]))) > 0.2:
-        cr, cl = corr(dr[straight], fwd[straight]), corr(dl[straight], fwd[straight])
-        if cr < -0.5 and cl < -0.5:
-            raise InputError(
-                "both wheel joints turn backwards while the ground truth drives forward "
-                f"(correlations {cr:.2f}, {cl:.2f}): the joints or the ground-truth frame are "
-                "reversed",
-                path,
-                None,
-                topic,
-            )
-        for c, joint, side in ((cr, rn, "right"), (cl, ln, "left")):
-            if c < -0.5:
-                raise InputError(
+    straight = (moved > 1e-3) & (np.abs(dth) < 1e-3)
+    if float(np.sum(moved[straight])) > 0.2:
+        s_dr, s_dl, s_fwd = dr[straight], dl[straight], fwd[straight]
+        if corr(s_dr, s_dl) < -0.5:
+            cr, cl = corr(s_dr, s_fwd), corr(s_dl, s_fwd)
+            which = None
+            if cl < -0.5 < 0.5 < cr:
+                which = ("left", ln)
+            elif cr < -0.5 < 0.5 < cl:
+                which = ("right", rn)
+            if which:
+                side, joint = which
+                what = (
                     f"the {side} wheel joint '{joint}' turns backwards while the robot drives "
-                    f"straight forward (correlation {c:.2f}): its axis is mirrored; invert it "
-                    f"with the invert_{side} option (--invert-{side})",
-                    path,
-                    None,
-                    topic,
+                    f"straight forward: its axis is mirrored; invert it with the invert_{side} "
+                    f"option (--invert-{side})"
                 )
+            else:
+                what = (
+                    "the wheel joints turn in opposite directions while the robot drives "
+                    "straight: one joint's axis is mirrored; invert it with the invert_right or "
+                    "invert_left option (--invert-right / --invert-left)"
+                )
+            raise InputError(what, path, None, topic)
+        mean = 0.5 * (s_dr + s_dl)
+        if corr(mean, s_fwd) < -0.5:
+            warnings.append(
+                "the ground truth's heading points backwards relative to the wheels' forward "
+                "motion: its body frame may be rotated against the robot's"
+            )
     if float(np.sum(np.abs(dth))) > math.radians(30):
         cd = corr(dr - dl, dth)
         if cd < -0.5:
@@ -565,6 +579,7 @@ def _check_wheel_signs(time_s, right, left, gt, path, topic, names):
                 None,
                 topic,
             )
+    return warnings
 
 
 def _gyro_yaw(bag, imu: TopicSeries, t_ref, right, left, imu_axis, base_frames):
@@ -704,7 +719,7 @@ def load_bag_recording(
                 f"ground truth taken from the Odometry topic '{gt_topic}': make sure it is an "
                 "external reference, not the wheel odometry"
             )
-        _check_wheel_signs(
+        warnings += _check_wheel_signs(
             t,
             right - right[0],
             left - left[0],
