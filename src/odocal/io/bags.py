@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -850,8 +850,7 @@ def fit_gyro_from_bag(
             hint = "; or the wheel joints are swapped"
         raise InputError(f"{exc}{hint} (IMU '{it}', odometry '{src}')", p) from None
     if wheel_geometry is not None:
-        result.meta["wheelbase_used_m"] = float(wheel_geometry.wheelbase_m)
-        result.meta["wheelbase_corrected_m"] = float(
-            wheel_geometry.wheelbase_m * result.wheelbase_multiplier
-        )
+        b = float(wheel_geometry.wheelbase_m)
+        extra = {"wheelbase_used_m": b, "wheelbase_corrected_m": b * result.wheelbase_multiplier}
+        result = replace(result, meta={**result.meta, **extra})
     return result
