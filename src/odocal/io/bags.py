@@ -778,6 +778,8 @@ def fit_gyro_from_bag(
     Topic defaults: explicit topics win; else the only Odometry topic; else the JointState topic
     (needs ``wheel_geometry``). IMU mounting: ``imu_axis`` if given, else ``/tf_static`` (base
     frame = the odometry's child frame, or base_link / base_footprint), else detected.
+    With ``wheel_geometry`` the result's meta also holds ``wheelbase_used_m`` and
+    ``wheelbase_corrected_m`` (with an Odometry topic, pass the geometry the controller ran with).
     ``imu_rotation`` (shape (3, 3), R_base_imu, e.g. from
     :func:`~odocal.calibration.gyro.rotation_from_rpy`) overrides ``/tf_static``.
     Returns a :class:`~odocal.calibration.gyro.GyroResult`.
