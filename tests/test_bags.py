@@ -12,21 +12,18 @@ from dataclasses import dataclass
 
 import numpy as np
 import pytest
+from rosbags.rosbag1 import Writer as Writer1
+from rosbags.rosbag2 import StoragePlugin
+from rosbags.rosbag2 import Writer as Writer2
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
+from odocal.calibration.gyro import rotation_from_rpy
 from odocal.core.model import NonSystematicError, WheelGeometry
 from odocal.core.odometry import dead_reckon
 from odocal.core.simulate import drive
 from odocal.core.tracks import Track, arc, polygon, spot_turn, straight
 from odocal.errors import InputError
-
-rosbags = pytest.importorskip("rosbags")
-from rosbags.rosbag1 import Writer as Writer1  # noqa: E402
-from rosbags.rosbag2 import StoragePlugin  # noqa: E402
-from rosbags.rosbag2 import Writer as Writer2  # noqa: E402
-from rosbags.typesys import Stores, get_types_from_msg, get_typestore  # noqa: E402
-
-from odocal.calibration.gyro import rotation_from_rpy  # noqa: E402
-from odocal.io import bags  # noqa: E402
+from odocal.io import bags
 
 NOMINAL = WheelGeometry.symmetric(0.2, 0.5)  # believed: D = 0.2 m, b = 0.5 m
 E_B = 1.05  # true wheelbase 5 % larger: every turn really turns 1/1.05 of the belief
