@@ -1,0 +1,35 @@
+"""``odocal bag-info``: list the topics of a ROS 1 or ROS 2 bag."""
+
+from __future__ import annotations
+
+from .common import print_json
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "bag-info",
+        help="list the topics of a ROS bag",
+        description="List the topics (name, message type, count) of a ROS 1 .bag or a ROS 2 "
+        "bag (.mcap, .db3 or a rosbag2 folder), to choose --joint-topic, --truth-topic, "
+        "--imu-topic and --odom-topic.",
+    )
+    p.add_argument("bag", metavar="BAG", help="a .bag, .mcap or .db3 file or a rosbag2 folder")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(run=run)
+
+
+def run(args) -> int:
+    from ..io.bags import format_topics, list_topics
+
+    topics = list_topics(args.bag)
+    if args.json:
+        print_json(
+            {
+                "path": str(args.bag),
+                "topics": [{"name": t.name, "type": t.msgtype, "count": t.count} for t in topics],
+            }
+        )
+        return 0
+    print(f"{args.bag}: {len(topics)} topics")
+    print(format_topics(topics))
+    return 0

@@ -1,0 +1,656 @@
+"""ROS bag loading (rosbags): synthetic bags written into tmp_path, the real Husky bags, bad input.
+
+The synthetic bags hold a known simulated run: wheel angles (JointState), true poses
+(PoseStamped), a gyro (Imu, mounted as on the Husky, with bias and noise), the wheel odometry
+(Odometry) and the IMU mounting (/tf_static).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+from rosbags.rosbag1 import Writer as Writer1
+from rosbags.rosbag2 import StoragePlugin
+from rosbags.rosbag2 import Writer as Writer2
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+from odocal.calibration.gyro import rotation_from_rpy
+from odocal.core.model import NonSystematicError, WheelGeometry
+from odocal.core.odometry import dead_reckon
+from odocal.core.simulate import drive
+from odocal.core.tracks import Track, arc, polygon, spot_turn, straight
+from odocal.errors import InputError
+from odocal.io import bags
+
+NOMINAL = WheelGeometry.symmetric(0.2, 0.5)  # believed: D = 0.2 m, b = 0.5 m
+E_B = 1.05  # true wheelbase 5 % larger: every turn really turns 1/1.05 of the belief
+TRUE = WheelGeometry(0.2, 0.2, 0.5 * E_B)
+STEPS = 40  # increments per segment
+DT = 0.02  # s per increment (50 Hz joint states)
+STILL_S = 3.0  # s standing still at the start and at the end
+GYRO_BIAS = 0.01  # rad/s on the yaw axis
+GYRO_NOISE = 0.002  # rad/s per sample
+START = (1.0, 2.0, 0.5)  # the robot's first pose in the world (mocap) frame
+# The Husky's real mount: static_transform_publisher 0 -0.3 0.52 -pi/2 0 pi/2 base_link imu_link
+# (x y z yaw pitch roll), so R_base_imu = Rz(-pi/2) Rx(pi/2): base z is the IMU's +y axis.
+R_BASE_IMU = rotation_from_rpy(math.pi / 2, 0.0, -math.pi / 2)
+
+
+@dataclass
+class Run:
+    time_s: np.ndarray  # (K,)
+    right: np.ndarray  # wheel angles (rad), (K,)
+    left: np.ndarray
+    true_pose: np.ndarray  # (K, 3), start frame
+    odo_pose: np.ndarray  # (K, 3), dead-reckoned with NOMINAL
+
+
+def make_run(track: Track) -> Run:
+    """Noise-free run of ``track`` with STILL_S of standing still before and after."""
+    res = drive(
+        track,
+        TRUE,
+        NOMINAL,
+        NonSystematicError(),
+        1,
+        None,
+        steps_per_segment=STEPS,
+        trajectory=True,
+    )
+    pose = res.trajectory[0]
+    right, left = [0.0], [0.0]
+    for seg in track.segments:
+        s_r, s_l = seg.wheel_travel(NOMINAL.wheelbase_m)
+        for _ in range(STEPS):
+            right.append(right[-1] + 2 * s_r / STEPS / NOMINAL.diameter_right_m)
+            left.append(left[-1] + 2 * s_l / STEPS / NOMINAL.diameter_left_m)
+    right, left = np.array(right), np.array(left)
+    n_still = int(round(STILL_S / DT))
+
+    def pad(a):
+        return np.concatenate([np.repeat(a[:1], n_still, 0), a, np.repeat(a[-1:], n_still, 0)])
+
+    right, left, pose = pad(right), pad(left), pad(pose)
+    t = 5.0 + DT * np.arange(len(right))
+    return Run(t, right, left, pose, dead_reckon(right, left, NOMINAL))
+
+
+TRACK = Track(
+    "square and circle",
+    polygon(4, 1.0, "ccw").segments + (arc(0.6, 2 * math.pi), straight(0.5), spot_turn(math.pi)),
+)
+
+
+@pytest.fixture(scope="module")
+def run() -> Run:
+    return make_run(TRACK)
+
+
+def world(pose):
+    """Start-frame poses -> world (mocap) frame starting at START."""
+    x0, y0, t0 = START
+    c, s = math.cos(t0), math.sin(t0)
+    return np.column_stack(
+        [
+            x0 + c * pose[:, 0] - s * pose[:, 1],
+            y0 + s * pose[:, 0] + c * pose[:, 1],
+            t0 + pose[:, 2],
+        ]
+    )
+
+
+def quat_z(yaw):
+    return (0.0, 0.0, math.sin(yaw / 2), math.cos(yaw / 2))
+
+
+def quat_of(r):
+    """Quaternion (x, y, z, w) of a rotation matrix (w > 0 branch is enough here)."""
+    w = math.sqrt(max(1e-12, 1 + r[0, 0] + r[1, 1] + r[2, 2])) / 2
+    return (
+        (r[2, 1] - r[1, 2]) / (4 * w),
+        (r[0, 2] - r[2, 0]) / (4 * w),
+        (r[1, 0] - r[0, 1]) / (4 * w),
+        w,
+    )
+
+
+class BagWriter:
+    """Write messages into a ROS 1 bag or a ROS 2 bag (mcap or sqlite3) with rosbags."""
+
+    def __init__(self, path, kind):
+        self.ros1 = kind == "ros1"
+        self.ts = get_typestore(Stores.ROS1_NOETIC if self.ros1 else Stores.ROS2_HUMBLE)
+        if "tf2_msgs/msg/TFMessage" not in self.ts.types:  # not in rosbags' ROS 1 store
+            self.ts.register(
+                get_types_from_msg(
+                    "geometry_msgs/TransformStamped[] transforms", "tf2_msgs/msg/TFMessage"
+                )
+            )
+        if self.ros1:
+            self.w = Writer1(path)
+        else:
+            plugin = StoragePlugin.MCAP if kind == "mcap" else StoragePlugin.SQLITE3
+            self.w = Writer2(path, version=9, storage_plugin=plugin)
+        self.conns = {}
+
+    def __enter__(self):
+        self.w.open()
+        return self
+
+    def __exit__(self, *exc):
+        self.w.close()
+
+    def T(self, name):
+        return self.ts.types[name]
+
+    def header(self, t, frame=""):
+        sec = int(math.floor(t))
+        stamp = self.T("builtin_interfaces/msg/Time")(sec=sec, nanosec=int(round((t - sec) * 1e9)))
+        H = self.T("std_msgs/msg/Header")
+        return (
+            H(seq=0, stamp=stamp, frame_id=frame) if self.ros1 else H(stamp=stamp, frame_id=frame)
+        )
+
+    def vec(self, x, y, z):
+        return self.T("geometry_msgs/msg/Vector3")(x=float(x), y=float(y), z=float(z))
+
+    def quat(self, q):
+        x, y, z, w = q
+        return self.T("geometry_msgs/msg/Quaternion")(x=x, y=y, z=z, w=w)
+
+    def pose(self, x, y, yaw):
+        point = self.T("geometry_msgs/msg/Point")(x=float(x), y=float(y), z=0.0)
+        return self.T("geometry_msgs/msg/Pose")(position=point, orientation=self.quat(quat_z(yaw)))
+
+    def write(self, topic, msgtype, t, msg, log_t=None):
+        if topic not in self.conns:
+            kw = {"latching": 1} if self.ros1 and topic == "/tf_static" else {}
+            self.conns[topic] = self.w.add_connection(topic, msgtype, typestore=self.ts, **kw)
+        ser = self.ts.serialize_ros1 if self.ros1 else self.ts.serialize_cdr
+        stamp = t if log_t is None else log_t
+        self.w.write(self.conns[topic], int(round(stamp * 1e9)), ser(msg, msgtype))
+
+    def joints(self, topic, t, names, positions, log_t=None):
+        msg = self.T("sensor_msgs/msg/JointState")(
+            header=self.header(t),
+            name=list(names),
+            position=np.array(positions, dtype=float),
+            velocity=np.array([], dtype=float),
+            effort=np.array([], dtype=float),
+        )
+        self.write(topic, "sensor_msgs/msg/JointState", t, msg, log_t)
+
+    def pose_stamped(self, topic, t, x, y, yaw):
+        msg = self.T("geometry_msgs/msg/PoseStamped")(
+            header=self.header(t, "map"), pose=self.pose(x, y, yaw)
+        )
+        self.write(topic, "geometry_msgs/msg/PoseStamped", t, msg)
+
+    def imu(self, topic, t, w, frame="imu_link"):
+        z9 = np.zeros(9)
+        msg = self.T("sensor_msgs/msg/Imu")(
+            header=self.header(t, frame),
+            orientation=self.quat((0.0, 0.0, 0.0, 1.0)),
+            orientation_covariance=z9,
+            angular_velocity=self.vec(*w),
+            angular_velocity_covariance=z9,
+            linear_acceleration=self.vec(0, 0, 9.81),
+            linear_acceleration_covariance=z9,
+        )
+        self.write(topic, "sensor_msgs/msg/Imu", t, msg)
+
+    def odometry(self, topic, t, x, y, yaw, v, wz):
+        z36 = np.zeros(36)
+        pwc = self.T("geometry_msgs/msg/PoseWithCovariance")(
+            pose=self.pose(x, y, yaw), covariance=z36
+        )
+        twist = self.T("geometry_msgs/msg/Twist")(
+            linear=self.vec(v, 0, 0), angular=self.vec(0, 0, wz)
+        )
+        twc = self.T("geometry_msgs/msg/TwistWithCovariance")(twist=twist, covariance=z36)
+        msg = self.T("nav_msgs/msg/Odometry")(
+            header=self.header(t, "odom"), child_frame_id="base_link", pose=pwc, twist=twc
+        )
+        self.write(topic, "nav_msgs/msg/Odometry", t, msg)
+
+    def tf_static(self, t, parent, child, rot):
+        tr = self.T("geometry_msgs/msg/Transform")(
+            translation=self.vec(0, -0.3, 0.52), rotation=self.quat(quat_of(rot))
+        )
+        ts = self.T("geometry_msgs/msg/TransformStamped")(
+            header=self.header(t, parent), child_frame_id=child, transform=tr
+        )
+        msg = self.T("tf2_msgs/msg/TFMessage")(transforms=[ts])
+        self.write("/tf_static", "tf2_msgs/msg/TFMessage", t, msg)
+
+
+def gyro_samples(run: Run, rng, rate_hz=100.0):
+    """IMU times and angular velocity in the IMU frame: the true yaw rate, plus bias and noise."""
+    # samples between the joint stamps, so that each one sees one constant true rate
+    t = np.arange(run.time_s[0] + 0.25 / rate_hz, run.time_s[-1], 1.0 / rate_hz)
+    # the true heading is piecewise linear between the joint samples: its rate is constant there
+    rate_steps = np.diff(run.true_pose[:, 2]) / np.diff(run.time_s)
+    idx = np.clip(np.searchsorted(run.time_s, t, side="right") - 1, 0, len(rate_steps) - 1)
+    yaw_rate = rate_steps[idx] + GYRO_BIAS + GYRO_NOISE * rng.standard_normal(len(t))
+    w_base = np.column_stack([np.zeros_like(t), np.zeros_like(t), yaw_rate])
+    return t, w_base @ R_BASE_IMU  # rows: R^T w_base
+
+
+def write_bag(
+    path,
+    kind,
+    run: Run,
+    *,
+    joints=True,
+    truth=True,
+    imu=True,
+    odom=False,
+    tf=True,
+    positions=None,
+    times=None,
+    names=("left_wheel_joint", "right_wheel_joint"),
+    extra=None,
+):
+    """Write ``run`` into a bag; ``positions`` (K, 2) (right, left) and ``times`` override."""
+    rng = np.random.default_rng(7)
+    pos = np.column_stack([run.right, run.left]) if positions is None else positions
+    t_j = run.time_s if times is None else times
+    with BagWriter(path, kind) as w:
+        if tf:
+            w.tf_static(run.time_s[0], "base_link", "imu_link", R_BASE_IMU)
+        if joints:
+            for t, log_t, (r, lft) in zip(t_j, run.time_s, pos, strict=True):
+                w.joints("/joint_states", t, names, [lft, r], log_t)  # names: (left, right)
+        if truth:
+            for t, p in zip(run.time_s, world(run.true_pose), strict=True):
+                w.pose_stamped("/mocap/pose", t, *p)
+        if odom:
+            v = np.gradient(0.5 * (run.right + run.left) * 0.1, run.time_s)
+            wz = np.gradient(run.odo_pose[:, 2], run.time_s)
+            for k in range(0, len(run.time_s), 5):  # 10 Hz
+                w.odometry("/odom", run.time_s[k], *run.odo_pose[k], v[k], wz[k])
+        if imu:
+            for t, wv in zip(*gyro_samples(run, rng), strict=True):
+                w.imu("/imu", t, wv)
+        if extra:
+            extra(w)
+    return path
+
+
+KINDS = ["ros1", "mcap", "sqlite3"]
+
+
+def bag_path(tmp_path, kind, name="run"):
+    return tmp_path / (f"{name}.bag" if kind == "ros1" else name)
+
+
+@pytest.fixture(scope="module", params=KINDS)
+def synthetic(request, tmp_path_factory, run):
+    kind = request.param
+    return kind, write_bag(bag_path(tmp_path_factory.mktemp(kind), kind), kind, run, odom=True)
+
+
+# --------------------------------------------------------------------------- happy paths
+
+
+def test_list_topics_and_table(synthetic):
+    kind, path = synthetic
+    topics = bags.list_topics(path)
+    by = {t.name: t for t in topics}
+    assert by["/joint_states"].msgtype == "sensor_msgs/msg/JointState"
+    assert by["/mocap/pose"].msgtype == "geometry_msgs/msg/PoseStamped"
+    assert by["/imu"].msgtype == "sensor_msgs/msg/Imu"
+    assert by["/tf_static"].count == 1
+    n = len(make_run(TRACK).time_s)
+    assert by["/joint_states"].count == n
+    if kind != "ros1":  # a ROS 2 storage file can be opened without its folder
+        storage = next(p for p in path.iterdir() if p.suffix in (".mcap", ".db3"))
+        assert bags.list_topics(storage) == topics
+    table = bags.format_topics(topics)
+    assert (
+        "/joint_states" in table and str(n) in table and table.splitlines()[0].startswith("topic")
+    )
+
+
+def test_recording_matches_the_simulated_run(synthetic, run):
+    kind, path = synthetic
+    rec = bags.load_bag_recording(path, ran_with=NOMINAL)
+    assert rec.meta["right_joint"] == "right_wheel_joint"
+    assert rec.meta["left_joint"] == "left_wheel_joint"
+    # wheel angles exactly as written (float64 round trip), starting at 0; time from 0
+    np.testing.assert_allclose(rec.wheel_angle_right_rad, run.right - run.right[0], atol=1e-12)
+    np.testing.assert_allclose(rec.wheel_angle_left_rad, run.left - run.left[0], atol=1e-12)
+    np.testing.assert_allclose(rec.time_s, run.time_s - run.time_s[0], atol=2e-9)
+    # ground truth written in the world frame comes back in the start frame; 1e-9 allows for
+    # the nanosecond stamps and the yaw -> quaternion -> yaw round trip
+    np.testing.assert_allclose(rec.ground_truth, run.true_pose, atol=1e-9)
+    # dead reckoning the loaded wheel angles with the TRUE geometry reproduces the ground truth:
+    # the simulator used the same midpoint update on the same increments
+    odo = dead_reckon(rec.wheel_angle_right_rad, rec.wheel_angle_left_rad, TRUE)
+    np.testing.assert_allclose(odo, rec.ground_truth, atol=1e-9)
+    # gyro heading: mounting from /tf_static, bias removed from the 2 x 3 s still periods.
+    # At the end the error is the integrated white noise, 0.002 rad/s x sqrt(T x 0.01 s) ~
+    # 1.7e-3 rad over T ~ 15 s, plus the bias estimate's error (~1e-4 rad/s) x T; 5e-3 rad is
+    # > 2.5 sigma of both together. During turns the 100 Hz samples of a rate that steps at the
+    # 50 Hz wheel stamps make the resampled integral lead or lag by up to (rate step) x (one
+    # sample) = 3.7 rad/s x 10 ms: compared where the robot does not turn.
+    assert rec.meta["imu_mounting"].startswith("tf_static")
+    assert rec.meta["gyro_bias_source"] == "still"
+    # bias estimate from 600 samples of 0.002 rad/s noise: se ~ 8e-5 rad/s; 5e-4 is > 6 se
+    assert rec.meta["gyro_bias_rad_s"] == pytest.approx(GYRO_BIAS, abs=5e-4)
+    assert rec.gyro_yaw_rad[-1] == pytest.approx(run.true_pose[-1, 2], abs=5e-3)
+    steps = np.abs(np.diff(run.true_pose[:, 2])) < 1e-12
+    calm = np.r_[True, steps] & np.r_[steps, True]
+    assert calm.sum() > len(calm) // 3
+    np.testing.assert_allclose(rec.gyro_yaw_rad[calm], run.true_pose[calm, 2], atol=5e-3)
+
+
+def test_ground_truth_is_interpolated_at_wheel_times(tmp_path, run):
+    """Poses at 1/4 of the joint rate, joints outside the pose span are dropped."""
+    path = tmp_path / "coarse.bag"
+    with BagWriter(path, "ros1") as w:
+        for t, r, lft in zip(run.time_s, run.right, run.left, strict=True):
+            w.joints("/joint_states", t, ("left_wheel_joint", "right_wheel_joint"), [lft, r])
+        for k in range(2, len(run.time_s) - 2, 4):
+            w.pose_stamped("/gt", run.time_s[k], *world(run.true_pose)[k])
+    rec = bags.load_bag_recording(path)
+    first = 2
+    keep = slice(first, first + len(rec.time_s))
+    assert rec.meta["wheel_samples_dropped"] == len(run.time_s) - len(rec.time_s)
+    expect = run.true_pose[keep] - run.true_pose[first]
+    c, s = math.cos(run.true_pose[first, 2]), math.sin(run.true_pose[first, 2])
+    dx, dy = expect[:, 0].copy(), expect[:, 1].copy()
+    expect[:, 0], expect[:, 1] = c * dx + s * dy, -s * dx + c * dy
+    # poses 4 increments apart, aligned with the segment ends: the heading is linear in time
+    # within each segment, so it interpolates exactly; positions are exact on straights and spot
+    # turns, and on the r = 0.6 m circle (2 pi / 40 per increment, so pi / 5 between poses) they
+    # lie on the chord, at most the sagitta r (1 - cos(pi / 10)) = 29 mm inside the arc
+    np.testing.assert_allclose(rec.ground_truth[:, 2], expect[:, 2], atol=1e-9)
+    sagitta = 0.6 * (1 - math.cos(math.pi / 10))
+    err = np.hypot(*(rec.ground_truth[:, :2] - expect[:, :2]).T)
+    assert err.max() <= sagitta + 1e-9
+    assert err.max() > 0.5 * sagitta  # the arc really is there
+
+
+def test_gyro_from_joint_states_recovers_the_wheelbase(synthetic):
+    kind, path = synthetic
+    res = bags.fit_gyro_from_bag(path, joint_topic="/joint_states", wheel_geometry=NOMINAL)
+    # every turn really turns 1/E_b of the odometry's belief (E_d = 1): ratio = 1/E_b exactly;
+    # noise: integrated white noise ~1.5e-3 rad and bias error ~1e-4 rad/s x 70 s over a net
+    # rotation of 5 pi: ~3e-4 relative; 2e-3 is > 5 sigma
+    assert res.rotation_ratio == pytest.approx(1 / E_B, abs=2e-3)
+    assert res.wheelbase_multiplier == pytest.approx(E_B, abs=2e-3)
+    assert res.meta["wheelbase_corrected_m"] == pytest.approx(TRUE.wheelbase_m, rel=2e-3)
+    assert res.mounting_source == "tf_static"
+    assert res.axis == "y"
+    assert res.bias_source == "still"
+    assert res.bias_rad_s == pytest.approx(GYRO_BIAS, abs=5e-4)
+    assert res.odometry_rotation_rad == pytest.approx(TRACK.rotation_rad, rel=1e-9)
+    assert res.meta["odometry_source"] == "joint_states"
+    d = res.as_dict()
+    assert d["method"] == "gyro" and d["rotation_ratio"] == res.rotation_ratio
+
+
+def test_gyro_from_odometry_topic(synthetic):
+    kind, path = synthetic
+    res = bags.fit_gyro_from_bag(path, odom_topic="/odom")
+    assert res.meta["odometry_source"] == "pose_yaw"
+    # the 10 Hz odometry ends within one sample of the joints; same tolerance as above
+    assert res.rotation_ratio == pytest.approx(1 / E_B, abs=2e-3)
+
+
+def test_gyro_axis_detected_without_tf_static(tmp_path, run):
+    path = write_bag(tmp_path / "notf.bag", "ros1", run, tf=False)
+    res = bags.fit_gyro_from_bag(path, wheel_geometry=NOMINAL)
+    assert res.mounting_source == "detected" and res.axis == "y"
+    assert any("detected" in w for w in res.warnings)
+    assert res.rotation_ratio == pytest.approx(1 / E_B, abs=2e-3)
+    # the flag wins over detection; the wrong sign is an error naming the bag and topics
+    with pytest.raises(InputError, match="opposite directions") as exc:
+        bags.fit_gyro_from_bag(path, wheel_geometry=NOMINAL, imu_axis="-y")
+    assert "notf.bag" in str(exc.value) and "/imu" in str(exc.value)
+
+
+def test_wrapped_wheel_angles_are_unwrapped(tmp_path, run):
+    wrapped = np.column_stack([run.right, run.left])
+    wrapped = (wrapped + math.pi) % (2 * math.pi) - math.pi  # a driver reporting (-pi, pi]
+    path = write_bag(tmp_path / "wrap.bag", "ros1", run, positions=wrapped, imu=False)
+    rec = bags.load_bag_recording(path)
+    assert rec.meta["wraps_unwrapped"] > 10
+    np.testing.assert_allclose(rec.wheel_angle_right_rad, run.right - run.right[0], atol=1e-9)
+    np.testing.assert_allclose(rec.wheel_angle_left_rad, run.left - run.left[0], atol=1e-9)
+
+
+def test_ticks_per_rev(tmp_path, run):
+    ticks = np.round(np.column_stack([run.right, run.left]) / (2 * math.pi) * 4096)
+    path = write_bag(tmp_path / "ticks.bag", "ros1", run, positions=ticks, imu=False)
+    rec = bags.load_bag_recording(path, ticks_per_rev=4096)
+    # quantisation: half a tick = pi / 4096 rad
+    np.testing.assert_allclose(rec.wheel_angle_right_rad, run.right, atol=math.pi / 4096 + 1e-12)
+
+
+# --------------------------------------------------------------------------- real data
+
+
+@pytest.fixture(scope="module")
+def husky(realdata):
+    d = realdata / "husky"
+    return {
+        "ros1": bags.fit_gyro_from_bag(d / "husky_test1.bag"),
+        "ros2": bags.fit_gyro_from_bag(d / "husky_test1_ros2"),
+    }
+
+
+def test_husky_gyro_ratio_ros1_and_ros2(husky):
+    r1, r2 = husky["ros1"], husky["ros2"]
+    # golden values: the IMU's y axis integrates to -206.3 deg, the odometry pose yaw to
+    # -198.4 deg (SOURCE.md: -206 vs -198 deg); ROS 2 is a lossless conversion of ROS 1
+    assert r1.rotation_ratio == pytest.approx(1.0398, abs=5e-4)
+    assert r2.rotation_ratio == pytest.approx(r1.rotation_ratio, abs=1e-12)
+    assert math.degrees(r1.odometry_rotation_rad) == pytest.approx(-198.4, abs=0.1)
+    assert math.degrees(r1.gyro_rotation_rad) == pytest.approx(-206.3, abs=0.1)
+    assert r1.wheelbase_multiplier == pytest.approx(1 / r1.rotation_ratio)
+    for r in (r1, r2):
+        assert r.axis == "y" and r.mounting_source == "detected"  # no /tf_static in the bag
+        assert r.meta["odometry_source"] == "pose_yaw"
+        # one 10 s still period (236-247 s); its bias is not significant (1.8 sigma): reported
+        assert r.still_duration_s == pytest.approx(10.3, abs=0.1)
+        assert r.bias_source.startswith("none")
+        assert r.bias_estimate_rad_s == pytest.approx(-2.87e-4, abs=1e-6)
+        assert r.rotation_ratio_bias_corrected == pytest.approx(1.0071, abs=5e-4)
+
+
+def test_husky_forced_bias_and_axis_flag(realdata):
+    path = realdata / "husky" / "husky_test1.bag"
+    r = bags.fit_gyro_from_bag(path, imu_axis="y", bias="still")
+    assert r.mounting_source == "flag" and r.bias_source == "still"
+    assert r.rotation_ratio == pytest.approx(1.0071, abs=5e-4)
+    assert not any("detected" in w for w in r.warnings)
+
+
+def test_husky_mount_from_the_test_launch(husky, realdata):
+    """robot_localization's launch: static_transform_publisher 0 -0.3 0.52 -pi/2 0 pi/2
+    (yaw pitch roll) base_link imu_link; as a rotation it gives the detected result."""
+    r = bags.fit_gyro_from_bag(realdata / "husky" / "husky_test1_ros2", imu_rotation=R_BASE_IMU)
+    assert r.mounting_source == "rotation" and r.axis == "y"
+    assert r.rotation_ratio == pytest.approx(husky["ros2"].rotation_ratio, abs=1e-12)
+
+
+def test_husky_bag_info_cli(cli, realdata):
+    status, out, err = cli("bag-info", realdata / "husky" / "husky_test1_ros2")
+    assert status == 0 and err == ""
+    assert "/husky_velocity_controller/odom" in out and "nav_msgs/msg/Odometry" in out
+    assert "11865" in out
+    status, out, _ = cli("bag-info", realdata / "husky" / "husky_test1.bag", "--json")
+    import json
+
+    data = json.loads(out)
+    assert {t["name"]: t["count"] for t in data["topics"]}["/imu/data"] == 11865
+
+
+def test_husky_has_no_joint_states(realdata):
+    with pytest.raises(InputError, match="no sensor_msgs/JointState topic") as exc:
+        bags.load_bag_recording(realdata / "husky" / "husky_test1.bag")
+    assert "husky_test1.bag" in str(exc.value) and "/imu/data" in str(exc.value)
+
+
+# --------------------------------------------------------------------------- bad input
+
+
+def one_line_error(cli, *argv):
+    status, out, err = cli(*argv)
+    assert status == 2 and out == ""
+    assert err.startswith("odocal: error: ") and err.count("\n") == 1 and "Traceback" not in err
+    return err
+
+
+@pytest.mark.parametrize("kind", ["ros1", "mcap"])
+def test_truncated_bag(tmp_path, run, kind, cli):
+    path = write_bag(bag_path(tmp_path, kind, "full"), kind, run, imu=False)
+    src = path if kind == "ros1" else next(path.glob("*.mcap"))
+    data = src.read_bytes()
+    cut = tmp_path / ("cut.bag" if kind == "ros1" else "cut.mcap")
+    cut.write_bytes(data[: len(data) // 2])
+    with pytest.raises(InputError, match="truncated or corrupt") as exc:
+        bags.load_bag_recording(cut)
+    assert str(cut) in str(exc.value)
+    err = one_line_error(cli, "bag-info", cut)
+    assert str(cut) in err
+
+
+def test_corrupt_bag_body(tmp_path, run):
+    """Garbage in the middle of a ROS 1 bag (index intact): an InputError, not a traceback."""
+    path = write_bag(tmp_path / "c.bag", "ros1", run, imu=False)
+    data = bytearray(path.read_bytes())
+    mid = len(data) // 2
+    data[mid : mid + 4000] = (
+        np.random.default_rng(3).integers(0, 256, 4000, dtype=np.uint8).tobytes()
+    )
+    path.write_bytes(bytes(data))
+    with pytest.raises(InputError, match=r"c\.bag: cannot read the bag after \d+ good messages"):
+        bags.load_bag_recording(path)
+
+
+def test_not_a_bag(tmp_path, cli):
+    p = tmp_path / "run.csv"
+    p.write_text("a,b\n")
+    with pytest.raises(InputError, match="not a ROS bag"):
+        bags.list_topics(p)
+    one_line_error(cli, "bag-info", tmp_path / "missing.bag")
+    d = tmp_path / "folder"
+    d.mkdir()
+    assert "metadata.yaml" in one_line_error(cli, "bag-info", d)
+
+
+def test_missing_and_wrong_topics(synthetic):
+    kind, path = synthetic
+    with pytest.raises(InputError, match="no topic '/nope'.*/joint_states") as exc:
+        bags.load_bag_recording(path, joint_topic="/nope")
+    assert str(path) in str(exc.value)
+    with pytest.raises(InputError, match="topic '/imu' has type sensor_msgs/Imu, expected"):
+        bags.load_bag_recording(path, joint_topic="/imu")
+    with pytest.raises(InputError, match="topic '/joint_states' has type .*expected nav_msgs"):
+        bags.fit_gyro_from_bag(path, odom_topic="/joint_states")
+    with pytest.raises(InputError, match="needs the nominal wheel geometry"):
+        bags.fit_gyro_from_bag(path, joint_topic="/joint_states")
+
+
+def test_several_candidate_topics(tmp_path, run):
+    def second_pose(w):
+        w.pose_stamped("/other_pose", run.time_s[0], 0, 0, 0)
+        w.pose_stamped("/other_pose", run.time_s[1], 0, 0, 0)
+
+    path = write_bag(tmp_path / "two.bag", "ros1", run, imu=False, extra=second_pose)
+    with pytest.raises(InputError, match="several .* ground truth: /mocap/pose, /other_pose"):
+        bags.load_bag_recording(path)
+    rec = bags.load_bag_recording(path, truth_topic="/mocap/pose")
+    assert rec.meta["truth_topic"] == "/mocap/pose"
+
+
+def test_non_monotonic_time(tmp_path, run):
+    t = run.time_s.copy()
+    t[100], t[101] = t[101], t[100]
+    path = write_bag(tmp_path / "time.bag", "ros1", run, times=t, imu=False)
+    with pytest.raises(InputError, match=r"field '/joint_states'.*goes backwards at message 101"):
+        bags.load_bag_recording(path)
+
+
+def test_nan_position(tmp_path, run):
+    pos = np.column_stack([run.right, run.left])
+    pos[57, 1] = np.nan
+    path = write_bag(tmp_path / "nan.bag", "ros1", run, positions=pos, imu=False)
+    with pytest.raises(InputError, match=r"nan.bag.*'/joint_states'.*message 57.*not finite"):
+        bags.load_bag_recording(path)
+
+
+def test_encoder_glitch_is_rejected(tmp_path, run):
+    pos = np.column_stack([run.right, run.left])
+    pos[300:, 0] += 5.0  # a jump of 5 rad (not a wrap: the angle spans many revolutions)
+    path = write_bag(tmp_path / "jump.bag", "ros1", run, positions=pos, imu=False)
+    with pytest.raises(
+        InputError, match=r"joint 'right_wheel_joint' jumps by \+5\.\d+ rad at message 300"
+    ):
+        bags.load_bag_recording(path)
+
+
+def test_mirrored_wheel_is_detected(tmp_path, run):
+    pos = np.column_stack([run.right, -run.left])  # left joint axis mirrored in the URDF
+    path = write_bag(tmp_path / "mirror.bag", "ros1", run, positions=pos, imu=False)
+    with pytest.raises(InputError, match="left wheel joint 'left_wheel_joint' turns backwards"):
+        bags.load_bag_recording(path)
+    rec = bags.load_bag_recording(path, invert_left=True)
+    np.testing.assert_allclose(rec.wheel_angle_left_rad, run.left - run.left[0], atol=1e-12)
+
+
+def test_mirrored_wheel_with_a_rotated_mocap_body(tmp_path, run):
+    """With the ground truth's body frame turned 90 deg, the opposite wheel signs on straight
+    stretches are still detected (the check does not rely on the ground truth's heading)."""
+    rotated = run.true_pose.copy()
+    rotated[:, 2] += math.pi / 2
+    turned = Run(run.time_s, run.right, run.left, rotated, run.odo_pose)
+    pos = np.column_stack([-run.right, run.left])
+    path = write_bag(tmp_path / "mirror90.bag", "ros1", turned, positions=pos, imu=False)
+    with pytest.raises(InputError, match="turn in opposite directions while the robot drives"):
+        bags.load_bag_recording(path)
+
+
+def test_backwards_mocap_body_warns(tmp_path, run):
+    rotated = run.true_pose.copy()
+    rotated[:, 2] += math.pi
+    turned = Run(run.time_s, run.right, run.left, rotated, run.odo_pose)
+    path = write_bag(tmp_path / "back.bag", "ros1", turned, imu=False)
+    rec = bags.load_bag_recording(path)
+    assert any("points backwards" in w for w in rec.meta["warnings"])
+
+
+def test_swapped_wheels_are_detected(tmp_path, run):
+    path = write_bag(tmp_path / "swap.bag", "ros1", run, imu=False)
+    with pytest.raises(InputError, match="wheels look swapped"):
+        bags.load_bag_recording(
+            path, right_joint="left_wheel_joint", left_joint="right_wheel_joint"
+        )
+
+
+def test_gyro_with_swapped_joints_says_so(synthetic):
+    kind, path = synthetic
+    with pytest.raises(InputError, match="opposite directions.*or the wheel joints are swapped"):
+        bags.fit_gyro_from_bag(
+            path,
+            joint_topic="/joint_states",
+            wheel_geometry=NOMINAL,
+            right_joint="left_wheel_joint",
+            left_joint="right_wheel_joint",
+        )
+
+
+def test_joint_names(tmp_path, run):
+    path = write_bag(tmp_path / "names.bag", "ros1", run, imu=False, names=("wheel_a", "wheel_b"))
+    with pytest.raises(InputError, match="no right-wheel joint among wheel_a, wheel_b"):
+        bags.load_bag_recording(path)
+    with pytest.raises(InputError, match="no joint 'nope'; joints: wheel_a, wheel_b"):
+        bags.load_bag_recording(path, right_joint="nope", left_joint="wheel_a")
+    rec = bags.load_bag_recording(path, right_joint="wheel_b", left_joint="wheel_a")
+    np.testing.assert_allclose(rec.wheel_angle_right_rad, run.right - run.right[0], atol=1e-12)
