@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+import sys
 from collections import Counter
 from pathlib import Path
 
@@ -230,11 +232,25 @@ def _run_gyro(args) -> int:
         )
         _write_outputs(args, geometry, nominal, "gyro")
         out.update({f"calibrated_{k}": v for k, v in geometry.as_dict().items()})
+    for w in out.get("warnings", []):
+        print(f"odocal: warning: {w}", file=sys.stderr)
     if args.json:
         print_json(out)
-    else:
-        for k, v in out.items():
-            print(f"{k}: {v}")
+        return 0
+    print(f"gyro calibration of {out['bag']} ({out['imu_topic']} vs {out['odom_topic']})")
+    print_table(
+        [
+            ("rotation_ratio (gyro / odometry)", f"{out['rotation_ratio']:.5f}"),
+            ("  its standard error from the bias", f"{out['rotation_ratio_stderr']:.5f}"),
+            ("wheelbase_multiplier", f"{out['wheelbase_multiplier']:.5f}"),
+            ("gyro rotation (deg)", f"{math.degrees(out['gyro_rotation_rad']):+.2f}"),
+            ("odometry rotation (deg)", f"{math.degrees(out['odometry_rotation_rad']):+.2f}"),
+            ("IMU yaw axis", f"{out['axis']} ({out['mounting_source']})"),
+            ("gyro bias removed (rad/s)", f"{out['bias_rad_s']:.3g} ({out['bias_source']})"),
+        ]
+    )
+    if "calibrated_wheelbase_m" in out:
+        print(f"  calibrated wheelbase_m: {out['calibrated_wheelbase_m']:.6f}")
     return 0
 
 
@@ -316,7 +332,7 @@ def run(args) -> int:
     if result.excluded:
         print("excluded: " + ", ".join(Path(n).name for n in result.excluded))
     for w in result.warnings:
-        print(f"warning: {w}")
+        print(f"odocal: warning: {w}", file=sys.stderr)
     if "residual_rms" in result.extras:
         print(f"residual RMS {result.extras['residual_rms']:.3g} ({result.extras['residual']})")
     for f in (args.out, args.ros2):
