@@ -10,9 +10,9 @@ import sys
 
 from .. import __version__
 from ..errors import OdocalError
-from . import calibrate, simulate
+from . import calibrate, compare, simulate
 
-COMMANDS = [simulate, calibrate]
+COMMANDS = [simulate, calibrate, compare]
 
 
 class _Parser(argparse.ArgumentParser):
