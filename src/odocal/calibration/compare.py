@@ -66,11 +66,14 @@ class Budget:
     """Runs and total mean wheel travel (m) every method may spend.
 
     ``travel_m=None`` means: what 5 CW + 5 CCW runs on the 4 m square cost this robot
-    (runs x (16 m + pi b_n)), scaled to ``runs``.
+    (runs x (16 m + pi b_n)), scaled to ``runs``. ``straight_m`` caps the length of Ivanjko's
+    straight runs (m), e.g. to the floor space a square needs; that method then spends less
+    than the budget (its reported ``travel_m`` says how much).
     """
 
     runs: int = 10
     travel_m: float | None = None
+    straight_m: float | None = None
 
     def total_travel_m(self, robot: Robot) -> float:
         if self.travel_m is not None:
@@ -190,6 +193,8 @@ def _ivanjko_plan(budget: Budget, robot: Robot) -> tuple:
     length = (budget.total_travel_m(robot) - 2 * n_spin * spin_travel) / n_straight
     if length <= 0:
         raise CalibrationError("the budget does not leave any travel for the straight runs")
+    if budget.straight_m is not None:
+        length = min(length, float(budget.straight_m))
     size = {"straight_m": length, "spin_deg": 180.0}
     return (
         RunGroup("straight", straight_line(length), n_straight, size=size),
