@@ -67,13 +67,27 @@ def add_parser(sub) -> None:
         default=None,
         help="an optiodom_diff folder: also compare on real runs (held-out validation)",
     )
+    p.add_argument(
+        "--circle-set",
+        metavar="ID",
+        default=None,
+        help="with --realdata: the circular/ data set BCPT calibrates on (default "
+        "231220200121); the other circle data sets are held out with free/",
+    )
     p.add_argument("--plot", metavar="DIR", default=None, help="write compare.png into DIR")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=run)
 
 
 def compare(
-    robot, trials=200, seed=0, runs=10, travel_m=None, realdata=None, ivanjko_straight_m=None
+    robot,
+    trials=200,
+    seed=0,
+    runs=10,
+    travel_m=None,
+    realdata=None,
+    ivanjko_straight_m=None,
+    circle_set=None,
 ):
     """Library entry point of the command: (SimulatedComparison, RealComparison or None)."""
     from ..calibration.compare import Budget, compare_real, compare_simulated
@@ -91,7 +105,7 @@ def compare(
     if realdata is not None:
         from ..io.compare_report import load_optiodom_split, read_published
 
-        datasets, heldout = load_optiodom_split(realdata)
+        datasets, heldout = load_optiodom_split(realdata, circle_set)
         real = compare_real(datasets, heldout, published=read_published(realdata))
     return sim, real
 
@@ -143,15 +157,6 @@ def run(args) -> int:
     from ..io.compare_report import comparison_document, plot_comparison
 
     robot = resolve_robot(args)
-    sim, real = compare(
-        robot,
-        args.trials,
-        args.seed,
-        args.runs,
-        args.travel,
-        args.realdata,
-        args.ivanjko_straight,
-    )
     png = None
     if args.plot:
         from pathlib import Path
@@ -160,6 +165,17 @@ def run(args) -> int:
         if not folder.is_dir():
             raise InputError("the plot folder does not exist", folder)
         png = folder / "compare.png"
+    sim, real = compare(
+        robot,
+        args.trials,
+        args.seed,
+        args.runs,
+        args.travel,
+        args.realdata,
+        args.ivanjko_straight,
+        args.circle_set,
+    )
+    if png is not None:
         plot_comparison(sim, real, png)
     doc = comparison_document(
         sim,
@@ -235,7 +251,7 @@ def run(args) -> int:
         r = doc["realdata"]
         print(
             f"\nReal OptiOdom runs ({args.realdata}): validated on {len(r['heldout_runs'])} "
-            "held-out runs (free/ and the other circle data set)"
+            "held-out runs (free/ and the circle data sets BCPT does not calibrate on)"
         )
         rows = [("method", "calibrations", "held-out mean final err mm (mean, min-max)")]
         for m in r["methods"]:

@@ -30,13 +30,14 @@ __all__ = [
 CALIBRATION_CIRCLE_SET = "231220200121"
 
 
-def load_optiodom_split(folder):
+def load_optiodom_split(folder, calibration_circle_set: str | None = None):
     """Calibration data sets and held-out runs from an ``optiodom_diff`` folder.
 
     Returns ``(datasets, heldout)``: ``datasets`` maps 'square', 'ivanjko' and
     'circular-calibration' to lists of data sets (lists of Recording); ``heldout`` is the runs of
-    free/ and of every circular data set except :data:`CALIBRATION_CIRCLE_SET` (or, if that one
-    is absent, except the first circular data set found).
+    free/ and of every circular data set except the calibration one: ``calibration_circle_set``
+    (a data set id; default :data:`CALIBRATION_CIRCLE_SET`, or the first circular data set found
+    if that one is absent).
     """
     folder = Path(folder)
     if not folder.is_dir():
@@ -55,7 +56,16 @@ def load_optiodom_split(folder):
             folder,
         )
     circles = found["circular"]
-    cal = [d for d in circles if d.name == CALIBRATION_CIRCLE_SET] or circles[:1]
+    if calibration_circle_set is not None:
+        cal = [d for d in circles if d.name == calibration_circle_set]
+        if not cal:
+            raise InputError(
+                f"no circular data set '{calibration_circle_set}' (found: "
+                f"{', '.join(d.name for d in circles) or 'none'})",
+                folder / "circular",
+            )
+    else:
+        cal = [d for d in circles if d.name == CALIBRATION_CIRCLE_SET] or circles[:1]
     datasets = {
         "square": [load_optiodom_dataset(d) for d in found["square"]],
         "ivanjko": [load_optiodom_dataset(d) for d in found["ivanjko"]],
