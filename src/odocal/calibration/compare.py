@@ -32,7 +32,7 @@ import numpy as np
 
 from ..core.model import NonSystematicError, Robot, WheelGeometry
 from ..core.odometry import dead_reckon, evaluate
-from ..core.simulate import drive, measure, odometric_pose, simulate
+from ..core.simulate import compose, drive, measure, odometric_pose, simulate
 from ..core.tracks import Track, circle, polygon, spot_turn, straight_line
 from .bcpt import bcpt_factors, calibrate_bcpt_recordings
 from .circle_fit import fit_circle
@@ -441,8 +441,6 @@ def _footprint(track: Track) -> float:
 
 
 def _compose_partial(pose, seg, f):
-    from ..core.simulate import compose
-
     return compose(pose, seg.distance_m * f, seg.angle_rad * f)
 
 
@@ -529,18 +527,13 @@ def compare_simulated(
             )
         )
     rng = _method_rng(seed, "nominal")
-    nom, nom_sys = _validate(
-        robot,
-        WheelGeometry(
-            *(
-                np.full(trials, float(np.mean(v)))
-                for v in (ran_with.diameter_right_m, ran_with.diameter_left_m, ran_with.wheelbase_m)
-            )
-        ),
-        validation,
-        rng,
-        max_step_m,
+    nominal = WheelGeometry(
+        *(
+            np.full(trials, float(np.mean(v)))
+            for v in (ran_with.diameter_right_m, ran_with.diameter_left_m, ran_with.wheelbase_m)
+        )
     )
+    nom, nom_sys = _validate(robot, nominal, validation, rng, max_step_m)
     return SimulatedComparison(
         robot,
         trials,

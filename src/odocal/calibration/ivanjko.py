@@ -130,7 +130,7 @@ def ivanjko_fit(
             break
 
         def pred(dr, dl, bb, idx=idx):
-            return predict_straight_subset(predict_straight, idx, m, dr, dl, bb)
+            return _predict_subset(predict_straight, idx, m, dr, dl, bb)
 
         k = _fit_diameter_factors(pred, straight_xy[idx], d_r[idx], d_l[idx], b[idx])
         d_r[idx] *= k[:, 0]
@@ -151,7 +151,7 @@ def ivanjko_fit(
     return IvanjkoFit(WheelGeometry(d_r, d_l, b), iterations, ~active)
 
 
-def predict_straight_subset(predict, idx, m, dr, dl, bb):
+def _predict_subset(predict, idx, m, dr, dl, bb):
     """Call a full-batch predictor for the trials ``idx`` only (others get the first values)."""
     if len(idx) == m:
         return predict(dr, dl, bb)
