@@ -210,3 +210,23 @@ def test_cli_realdata_json(cli, realdata):
     assert len(agree["umbmark-x"]) == 8 and max(agree["umbmark-x"]) < 1.5e-6
     assert len(agree["ivanjko"]) == 8 and max(agree["ivanjko"]) < 1e-5
     assert max(agree["heading"]) > 1e-4
+
+
+def test_group_data_is_a_recording_for_trajectory_methods():
+    # Extension point for trajectory/linear fits: for groups with points=True, dead reckoning the
+    # encoder readings (wheel_angles_rad) with the TRUE geometry reproduces the tracked poses of a
+    # noise-free robot. Headings agree to rounding; positions to the midpoint-rule error of the
+    # ~200 coarser samples (chord error ~ R dtheta^3 / 24 per sample: ~5e-5 m on the 1 m circle).
+    from odocal.calibration.compare import RunGroup, _simulate_group
+    from odocal.core.odometry import dead_reckon
+    from odocal.core.tracks import circle, polygon
+
+    robot = Robot(TETRA_DS2, SystematicError(1.02, 1.003))
+    for track in (circle(1.0, "ccw"), polygon(4, 2.0, "cw")):
+        g = _simulate_group(RunGroup("x", track, 2, points=True), robot, 3, None, 0.01)
+        assert g.trajectory.shape[:2] == (3, 2) and g.trajectory.shape[-1] == 3
+        assert g.wheel_angles_rad.shape == (g.trajectory.shape[2], 2)
+        odo = dead_reckon(g.wheel_angles_rad[:, 0], g.wheel_angles_rad[:, 1], robot.true_geometry)
+        np.testing.assert_allclose(odo[:, :2], g.trajectory[0, 0, :, :2], atol=1e-4)
+        np.testing.assert_allclose(odo[:, 2], g.trajectory[0, 0, :, 2], atol=1e-10)
+        np.testing.assert_allclose(g.trajectory[0, 0, -1], g.final[0, 0], atol=1e-12)

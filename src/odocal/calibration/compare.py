@@ -106,13 +106,23 @@ class GroupData(NamedTuple):
     errors : ndarray, shape (M, runs, 3)
         Measured final error, actual - odometric.
     points : ndarray, shape (M, runs, K, 2) or None
-        Tracked positions (m) along each run, with the instrument's position noise.
+        Tracked positions (m) along each run (about 200 samples, the last one included), with
+        the instrument's position noise. Only for groups with ``points=True``.
+    trajectory : ndarray, shape (M, runs, K, 3) or None
+        Tracked poses (x_m, y_m, theta_rad) at the same samples (``points`` plus the heading, with
+        the instrument's heading noise).
+    wheel_angles_rad : ndarray, shape (K, 2) or None
+        Cumulative wheel rotations (right, left; rad) at the same samples: what the encoders
+        read (the commanded rotations, the same in every run). With ``trajectory`` this is a
+        recording, e.g. for a trajectory or linear least-squares fit.
     """
 
     group: RunGroup
     final: np.ndarray
     errors: np.ndarray
-    points: np.ndarray | None
+    points: np.ndarray | None = None
+    trajectory: np.ndarray | None = None
+    wheel_angles_rad: np.ndarray | None = None
 
 
 class GeometryBatch(NamedTuple):
@@ -444,21 +454,45 @@ def _compose_partial(pose, seg, f):
     return compose(pose, seg.distance_m * f, seg.angle_rad * f)
 
 
+def _commanded_steps(track: Track, believed: WheelGeometry, max_step_m: float):
+    """Increments per segment (one count for all segments) and the cumulative commanded wheel
+    rotations after every increment, shape (K + 1, 2)."""
+    b_hat = float(np.mean(believed.wheelbase_m))
+    travel = [seg.wheel_travel(b_hat) for seg in track.segments]
+    longest = max(max(abs(float(r)), abs(float(lft))) for r, lft in travel)
+    n = max(1, math.ceil(longest / max_step_m - 1e-9))
+    d_r = float(np.mean(believed.diameter_right_m))
+    d_l = float(np.mean(believed.diameter_left_m))
+    inc = np.concatenate(
+        [
+            np.repeat([[2.0 * float(r) / d_r / n, 2.0 * float(lft) / d_l / n]], n, axis=0)
+            for r, lft in travel
+        ]
+    )
+    return n, np.vstack([np.zeros((1, 2)), np.cumsum(inc, axis=0)])
+
+
 def _simulate_group(group: RunGroup, robot: Robot, trials: int, rng, max_step_m: float):
     n = trials * group.runs
-    res = simulate(group.track, robot, n, rng, max_step_m=max_step_m, trajectory=group.points)
+    if not group.points:
+        res = simulate(group.track, robot, n, rng, max_step_m=max_step_m)
+        errors = measure(res.errors, robot, rng).reshape(trials, group.runs, 3)
+        return GroupData(group, errors + np.asarray(odometric_pose(group.track)), errors)
+    # Fixed increments per segment, so that the encoder readings are known at every sample.
+    steps, angles = _commanded_steps(group.track, robot.believed_geometry, max_step_m)
+    res = simulate(group.track, robot, n, rng, steps_per_segment=steps, trajectory=True)
     errors = measure(res.errors, robot, rng).reshape(trials, group.runs, 3)
     final = errors + np.asarray(odometric_pose(group.track))
-    points = None
-    if group.points:
-        traj = res.trajectory[..., :2]
-        step = max(1, traj.shape[1] // 200)  # a tracker sample every ~1/200 of the run
-        pts = traj[:, ::step, :]
-        sigma = robot.measurement.sigma_xy_m
-        if sigma > 0:
-            pts = pts + sigma * rng.standard_normal(pts.shape)
-        points = pts.reshape(trials, group.runs, pts.shape[1], 2)
-    return GroupData(group, final, errors, points)
+    k = res.trajectory.shape[1]
+    idx = np.unique(np.r_[np.arange(0, k, max(1, k // 200)), k - 1])  # ~200 tracker samples
+    traj = res.trajectory[:, idx, :].copy()
+    m = robot.measurement
+    if m.sigma_xy_m > 0:
+        traj[..., :2] += m.sigma_xy_m * rng.standard_normal(traj[..., :2].shape)
+    if m.sigma_theta_rad > 0:
+        traj[..., 2] += m.sigma_theta_rad * rng.standard_normal(traj[..., 2].shape)
+    traj = traj.reshape(trials, group.runs, len(idx), 3)
+    return GroupData(group, final, errors, traj[..., :2], traj, angles[idx])
 
 
 def _validate(robot: Robot, geometry: WheelGeometry, track: Track, rng, max_step_m: float):
