@@ -289,3 +289,12 @@ def test_cli_bcpt_bad_input(cli, tmp_path, text, args, message):
     assert not out.exists()
     if "line" in message or "column" in message or "no runs" in message:
         assert str(runs) in stderr
+
+
+def test_cli_radius_without_bcpt_is_an_error(cli, tmp_path):
+    runs = _write(
+        tmp_path / "runs.csv", "direction,x_m,y_m,theta_deg\ncw,0.1,0.1,1\nccw,0.1,-0.1,-1\n"
+    )
+    status, _, err = cli("calibrate", runs, "--radius", 1.0)
+    assert status == 2 and err.count("\n") == 1
+    assert "--radius is only used with --method bcpt" in err

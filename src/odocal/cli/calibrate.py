@@ -76,6 +76,8 @@ def calibrate_file(
     from ..io.runs_csv import read_circle_runs, read_runs
 
     ran_with = robot.believed_geometry
+    if radius_m is not None and method != "bcpt":
+        raise InputError(f"--radius is only used with --method bcpt (got --method {method})")
     if method == "bcpt":
         if radius_m is None:
             raise InputError("--method bcpt needs --radius R (the commanded circle radius, m)")

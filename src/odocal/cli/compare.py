@@ -79,82 +79,12 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
-def compare(
-    robot,
-    trials=200,
-    seed=0,
-    runs=10,
-    travel_m=None,
-    realdata=None,
-    ivanjko_straight_m=None,
-    circle_set=None,
-):
-    """Library entry point of the command: (SimulatedComparison, RealComparison or None)."""
-    from ..calibration.compare import Budget, compare_real, compare_simulated
-
-    if trials < 2:
-        raise InputError(f"--trials must be >= 2, got {trials}")
-    if runs < 3:
-        raise InputError(
-            f"--runs must be >= 3 (Ivanjko needs straight runs and two spins), got {runs}"
-        )
-    sim = compare_simulated(
-        robot, trials=trials, seed=seed, budget=Budget(runs, travel_m, ivanjko_straight_m)
-    )
-    real = None
-    if realdata is not None:
-        from ..io.compare_report import load_optiodom_split, read_published
-
-        datasets, heldout = load_optiodom_split(realdata, circle_set)
-        real = compare_real(datasets, heldout, published=read_published(realdata))
-    return sim, real
-
-
-# Our method -> the published OptiOdom column computed with the same runs (the published
-# UMBmark is the x-form with E_b b in E_d; the published Jung&Chung uses chord and coupling terms
-# that our exact heading method does not have, so only rough agreement is expected there).
-PUBLISHED_SAME_METHOD = {"umbmark-x": "UMBmark", "heading": "Jung&Chung", "ivanjko": "Ivanjko"}
-
-
-def published_agreement(real, folder) -> list:
-    """Per data set: our calibrated geometry against the published one of the same method."""
-    from ..io.compare_report import read_published
-
-    out = []
-    for m in real.methods:
-        column = PUBLISHED_SAME_METHOD.get(m.name)
-        if column is None:
-            continue
-        pub = read_published(folder, column, None) or {}
-        by_set = {k.split("/")[-1]: g for k, g in pub.items()}
-        for row in m.per_dataset:
-            g = by_set.get(row["dataset"])
-            if g is None:
-                continue
-            diffs = {
-                "wheelbase_m": row["wheelbase_m"] - g.wheelbase_m,
-                "wheel_diameter_right_m": row["wheel_diameter_right_m"] - g.diameter_right_m,
-                "wheel_diameter_left_m": row["wheel_diameter_left_m"] - g.diameter_left_m,
-            }
-            out.append(
-                {
-                    "method": m.name,
-                    "published_method": column,
-                    "dataset": row["dataset"],
-                    "published": g.as_dict(),
-                    "difference": diffs,
-                    "max_abs_difference_m": max(abs(v) for v in diffs.values()),
-                }
-            )
-    return out
-
-
 def _fmt(v, scale=1.0, f=".2f"):
     return "-" if v is None or (isinstance(v, float) and math.isnan(v)) else format(v * scale, f)
 
 
 def run(args) -> int:
-    from ..io.compare_report import comparison_document, plot_comparison
+    from ..io.compare_report import comparison_document, plot_comparison, run_comparison
 
     robot = resolve_robot(args)
     png = None
@@ -165,16 +95,23 @@ def run(args) -> int:
         if not folder.is_dir():
             raise InputError("the plot folder does not exist", folder)
         png = folder / "compare.png"
-    sim, real = compare(
+    if args.trials < 2:
+        raise InputError(f"--trials must be >= 2, got {args.trials}")
+    if args.runs < 3:
+        raise InputError(
+            f"--runs must be >= 3 (Ivanjko needs straight runs and two spins), got {args.runs}"
+        )
+    comparison = run_comparison(
         robot,
-        args.trials,
-        args.seed,
-        args.runs,
-        args.travel,
-        args.realdata,
-        args.ivanjko_straight,
-        args.circle_set,
+        trials=args.trials,
+        seed=args.seed,
+        runs=args.runs,
+        travel_m=args.travel,
+        ivanjko_straight_m=args.ivanjko_straight,
+        realdata=args.realdata,
+        circle_set=args.circle_set,
     )
+    sim, real = comparison.simulated, comparison.real
     if png is not None:
         plot_comparison(sim, real, png)
     doc = comparison_document(
@@ -185,7 +122,7 @@ def run(args) -> int:
         plot=None if png is None else str(png),
     )
     if real is not None:
-        doc["realdata"]["published_same_method"] = published_agreement(real, args.realdata)
+        doc["realdata"]["published_same_method"] = comparison.published_same_method
     if args.json:
         print_json(doc)
         return 0

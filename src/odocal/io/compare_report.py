@@ -7,17 +7,28 @@ from __future__ import annotations
 
 import csv
 import io
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..calibration.compare import RealComparison, SimulatedComparison
+from ..calibration.compare import (
+    Budget,
+    RealComparison,
+    SimulatedComparison,
+    compare_real,
+    compare_simulated,
+)
 from ..core.model import WheelGeometry
 from ..errors import InputError
 from .optiodom import is_optiodom_dataset, load_optiodom_dataset
 from .textfile import atomic_path, read_text
 
 __all__ = [
+    "Comparison",
+    "run_comparison",
+    "published_agreement",
+    "PUBLISHED_SAME_METHOD",
     "CALIBRATION_CIRCLE_SET",
     "load_optiodom_split",
     "read_published",
@@ -97,6 +108,83 @@ def read_published(folder, method: str = "Sousa", dataset: str = "ALL_DATASETS_C
     if dataset is None:
         return out
     return out.get(dataset)
+
+
+# Our method -> the published OptiOdom column computed from the same runs (the published
+# UMBmark is the x-form with E_b b in E_d; the published Jung&Chung uses chord and coupling terms
+# that our exact heading method does not have, so only rough agreement is expected there).
+PUBLISHED_SAME_METHOD = {"umbmark-x": "UMBmark", "heading": "Jung&Chung", "ivanjko": "Ivanjko"}
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """What ``odocal compare`` computes.
+
+    Attributes
+    ----------
+    simulated : SimulatedComparison
+    real : RealComparison or None
+        Only with a real-data folder.
+    published_same_method : list of dict
+        Per data set, our geometry against the published one of the same method.
+    """
+
+    simulated: SimulatedComparison
+    real: RealComparison | None
+    published_same_method: list
+
+
+def run_comparison(
+    robot,
+    trials: int = 200,
+    seed: int = 0,
+    runs: int = 10,
+    travel_m: float | None = None,
+    ivanjko_straight_m: float | None = None,
+    realdata=None,
+    circle_set: str | None = None,
+) -> Comparison:
+    """The simulated comparison on ``robot`` and, with ``realdata`` (an ``optiodom_diff``
+    folder), the held-out comparison on real runs. See ``odocal.calibration.compare``."""
+    sim = compare_simulated(
+        robot, trials=trials, seed=seed, budget=Budget(runs, travel_m, ivanjko_straight_m)
+    )
+    if realdata is None:
+        return Comparison(sim, None, [])
+    datasets, heldout = load_optiodom_split(realdata, circle_set)
+    real = compare_real(datasets, heldout, published=read_published(realdata))
+    return Comparison(sim, real, published_agreement(real, realdata))
+
+
+def published_agreement(real: RealComparison, folder) -> list:
+    """Per data set: our calibrated geometry against the published one of the same method."""
+    out = []
+    for m in real.methods:
+        column = PUBLISHED_SAME_METHOD.get(m.name)
+        if column is None:
+            continue
+        pub = read_published(folder, column, None) or {}
+        by_set = {k.split("/")[-1]: g for k, g in pub.items()}
+        for row in m.per_dataset:
+            g = by_set.get(row["dataset"])
+            if g is None:
+                continue
+            diffs = {
+                "wheelbase_m": row["wheelbase_m"] - g.wheelbase_m,
+                "wheel_diameter_right_m": row["wheel_diameter_right_m"] - g.diameter_right_m,
+                "wheel_diameter_left_m": row["wheel_diameter_left_m"] - g.diameter_left_m,
+            }
+            out.append(
+                {
+                    "method": m.name,
+                    "published_method": column,
+                    "dataset": row["dataset"],
+                    "published": g.as_dict(),
+                    "difference": diffs,
+                    "max_abs_difference_m": max(abs(v) for v in diffs.values()),
+                }
+            )
+    return out
 
 
 def comparison_document(sim: SimulatedComparison | None, real: RealComparison | None, **extra):
