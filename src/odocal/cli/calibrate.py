@@ -1,13 +1,21 @@
-"""``odocal calibrate``: E_b, E_d and corrected parameters from measured polygon runs."""
+"""``odocal calibrate``: E_b, E_d and corrected parameters from measured polygon or circle runs."""
 
 from __future__ import annotations
 
 import math
 
+from ..calibration.bcpt import calibrate_bcpt
 from ..calibration.heading import calibrate_heading
 from ..calibration.umbmark import UMBMARK_FORMS, calibrate_umbmark
 from ..errors import InputError
-from .common import add_robot_args, add_track_args, print_json, print_table, resolve_robot
+from .common import (
+    add_robot_args,
+    add_track_args,
+    positive_float,
+    print_json,
+    print_table,
+    resolve_robot,
+)
 
 
 def add_parser(sub) -> None:
@@ -15,10 +23,14 @@ def add_parser(sub) -> None:
         "calibrate",
         help="calibrate E_b, E_d from RUNS.csv",
         description="Calibrate the wheelbase and wheel-diameter ratio from the measured final "
-        "pose errors of CW and CCW runs on a regular N-gon.",
+        "pose errors of CW and CCW runs on a regular N-gon (heading, umbmark), or from the "
+        "measured radii of CW and CCW circles of commanded radius R (bcpt).",
     )
     p.add_argument(
-        "runs_csv", metavar="RUNS.csv", help="measured runs (direction,x_m,y_m,theta_deg)"
+        "runs_csv",
+        metavar="RUNS.csv",
+        help="measured runs: direction,x_m,y_m,theta_deg (heading, umbmark) or "
+        "direction,radius_m (bcpt)",
     )
     add_robot_args(
         p,
@@ -28,9 +40,17 @@ def add_parser(sub) -> None:
     add_track_args(p)
     p.add_argument(
         "--method",
-        choices=("heading", "umbmark"),
+        choices=("heading", "umbmark", "bcpt"),
         default="heading",
-        help="heading-error method (any N-gon, default) or UMBmark (squares)",
+        help="heading-error method (any N-gon, default), UMBmark (squares) or BCPT "
+        "(CW/CCW circles; needs --radius)",
+    )
+    p.add_argument(
+        "--radius",
+        type=positive_float,
+        metavar="R",
+        default=None,
+        help="bcpt: commanded axle-centre circle radius in m",
     )
     p.add_argument(
         "--umbmark-form",
@@ -43,12 +63,26 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
-def calibrate_file(path, robot, method: str, sides: int, side_m: float, form: str = "mean"):
-    """Read RUNS.csv and calibrate; returns a CalibrationResult."""
-    from ..io.runs_csv import read_runs
+def calibrate_file(
+    path,
+    robot,
+    method: str,
+    sides: int,
+    side_m: float,
+    form: str = "mean",
+    radius_m: float | None = None,
+):
+    """Read RUNS.csv (or the BCPT runs file) and calibrate; returns a CalibrationResult."""
+    from ..io.runs_csv import read_circle_runs, read_runs
 
-    runs = read_runs(path)
     ran_with = robot.believed_geometry
+    if radius_m is not None and method != "bcpt":
+        raise InputError(f"--radius is only used with --method bcpt (got --method {method})")
+    if method == "bcpt":
+        if radius_m is None:
+            raise InputError("--method bcpt needs --radius R (the commanded circle radius, m)")
+        return calibrate_bcpt(read_circle_runs(path), radius_m, ran_with)
+    runs = read_runs(path)
     if method == "umbmark":
         if sides != 4:
             raise InputError(
@@ -64,7 +98,13 @@ def run(args) -> int:
 
     robot = resolve_robot(args)
     result = calibrate_file(
-        args.runs_csv, robot, args.method, args.sides, args.side_length, args.umbmark_form
+        args.runs_csv,
+        robot,
+        args.method,
+        args.sides,
+        args.side_length,
+        args.umbmark_form,
+        args.radius,
     )
     if args.out:
         atomic_write(
@@ -76,10 +116,11 @@ def run(args) -> int:
         return 0
     ins = result.inputs
     label = result.method + (f" ({ins['form']}-form)" if "form" in ins else "")
-    print(
-        f"{label} from {ins['runs_cw']} CW and {ins['runs_ccw']} CCW runs, "
-        f"{args.sides}-gon side {args.side_length:g} m"
-    )
+    if result.method == "bcpt":
+        track = f"circles of commanded radius {ins['commanded_radius_m']:g} m"
+    else:
+        track = f"{args.sides}-gon side {args.side_length:g} m"
+    print(f"{label} from {ins['runs_cw']} CW and {ins['runs_ccw']} CCW runs, {track}")
     r, c = result.ran_with, result.corrected
     print_table(
         [
@@ -95,6 +136,12 @@ def run(args) -> int:
         print(
             f"  mean heading error: CW {math.degrees(ins['mean_theta_cw_rad']):+.4f} deg, "
             f"CCW {math.degrees(ins['mean_theta_ccw_rad']):+.4f} deg"
+        )
+    if "mean_radius_cw_m" in ins:
+        print(
+            f"  mean radius: CW {ins['mean_radius_cw_m']:.6f} m, "
+            f"CCW {ins['mean_radius_ccw_m']:.6f} m"
+            f" (first order: E_b {ins['first_order_E_b']:.6f}, E_d {ins['first_order_E_d']:.6f})"
         )
     if args.out:
         print(f"wrote {args.out}")

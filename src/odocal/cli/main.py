@@ -10,9 +10,9 @@ import sys
 
 from .. import __version__
 from ..errors import OdocalError
-from . import bag_info, calibrate, fit, noise, plan, simulate, validate
+from . import bag_info, calibrate, compare, fit, noise, plan, simulate, validate
 
-COMMANDS = [simulate, calibrate, fit, validate, noise, plan, bag_info]
+COMMANDS = [simulate, calibrate, fit, validate, noise, plan, bag_info, compare]
 
 
 class _Parser(argparse.ArgumentParser):

@@ -10,6 +10,15 @@ Header row, then one row per run::
 (+x the start heading, +y to the left, theta CCW positive and unwrapped; for a closed track this
 is simply the robot's final pose measured from its start pose). Extra columns are ignored; blank
 lines and lines starting with '#' are skipped.
+
+The BCPT runs format (``odocal calibrate --method bcpt``) has one row per circle run::
+
+    direction,radius_m
+    cw,1.015798
+    ccw,1.004270
+
+``radius_m`` is the measured axle-centre radius of the run (m, > 0), e.g. a least-squares circle
+fit to tracked points (``odocal.calibration.circle_fit.fit_circle``). Same rules as RUNS.csv.
 """
 
 from __future__ import annotations
@@ -20,13 +29,22 @@ import math
 
 import numpy as np
 
+from ..calibration.bcpt import CircleRuns
 from ..calibration.result import EndPoseRuns
 from ..errors import InputError
 from .textfile import atomic_write, read_text
 
-__all__ = ["read_runs", "write_runs", "runs_csv_text", "REQUIRED_COLUMNS"]
+__all__ = [
+    "read_runs",
+    "read_circle_runs",
+    "write_runs",
+    "runs_csv_text",
+    "REQUIRED_COLUMNS",
+    "CIRCLE_COLUMNS",
+]
 
 REQUIRED_COLUMNS = ("direction", "x_m", "y_m", "theta_deg")
+CIRCLE_COLUMNS = ("direction", "radius_m")
 
 
 def read_runs(path, directions: tuple[str, ...] = ("cw", "ccw")) -> EndPoseRuns:
@@ -84,6 +102,58 @@ def read_runs(path, directions: tuple[str, ...] = ("cw", "ccw")) -> EndPoseRuns:
     err = np.array(values)
     err[:, 2] = np.radians(err[:, 2])
     return EndPoseRuns(tuple(dirs), err)
+
+
+def read_circle_runs(path) -> CircleRuns:
+    """Parse a BCPT runs file (``direction,radius_m``); every problem raises InputError naming
+    the file, line and field."""
+    text = read_text(path)
+    rows = [
+        (i + 1, line)
+        for i, line in enumerate(text.splitlines())
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
+    if not rows:
+        raise InputError("empty file, expected a header row 'direction,radius_m'", path)
+    header_line, header_text = rows[0]
+    header = [h.strip() for h in next(csv.reader([header_text]))]
+    missing = [c for c in CIRCLE_COLUMNS if c not in header]
+    if missing:
+        raise InputError(
+            f"missing column(s) {', '.join(missing)}; the header must contain "
+            f"{','.join(CIRCLE_COLUMNS)}",
+            path,
+            header_line,
+        )
+    col = {c: header.index(c) for c in CIRCLE_COLUMNS}
+    dirs: list[str] = []
+    radii: list[float] = []
+    for line_no, line in rows[1:]:
+        fields = next(csv.reader(io.StringIO(line)))
+        if len(fields) != len(header):
+            raise InputError(
+                f"expected {len(header)} fields as in the header, got {len(fields)}", path, line_no
+            )
+        d = fields[col["direction"]].strip().lower()
+        if d not in ("cw", "ccw"):
+            raise InputError(
+                f"unknown direction {fields[col['direction']].strip()!r}; expected cw or ccw",
+                path,
+                line_no,
+                "direction",
+            )
+        raw = fields[col["radius_m"]].strip()
+        try:
+            v = float(raw)
+        except ValueError:
+            raise InputError(f"not a number: {raw!r}", path, line_no, "radius_m") from None
+        if not math.isfinite(v) or v <= 0:
+            raise InputError(f"must be a finite number > 0, got {raw!r}", path, line_no, "radius_m")
+        dirs.append(d)
+        radii.append(v)
+    if not radii:
+        raise InputError("no runs: the file has a header but no data rows", path)
+    return CircleRuns(tuple(dirs), np.array(radii))
 
 
 def runs_csv_text(runs: EndPoseRuns, extra: dict[str, list] | None = None) -> str:

@@ -1,0 +1,674 @@
+"""A fair comparison of calibration methods: same robot, same budget, same validation track.
+
+Every method is an entry of a registry (:data:`METHODS`): its name, what it drives (a plan of run
+groups sized from a common :class:`Budget`), a function from the simulated runs to calibrated
+geometries (vectorised over Monte-Carlo trials), and optionally a function that calibrates from
+real recorded data sets. To add a method, append one :class:`MethodEntry`.
+
+The budget (documented in docs/methods.md): every method gets the same number of runs (default
+10) and the same total driven distance, counted as mean WHEEL travel (so spot turns count:
+a spin of psi costs |psi| b / 2). The default total is what UMBmark's 5 CW + 5 CCW runs on the 4 m
+square cost the robot. Track sizes follow from it:
+
+- square (heading, UMBmark): 5 CW + 5 CCW squares of side L = 4 m;
+- BCPT: 5 CW + 5 CCW single-turn circles of radius R = per-run travel / (2 pi);
+- Ivanjko: 4 straight runs + 3 CW + 3 CCW 180-degree spins; the straights take what the spins
+  leave (long: a corridor, not a lab floor; the footprint is reported).
+
+Validation: with each trial's calibrated parameters, the robot drives the validation track (the
+4 m square CCW by default) once, with noise; we report its final position error, and the same
+run without noise (the systematic residual the calibration left).
+"""
+
+from __future__ import annotations
+
+import math
+import zlib
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+
+from ..core.model import NonSystematicError, Robot, WheelGeometry
+from ..core.odometry import dead_reckon, evaluate
+from ..core.simulate import compose, drive, measure, odometric_pose, simulate
+from ..core.tracks import Track, circle, polygon, spot_turn, straight_line
+from .bcpt import bcpt_factors, calibrate_bcpt_recordings
+from .circle_fit import fit_circle
+from .heading import calibrate_heading, heading_factors
+from .ivanjko import calibrate_ivanjko_recordings, ivanjko_from_end_poses
+from .result import CalibrationError, CalibrationResult, EndPoseRuns, circular_mean
+from .umbmark import calibrate_umbmark, umbmark_factors
+
+__all__ = [
+    "Budget",
+    "RunGroup",
+    "GroupData",
+    "GeometryBatch",
+    "MethodEntry",
+    "METHODS",
+    "MethodStats",
+    "SimulatedComparison",
+    "compare_simulated",
+    "RealMethodResult",
+    "RealComparison",
+    "compare_real",
+    "square_end_pose_runs",
+]
+
+
+# --- the budget and the plan of runs ---------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Budget:
+    """Runs and total mean wheel travel (m) every method may spend.
+
+    ``travel_m=None`` means: what 5 CW + 5 CCW runs on the 4 m square cost this robot
+    (runs x (16 m + pi b_n)), scaled to ``runs``. ``straight_m`` caps the length of Ivanjko's
+    straight runs (m), e.g. to the floor space a square needs; that method then spends less
+    than the budget (its reported ``travel_m`` says how much).
+    """
+
+    runs: int = 10
+    travel_m: float | None = None
+    straight_m: float | None = None
+
+    def total_travel_m(self, robot: Robot) -> float:
+        if self.travel_m is not None:
+            return float(self.travel_m)
+        b = float(np.mean(robot.believed_geometry.wheelbase_m))
+        return self.runs * (16.0 + math.pi * b)
+
+    def per_run_m(self, robot: Robot) -> float:
+        return self.total_travel_m(robot) / self.runs
+
+
+@dataclass(frozen=True)
+class RunGroup:
+    """``runs`` runs of one track, e.g. the CW squares. ``points``: the method needs tracked
+    positions along the run (not only the final pose)."""
+
+    label: str
+    track: Track
+    runs: int
+    points: bool = False
+    size: dict = field(default_factory=dict)
+
+
+class GroupData(NamedTuple):
+    """Simulated measurements of one run group over M trials.
+
+    final : ndarray, shape (M, runs, 3)
+        Measured true final pose (x_m, y_m, theta_rad; start frame, theta unwrapped), with the
+        instrument's measurement noise.
+    errors : ndarray, shape (M, runs, 3)
+        Measured final error, actual - odometric.
+    points : ndarray, shape (M, runs, K, 2) or None
+        Tracked positions (m) along each run (about 200 samples, the last one included), with
+        the instrument's position noise. Only for groups with ``points=True``.
+    trajectory : ndarray, shape (M, runs, K, 3) or None
+        Tracked poses (x_m, y_m, theta_rad) at the same samples (``points`` plus the heading, with
+        the instrument's heading noise).
+    wheel_angles_rad : ndarray, shape (K, 2) or None
+        Cumulative wheel rotations (right, left; rad) at the same samples: what the encoders
+        read (the commanded rotations, the same in every run). With ``trajectory`` this is a
+        recording, e.g. for a trajectory or linear least-squares fit.
+    """
+
+    group: RunGroup
+    final: np.ndarray
+    errors: np.ndarray
+    points: np.ndarray | None = None
+    trajectory: np.ndarray | None = None
+    wheel_angles_rad: np.ndarray | None = None
+
+
+class GeometryBatch(NamedTuple):
+    """Calibrated geometry per trial: arrays of shape (M,) in m; NaN marks a failed trial."""
+
+    diameter_right_m: np.ndarray
+    diameter_left_m: np.ndarray
+    wheelbase_m: np.ndarray
+
+
+Estimator = Callable[[dict, WheelGeometry], GeometryBatch]
+Planner = Callable[[Budget, Robot], tuple]
+
+
+@dataclass(frozen=True)
+class MethodEntry:
+    """One method in the comparison.
+
+    Attributes
+    ----------
+    name : str
+    drives : str
+        What the robot drives (for tables).
+    plan : callable
+        ``plan(budget, robot) -> tuple[RunGroup, ...]``.
+    estimate : callable
+        ``estimate(data: dict[label, GroupData], ran_with: WheelGeometry) -> GeometryBatch``.
+    real : callable or None
+        ``real(datasets: dict[kind, list[list[Recording]]]) -> list[(name, CalibrationResult)]``:
+        calibrations from real OptiOdom data sets (one per usable data set).
+    """
+
+    name: str
+    drives: str
+    plan: Planner
+    estimate: Estimator
+    real: Callable | None = None
+
+
+def _from_factors(ran_with: WheelGeometry, E_b, E_d) -> GeometryBatch:
+    c_r = 2.0 * E_d / (E_d + 1.0)
+    c_l = 2.0 / (E_d + 1.0)
+    return GeometryBatch(
+        np.asarray(ran_with.diameter_right_m * c_r, dtype=float),
+        np.asarray(ran_with.diameter_left_m * c_l, dtype=float),
+        np.asarray(ran_with.wheelbase_m * E_b, dtype=float),
+    )
+
+
+def _square_plan(budget: Budget, robot: Robot) -> tuple:
+    b = float(np.mean(robot.believed_geometry.wheelbase_m))
+    side = (budget.per_run_m(robot) - math.pi * b) / 4.0
+    n_cw = budget.runs // 2
+    size = {"side_m": side}
+    return (
+        RunGroup("cw", polygon(4, side, "cw"), n_cw, size=size),
+        RunGroup("ccw", polygon(4, side, "ccw"), budget.runs - n_cw, size=size),
+    )
+
+
+def _circle_plan(budget: Budget, robot: Robot) -> tuple:
+    radius = budget.per_run_m(robot) / (2.0 * math.pi)
+    n_cw = budget.runs // 2
+    size = {"radius_m": radius}
+    return (
+        RunGroup("cw", circle(radius, "cw"), n_cw, points=True, size=size),
+        RunGroup("ccw", circle(radius, "ccw"), budget.runs - n_cw, points=True, size=size),
+    )
+
+
+def _ivanjko_plan(budget: Budget, robot: Robot) -> tuple:
+    b = float(np.mean(robot.believed_geometry.wheelbase_m))
+    n_spin = budget.runs // 3
+    n_straight = budget.runs - 2 * n_spin
+    if n_spin < 1 or n_straight < 1:
+        raise CalibrationError("ivanjko needs at least 3 runs (straight, CW spin, CCW spin)")
+    spin_travel = math.pi * b / 2.0
+    length = (budget.total_travel_m(robot) - 2 * n_spin * spin_travel) / n_straight
+    if length <= 0:
+        raise CalibrationError("the budget does not leave any travel for the straight runs")
+    if budget.straight_m is not None:
+        length = min(length, float(budget.straight_m))
+    size = {"straight_m": length, "spin_deg": 180.0}
+    return (
+        RunGroup("straight", straight_line(length), n_straight, size=size),
+        RunGroup("spin-cw", Track("spin cw", (spot_turn(-math.pi),)), n_spin, size=size),
+        RunGroup("spin-ccw", Track("spin ccw", (spot_turn(math.pi),)), n_spin, size=size),
+    )
+
+
+def _mean_theta(g: GroupData) -> np.ndarray:
+    return circular_mean(g.errors[..., 2], axis=1)
+
+
+def _heading_estimate(data: dict, ran_with: WheelGeometry) -> GeometryBatch:
+    side = data["cw"].group.size["side_m"]
+    E_b, E_d = heading_factors(
+        _mean_theta(data["cw"]), _mean_theta(data["ccw"]), 4, side, ran_with.wheelbase_m
+    )
+    return _from_factors(ran_with, E_b, E_d)
+
+
+def _umbmark_estimate(form: str) -> Estimator:
+    def estimate(data: dict, ran_with: WheelGeometry) -> GeometryBatch:
+        side = data["cw"].group.size["side_m"]
+        cw = data["cw"].errors[..., :2].mean(axis=1)
+        ccw = data["ccw"].errors[..., :2].mean(axis=1)
+        E_b, E_d = umbmark_factors(cw, ccw, side, ran_with.wheelbase_m, form)
+        return _from_factors(ran_with, E_b, E_d)
+
+    return estimate
+
+
+def _bcpt_estimate(data: dict, ran_with: WheelGeometry) -> GeometryBatch:
+    radius = data["cw"].group.size["radius_m"]
+    r = {d: fit_circle(data[d].points).radius_m.mean(axis=1) for d in ("cw", "ccw")}
+    E_b, E_d = bcpt_factors(r["cw"], r["ccw"], radius, ran_with.wheelbase_m)
+    return _from_factors(ran_with, E_b, E_d)
+
+
+def _ivanjko_estimate(data: dict, ran_with: WheelGeometry) -> GeometryBatch:
+    s = data["straight"]
+    fit = ivanjko_from_end_poses(
+        s.final,
+        s.group.size["straight_m"],
+        data["spin-cw"].final,
+        data["spin-ccw"].final,
+        math.pi,
+        ran_with,
+    )
+    g = fit.geometry
+    return GeometryBatch(g.diameter_right_m, g.diameter_left_m, g.wheelbase_m)
+
+
+# --- real data (OptiOdom folders) ------------------------------------------------------------
+
+
+def square_end_pose_runs(recordings) -> EndPoseRuns:
+    """Final pose errors (ground truth - dead reckoning with the parameters each run ran with)
+    of labelled ('cw'/'ccw') recorded square runs."""
+    labels, errors = [], []
+    for r in recordings:
+        if r.label not in ("cw", "ccw") or r.ground_truth is None:
+            continue
+        odo = dead_reckon(r.wheel_angle_right_rad, r.wheel_angle_left_rad, r.ran_with)
+        errors.append(np.asarray(r.ground_truth[-1], float) - odo[-1])
+        labels.append(r.label)
+    if not errors:
+        raise CalibrationError("no labelled CW/CCW runs with ground truth")
+    return EndPoseRuns(tuple(labels), np.array(errors))
+
+
+def _dataset_name(recs) -> str:
+    return recs[0].meta.get("dataset", recs[0].name)
+
+
+def _real_squares(fn: Callable) -> Callable:
+    def real(datasets: dict) -> list:
+        out = []
+        for recs in datasets.get("square", []):
+            side = recs[0].meta.get("side_m")
+            if not side:
+                continue
+            out.append(
+                (_dataset_name(recs), fn(square_end_pose_runs(recs), side, recs[0].ran_with))
+            )
+        return out
+
+    return real
+
+
+def _real_heading(runs, side, ran_with):
+    return calibrate_heading(runs, 4, side, ran_with)
+
+
+def _real_umbmark(form: str) -> Callable:
+    return lambda runs, side, ran_with: calibrate_umbmark(runs, side, ran_with, form)
+
+
+def _real_bcpt(datasets: dict) -> list:
+    # Only the calibration circle data set (see REALDATA_SPLIT); OptiOdom's circular runs are four
+    # 180-degree arcs of decreasing radius, so every arc is fitted on its own.
+    out = []
+    for recs in datasets.get("circular-calibration", []):
+        out.append((_dataset_name(recs), calibrate_bcpt_recordings(recs, arc_rad=math.pi)))
+    return out
+
+
+def _real_ivanjko(datasets: dict) -> list:
+    return [
+        (_dataset_name(r), calibrate_ivanjko_recordings(r)) for r in datasets.get("ivanjko", [])
+    ]
+
+
+METHODS: list[MethodEntry] = [
+    MethodEntry(
+        "heading",
+        "square CW+CCW (final heading)",
+        _square_plan,
+        _heading_estimate,
+        _real_squares(_real_heading),
+    ),
+    *[
+        MethodEntry(
+            f"umbmark-{form}",
+            f"square CW+CCW (final {'x and y' if form == 'mean' else form})",
+            _square_plan,
+            _umbmark_estimate(form),
+            _real_squares(_real_umbmark(form)),
+        )
+        for form in ("x", "y", "mean")
+    ],
+    MethodEntry(
+        "bcpt",
+        "circles CW+CCW (tracked radius)",
+        _circle_plan,
+        _bcpt_estimate,
+        _real_bcpt,
+    ),
+    MethodEntry(
+        "ivanjko",
+        "straight runs + 180 deg spins CW/CCW",
+        _ivanjko_plan,
+        _ivanjko_estimate,
+        _real_ivanjko,
+    ),
+]
+
+
+# --- simulated comparison --------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class MethodStats:
+    """One method's numbers over the trials (errors relative to the TRUE geometry).
+
+    E_b_error = b_cal / b_true - 1; E_d_error = (D_R/D_L)_cal / (D_R/D_L)_true - 1;
+    E_s_error = mean D_cal / mean D_true - 1 (dimensionless). final_error_m: validation final
+    position error (m) per trial; systematic_error_m: the same run without noise.
+    """
+
+    name: str
+    drives: str
+    sizes: dict
+    runs: int
+    travel_m: float
+    footprint_m: float
+    failed: int
+    E_b_error: np.ndarray
+    E_d_error: np.ndarray
+    E_s_error: np.ndarray
+    final_error_m: np.ndarray
+    systematic_error_m: np.ndarray
+
+    def summary(self) -> dict:
+        def ms(v):
+            v = v[np.isfinite(v)]
+            if len(v) == 0:
+                return {"bias": None, "std": None}
+            return {"bias": float(v.mean()), "std": float(v.std(ddof=1)) if len(v) > 1 else None}
+
+        def dist(v):
+            v = v[np.isfinite(v)]
+            if len(v) == 0:
+                return {"mean": None, "std": None, "p95": None}
+            return {
+                "mean": float(v.mean()),
+                "std": float(v.std(ddof=1)) if len(v) > 1 else None,
+                "p95": float(np.quantile(v, 0.95)),
+            }
+
+        return {
+            "name": self.name,
+            "drives": self.drives,
+            "sizes": {k: float(v) for k, v in self.sizes.items()},
+            "runs": self.runs,
+            "travel_m": self.travel_m,
+            "footprint_m": self.footprint_m,
+            "failed_trials": self.failed,
+            "E_b_error": ms(self.E_b_error),
+            "E_d_error": ms(self.E_d_error),
+            "E_s_error": ms(self.E_s_error),
+            "final_error_m": dist(self.final_error_m),
+            "systematic_final_error_m": dist(self.systematic_error_m),
+        }
+
+
+@dataclass(frozen=True)
+class SimulatedComparison:
+    robot: Robot
+    trials: int
+    seed: int
+    budget_runs: int
+    budget_travel_m: float
+    validation: str
+    nominal_final_error_m: np.ndarray
+    nominal_systematic_error_m: float
+    methods: tuple[MethodStats, ...]
+
+
+def _method_rng(seed: int, name: str) -> np.random.Generator:
+    # One stream per (seed, method name): adding a method to the registry changes no other's draws.
+    return np.random.default_rng([seed, zlib.crc32(name.encode())])
+
+
+def _track_travel(track: Track, wheelbase_m: float) -> float:
+    """Mean wheel travel (m) of a track: sum of (|d + psi b/2| + |d - psi b/2|) / 2."""
+    total = 0.0
+    for s in track.segments:
+        half = 0.5 * abs(s.angle_rad) * wheelbase_m
+        d = abs(s.distance_m)
+        total += 0.5 * (abs(d + half) + abs(d - half))
+    return float(total)
+
+
+def _footprint(track: Track) -> float:
+    """Largest extent (m) of the commanded path: max distance of any point from the start."""
+    pose = np.zeros(3)
+    far = 0.0
+    for s in track.segments:
+        for f in np.linspace(0.0, 1.0, 33)[1:]:
+            p = _compose_partial(pose, s, f)
+            far = max(far, float(np.hypot(p[0], p[1])))
+        pose = _compose_partial(pose, s, 1.0)
+    return far
+
+
+def _compose_partial(pose, seg, f):
+    return compose(pose, seg.distance_m * f, seg.angle_rad * f)
+
+
+def _commanded_steps(track: Track, believed: WheelGeometry, max_step_m: float):
+    """Increments per segment (one count for all segments) and the cumulative commanded wheel
+    rotations after every increment, shape (K + 1, 2)."""
+    b_hat = float(np.mean(believed.wheelbase_m))
+    travel = [seg.wheel_travel(b_hat) for seg in track.segments]
+    longest = max(max(abs(float(r)), abs(float(lft))) for r, lft in travel)
+    n = max(1, math.ceil(longest / max_step_m - 1e-9))
+    d_r = float(np.mean(believed.diameter_right_m))
+    d_l = float(np.mean(believed.diameter_left_m))
+    inc = np.concatenate(
+        [
+            np.repeat([[2.0 * float(r) / d_r / n, 2.0 * float(lft) / d_l / n]], n, axis=0)
+            for r, lft in travel
+        ]
+    )
+    return n, np.vstack([np.zeros((1, 2)), np.cumsum(inc, axis=0)])
+
+
+def _simulate_group(group: RunGroup, robot: Robot, trials: int, rng, max_step_m: float):
+    n = trials * group.runs
+    if not group.points:
+        res = simulate(group.track, robot, n, rng, max_step_m=max_step_m)
+        errors = measure(res.errors, robot, rng).reshape(trials, group.runs, 3)
+        return GroupData(group, errors + np.asarray(odometric_pose(group.track)), errors)
+    # Fixed increments per segment, so that the encoder readings are known at every sample.
+    steps, angles = _commanded_steps(group.track, robot.believed_geometry, max_step_m)
+    res = simulate(group.track, robot, n, rng, steps_per_segment=steps, trajectory=True)
+    errors = measure(res.errors, robot, rng).reshape(trials, group.runs, 3)
+    final = errors + np.asarray(odometric_pose(group.track))
+    k = res.trajectory.shape[1]
+    idx = np.unique(np.r_[np.arange(0, k, max(1, k // 200)), k - 1])  # ~200 tracker samples
+    traj = res.trajectory[:, idx, :].copy()
+    m = robot.measurement
+    if m.sigma_xy_m > 0:
+        traj[..., :2] += m.sigma_xy_m * rng.standard_normal(traj[..., :2].shape)
+    if m.sigma_theta_rad > 0:
+        traj[..., 2] += m.sigma_theta_rad * rng.standard_normal(traj[..., 2].shape)
+    traj = traj.reshape(trials, group.runs, len(idx), 3)
+    return GroupData(group, final, errors, traj[..., :2], traj, angles[idx])
+
+
+def _validate(robot: Robot, geometry: WheelGeometry, track: Track, rng, max_step_m: float):
+    m = np.size(geometry.wheelbase_m)
+    noisy = simulate(track, robot.with_believed(geometry), m, rng, max_step_m=max_step_m)
+    clean = drive(
+        track, robot.true_geometry, geometry, NonSystematicError(), m, None, max_step_m=max_step_m
+    )
+    return np.hypot(*noisy.errors[:, :2].T), np.hypot(*clean.errors[:, :2].T)
+
+
+def compare_simulated(
+    robot: Robot,
+    trials: int = 200,
+    seed: int = 0,
+    budget: Budget | None = None,
+    validation: Track | None = None,
+    methods: list[MethodEntry] | None = None,
+    max_step_m: float = 0.01,
+) -> SimulatedComparison:
+    """Run every method in ``methods`` (default :data:`METHODS`) on ``robot`` over ``trials``
+    Monte-Carlo trials (vectorised) and validate each trial's calibration on ``validation``
+    (default: the 4 m square CCW). Seeded: the same arguments give the same numbers."""
+    if trials < 2:
+        raise CalibrationError(f"trials must be >= 2, got {trials}")
+    budget = budget or Budget()
+    validation = validation or polygon(4, 4.0, "ccw")
+    methods = METHODS if methods is None else methods
+    ran_with = robot.believed_geometry
+    true = robot.true_geometry
+    b_hat = float(np.mean(ran_with.wheelbase_m))
+    stats = []
+    for entry in methods:
+        rng = _method_rng(seed, entry.name)
+        groups = entry.plan(budget, robot)
+        data = {g.label: _simulate_group(g, robot, trials, rng, max_step_m) for g in groups}
+        est = entry.estimate(data, ran_with)
+        d_r, d_l, b = (np.broadcast_to(np.asarray(v, float), (trials,)) for v in est)
+        ok = np.isfinite(d_r) & np.isfinite(d_l) & np.isfinite(b) & (d_r > 0) & (d_l > 0) & (b > 0)
+        fin = np.full(trials, np.nan)
+        sysf = np.full(trials, np.nan)
+        if ok.any():
+            geom = WheelGeometry(d_r[ok], d_l[ok], b[ok])
+            fin[ok], sysf[ok] = _validate(robot, geom, validation, rng, max_step_m)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            e_b = np.where(ok, b / true.wheelbase_m - 1.0, np.nan)
+            e_d = np.where(ok, (d_r / d_l) / true.diameter_ratio - 1.0, np.nan)
+            e_s = np.where(ok, 0.5 * (d_r + d_l) / true.mean_diameter_m - 1.0, np.nan)
+        sizes = {}
+        for g in groups:
+            sizes.update(g.size)
+        stats.append(
+            MethodStats(
+                entry.name,
+                entry.drives,
+                sizes,
+                sum(g.runs for g in groups),
+                sum(g.runs * _track_travel(g.track, b_hat) for g in groups),
+                max(_footprint(g.track) for g in groups),
+                int((~ok).sum()),
+                e_b,
+                e_d,
+                e_s,
+                fin,
+                sysf,
+            )
+        )
+    rng = _method_rng(seed, "nominal")
+    nominal = WheelGeometry(
+        *(
+            np.full(trials, float(np.mean(v)))
+            for v in (ran_with.diameter_right_m, ran_with.diameter_left_m, ran_with.wheelbase_m)
+        )
+    )
+    nom, nom_sys = _validate(robot, nominal, validation, rng, max_step_m)
+    return SimulatedComparison(
+        robot,
+        trials,
+        seed,
+        budget.runs,
+        budget.total_travel_m(robot),
+        validation.name,
+        nom,
+        float(nom_sys[0]),
+        tuple(stats),
+    )
+
+
+# --- real data comparison --------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class RealMethodResult:
+    """Held-out validation of one method's calibrations from real data sets.
+
+    per_dataset : list of dict
+        ``dataset``, the calibrated geometry, ``heldout_mean_final_error_m`` (m).
+    """
+
+    name: str
+    per_dataset: list
+
+    def summary(self) -> dict:
+        errs = [d["heldout_mean_final_error_m"] for d in self.per_dataset]
+        return {
+            "name": self.name,
+            "calibrations": len(errs),
+            "heldout_mean_final_error_m": {
+                "mean": float(np.mean(errs)) if errs else None,
+                "min": float(np.min(errs)) if errs else None,
+                "max": float(np.max(errs)) if errs else None,
+            },
+            "per_dataset": self.per_dataset,
+        }
+
+
+@dataclass(frozen=True)
+class RealComparison:
+    heldout: list  # names of the held-out runs
+    nominal_mean_final_error_m: float
+    published: dict | None  # published OptiOdom ALL_DATASETS_COMBINED geometry and its error
+    methods: tuple[RealMethodResult, ...]
+    failures: list
+
+
+def heldout_error(geometry: WheelGeometry, heldout) -> float:
+    """Mean final position error (m) of dead reckoning the held-out recordings with ``geometry``."""
+    return float(np.mean([evaluate(r, geometry)["final_error_m"] for r in heldout]))
+
+
+def compare_real(
+    datasets: dict,
+    heldout,
+    methods: list[MethodEntry] | None = None,
+    published: WheelGeometry | None = None,
+) -> RealComparison:
+    """Calibrate with every method from real data sets and validate on held-out recordings.
+
+    Parameters
+    ----------
+    datasets : dict
+        kind -> list of data sets (each a list of Recording): 'square', 'ivanjko',
+        'circular-calibration' (circle runs for BCPT). Held-out runs must not be among them.
+    heldout : list of Recording
+        Validation runs (with ground truth), e.g. OptiOdom free/ plus the other circle set.
+    published : WheelGeometry, optional
+        A reference geometry to validate the same way (e.g. the published OptiOdom result).
+    """
+    methods = METHODS if methods is None else methods
+    heldout = list(heldout)
+    nominal = float(np.mean([evaluate(r, r.ran_with)["final_error_m"] for r in heldout]))
+    out, failures = [], []
+    for entry in methods:
+        if entry.real is None:
+            continue
+        try:
+            results = entry.real(datasets)
+        except CalibrationError as exc:
+            failures.append({"method": entry.name, "error": str(exc)})
+            continue
+        rows = []
+        for name, res in results:
+            res: CalibrationResult
+            g = res.corrected
+            rows.append(
+                {
+                    "dataset": name,
+                    **g.as_dict(),
+                    "heldout_mean_final_error_m": heldout_error(g, heldout),
+                }
+            )
+        out.append(RealMethodResult(entry.name, rows))
+    pub = None
+    if published is not None:
+        pub = {
+            **published.as_dict(),
+            "heldout_mean_final_error_m": heldout_error(published, heldout),
+        }
+    return RealComparison([r.name for r in heldout], nominal, pub, tuple(out), failures)
