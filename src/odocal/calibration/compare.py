@@ -33,7 +33,7 @@ import numpy as np
 from ..core.model import NonSystematicError, Robot, WheelGeometry
 from ..core.odometry import dead_reckon, evaluate
 from ..core.simulate import compose, drive, measure, odometric_pose, simulate
-from ..core.tracks import Track, circle, polygon, spot_turn, straight_line
+from ..core.tracks import Track, arc, circle, polygon, spot_turn, straight_line
 from .bcpt import bcpt_factors, calibrate_bcpt_recordings
 from .circle_fit import fit_circle
 from .heading import calibrate_heading, heading_factors
@@ -257,6 +257,81 @@ def _ivanjko_estimate(data: dict, ran_with: WheelGeometry) -> GeometryBatch:
     return GeometryBatch(g.diameter_right_m, g.diameter_left_m, g.wheelbase_m)
 
 
+def _tracked_square_plan(budget: Budget, robot: Robot) -> tuple:
+    return tuple(
+        RunGroup(g.label, g.track, g.runs, points=True, size=g.size)
+        for g in _square_plan(budget, robot)
+    )
+
+
+def _open_arc_plan(budget: Budget, robot: Robot) -> tuple:
+    """Open arcs of radius 1 m CW and CCW (about 2.7 turns for the default budget), tracked.
+
+    Linear least squares needs runs that translate while the wheels turn at different speeds and
+    that end away from their start: its position step separates the two wheels only through such
+    motion (Antonelli et al.'s conditioning of the test motion); on closed squares it is singular.
+    """
+    radius = 1.0
+    angle = budget.per_run_m(robot) / radius
+    n_cw = budget.runs // 2
+    size = {"radius_m": radius}
+    return tuple(
+        RunGroup(d, Track(f"open arc {d}", (arc(radius, sign * angle),)), n, True, size)
+        for d, sign, n in (("cw", -1, n_cw), ("ccw", 1, budget.runs - n_cw))
+    )
+
+
+def _trial_recordings(data: dict, trial: int) -> list:
+    """The tracked runs of one trial as Recordings (encoder angles + tracked ground truth)."""
+    from ..core.recording import Recording
+
+    recs = []
+    for label, g in data.items():
+        angles = g.wheel_angles_rad
+        t = np.arange(len(angles), dtype=float)
+        for run in range(g.trajectory.shape[1]):
+            recs.append(
+                Recording(
+                    f"{label}-{run}",
+                    t,
+                    angles[:, 0],
+                    angles[:, 1],
+                    ground_truth=g.trajectory[trial, run],
+                    label=label,
+                )
+            )
+    return recs
+
+
+def _fit_estimate(fit) -> Estimator:
+    """Per-trial estimator from a recording fit ``fit(recordings, nominal) -> GeometryFit``."""
+
+    def estimate(data: dict, ran_with: WheelGeometry) -> GeometryBatch:
+        trials = next(iter(data.values())).trajectory.shape[0]
+        out = np.full((3, trials), np.nan)
+        for m in range(trials):
+            try:
+                g = fit(_trial_recordings(data, m), ran_with).geometry
+            except CalibrationError:
+                continue
+            out[:, m] = g.diameter_right_m, g.diameter_left_m, g.wheelbase_m
+        return GeometryBatch(*out)
+
+    return estimate
+
+
+def _linear_fit(recs, nominal):
+    from .linear import fit_linear
+
+    return fit_linear(recs, nominal)
+
+
+def _trajectory_fit(recs, nominal):
+    from .trajectory import fit_trajectory
+
+    return fit_trajectory(recs, nominal=nominal)
+
+
 # --- real data (OptiOdom folders) ------------------------------------------------------------
 
 
@@ -317,6 +392,22 @@ def _real_ivanjko(datasets: dict) -> list:
     ]
 
 
+def _real_fit(fit) -> Callable:
+    """Per square data set: a recording fit of its tracked runs (scale included)."""
+
+    def real(datasets: dict) -> list:
+        out = []
+        for recs in datasets.get("square", []):
+            ran = recs[0].ran_with
+            g = fit(recs, ran).geometry
+            E_b = g.wheelbase_m / ran.wheelbase_m
+            E_d = g.diameter_ratio / ran.diameter_ratio
+            out.append((_dataset_name(recs), CalibrationResult("fit", E_b, E_d, ran, g)))
+        return out
+
+    return real
+
+
 METHODS: list[MethodEntry] = [
     MethodEntry(
         "heading",
@@ -348,6 +439,20 @@ METHODS: list[MethodEntry] = [
         _ivanjko_plan,
         _ivanjko_estimate,
         _real_ivanjko,
+    ),
+    MethodEntry(
+        "linear",
+        "open arcs r=1 m CW+CCW (tracked, Antonelli least squares)",
+        _open_arc_plan,
+        _fit_estimate(_linear_fit),
+        _real_fit(_linear_fit),
+    ),
+    MethodEntry(
+        "trajectory",
+        "square CW+CCW (tracked poses, trajectory fit)",
+        _tracked_square_plan,
+        _fit_estimate(_trajectory_fit),
+        _real_fit(_trajectory_fit),
     ),
 ]
 
