@@ -17,7 +17,16 @@ from odocal.calibration.compare import (
 from odocal.core.model import Robot, SystematicError
 from odocal.presets import PRESETS, TETRA_DS2
 
-NAMES = ["heading", "umbmark-x", "umbmark-y", "umbmark-mean", "bcpt", "ivanjko"]
+NAMES = [
+    "heading",
+    "umbmark-x",
+    "umbmark-y",
+    "umbmark-mean",
+    "bcpt",
+    "ivanjko",
+    "linear",
+    "trajectory",
+]
 
 
 @pytest.fixture(scope="module")
@@ -49,10 +58,19 @@ def test_noise_free_exactness_and_known_approximations(noise_free):
     by = {m.name: m for m in noise_free.methods}
     # Exact methods: heading (exact under the model), Ivanjko (exact predictor), BCPT (exact
     # equations; the simulator's 1 cm midpoint steps bend a 2.7 m circle's radius by ~1e-6).
-    for name, tol in (("heading", 1e-12), ("ivanjko", 1e-9), ("bcpt", 2e-6)):
+    # Trajectory fits tracked poses sampled ~200 times per run (exact dead reckoning of the
+    # samples); linear uses the same samples in its sums, whose discretisation on the 1 m arcs
+    # costs ~3e-4.
+    for name, tol in (
+        ("heading", 1e-12),
+        ("ivanjko", 1e-9),
+        ("bcpt", 2e-6),
+        ("trajectory", 1e-6),
+        ("linear", 5e-4),
+    ):
         assert np.all(np.abs(by[name].E_b_error) < tol), name
         assert np.all(np.abs(by[name].E_d_error) < tol), name
-        assert np.all(by[name].systematic_error_m < 1e-4), name
+        assert np.all(by[name].systematic_error_m < 1e-4 if tol < 1e-5 else 2e-2), name
     # UMBmark: small-angle errors of opposite sign in the x- and y-forms; the mean is better.
     ex, ey, em = (by[f"umbmark-{f}"].E_b_error[0] for f in ("x", "y", "mean"))
     assert ex < -1e-3 and ey > 1e-3 and abs(em) < min(abs(ex), abs(ey))
@@ -182,7 +200,12 @@ def test_real_optiodom_golden(realdata):
     assert summary["heading"] == pytest.approx(0.0185, abs=5e-4)
     assert summary["bcpt"] == pytest.approx(0.0166, abs=5e-4)
     assert summary["ivanjko"] == pytest.approx(0.0326, abs=5e-4)
-    # Every method improves on nominal parameters; none beats the published all-data fit.
+    assert summary["trajectory"] == pytest.approx(0.0183, abs=5e-4)
+    # Every method but linear improves on nominal parameters; none beats the published all-data
+    # fit. Linear least squares uses each run's net displacement and rotation, which closed
+    # squares, straight lines and spins condition badly: it ends worse than nominal here.
+    linear = summary.pop("linear")
+    assert linear > real.nominal_mean_final_error_m
     for v in summary.values():
         assert real.published["heldout_mean_final_error_m"] < v < real.nominal_mean_final_error_m
 

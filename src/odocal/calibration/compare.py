@@ -392,12 +392,16 @@ def _real_ivanjko(datasets: dict) -> list:
     ]
 
 
-def _real_fit(fit) -> Callable:
-    """Per square data set: a recording fit of its tracked runs (scale included)."""
+def _real_fit(fit, kinds: tuple[str, ...], pooled: bool = False) -> Callable:
+    """A recording fit of tracked runs (scale included): one per data set of ``kinds``, or one
+    over all of them pooled (each run dead-reckoned with the fitted geometry)."""
 
     def real(datasets: dict) -> list:
+        sets = [recs for k in kinds for recs in datasets.get(k, [])]
+        if pooled and sets:
+            sets = [[r for recs in sets for r in recs]]
         out = []
-        for recs in datasets.get("square", []):
+        for recs in sets:
             ran = recs[0].ran_with
             g = fit(recs, ran).geometry
             E_b = g.wheelbase_m / ran.wheelbase_m
@@ -445,14 +449,14 @@ METHODS: list[MethodEntry] = [
         "open arcs r=1 m CW+CCW (tracked, Antonelli least squares)",
         _open_arc_plan,
         _fit_estimate(_linear_fit),
-        _real_fit(_linear_fit),
+        _real_fit(_linear_fit, ("square", "ivanjko"), pooled=True),
     ),
     MethodEntry(
         "trajectory",
         "square CW+CCW (tracked poses, trajectory fit)",
         _tracked_square_plan,
         _fit_estimate(_trajectory_fit),
-        _real_fit(_trajectory_fit),
+        _real_fit(_trajectory_fit, ("square",)),
     ),
 ]
 
