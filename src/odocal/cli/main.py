@@ -10,9 +10,9 @@ import sys
 
 from .. import __version__
 from ..errors import OdocalError
-from . import calibrate, simulate
+from . import calibrate, design, reproduce, simulate, ttest
 
-COMMANDS = [simulate, calibrate]
+COMMANDS = [simulate, calibrate, design, ttest, reproduce]
 
 
 class _Parser(argparse.ArgumentParser):
