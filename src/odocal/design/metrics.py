@@ -24,6 +24,8 @@ the Fig. 3/4 conditions.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..core.model import Robot
@@ -33,6 +35,8 @@ __all__ = [
     "leg_heading_systematic_rad",
     "leg_heading_noise_rad",
     "systematic_share",
+    "LegHeadingCurve",
+    "leg_heading_curve",
 ]
 
 
@@ -74,3 +78,39 @@ def systematic_share(beta_rad, sigma_theta_rad, runs_per_direction: int):
     noise2 = np.square(np.asarray(sigma_theta_rad, dtype=float)) / runs_per_direction
     with np.errstate(invalid="ignore", divide="ignore"):
         return beta2 / (beta2 + noise2)
+
+
+@dataclass(frozen=True)
+class LegHeadingCurve:
+    """Figs. 3 and 4 for one robot: leg heading errors and the systematic share against L.
+
+    Attributes
+    ----------
+    side_m : ndarray, shape (k,)
+        Leg lengths (m).
+    beta_rad, sigma_rad : ndarray, shape (k,)
+        |beta(L)| and sigma_theta(L) (rad).
+    share : ndarray, shape (k,)
+        Systematic share (0..1) with ``runs_per_direction`` runs.
+    runs_per_direction : int
+    """
+
+    side_m: np.ndarray
+    beta_rad: np.ndarray
+    sigma_rad: np.ndarray
+    share: np.ndarray
+    runs_per_direction: int
+
+    def share_at(self, side_m: float) -> float:
+        """The systematic share at one leg length (linear interpolation)."""
+        return float(np.interp(side_m, self.side_m, self.share))
+
+
+def leg_heading_curve(robot: Robot, side_lengths_m, runs_per_direction: int = 5) -> LegHeadingCurve:
+    """Evaluate the closed forms of this module on ``side_lengths_m`` (m)."""
+    L = np.asarray(side_lengths_m, dtype=float)
+    beta = np.abs(leg_heading_systematic_rad(robot, L))
+    sigma = leg_heading_noise_rad(robot, L)
+    return LegHeadingCurve(
+        L, beta, sigma, systematic_share(beta, sigma, runs_per_direction), runs_per_direction
+    )
