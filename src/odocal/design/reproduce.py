@@ -28,6 +28,7 @@ from .metrics import LegHeadingCurve, leg_heading_curve
 from .recommend import recommend
 from .result import ValidationTrack
 from .sweep import (
+    FAST,
     DesignResult,
     Progress,
     SimulationSettings,
@@ -193,7 +194,7 @@ def predict_experiment(
     trials: int,
     runs_per_direction: int = 5,
     validation_runs: int = 5,
-    settings: SimulationSettings = SimulationSettings(),
+    settings: SimulationSettings = FAST,
 ) -> ExperimentPrediction:
     """Simulate the paper's experiment ``trials`` times (module docstring)."""
     sides_m = np.array(EXPERIMENT_SIDES_M)
@@ -247,7 +248,7 @@ def predict_experiment(
 def reproduce(
     trials: int = 800,
     seed: int = 0,
-    settings: SimulationSettings = SimulationSettings(),
+    settings: SimulationSettings = FAST,
     progress: Progress | None = None,
 ) -> Reproduction:
     """Regenerate the paper's simulations and predict its experiment (module docstring)."""

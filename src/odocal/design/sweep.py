@@ -45,6 +45,7 @@ from .result import Candidate, ErrorSummary, ValidationTrack, check_design_input
 __all__ = [
     "METHODS",
     "SimulationSettings",
+    "FAST",
     "DesignResult",
     "Progress",
     "calibrate_trials",
@@ -141,6 +142,10 @@ class DesignResult:
         return self.candidates[self.recommendation.index]
 
 
+#: The default (fast) settings.
+FAST = SimulationSettings()
+
+
 def _batch(values: np.ndarray, trials: int, runs: int) -> np.ndarray:
     """Repeat each value ``trials * runs`` times: shape (C,) -> (C * trials * runs,)."""
     return np.repeat(np.asarray(values, dtype=float), trials * runs)
@@ -154,7 +159,7 @@ def calibrate_trials(
     trials: int,
     method: str,
     rng: np.random.Generator,
-    settings: SimulationSettings = SimulationSettings(),
+    settings: SimulationSettings = FAST,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Simulate the test runs of every (side length, trial) and calibrate.
 
@@ -200,7 +205,7 @@ def validation_errors(
     validation: ValidationTrack,
     runs: int,
     rng: np.random.Generator,
-    settings: SimulationSettings = SimulationSettings(),
+    settings: SimulationSettings = FAST,
 ) -> np.ndarray:
     """Final position errors (m), shape (runs,), of ``runs`` drives of the validation track by
     the physical ``robot`` running with ``believed`` (scalar or batched of shape (runs,))."""
@@ -259,7 +264,7 @@ def simulate_candidates(
     method: str,
     validation: ValidationTrack,
     rng: np.random.Generator,
-    settings: SimulationSettings = SimulationSettings(),
+    settings: SimulationSettings = FAST,
 ) -> list[Candidate]:
     """Monte-Carlo candidates for one polygon shape and several side lengths (m)."""
     sides_m = np.asarray(side_lengths_m, dtype=float).ravel()
@@ -329,7 +334,7 @@ def run_design(
     validation: ValidationTrack | None = None,
     alpha: float = 0.05,
     tolerance: float = 0.05,
-    settings: SimulationSettings = SimulationSettings(),
+    settings: SimulationSettings = FAST,
     progress: Progress | None = None,
 ) -> DesignResult:
     """The design procedure (module docstring) with the paper's defaults.

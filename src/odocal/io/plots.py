@@ -341,7 +341,7 @@ def reproduce_figures(rep, out_dir) -> dict[str, Path]:
     files["fig9"] = _save(
         post_error_figure(
             [("square", f9.candidates, f9.recommended)],
-            f"Fig. 9: square test tracks, experimental robot\n{cond('paper-experiment')}, {t} trials",
+            f"Fig. 9: experimental robot\n{cond('paper-experiment')}, {t} trials",
             x="side",
             floor_m=f9.floor.mean_m,
             uncalibrated_m=f9.uncalibrated.mean_m,
