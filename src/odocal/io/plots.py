@@ -14,6 +14,8 @@ import numpy as np
 from ..errors import OdocalError
 
 __all__ = [
+    "require_matplotlib",
+    "output_folder",
     "leg_heading_figure",
     "share_figure",
     "post_error_figure",
@@ -34,6 +36,16 @@ def _new_figure(width: float = 7.0, height: float = 4.4):
     fig = Figure(figsize=(width, height), layout="constrained")
     FigureCanvasAgg(fig)
     return fig
+
+
+def require_matplotlib() -> None:
+    """Raise the one-line install hint unless matplotlib can be imported."""
+    _new_figure()
+
+
+def output_folder(path) -> Path:
+    """``path`` as a folder, created if needed (InputError if that is impossible)."""
+    return _out_dir(path)
 
 
 def _save(fig, path: Path) -> Path:
