@@ -141,6 +141,18 @@ def test_rule_neighbour_table_is_laid_out_like_the_papers_tables():
     assert rec.neighbours[0].test.t > 0
 
 
+def test_rule_on_the_residual_criterion():
+    cs = [cand(1, 0.30), cand(2, 0.30), cand(3, 0.30)]
+    for c, r in zip(cs, [0.05, 0.03, 0.03], strict=True):
+        c.residual_error_mean_m, c.residual_error_std_m = r, 0.01
+    assert recommend(cs).index == 0
+    rec = recommend(cs, criterion="residual")
+    assert rec.index == 1 and rec.criterion == "residual"
+    assert rec.neighbours[0].test.mean_difference == pytest.approx(0.02)
+    with pytest.raises(ModelError, match="criterion"):
+        recommend(cs, criterion="nope")
+
+
 def test_rule_skips_unusable_candidates_and_rejects_bad_parameters():
     cs = [cand(1, math.nan), cand(2, 0.3)]
     assert recommend(cs).index == 1
@@ -169,6 +181,8 @@ def test_sweep_same_seed_same_json_and_contract_keys():
     assert all(keys <= set(cd) for cd in a["candidates"])
     assert set(a["recommended"]) >= {"sides", "side_m"}
     assert a["floor_m"] < a["uncalibrated_m"]
+    assert a["criterion"] == "error"
+    assert a["recommended_by_other_criterion"]["criterion"] == "residual"
 
 
 def test_sweep_calibrates_without_bias_and_spreads_as_predicted():
@@ -260,7 +274,7 @@ def test_cli_design_defaults_print_a_recommendation(cli):
     assert status == 0, err
     assert "paper-fig5" in out and "4 m x 4 m square CCW" in out
     assert "Recommended: square, side" in out
-    assert "t-tests against the recommended" in out
+    assert "against the recommended" in out and "judged on the residual" in out
     assert out.count("square ") >= 20  # one row per candidate side 0.5 ... 10 m
     assert err == ""  # no progress bar when stderr is not a terminal
 

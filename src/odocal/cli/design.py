@@ -189,6 +189,13 @@ def add_parser(sub) -> None:
         default=0.05,
         help="a larger track must be better by more than this fraction (default 0.05)",
     )
+    p.add_argument(
+        "--criterion",
+        choices=("error", "residual"),
+        default="error",
+        help="what the rule compares: the error after calibration on the validation track "
+        "(default) or the residual, the same drive without wheel noise",
+    )
     p.add_argument("--seed", type=seed_int, default=0, metavar="S", help="random seed (default 0)")
     p.add_argument(
         "--reference-sim",
@@ -233,6 +240,7 @@ def run(args) -> int:
             validation=args.validate,
             alpha=args.alpha,
             tolerance=args.tolerance,
+            criterion=args.criterion,
             settings=settings,
             progress=bar,
         )
@@ -259,6 +267,7 @@ def _f(v, fmt: str) -> str:
 def print_design(result, robot: str, seed: int | None = None) -> None:
     """The human-readable design report."""
     from ..design.result import shape_name
+    from ..design.sweep import other_criterion
 
     cands = result.candidates
     rec = result.recommendation
@@ -326,24 +335,34 @@ def print_design(result, robot: str, seed: int | None = None) -> None:
     gain = result.uncalibrated.mean_m - r.post_error_mean_m
     print(
         f"Recommended: {shape_name(r.sides)}, side {r.side_m:g} m ({r.travel_m:g} m travel per "
-        f"run): error {r.post_error_mean_m:.4f} m after calibration "
+        f"run): error {r.post_error_mean_m:.4f} m after calibration, residual "
+        f"{_f(getattr(r, 'residual_error_mean_m', math.nan), '.4f')} m "
         f"(uncalibrated {result.uncalibrated.mean_m:.4f} m, gain {gain:.4f} m; floor "
         f"{result.floor.mean_m:.4f} m)"
     )
+    judged = "error after calibration" if rec.criterion == "error" else "residual error"
     print(
         f"Rule: the smallest track that no larger track beats by more than "
-        f"{100 * rec.tolerance:g} % (one-sided Welch t-test, alpha {rec.alpha:g})."
+        f"{100 * rec.tolerance:g} % in {judged} (one-sided Welch t-test, alpha {rec.alpha:g})."
     )
+    other = other_criterion(result)
+    if other is not None:
+        o = cands[other.index]
+        what = "residual alone" if other.criterion == "residual" else "error after calibration"
+        print(
+            f"  judged on the {what} (--criterion {other.criterion}): side {o.side_m:g} m "
+            f"({o.travel_m:g} m travel)"
+        )
     if len(rec.per_shape) > 1:
         for s, i in rec.per_shape.items():
             print(f"  best {shape_name(s)}: side {cands[i].side_m:g} m ({cands[i].travel_m:g} m)")
     if rec.neighbours:
         print()
         print(
-            f"t-tests against the recommended {r.side_m:g} m track (Welch, two-sided; "
-            "as the paper's Tables 2 and 3):"
+            f"t-tests of the {judged} against the recommended {r.side_m:g} m track (Welch, "
+            "two-sided; as the paper's Tables 2 and 3):"
         )
-        trows = [("track", "vs", "t", "df", "p", "mean difference_m", "beats by > tol")]
+        trows = [("track", "vs", "t", "df", "p", "mean difference_m", "better by > tol")]
         for comp in rec.neighbours:
             o = cands[comp.other]
             trows.append(

@@ -30,7 +30,11 @@ from dataclasses import dataclass
 from ..core.model import ModelError
 from ..core.stats import TTest, ttest_from_stats
 
-__all__ = ["Comparison", "Recommendation", "recommend", "compare"]
+__all__ = ["CRITERIA", "Comparison", "Recommendation", "recommend", "compare"]
+
+#: What the rule compares: the error after calibration on the validation track ('error', the
+#: paper's quantity) or the residual, the same drive without wheel noise ('residual').
+CRITERIA = ("error", "residual")
 
 _TRAVEL_RTOL = 1e-9
 
@@ -68,6 +72,8 @@ class Recommendation:
         significantly (why it was not chosen).
     per_shape : dict
         Number of sides -> index of the candidate the rule picks among that shape alone.
+    criterion : str
+        'error' or 'residual' (see CRITERIA); the tests compare that quantity.
     """
 
     index: int
@@ -76,6 +82,7 @@ class Recommendation:
     neighbours: tuple[Comparison, ...]
     beaten_by: dict
     per_shape: dict
+    criterion: str = "error"
 
 
 def _usable(c) -> bool:
@@ -139,12 +146,30 @@ def _pick(candidates, indices, alpha, tolerance):
     raise AssertionError("unreachable: the largest candidate has no rival")  # pragma: no cover
 
 
-def recommend(candidates, alpha: float = 0.05, tolerance: float = 0.05) -> Recommendation:
+class _Residual:
+    """A candidate seen through its residual error (for criterion 'residual')."""
+
+    def __init__(self, c):
+        self.sides, self.side_m, self.travel_m = c.sides, c.side_m, c.travel_m
+        self.trials = c.trials
+        self.post_error_mean_m = getattr(c, "residual_error_mean_m", math.nan)
+        self.post_error_std_m = getattr(c, "residual_error_std_m", math.nan)
+
+
+def recommend(
+    candidates, alpha: float = 0.05, tolerance: float = 0.05, criterion: str = "error"
+) -> Recommendation:
     """Apply the rule (module docstring) to ``candidates`` (objects with the Candidate fields).
 
-    Candidates without usable statistics (NaN mean or std, fewer than 2 trials) are ignored.
-    Raises ModelError if none is usable or alpha/tolerance are out of range.
+    ``criterion`` 'residual' judges the candidates on ``residual_error_mean_m`` and
+    ``residual_error_std_m`` instead of the post-calibration error. Candidates without usable
+    statistics (NaN mean or std, fewer than 2 trials) are ignored. Raises ModelError if none is
+    usable or alpha/tolerance/criterion are out of range.
     """
+    if criterion not in CRITERIA:
+        raise ModelError(f"criterion must be one of {', '.join(CRITERIA)}, got {criterion!r}")
+    if criterion == "residual":
+        candidates = [_Residual(c) for c in candidates]
     if not (0 < alpha < 1):
         raise ModelError(f"alpha must be in (0, 1), got {alpha!r}")
     if not (0 <= tolerance < 1):
@@ -166,4 +191,4 @@ def recommend(candidates, alpha: float = 0.05, tolerance: float = 0.05) -> Recom
     pos = same.index(index)
     around = same[max(pos - 1, 0) : pos] + same[pos + 1 : pos + 2]
     neighbours = tuple(compare(candidates, j, index, alpha, tolerance) for j in around)
-    return Recommendation(index, alpha, tolerance, neighbours, beaten, per_shape)
+    return Recommendation(index, alpha, tolerance, neighbours, beaten, per_shape, criterion)

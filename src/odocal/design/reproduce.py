@@ -157,14 +157,8 @@ class Reproduction:
 def residual_recommendation(result: DesignResult) -> int:
     """Index of the candidate the rule picks when judged on the residual error alone (the
     validation drive without wheel noise)."""
-    proxies = [
-        dataclasses.replace(
-            c, post_error_mean_m=c.residual_error_mean_m, post_error_std_m=c.residual_error_std_m
-        )
-        for c in result.candidates
-    ]
     rec = result.recommendation
-    return recommend(proxies, rec.alpha, rec.tolerance).index
+    return recommend(result.candidates, rec.alpha, rec.tolerance, "residual").index
 
 
 def _experiment_tests(err: np.ndarray, paper: dict) -> tuple[ExperimentTTest, ...]:

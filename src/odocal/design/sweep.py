@@ -334,6 +334,7 @@ def run_design(
     validation: ValidationTrack | None = None,
     alpha: float = 0.05,
     tolerance: float = 0.05,
+    criterion: str = "error",
     settings: SimulationSettings = FAST,
     progress: Progress | None = None,
 ) -> DesignResult:
@@ -354,7 +355,7 @@ def run_design(
     method : {'heading', 'umbmark'}
     validation : ValidationTrack, optional
         Default: 4 m x 4 m square CCW (the paper's).
-    alpha, tolerance : float
+    alpha, tolerance, criterion
         Parameters of the recommendation rule (:mod:`odocal.design.recommend`).
     """
     check_design_inputs(runs_per_direction, trials)
@@ -398,7 +399,7 @@ def run_design(
             robot, s, lengths, runs_per_direction, trials, method, validation, rng, settings
         )
         step(f"{s}-gon candidates")
-    rec = recommend(candidates, alpha, tolerance)
+    rec = recommend(candidates, alpha, tolerance, criterion)
     return DesignResult(
         tuple(candidates),
         floor,
@@ -410,6 +411,17 @@ def run_design(
         trials,
         settings,
     )
+
+
+def other_criterion(result: DesignResult) -> Recommendation | None:
+    """The recommendation under the other criterion ('error' <-> 'residual'), or None when the
+    candidates carry no residual statistics."""
+    rec = result.recommendation
+    other = "residual" if rec.criterion == "error" else "error"
+    try:
+        return recommend(result.candidates, rec.alpha, rec.tolerance, other)
+    except ModelError:
+        return None
 
 
 def _comparison_dict(result_candidates, comp) -> dict:
@@ -424,6 +436,19 @@ def _comparison_dict(result_candidates, comp) -> dict:
         "rule_t": rounded(comp.rule.t),
         "rule_p": rounded(comp.rule.p_less),
         "significantly_better_beyond_tolerance": comp.significant,
+    }
+
+
+def _other_dict(result: DesignResult) -> dict | None:
+    other = other_criterion(result)
+    if other is None:
+        return None
+    c = result.candidates[other.index]
+    return {
+        "criterion": other.criterion,
+        "sides": c.sides,
+        "side_m": rounded(c.side_m),
+        "travel_m": rounded(c.travel_m),
     }
 
 
@@ -470,11 +495,13 @@ def design_json(result: DesignResult, **extra) -> dict:
         "uncalibrated_m": rounded(result.uncalibrated.mean_m),
         "floor": result.floor.as_dict(),
         "uncalibrated": result.uncalibrated.as_dict(),
+        "recommended_by_other_criterion": _other_dict(result),
         "recommended_by_sides": {
             str(s): {"side_m": rounded(cands[i].side_m), "travel_m": rounded(cands[i].travel_m)}
             for s, i in rec.per_shape.items()
         },
         "ttests": [_comparison_dict(cands, comp) for comp in rec.neighbours],
+        "criterion": rec.criterion,
         "alpha": rec.alpha,
         "tolerance": rec.tolerance,
         "method": result.method,
