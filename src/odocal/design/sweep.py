@@ -142,6 +142,9 @@ class DesignResult:
         return self.candidates[self.recommendation.index]
 
 
+# Largest number of test runs per direction simulated in one block of candidates.
+_BLOCK_RUNS = 200_000
+
 #: The default (fast) settings.
 FAST = SimulationSettings()
 
@@ -375,7 +378,17 @@ def run_design(
         raise ModelError(f"side lengths must be finite and > 0, got {side_lengths_m.tolist()}")
     validation = validation or ValidationTrack(4, 4.0, "ccw")
 
-    total = 2 + len(sides)
+    # Candidates are simulated in blocks of at most _BLOCK_RUNS test runs per direction: this
+    # bounds memory and paces the progress bar. The blocks depend only on the arguments, so the
+    # random stream (and the result) is the same on every machine.
+    per_candidate = trials * runs_per_direction
+    block = max(1, _BLOCK_RUNS // per_candidate)
+    shapes = equal_travel_side_lengths(side_lengths_m, sides)
+    blocks = [
+        (s, lengths[i : i + block]) for s, lengths in shapes.items()
+        for i in range(0, len(lengths), block)
+    ]  # fmt: skip
+    total = 2 + len(blocks)
     done = 0
 
     def step(label: str) -> None:
@@ -394,11 +407,11 @@ def run_design(
     )
     step("uncalibrated")
     candidates: list[Candidate] = []
-    for s, lengths in equal_travel_side_lengths(side_lengths_m, sides).items():
+    for s, lengths in blocks:
         candidates += simulate_candidates(
             robot, s, lengths, runs_per_direction, trials, method, validation, rng, settings
         )
-        step(f"{s}-gon candidates")
+        step(f"{s}-gon up to {lengths[-1]:g} m")
     rec = recommend(candidates, alpha, tolerance, criterion)
     return DesignResult(
         tuple(candidates),
