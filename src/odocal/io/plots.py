@@ -205,15 +205,18 @@ def post_error_figure(
     return fig
 
 
-def calibration_figure(candidates, title: str, truth: tuple[float, float] | None = None):
-    """Calibrated E_b and E_d (mean +- std over the trials) against the side length (m)."""
+def calibration_figure(
+    candidates, title: str, truth: tuple[float, float] | None = None, x: str = "side"
+):
+    """Calibrated E_b and E_d (mean +- std over the trials) against the side length or the
+    travel (m)."""
     from ..design.result import shape_name
 
     fig = _new_figure(7.0, 5.2)
     ax_b, ax_d = fig.subplots(2, 1, sharex=True)
     for sides in sorted({c.sides for c in candidates}):
         cs = [c for c in candidates if c.sides == sides]
-        xs = [c.side_m for c in cs]
+        xs = [c.side_m if x == "side" else c.travel_m for c in cs]
         ax_b.errorbar(
             xs, [c.E_b_mean for c in cs], yerr=[c.E_b_std for c in cs], fmt="o-", ms=3,
             capsize=2, label=f"{shape_name(sides)}, mean +- std",
@@ -227,7 +230,9 @@ def calibration_figure(candidates, title: str, truth: tuple[float, float] | None
         ax_d.axhline(truth[1], color="C3", ls="--", lw=1, label=f"true E_d {truth[1]:g}")
     ax_b.set_ylabel("calibrated E_b (-)")
     ax_d.set_ylabel("calibrated E_d (-)")
-    ax_d.set_xlabel("side length of the test track (m)")
+    ax_d.set_xlabel(
+        "side length of the test track (m)" if x == "side" else "travel of one test run (m)"
+    )
     for ax in (ax_b, ax_d):
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8, loc="upper right")
@@ -267,14 +272,14 @@ def design_figures(result, out_dir) -> list[Path]:
         validation_label=result.validation.label,
     )
     written.append(_save(fig, out / "design_error.png"))
-    fig = calibration_figure(cands, "Calibrated factors against the test-track size")
+    fig = calibration_figure(cands, "Calibrated factors against the test-track size", x=x)
     written.append(_save(fig, out / "design_calibration.png"))
     fig = _new_figure(7.0, 4.4)
     ax = fig.add_subplot()
     for sides in sorted({c.sides for c in cands}):
         cs = [c for c in cands if c.sides == sides]
         xs = [c.side_m for c in cs]
-        ax.plot(xs, [100 * c.systematic_share for c in cs], "o-", ms=3, label=f"{sides}-gon")
+        ax.plot(xs, [100 * c.systematic_share for c in cs], "o-", ms=3, label=shape_name(sides))
     ax.set_xlabel("side length of the test track (m)")
     ax.set_ylabel("systematic share of the leg heading error (%)")
     ax.set_ylim(0, 100)
