@@ -131,3 +131,24 @@ def test_cli_reproduce_without_matplotlib(cli, tmp_path, monkeypatch):
         monkeypatch.setitem(sys.modules, mod, None)
     _check_error(cli("reproduce", "--out", tmp_path / "r", "--trials", "5"), "pip install")
     assert not (tmp_path / "r").exists()
+
+
+def test_a_noisy_heading_instrument_moves_the_choice_to_larger_tracks(produced):
+    rep = produced[1]["reproduction"]
+    from odocal.design.reproduce import residual_recommendation
+
+    clean, noisy = rep.fig5, rep.instrument
+    # 1 deg per measured heading adds about 1 deg sqrt(2/5)/8 = 1.4e-3 rad to each leg's beta
+    # estimate; on the 0.5 m track that doubles the residual, on the 10 m track it hardly shows
+    assert (
+        noisy.candidates[0].residual_error_mean_m > 1.5 * clean.candidates[0].residual_error_mean_m
+    )
+    assert (
+        noisy.candidates[-1].residual_error_mean_m
+        < 1.5 * clean.candidates[-1].residual_error_mean_m
+    )
+    assert (
+        noisy.candidates[residual_recommendation(noisy)].side_m
+        > clean.candidates[residual_recommendation(clean)].side_m
+    )
+    assert "fig5_instrument" in produced[1]["figures"]

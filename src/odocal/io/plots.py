@@ -152,7 +152,7 @@ def post_error_figure(
     confidence intervals of the mean; the dotted line is the residual (no wheel noise).
     ``x``: 'side' (m) or 'travel' (m). ``paper_choice``: the paper's chosen size on that axis.
     """
-    fig = _new_figure(7.4, 5.6)
+    fig = _new_figure(7.4 if len(series) == 1 else 8.4, 5.6 if len(series) == 1 else 6.0)
     ax = fig.add_subplot()
     for k, (label, cands, rec) in enumerate(series):
         color = f"C{k}"
@@ -292,7 +292,7 @@ def design_figures(result, out_dir) -> list[Path]:
 
 def reproduce_figures(rep, out_dir) -> dict[str, Path]:
     """The paper's figures from a :class:`odocal.design.reproduce.Reproduction`."""
-    from ..design.reproduce import PAPER
+    from ..design.reproduce import INSTRUMENT_SIGMA_THETA_DEG, PAPER
     from ..presets import PRESETS
 
     out = _out_dir(out_dir)
@@ -366,6 +366,26 @@ def reproduce_figures(rep, out_dir) -> dict[str, Path]:
             validation_label=f9.validation.label,
         ),  # fmt: skip
         out / "fig9_experiment_post_error.png",
+    )
+    fi = rep.instrument
+    files["fig5_instrument"] = _save(
+        post_error_figure(
+            [
+                ("perfect instrument (Fig. 5)", f5.candidates, f5.recommended),
+                (
+                    f"heading instrument {INSTRUMENT_SIGMA_THETA_DEG:g} deg",
+                    fi.candidates,
+                    fi.recommended,
+                ),
+            ],
+            f"Fig. 5 with a noisy heading instrument\n{cond('paper-fig5')}, {t} trials",
+            x="side",
+            floor_m=f5.floor.mean_m,
+            uncalibrated_m=f5.uncalibrated.mean_m,
+            paper_choice=PAPER["chosen_side_m"],
+            validation_label=f5.validation.label,
+        ),  # fmt: skip
+        out / "fig5_instrument_post_error.png",
     )
     r5 = PRESETS["paper-fig5"].systematic
     files["fig5_calibration"] = _save(
