@@ -9,7 +9,7 @@ Carlo and the experiment prediction), the time of the figures and report, and th
 trial-increments per second: every simulated run counts its increments (segments x increments per
 segment), summed over test runs, validation runs, floor and uncalibrated drives. For comparison it
 also times the same computation with every segment at 10 increments (no single-increment shortcut
-for the heading-method test runs) and a single design at the 1 cm midpoint reference.
+for the heading-method test runs) and extrapolates the 1 cm midpoint reference from a short run.
 Target (issue 3): the whole reproduction at 800 trials in under 10 s on 2 cores.
 """
 
@@ -26,9 +26,8 @@ from pathlib import Path
 import numpy as np
 
 import odocal.core.simulate as sim
-from odocal.design import SimulationSettings, run_design
+from odocal.design import SimulationSettings
 from odocal.design.reproduce import reproduce
-from odocal.presets import PRESETS
 
 
 def machine() -> str:
@@ -131,21 +130,30 @@ def main(argv=None) -> int:
         f"{t_all:.2f} s"
     )
 
-    # one design (Fig. 5 conditions) at the 1 cm midpoint reference, for scale
-    ref_trials = min(args.trials, 100)
+    # the command itself, in a fresh process (imports, computation, figures, report)
+    import subprocess
+
+    with tempfile.TemporaryDirectory() as tmp:
+        cmd = [sys.executable, "-m", "odocal", "reproduce", "--out", tmp, "--quiet"]
+        cmd += ["--trials", str(args.trials)]
+        t = time.perf_counter()
+        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+        t_cmd = time.perf_counter() - t
+    print(f"'odocal reproduce --trials {args.trials}' as a command (fresh process): {t_cmd:.2f} s")
+
+    # the 1 cm midpoint reference, for scale: the whole reproduction at a few trials, counted and
+    # timed, extrapolated linearly in trials (work is proportional to the trials)
+    ref_trials = min(args.trials, 20)
     with IncrementCounter() as count:
         t = time.perf_counter()
-        run_design(
-            PRESETS["paper-fig5"], np.random.default_rng(0), trials=ref_trials,
-            settings=SimulationSettings.reference(),
-        )  # fmt: skip
+        reproduce(ref_trials, 0, settings=SimulationSettings.reference())
         t_ref = time.perf_counter() - t
+    scale = args.trials / ref_trials
     print(
-        f"one design at the 1 cm midpoint reference, {ref_trials} trials: {t_ref:.2f} s, "
+        f"reproduce at the 1 cm midpoint reference, {ref_trials} trials: {t_ref:.2f} s, "
         f"{count.increments / 1e6:.1f} M trial-increments, "
-        f"{count.increments / t_ref / 1e6:.1f} M/s "
-        f"(the full reproduction at {args.trials} trials would take about "
-        f"{t_ref * 3 * args.trials / ref_trials:.0f} s this way)"
+        f"{count.increments / t_ref / 1e6:.1f} M/s; at {args.trials} trials: about "
+        f"{count.increments * scale / 1e6:.0f} M trial-increments, {t_ref * scale:.0f} s"
     )
     rec = rep.fig5.recommended
     print(f"Fig. 5 recommendation: side {rec.side_m:g} m ({rec.travel_m:g} m travel)")
