@@ -209,7 +209,10 @@ def add_parser(sub) -> None:
 
 
 def robot_label(args) -> str:
-    return args.robot if args.robot else "paper-fig5 (built-in)"
+    label = args.robot if args.robot else "paper-fig5 (built-in)"
+    if getattr(args, "params", None):
+        label += f" running with {args.params}"
+    return label
 
 
 def run(args) -> int:
