@@ -346,3 +346,27 @@ def test_cli_design_plot_into_a_file_fails_cleanly(cli, tmp_path):
     f = tmp_path / "file"
     f.write_text("x")
     _check_error(cli("design", "--trials", "5", "--side-lengths", "1", "--plot", f), "file")
+
+
+def test_report_json_and_plots_work_from_contract_fields_only(tmp_path, capsys):
+    """Candidates from another source (e.g. an analytic design) carry only the shared fields."""
+    from odocal.cli.design import print_design
+    from odocal.design import DesignResult, ErrorSummary
+    from odocal.io.plots import design_figures
+
+    cs = [cand(0.5 * (i + 1), m) for i, m in enumerate([0.2, 0.12, 0.1, 0.1])]
+    floor = ErrorSummary(0.09, 0.04, (0.01, 0.2), 800)
+    uncal = ErrorSummary(0.6, 0.07, (0.5, 0.7), 800)
+    res = DesignResult(
+        tuple(cs), floor, uncal, recommend(cs), ValidationTrack(4, 4.0, "ccw"), "heading", 5, 800
+    )
+    d = design_json(res, method_source="analytic")
+    assert d["recommended"]["side_m"] == 1.5 and d["floor_m"] == 0.09
+    assert d["candidates"][0]["residual_error_mean_m"] is None
+    assert d["recommended_by_other_criterion"] is None
+    json.dumps(d, allow_nan=False)
+    print_design(res, "analytic robot")
+    out = capsys.readouterr().out
+    assert "Recommended: square, side 1.5 m" in out
+    paths = design_figures(res, tmp_path)
+    assert all(p.stat().st_size > 5000 for p in paths)
