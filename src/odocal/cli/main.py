@@ -10,9 +10,33 @@ import sys
 
 from .. import __version__
 from ..errors import OdocalError
-from . import bag_info, calibrate, compare, fit, noise, plan, simulate, validate
+from . import (
+    bag_info,
+    calibrate,
+    compare,
+    design,
+    fit,
+    noise,
+    plan,
+    reproduce,
+    simulate,
+    ttest,
+    validate,
+)
 
-COMMANDS = [simulate, calibrate, fit, validate, noise, plan, bag_info, compare]
+COMMANDS = [
+    design,
+    simulate,
+    calibrate,
+    plan,
+    noise,
+    fit,
+    validate,
+    compare,
+    reproduce,
+    ttest,
+    bag_info,
+]
 
 
 class _Parser(argparse.ArgumentParser):

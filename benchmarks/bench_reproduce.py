@@ -1,0 +1,164 @@
+"""Benchmark: the whole ``odocal reproduce`` at full trials, and Monte-Carlo throughput.
+
+Run from the project root:
+
+    .venv/bin/python benchmarks/bench_reproduce.py [--trials 800] [--repeat 3] [--out DIR]
+
+Reports the machine (cores, CPU model), the wall time of the computation (all figures' Monte
+Carlo and the experiment prediction), the time of the figures and report, and the throughput in
+trial-increments per second: every simulated run counts its increments (segments x increments per
+segment), summed over test runs, validation runs, floor and uncalibrated drives. For comparison it
+also times the same computation with every segment at 10 increments (no single-increment shortcut
+for the heading-method test runs) and extrapolates the 1 cm midpoint reference from a short run.
+Target (issue 3): the whole reproduction at 800 trials in under 10 s on 2 cores.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+import odocal.core.simulate as sim
+from odocal.design import SimulationSettings
+from odocal.design.reproduce import reproduce
+
+
+def machine() -> str:
+    model = "unknown CPU"
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return (
+        f"{os.cpu_count()} logical cores (nproc {len(os.sched_getaffinity(0))}), {model}; "
+        f"Python {platform.python_version()}, numpy {np.__version__}"
+    )
+
+
+class IncrementCounter:
+    """Wraps core.simulate.drive to count runs x increments actually simulated."""
+
+    def __init__(self):
+        self.increments = 0
+        self._orig = sim.drive
+
+    def __enter__(self):
+        orig = self._orig
+
+        def counting(track, true, believed, noise, runs, rng, **kw):
+            steps = kw.get("steps_per_segment")
+            if steps is not None:
+                self.increments += runs * steps * len(track.segments)
+            else:
+                max_step = kw.get("max_step_m", 0.01)
+                b = np.max(believed.wheelbase_m)
+                for seg in track.segments:
+                    s_r, s_l = seg.wheel_travel(b)
+                    longest = float(np.max(np.maximum(np.abs(s_r), np.abs(s_l))))
+                    self.increments += runs * max(1, int(np.ceil(longest / max_step - 1e-9)))
+            return orig(track, true, believed, noise, runs, rng, **kw)
+
+        import odocal.design.sweep as sweep
+
+        self._patched = [(sim, "drive"), (sweep, "drive")]
+        for mod, name in self._patched:
+            setattr(mod, name, counting)
+        return self
+
+    def __exit__(self, *exc):
+        for mod, name in self._patched:
+            setattr(mod, name, self._orig)
+
+
+def timed(fn, repeat: int):
+    best = float("inf")
+    for _ in range(repeat):
+        t = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t)
+    return best, out
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--trials", type=int, default=800)
+    p.add_argument("--repeat", type=int, default=3, help="best of this many runs")
+    p.add_argument("--out", help="folder for figures and report (default: a temporary one)")
+    args = p.parse_args(argv)
+
+    print(f"machine: {machine()}")
+    print(f"trials: {args.trials}, best of {args.repeat}")
+
+    with IncrementCounter() as count:
+        reproduce(args.trials, 0)
+    increments = count.increments
+    t_fast, rep = timed(lambda: reproduce(args.trials, 0), args.repeat)
+    print(
+        f"reproduce computation (fast setting): {t_fast:.2f} s, "
+        f"{increments / 1e6:.1f} M trial-increments, {increments / t_fast / 1e6:.1f} M/s"
+    )
+
+    all10 = SimulationSettings(single_step_heading_tests=False)
+    with IncrementCounter() as count:
+        reproduce(args.trials, 0, settings=all10)
+    inc10 = count.increments
+    t10, _ = timed(lambda: reproduce(args.trials, 0, settings=all10), 1)
+    print(
+        f"reproduce computation, 10 increments on every segment: {t10:.2f} s, "
+        f"{inc10 / 1e6:.1f} M trial-increments, {inc10 / t10 / 1e6:.1f} M/s"
+    )
+
+    from odocal.cli.reproduce import run_reproduce
+
+    with tempfile.TemporaryDirectory() as tmp:
+        out = args.out or tmp
+        t = time.perf_counter()
+        res = run_reproduce(out, args.trials, 0)
+        t_all = time.perf_counter() - t
+    print(
+        f"whole 'odocal reproduce' (computation + {len(res['figures'])} figures + report): "
+        f"{t_all:.2f} s"
+    )
+
+    # the command itself, in a fresh process (imports, computation, figures, report)
+    import subprocess
+
+    with tempfile.TemporaryDirectory() as tmp:
+        cmd = [sys.executable, "-m", "odocal", "reproduce", "--out", tmp, "--quiet"]
+        cmd += ["--trials", str(args.trials)]
+        t = time.perf_counter()
+        subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+        t_cmd = time.perf_counter() - t
+    print(f"'odocal reproduce --trials {args.trials}' as a command (fresh process): {t_cmd:.2f} s")
+
+    # the 1 cm midpoint reference, for scale: the whole reproduction at a few trials, counted and
+    # timed, extrapolated linearly in trials (work is proportional to the trials)
+    ref_trials = min(args.trials, 20)
+    with IncrementCounter() as count:
+        t = time.perf_counter()
+        reproduce(ref_trials, 0, settings=SimulationSettings.reference())
+        t_ref = time.perf_counter() - t
+    scale = args.trials / ref_trials
+    print(
+        f"reproduce at the 1 cm midpoint reference, {ref_trials} trials: {t_ref:.2f} s, "
+        f"{count.increments / 1e6:.1f} M trial-increments, "
+        f"{count.increments / t_ref / 1e6:.1f} M/s; at {args.trials} trials: about "
+        f"{count.increments * scale / 1e6:.0f} M trial-increments, {t_ref * scale:.0f} s"
+    )
+    rec = rep.fig5.recommended
+    print(f"Fig. 5 recommendation: side {rec.side_m:g} m ({rec.travel_m:g} m travel)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

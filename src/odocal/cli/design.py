@@ -1,0 +1,382 @@
+"""``odocal design``: which test track to drive for calibration (the paper's procedure)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+
+import numpy as np
+
+from .common import (
+    add_robot_args,
+    positive_int,
+    print_json,
+    print_table,
+    resolve_robot,
+    seed_int,
+    sides_int,
+)
+
+# Largest number of simulated test runs per direction (candidates x trials x runs) a sweep may ask
+# for: about 1 GB of work arrays at the most.
+_MAX_RUNS = 20_000_000
+
+
+def parse_side_lengths(text: str) -> np.ndarray:
+    """'START:STOP:STEP' (m, STOP inclusive within float tolerance) or one length 'L'."""
+    parts = text.split(":")
+    try:
+        nums = [float(p) for p in parts]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected START:STOP:STEP in metres (e.g. 0.5:10:0.5), got {text!r}"
+        ) from None
+    if len(nums) == 1:
+        nums = [nums[0], nums[0], 1.0]
+    if len(nums) != 3:
+        raise argparse.ArgumentTypeError(
+            f"expected START:STOP:STEP in metres (e.g. 0.5:10:0.5), got {text!r}"
+        )
+    start, stop, step = nums
+    if not all(math.isfinite(v) and v > 0 for v in nums):
+        raise argparse.ArgumentTypeError(
+            f"START, STOP and STEP must be finite numbers > 0, got {text!r}"
+        )
+    if stop < start:
+        raise argparse.ArgumentTypeError(f"STOP must be >= START, got {text!r}")
+    count = math.floor((stop - start) / step + 1e-9) + 1
+    if count > 1000:
+        raise argparse.ArgumentTypeError(f"{count} side lengths is too many (at most 1000)")
+    return np.round(start + step * np.arange(count), 12)
+
+
+def parse_validation(text: str):
+    """'SIDES:LENGTH:DIRECTION', e.g. '4:4:ccw' (the paper's 4 m x 4 m square CCW)."""
+    from ..design.result import ValidationTrack
+
+    parts = text.split(":")
+    hint = f"expected SIDES:LENGTH:DIRECTION (e.g. 4:4:ccw), got {text!r}"
+    if len(parts) != 3:
+        raise argparse.ArgumentTypeError(hint)
+    try:
+        sides = int(parts[0])
+        length = float(parts[1])
+    except ValueError:
+        raise argparse.ArgumentTypeError(hint) from None
+    direction = parts[2].strip().lower()
+    if sides < 3:
+        raise argparse.ArgumentTypeError(f"a polygon needs at least 3 sides, got {text!r}")
+    if not (math.isfinite(length) and length > 0):
+        raise argparse.ArgumentTypeError(f"LENGTH must be a finite number > 0, got {text!r}")
+    if direction not in ("cw", "ccw"):
+        raise argparse.ArgumentTypeError(f"DIRECTION must be cw or ccw, got {text!r}")
+    return ValidationTrack(sides, length, direction)
+
+
+def fraction(lo_open: bool):
+    def parse(text: str) -> float:
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+        ok = (0 < v < 1) if lo_open else (0 <= v < 1)
+        if not (math.isfinite(v) and ok):
+            rng = "(0, 1)" if lo_open else "[0, 1)"
+            raise argparse.ArgumentTypeError(f"must be in {rng}, got {text!r}")
+        return v
+
+    return parse
+
+
+def trials_int(text: str) -> int:
+    v = positive_int(text)
+    if v < 2:
+        raise argparse.ArgumentTypeError(f"must be >= 2 (a standard deviation is needed), got {v}")
+    return v
+
+
+class ProgressBar:
+    """A one-line progress bar on stderr, drawn only when stderr is a terminal."""
+
+    def __init__(self, label: str, enabled: bool = True, stream=None):
+        self.stream = stream or sys.stderr
+        self.enabled = enabled and getattr(self.stream, "isatty", lambda: False)()
+        self.label = label
+        self.start = time.monotonic()
+
+    def __call__(self, done: int, total: int, what: str = "") -> None:
+        if not self.enabled:
+            return
+        width = 24
+        filled = round(width * done / max(total, 1))
+        bar = "#" * filled + "-" * (width - filled)
+        elapsed = time.monotonic() - self.start
+        self.stream.write(f"\r{self.label} [{bar}] {done}/{total} {elapsed:5.1f} s {what:<24}")
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self.enabled:
+            self.stream.write("\r\033[K")
+            self.stream.flush()
+
+
+def add_parser(sub) -> None:
+    p = sub.add_parser(
+        "design",
+        help="choose the test-track size (Monte-Carlo, the paper's procedure)",
+        description="For each candidate polygon test track, simulate the calibration many times "
+        "(n CW + n CCW runs, calibrate, drive a validation track with the result) and recommend "
+        "the smallest track that no larger one beats significantly by more than the tolerance. "
+        "With no arguments: the paper's Fig. 5 conditions on the built-in robot.",
+    )
+    add_robot_args(
+        p,
+        "parameters the robot runs with during the test (default: ROBOT.yaml's 'believed', "
+        "else nominal)",
+    )
+    p.add_argument(
+        "--sides",
+        type=sides_int,
+        action="append",
+        metavar="N",
+        help="polygon shape (default 4, a square); repeat to compare shapes at equal travel",
+    )
+    p.add_argument(
+        "--side-lengths",
+        type=parse_side_lengths,
+        default=parse_side_lengths("0.5:10:0.5"),
+        metavar="START:STOP:STEP",
+        help="candidate side lengths in m, STOP inclusive (default 0.5:10:0.5)",
+    )
+    p.add_argument(
+        "--runs-per-direction",
+        type=positive_int,
+        default=5,
+        metavar="n",
+        help="test runs per direction in each calibration (default 5)",
+    )
+    p.add_argument(
+        "--trials",
+        type=trials_int,
+        default=800,
+        metavar="M",
+        help="Monte-Carlo trials per candidate (default 800)",
+    )
+    p.add_argument(
+        "--method",
+        choices=("heading", "umbmark"),
+        default="heading",
+        help="calibration method (default heading, the paper's; umbmark: squares only)",
+    )
+    p.add_argument(
+        "--validate",
+        type=parse_validation,
+        default=parse_validation("4:4:ccw"),
+        metavar="SIDES:LENGTH:DIRECTION",
+        help="validation track driven with each calibration (default 4:4:ccw)",
+    )
+    p.add_argument(
+        "--alpha",
+        type=fraction(lo_open=True),
+        default=0.05,
+        help="significance level of the one-sided Welch tests (default 0.05)",
+    )
+    p.add_argument(
+        "--tolerance",
+        type=fraction(lo_open=False),
+        default=0.05,
+        help="a larger track must be better by more than this fraction (default 0.05)",
+    )
+    p.add_argument(
+        "--criterion",
+        choices=("error", "residual"),
+        default="error",
+        help="what the rule compares: the error after calibration on the validation track "
+        "(default) or the residual, the same drive without wheel noise",
+    )
+    p.add_argument("--seed", type=seed_int, default=0, metavar="S", help="random seed (default 0)")
+    p.add_argument(
+        "--reference-sim",
+        action="store_true",
+        help="simulate with 1 cm midpoint increments everywhere (slow; to check the fast mode)",
+    )
+    p.add_argument("--plot", metavar="DIR", help="write PNG figures into DIR")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(run=run)
+
+
+def robot_label(args) -> str:
+    label = args.robot if args.robot else "paper-fig5 (built-in)"
+    if getattr(args, "params", None):
+        label += f" running with {args.params}"
+    return label
+
+
+def run(args) -> int:
+    from ..design.sweep import SimulationSettings, design_json, run_design
+    from ..errors import InputError
+
+    robot = resolve_robot(args)
+    sides = args.sides or [4]
+    if args.method == "umbmark" and any(s != 4 for s in sides):
+        raise InputError("UMBmark is defined for squares only (--sides 4)")
+    work = len(args.side_lengths) * args.trials * args.runs_per_direction * len(sides)
+    if work > _MAX_RUNS:
+        raise InputError(
+            f"{work} simulated runs per direction is too many (at most {_MAX_RUNS}); "
+            "reduce --trials or the number of side lengths"
+        )
+    settings = SimulationSettings.reference() if args.reference_sim else SimulationSettings()
+    bar = ProgressBar("odocal design", enabled=not args.quiet)
+    try:
+        result = run_design(
+            robot,
+            np.random.default_rng(args.seed),
+            sides=sides,
+            side_lengths_m=args.side_lengths,
+            runs_per_direction=args.runs_per_direction,
+            trials=args.trials,
+            method=args.method,
+            validation=args.validate,
+            alpha=args.alpha,
+            tolerance=args.tolerance,
+            criterion=args.criterion,
+            settings=settings,
+            progress=bar,
+        )
+    finally:
+        bar.close()
+    written = []
+    if args.plot:
+        from ..io.plots import design_figures
+
+        written = design_figures(result, args.plot)
+    if args.json:
+        print_json(design_json(result, seed=args.seed, robot=robot_label(args)))
+        return 0
+    print_design(result, robot_label(args), args.seed)
+    for path in written:
+        print(f"wrote {path}")
+    return 0
+
+
+def _f(v, fmt: str) -> str:
+    return "-" if v is None or not math.isfinite(v) else format(v, fmt)
+
+
+def print_design(result, robot: str, seed: int | None = None) -> None:
+    """The human-readable design report."""
+    from ..design.result import shape_name
+    from ..design.sweep import other_criterion
+
+    cands = result.candidates
+    rec = result.recommendation
+    r = cands[rec.index]
+    seed_text = f", seed {seed}" if seed is not None else ""
+    print(
+        f"Test-track design for {robot}: {result.method} method, "
+        f"{result.runs_per_direction} runs per direction, {result.trials} trials{seed_text}"
+    )
+    print(
+        f"Validation: {result.validation.label}; uncalibrated error "
+        f"{_f(result.uncalibrated.mean_m, '.3f')} m, floor with the true parameters "
+        f"{_f(result.floor.mean_m, '.3f')} m (means over the trials)"
+    )
+    print()
+    rows = [
+        (
+            "track",
+            "side_m",
+            "travel_m",
+            "share_%",
+            "|beta|_deg",
+            "sigma_deg",
+            "E_b mean",
+            "E_b std",
+            "E_d mean",
+            "E_d std",
+            "error_m",
+            "std_m",
+            "95%_range_m",
+            "residual_m",
+        )
+    ]
+    for i, c in enumerate(cands):
+        lo, hi = c.post_error_ci95_m
+        rows.append(
+            (
+                ("* " if i == rec.index else "  ") + shape_name(c.sides),
+                _f(c.side_m, "g"),
+                _f(c.travel_m, "g"),
+                _f(100 * c.systematic_share, ".1f"),
+                _f(math.degrees(getattr(c, "leg_heading_systematic_rad", math.nan)), ".3f"),
+                _f(math.degrees(getattr(c, "leg_heading_noise_rad", math.nan)), ".3f"),
+                _f(c.E_b_mean, ".5f"),
+                _f(c.E_b_std, ".5f"),
+                _f(c.E_d_mean, ".6f"),
+                _f(c.E_d_std, ".6f"),
+                _f(c.post_error_mean_m, ".4f"),
+                _f(c.post_error_std_m, ".4f"),
+                f"{_f(lo, '.3f')}-{_f(hi, '.3f')}",
+                _f(getattr(c, "residual_error_mean_m", math.nan), ".4f"),
+            )
+        )
+    print_table(rows)
+    print(
+        "  share: systematic share of the n-run-mean leg heading error; |beta|, sigma: "
+        "systematic and random heading error of one leg;\n"
+        "  error: final position error on the validation track after calibration (mean, std, "
+        "central 95 % of trials); residual: the same without wheel noise"
+    )
+    failed = sum(getattr(c, "failed_trials", 0) for c in cands)
+    if failed:
+        print(f"  {failed} trial(s) gave no calibration (equations undefined) and are left out")
+    print()
+    gain = result.uncalibrated.mean_m - r.post_error_mean_m
+    print(
+        f"Recommended: {shape_name(r.sides)}, side {r.side_m:g} m ({r.travel_m:g} m travel per "
+        f"run): error {r.post_error_mean_m:.4f} m after calibration, residual "
+        f"{_f(getattr(r, 'residual_error_mean_m', math.nan), '.4f')} m "
+        f"(uncalibrated {result.uncalibrated.mean_m:.4f} m, gain {gain:.4f} m; floor "
+        f"{result.floor.mean_m:.4f} m)"
+    )
+    judged = "error after calibration" if rec.criterion == "error" else "residual error"
+    print(
+        f"Rule: the smallest track that no larger track beats by more than "
+        f"{100 * rec.tolerance:g} % in {judged} (one-sided Welch t-test, alpha {rec.alpha:g})."
+    )
+    other = other_criterion(result)
+    if other is not None:
+        o = cands[other.index]
+        what = "residual alone" if other.criterion == "residual" else "error after calibration"
+        print(
+            f"  judged on the {what} (--criterion {other.criterion}): side {o.side_m:g} m "
+            f"({o.travel_m:g} m travel)"
+        )
+    if len(rec.per_shape) > 1:
+        for s, i in rec.per_shape.items():
+            print(f"  best {shape_name(s)}: side {cands[i].side_m:g} m ({cands[i].travel_m:g} m)")
+    if rec.neighbours:
+        print()
+        print(
+            f"t-tests of the {judged} against the recommended {r.side_m:g} m track (Welch, "
+            "two-sided; as the paper's Tables 2 and 3):"
+        )
+        trows = [("track", "vs", "t", "df", "p", "mean difference_m", "better by > tol")]
+        for comp in rec.neighbours:
+            o = cands[comp.other]
+            trows.append(
+                (
+                    f"{o.side_m:g} m",
+                    f"{r.side_m:g} m",
+                    _f(comp.test.t, ".3f"),
+                    _f(comp.test.df, ".1f"),
+                    _f(comp.test.p_two_sided, ".3f"),
+                    _f(comp.test.mean_difference, "+.4f"),
+                    "yes" if comp.significant else "no",
+                )
+            )
+        print_table(trows)

@@ -1,0 +1,35 @@
+"""Test-track design: which polygon track (shape and size) to drive for calibration, and why.
+
+Pure numpy/scipy (no plotting or argparse). See docs/design.md.
+
+- :mod:`.metrics`: closed-form leg heading errors and the systematic share (Figs. 3, 4).
+- :mod:`.result`: candidates, error summaries, the validation track.
+- :mod:`.sweep`: the Monte-Carlo design procedure (Figs. 5, 6, 9) and its JSON.
+- :mod:`.recommend`: the size-selection rule on candidate summaries.
+- :mod:`.reproduce`: the paper's simulations and experiment, regenerated.
+"""
+
+from .metrics import (
+    leg_heading_noise_rad,
+    leg_heading_systematic_rad,
+    systematic_share,
+)
+from .recommend import Comparison, Recommendation, recommend
+from .result import Candidate, ErrorSummary, ValidationTrack
+from .sweep import DesignResult, SimulationSettings, design_json, run_design
+
+__all__ = [
+    "Candidate",
+    "Comparison",
+    "DesignResult",
+    "ErrorSummary",
+    "Recommendation",
+    "SimulationSettings",
+    "ValidationTrack",
+    "design_json",
+    "leg_heading_noise_rad",
+    "leg_heading_systematic_rad",
+    "recommend",
+    "run_design",
+    "systematic_share",
+]

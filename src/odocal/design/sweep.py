@@ -1,0 +1,528 @@
+"""The paper's track-design procedure as a vectorised Monte-Carlo sweep (docs/design.md).
+
+For every candidate track (regular N-gon of side L) and every trial:
+
+1. simulate n CW and n CCW test runs (wheel noise, then the instrument's measurement noise);
+2. calibrate from the per-trial mean final errors (circular mean for headings) with the heading
+   method (or UMBmark on squares);
+3. install the calibrated geometry and drive the validation track once; record the final
+   position error sqrt(eps_x^2 + eps_y^2) (the true error: no instrument noise).
+
+On the same validation track, the *floor* (the robot running with its TRUE geometry) and the
+*uncalibrated* error (running with the parameters it believed during the test) show what
+calibration can gain. All candidate sizes x trials x runs of one shape go through one call of
+:func:`odocal.core.simulate.drive` per direction; the validation of all calibrations is one more
+call.
+
+Simulation accuracy (:class:`SimulationSettings`): by default every segment is split into 10
+increments integrated as exact arcs. The deterministic part is then exact, and the noise
+covariance differs from the limit of infinitely small increments by O(1/K^2) (about 0.25 % of the
+cross-track variance at K = 10), far below the sampling error of 800 trials. The heading method
+reads only the final heading, whose distribution does not depend on the increments at all (the
+heading change is the sum of the increments' wheel-travel differences over b, and their noise
+variances add up to exactly k |s|), so its test runs use one increment per segment.
+``SimulationSettings.reference()`` is the 1 cm midpoint simulation of ``odocal simulate``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..calibration.heading import heading_factors
+from ..calibration.result import circular_mean
+from ..calibration.umbmark import umbmark_factors
+from ..core.model import ModelError, NonSystematicError, Robot, WheelGeometry
+from ..core.simulate import drive, measure
+from ..core.tracks import polygon
+from .metrics import leg_heading_noise_rad, leg_heading_systematic_rad, systematic_share
+from .recommend import Recommendation, recommend
+from .result import Candidate, ErrorSummary, ValidationTrack, check_design_inputs, rounded
+
+__all__ = [
+    "METHODS",
+    "SimulationSettings",
+    "FAST",
+    "DesignResult",
+    "Progress",
+    "calibrate_trials",
+    "validation_errors",
+    "residual_errors",
+    "simulate_candidates",
+    "equal_travel_side_lengths",
+    "run_design",
+    "design_json",
+]
+
+METHODS = ("heading", "umbmark")
+
+#: progress callback: (stages done, stages in all, label of the stage just finished)
+Progress = Callable[[int, int, str], None]
+
+
+@dataclass(frozen=True)
+class SimulationSettings:
+    """How finely runs are integrated (see the module docstring).
+
+    Attributes
+    ----------
+    steps_per_segment : int or None
+        Increments per segment (fast mode); None to use ``max_step_m``.
+    integration : str
+        'exact' (exact arcs) or 'midpoint' (eq. 8).
+    max_step_m : float or None
+        Largest wheel travel of one increment (m), when ``steps_per_segment`` is None.
+    single_step_heading_tests : bool
+        Use one increment per segment for test runs calibrated by the heading method (exact).
+    """
+
+    steps_per_segment: int | None = 10
+    integration: str = "exact"
+    max_step_m: float | None = None
+    single_step_heading_tests: bool = True
+
+    @classmethod
+    def reference(cls) -> SimulationSettings:
+        """1 cm increments, midpoint update, everywhere: the slow reference."""
+        return cls(None, "midpoint", 0.01, False)
+
+    def options(self) -> dict:
+        return {
+            "steps_per_segment": self.steps_per_segment,
+            "integration": self.integration,
+            "max_step_m": self.max_step_m,
+        }
+
+    def for_tests(self, method: str) -> SimulationSettings:
+        if method == "heading" and self.single_step_heading_tests:
+            return replace(self, steps_per_segment=1)
+        return self
+
+    def describe(self) -> str:
+        if self.steps_per_segment is not None:
+            return f"{self.steps_per_segment} {self.integration} increments per segment"
+        return f"increments of at most {self.max_step_m * 100:g} cm, {self.integration} update"
+
+
+@dataclass(frozen=True)
+class DesignResult:
+    """Outcome of a track design.
+
+    Attributes
+    ----------
+    candidates : tuple of Candidate
+        In the order of the sweep (shape by shape, side lengths ascending).
+    floor, uncalibrated : ErrorSummary
+        Validation-track error with the TRUE geometry, and with the parameters the robot believed
+        during the test (m).
+    recommendation : Recommendation
+    validation : ValidationTrack
+    method : str
+        Calibration method ('heading' or 'umbmark').
+    runs_per_direction, trials : int
+    settings : SimulationSettings or None
+        None for candidates that were not simulated.
+    """
+
+    candidates: tuple[Candidate, ...]
+    floor: ErrorSummary
+    uncalibrated: ErrorSummary
+    recommendation: Recommendation
+    validation: ValidationTrack
+    method: str
+    runs_per_direction: int
+    trials: int
+    settings: SimulationSettings | None = None
+
+    @property
+    def recommended(self) -> Candidate:
+        return self.candidates[self.recommendation.index]
+
+
+# Largest number of test runs per direction simulated in one block of candidates.
+_BLOCK_RUNS = 200_000
+
+#: The default (fast) settings.
+FAST = SimulationSettings()
+
+
+def _batch(values: np.ndarray, trials: int, runs: int) -> np.ndarray:
+    """Repeat each value ``trials * runs`` times: shape (C,) -> (C * trials * runs,)."""
+    return np.repeat(np.asarray(values, dtype=float), trials * runs)
+
+
+def calibrate_trials(
+    robot: Robot,
+    sides: int,
+    side_lengths_m,
+    runs_per_direction: int,
+    trials: int,
+    method: str,
+    rng: np.random.Generator,
+    settings: SimulationSettings = FAST,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Simulate the test runs of every (side length, trial) and calibrate.
+
+    Returns E_b, E_d, each of shape (C, trials) for C side lengths, relative to the parameters
+    the robot believed during the test; NaN where the calibration equations are undefined.
+    """
+    if method not in METHODS:
+        raise ModelError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    if method == "umbmark" and sides != 4:
+        raise ModelError(f"UMBmark is defined for squares only (sides 4), got sides {sides}")
+    sides_m = np.asarray(side_lengths_m, dtype=float).ravel()
+    n, t_, c = runs_per_direction, trials, sides_m.size
+    side_batch = _batch(sides_m, t_, n)
+    opts = settings.for_tests(method).options()
+    means = {}
+    for d in ("cw", "ccw"):
+        res = drive(
+            polygon(sides, side_batch, d),
+            robot.true_geometry,
+            robot.believed_geometry,
+            robot.nonsystematic,
+            side_batch.size,
+            rng,
+            **opts,
+        )
+        err = measure(res.errors, robot, rng).reshape(c, t_, n, 3)
+        means[d] = (err[..., :2].mean(axis=2), circular_mean(err[..., 2], axis=-1))
+    b_ran = robot.believed_geometry.wheelbase_m
+    if method == "heading":
+        E_b, E_d = heading_factors(means["cw"][1], means["ccw"][1], sides, sides_m[:, None], b_ran)
+    else:
+        E_b, E_d = umbmark_factors(means["cw"][0], means["ccw"][0], sides_m[:, None], b_ran)
+    E_b, E_d = np.asarray(E_b, dtype=float), np.asarray(E_d, dtype=float)
+    bad = ~(np.isfinite(E_b) & np.isfinite(E_d) & (E_b > 0) & (E_d > 0))
+    E_b[bad] = np.nan
+    E_d[bad] = np.nan
+    return E_b, E_d
+
+
+def validation_errors(
+    robot: Robot,
+    believed: WheelGeometry,
+    validation: ValidationTrack,
+    runs: int,
+    rng: np.random.Generator,
+    settings: SimulationSettings = FAST,
+) -> np.ndarray:
+    """Final position errors (m), shape (runs,), of ``runs`` drives of the validation track by
+    the physical ``robot`` running with ``believed`` (scalar or batched of shape (runs,))."""
+    res = drive(
+        validation.track(),
+        robot.true_geometry,
+        believed,
+        robot.nonsystematic,
+        runs,
+        rng,
+        **settings.options(),
+    )
+    return np.hypot(res.errors[:, 0], res.errors[:, 1])
+
+
+def calibrated_geometry(robot: Robot, E_b: np.ndarray, E_d: np.ndarray) -> WheelGeometry:
+    """The batched geometry a calibration installs (NaN factors replaced by 1: mask them)."""
+    ok = np.isfinite(E_b) & np.isfinite(E_d)
+    return robot.believed_geometry.corrected(np.where(ok, E_b, 1.0), np.where(ok, E_d, 1.0))
+
+
+def residual_errors(robot: Robot, E_b, E_d, validation: ValidationTrack) -> np.ndarray:
+    """Final position error (m) of the validation track driven WITHOUT wheel noise by the robot
+    running with the calibrations (E_b, E_d) (arrays of one shape; the result has it too, NaN
+    where a factor is NaN). One exact increment per segment: exact for a noise-free drive."""
+    E_b = np.asarray(E_b, dtype=float)
+    E_d = np.asarray(E_d, dtype=float)
+    res = drive(
+        validation.track(),
+        robot.true_geometry,
+        calibrated_geometry(robot, E_b.ravel(), E_d.ravel()),
+        NonSystematicError(),
+        E_b.size,
+        None,
+        steps_per_segment=1,
+        integration="exact",
+    )
+    err = np.hypot(res.errors[:, 0], res.errors[:, 1]).reshape(E_b.shape)
+    err[~(np.isfinite(E_b) & np.isfinite(E_d))] = np.nan
+    return err
+
+
+def _stats(x: np.ndarray) -> tuple[float, float]:
+    x = x[np.isfinite(x)]
+    if x.size < 2:
+        return (float(x.mean()) if x.size else math.nan), math.nan
+    return float(x.mean()), float(x.std(ddof=1))
+
+
+def simulate_candidates(
+    robot: Robot,
+    sides: int,
+    side_lengths_m,
+    runs_per_direction: int,
+    trials: int,
+    method: str,
+    validation: ValidationTrack,
+    rng: np.random.Generator,
+    settings: SimulationSettings = FAST,
+) -> list[Candidate]:
+    """Monte-Carlo candidates for one polygon shape and several side lengths (m)."""
+    sides_m = np.asarray(side_lengths_m, dtype=float).ravel()
+    E_b, E_d = calibrate_trials(
+        robot, sides, sides_m, runs_per_direction, trials, method, rng, settings
+    )
+    post = validation_errors(
+        robot,
+        calibrated_geometry(robot, E_b.ravel(), E_d.ravel()),
+        validation,
+        E_b.size,
+        rng,
+        settings,
+    ).reshape(E_b.shape)
+    post[~np.isfinite(E_b)] = np.nan
+    residual = residual_errors(robot, E_b, E_d, validation)
+    beta = np.abs(leg_heading_systematic_rad(robot, sides_m))
+    sigma = leg_heading_noise_rad(robot, sides_m)
+    share = systematic_share(beta, sigma, runs_per_direction)
+    out = []
+    for i, L in enumerate(sides_m):
+        s = ErrorSummary.from_samples(post[i])
+        eb, ed = _stats(E_b[i]), _stats(E_d[i])
+        res = _stats(residual[i])
+        out.append(
+            Candidate(
+                sides=int(sides),
+                side_m=float(L),
+                travel_m=float(sides * L),
+                systematic_share=float(share[i]),
+                post_error_mean_m=s.mean_m,
+                post_error_std_m=s.std_m,
+                post_error_ci95_m=s.ci95_m,
+                E_b_mean=eb[0],
+                E_b_std=eb[1],
+                E_d_mean=ed[0],
+                E_d_std=ed[1],
+                trials=s.n,
+                leg_heading_systematic_rad=float(beta[i]),
+                leg_heading_noise_rad=float(sigma[i]),
+                residual_error_mean_m=res[0],
+                residual_error_std_m=res[1],
+                failed_trials=int(trials - s.n),
+                post_errors_m=post[i].copy(),
+            )
+        )
+    return out
+
+
+def equal_travel_side_lengths(side_lengths_m, sides: Sequence[int]) -> dict[int, np.ndarray]:
+    """Side lengths per shape: the first shape uses ``side_lengths_m``; every other shape gets
+    the same total travels (side = travel / N), so shapes are compared at equal travel."""
+    base = np.asarray(side_lengths_m, dtype=float)
+    travel = base * sides[0]
+    return {int(s): (base if i == 0 else travel / s) for i, s in enumerate(sides)}
+
+
+def run_design(
+    robot: Robot,
+    rng: np.random.Generator,
+    *,
+    sides: Sequence[int] = (4,),
+    side_lengths_m=None,
+    runs_per_direction: int = 5,
+    trials: int = 800,
+    method: str = "heading",
+    validation: ValidationTrack | None = None,
+    alpha: float = 0.05,
+    tolerance: float = 0.05,
+    criterion: str = "error",
+    settings: SimulationSettings = FAST,
+    progress: Progress | None = None,
+) -> DesignResult:
+    """The design procedure (module docstring) with the paper's defaults.
+
+    Parameters
+    ----------
+    robot : Robot
+        The physical robot (systematic and non-systematic errors, measurement noise) and the
+        parameters it runs with during the test (``robot.believed_geometry``).
+    rng : numpy.random.Generator
+    sides : sequence of int
+        Polygon shapes to compare (repeat for several; see :func:`equal_travel_side_lengths`).
+    side_lengths_m : array_like, optional
+        Candidate side lengths of the first shape (m); default 0.5, 1.0, ..., 10 m.
+    runs_per_direction, trials : int
+        Test runs per direction in each calibration; Monte-Carlo trials per candidate.
+    method : {'heading', 'umbmark'}
+    validation : ValidationTrack, optional
+        Default: 4 m x 4 m square CCW (the paper's).
+    alpha, tolerance, criterion
+        Parameters of the recommendation rule (:mod:`odocal.design.recommend`).
+    """
+    check_design_inputs(runs_per_direction, trials)
+    if method not in METHODS:
+        raise ModelError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
+    sides = [int(s) for s in dict.fromkeys(sides)]
+    if not sides:
+        raise ModelError("at least one polygon shape (sides) is needed")
+    if method == "umbmark" and any(s != 4 for s in sides):
+        raise ModelError("UMBmark is defined for squares only (sides 4)")
+    if side_lengths_m is None:
+        side_lengths_m = np.arange(1, 21) * 0.5
+    side_lengths_m = np.asarray(side_lengths_m, dtype=float)
+    if side_lengths_m.ndim != 1 or side_lengths_m.size == 0:
+        raise ModelError("at least one candidate side length is needed")
+    if not np.all(np.isfinite(side_lengths_m) & (side_lengths_m > 0)):
+        raise ModelError(f"side lengths must be finite and > 0, got {side_lengths_m.tolist()}")
+    validation = validation or ValidationTrack(4, 4.0, "ccw")
+
+    # Candidates are simulated in blocks of at most _BLOCK_RUNS test runs per direction: this
+    # bounds memory and paces the progress bar. The blocks depend only on the arguments, so the
+    # random stream (and the result) is the same on every machine.
+    per_candidate = trials * runs_per_direction
+    block = max(1, _BLOCK_RUNS // per_candidate)
+    shapes = equal_travel_side_lengths(side_lengths_m, sides)
+    blocks = [
+        (s, lengths[i : i + block]) for s, lengths in shapes.items()
+        for i in range(0, len(lengths), block)
+    ]  # fmt: skip
+    total = 2 + len(blocks)
+    done = 0
+
+    def step(label: str) -> None:
+        nonlocal done
+        done += 1
+        if progress is not None:
+            progress(done, total, label)
+
+    # floor and uncalibrated first, so they do not depend on the candidate list
+    floor = ErrorSummary.from_samples(
+        validation_errors(robot, robot.true_geometry, validation, trials, rng, settings)
+    )
+    step("floor")
+    uncal = ErrorSummary.from_samples(
+        validation_errors(robot, robot.believed_geometry, validation, trials, rng, settings)
+    )
+    step("uncalibrated")
+    candidates: list[Candidate] = []
+    for s, lengths in blocks:
+        candidates += simulate_candidates(
+            robot, s, lengths, runs_per_direction, trials, method, validation, rng, settings
+        )
+        step(f"{s}-gon up to {lengths[-1]:g} m")
+    rec = recommend(candidates, alpha, tolerance, criterion)
+    return DesignResult(
+        tuple(candidates),
+        floor,
+        uncal,
+        rec,
+        validation,
+        method,
+        runs_per_direction,
+        trials,
+        settings,
+    )
+
+
+def other_criterion(result: DesignResult) -> Recommendation | None:
+    """The recommendation under the other criterion ('error' <-> 'residual'), or None when the
+    candidates carry no residual statistics."""
+    rec = result.recommendation
+    other = "residual" if rec.criterion == "error" else "error"
+    try:
+        return recommend(result.candidates, rec.alpha, rec.tolerance, other)
+    except ModelError:
+        return None
+
+
+def _comparison_dict(result_candidates, comp) -> dict:
+    o, r = result_candidates[comp.other], result_candidates[comp.reference]
+    return {
+        "track": {"sides": o.sides, "side_m": o.side_m},
+        "versus": {"sides": r.sides, "side_m": r.side_m},
+        "t": rounded(comp.test.t),
+        "df": rounded(comp.test.df),
+        "p": rounded(comp.test.p_two_sided),
+        "mean_difference_m": rounded(comp.test.mean_difference),
+        "rule_t": rounded(comp.rule.t),
+        "rule_p": rounded(comp.rule.p_less),
+        "significantly_better_beyond_tolerance": comp.significant,
+    }
+
+
+def _other_dict(result: DesignResult) -> dict | None:
+    other = other_criterion(result)
+    if other is None:
+        return None
+    c = result.candidates[other.index]
+    return {
+        "criterion": other.criterion,
+        "sides": c.sides,
+        "side_m": rounded(c.side_m),
+        "travel_m": rounded(c.travel_m),
+    }
+
+
+def design_json(result: DesignResult, **extra) -> dict:
+    """The ``odocal design --json`` object (issue contract plus extra keys; floats rounded to 9
+    significant digits, NaN as null). ``extra`` (e.g. seed, robot) is merged in."""
+    cands = result.candidates
+    rec = result.recommendation
+    r = cands[rec.index]
+    out = {
+        "candidates": [
+            {
+                "sides": c.sides,
+                "side_m": rounded(c.side_m),
+                "travel_m": rounded(c.travel_m),
+                "systematic_share": rounded(c.systematic_share),
+                "post_error_mean_m": rounded(c.post_error_mean_m),
+                "post_error_std_m": rounded(c.post_error_std_m),
+                "post_error_ci95_m": [rounded(v) for v in c.post_error_ci95_m],
+                "E_b_mean": rounded(c.E_b_mean),
+                "E_b_std": rounded(c.E_b_std),
+                "E_d_mean": rounded(c.E_d_mean),
+                "E_d_std": rounded(c.E_d_std),
+                "trials": c.trials,
+                "leg_heading_systematic_deg": rounded(
+                    math.degrees(getattr(c, "leg_heading_systematic_rad", math.nan))
+                ),
+                "leg_heading_noise_deg": rounded(
+                    math.degrees(getattr(c, "leg_heading_noise_rad", math.nan))
+                ),
+                "residual_error_mean_m": rounded(getattr(c, "residual_error_mean_m", math.nan)),
+                "residual_error_std_m": rounded(getattr(c, "residual_error_std_m", math.nan)),
+                "failed_trials": getattr(c, "failed_trials", 0),
+            }
+            for c in cands
+        ],
+        "recommended": {
+            "sides": r.sides,
+            "side_m": rounded(r.side_m),
+            "travel_m": rounded(r.travel_m),
+            "post_error_mean_m": rounded(r.post_error_mean_m),
+        },
+        "floor_m": rounded(result.floor.mean_m),
+        "uncalibrated_m": rounded(result.uncalibrated.mean_m),
+        "floor": result.floor.as_dict(),
+        "uncalibrated": result.uncalibrated.as_dict(),
+        "recommended_by_other_criterion": _other_dict(result),
+        "recommended_by_sides": {
+            str(s): {"side_m": rounded(cands[i].side_m), "travel_m": rounded(cands[i].travel_m)}
+            for s, i in rec.per_shape.items()
+        },
+        "ttests": [_comparison_dict(cands, comp) for comp in rec.neighbours],
+        "criterion": rec.criterion,
+        "alpha": rec.alpha,
+        "tolerance": rec.tolerance,
+        "method": result.method,
+        "runs_per_direction": result.runs_per_direction,
+        "trials": result.trials,
+        "validation": result.validation.as_dict(),
+    }
+    if result.settings is not None:
+        out["simulation"] = result.settings.describe()
+    out.update(extra)
+    return out

@@ -1,0 +1,399 @@
+"""PNG figures of a track design and of the paper's reproduction.
+
+matplotlib is optional (the ``plot`` extra) and imported inside the functions; figures are drawn
+on the Agg canvas directly (no pyplot, no global backend change) and written atomically.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import OdocalError
+
+__all__ = [
+    "require_matplotlib",
+    "output_folder",
+    "leg_heading_figure",
+    "share_figure",
+    "post_error_figure",
+    "calibration_figure",
+    "design_figures",
+    "reproduce_figures",
+]
+
+_INSTALL_HINT = "plotting needs matplotlib: pip install 'odocal[plot]'"
+
+
+def _new_figure(width: float = 7.0, height: float = 4.4):
+    try:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+    except ImportError:
+        raise OdocalError(_INSTALL_HINT) from None
+    fig = Figure(figsize=(width, height), layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def require_matplotlib() -> None:
+    """Raise the one-line install hint unless matplotlib can be imported."""
+    _new_figure()
+
+
+def output_folder(path) -> Path:
+    """``path`` as a folder, created if needed (InputError if that is impossible)."""
+    return _out_dir(path)
+
+
+def _save(fig, path: Path) -> Path:
+    from .textfile import atomic_path
+
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format="png", dpi=120)
+    return path
+
+
+def _out_dir(path) -> Path:
+    from ..errors import InputError
+
+    out = Path(path)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(f"cannot create the output folder: {exc.strerror}", out) from None
+    if not out.is_dir():
+        raise InputError("not a folder", out)
+    return out
+
+
+def leg_heading_figure(curve, title: str):
+    """Fig. 3: |beta(L)| and sigma_theta(L) (deg) against the leg length L (m)."""
+    fig = _new_figure()
+    ax = fig.add_subplot()
+    ax.plot(curve.side_m, np.degrees(curve.beta_rad), lw=2, label="systematic |beta(L)|")
+    ax.plot(
+        curve.side_m,
+        np.degrees(curve.sigma_rad),
+        lw=2,
+        ls="--",
+        label="non-systematic sigma_theta(L), one run",
+    )
+    n = curve.runs_per_direction
+    ax.plot(
+        curve.side_m,
+        np.degrees(curve.sigma_rad) / math.sqrt(n),
+        lw=1.5,
+        ls=":",
+        label=f"non-systematic, mean of {n} runs",
+    )
+    ax.set_xlabel("side length L of the test track (m)")
+    ax.set_ylabel("heading error of one straight leg (deg)")
+    ax.set_title(title)
+    ax.set_xlim(0, float(curve.side_m.max()))
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="upper left")
+    return fig
+
+
+def share_figure(curve, title: str, mark_side_m: float = 4.0, paper_share: float | None = None):
+    """Fig. 4 / Fig. 8: systematic share (%) against the leg length (m)."""
+    fig = _new_figure()
+    ax = fig.add_subplot()
+    ax.plot(curve.side_m, 100 * curve.share, lw=2, label="odocal (model)")
+    ours = 100 * curve.share_at(mark_side_m)
+    ax.plot([mark_side_m], [ours], "o", color="C0", ms=7)
+    ax.annotate(
+        f"{ours:.1f} % at {mark_side_m:g} m",
+        (mark_side_m, ours),
+        xytext=(12, -26),
+        textcoords="offset points",
+        arrowprops={"arrowstyle": "-", "color": "0.4"},
+    )
+    if paper_share is not None:
+        ax.plot(
+            [mark_side_m], [100 * paper_share], "x", color="C3", ms=10, mew=2,
+            label=f"paper: about {100 * paper_share:g} % at {mark_side_m:g} m",
+        )  # fmt: skip
+    ax.set_xlabel("side length L of the test track (m)")
+    ax.set_ylabel("systematic share of the leg heading error (%)")
+    ax.set_title(title)
+    ax.set_xlim(0, float(curve.side_m.max()))
+    ax.set_ylim(0, 100)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="lower right")
+    ax.text(
+        0.02,
+        0.97,
+        f"share = beta^2 / (beta^2 + sigma_theta^2 / n), n = {curve.runs_per_direction}",
+        transform=ax.transAxes,
+        va="top",
+        fontsize=9,
+        color="0.3",
+    )
+    return fig
+
+
+def post_error_figure(
+    series,
+    title: str,
+    x: str = "side",
+    floor_m: float | None = None,
+    uncalibrated_m: float | None = None,
+    paper_choice: float | None = None,
+    validation_label: str = "",
+):
+    """Figs. 5, 6, 9: post-calibration error against the side length or the travel.
+
+    ``series``: list of (label, candidates, recommended candidate or None). Error bars are 95 %
+    confidence intervals of the mean; the dotted line is the residual (no wheel noise).
+    ``x``: 'side' (m) or 'travel' (m). ``paper_choice``: the paper's chosen size on that axis.
+    """
+    fig = _new_figure(7.4 if len(series) == 1 else 8.4, 5.6 if len(series) == 1 else 6.0)
+    ax = fig.add_subplot()
+    for k, (label, cands, rec) in enumerate(series):
+        color = f"C{k}"
+        xs = np.array([c.side_m if x == "side" else c.travel_m for c in cands])
+        mean = np.array([c.post_error_mean_m for c in cands])
+        half = np.array([1.96 * c.post_error_std_m / math.sqrt(max(c.trials, 1)) for c in cands])
+        ax.errorbar(
+            xs, mean, yerr=half, fmt="o-", ms=4, capsize=2, color=color,
+            label=f"{label}: after calibration (mean, 95 % CI)",
+        )  # fmt: skip
+        resid = np.array([getattr(c, "residual_error_mean_m", math.nan) for c in cands])
+        if np.any(np.isfinite(resid)):
+            ax.plot(
+                xs, resid, ls=":", marker=".", color=color,
+                label=f"{label}: residual (validation without wheel noise)",
+            )  # fmt: skip
+        if rec is not None:
+            rx = rec.side_m if x == "side" else rec.travel_m
+            ax.plot(
+                [rx], [rec.post_error_mean_m], "*", ms=18, color=color, mec="k",
+                label=f"{label}: recommended ({rec.side_m:g} m side, {rec.travel_m:g} m travel)",
+                zorder=5,
+            )  # fmt: skip
+    if floor_m is not None and math.isfinite(floor_m):
+        ax.axhline(floor_m, color="0.35", ls="--", lw=1.2)
+    if paper_choice is not None:
+        ax.axvline(
+            paper_choice, color="C3", ls="-.", lw=1.2, label=f"paper's choice ({paper_choice:g} m)"
+        )
+    ax.set_xlabel(
+        "side length of the test track (m)" if x == "side" else "travel of one test run (m)"
+    )
+    ax.set_ylabel("final position error on the validation track (m)")
+    ax.set_title(title)
+    ax.set_ylim(bottom=0)
+    ax.grid(alpha=0.3)
+    notes = []
+    if validation_label:
+        notes.append(f"validation: {validation_label}")
+    if floor_m is not None and math.isfinite(floor_m):
+        notes.append(f"dashed: floor with the true parameters, {floor_m:.3f} m")
+    if uncalibrated_m is not None and math.isfinite(uncalibrated_m):
+        notes.append(f"uncalibrated: {uncalibrated_m:.3f} m (off the scale)")
+    if notes:
+        ax.text(
+            0.99, 0.98, "\n".join(notes), transform=ax.transAxes, ha="right", va="top",
+            fontsize=9, color="0.25",
+        )  # fmt: skip
+    fig.legend(loc="outside lower center", ncol=2, fontsize=8)
+    return fig
+
+
+def calibration_figure(
+    candidates, title: str, truth: tuple[float, float] | None = None, x: str = "side"
+):
+    """Calibrated E_b and E_d (mean +- std over the trials) against the side length or the
+    travel (m)."""
+    from ..design.result import shape_name
+
+    fig = _new_figure(7.0, 5.2)
+    ax_b, ax_d = fig.subplots(2, 1, sharex=True)
+    for sides in sorted({c.sides for c in candidates}):
+        cs = [c for c in candidates if c.sides == sides]
+        xs = [c.side_m if x == "side" else c.travel_m for c in cs]
+        ax_b.errorbar(
+            xs, [c.E_b_mean for c in cs], yerr=[c.E_b_std for c in cs], fmt="o-", ms=3,
+            capsize=2, label=f"{shape_name(sides)}, mean +- std",
+        )  # fmt: skip
+        ax_d.errorbar(
+            xs, [c.E_d_mean for c in cs], yerr=[c.E_d_std for c in cs], fmt="o-", ms=3,
+            capsize=2, label=f"{shape_name(sides)}, mean +- std",
+        )  # fmt: skip
+    if truth is not None:
+        ax_b.axhline(truth[0], color="C3", ls="--", lw=1, label=f"true E_b {truth[0]:g}")
+        ax_d.axhline(truth[1], color="C3", ls="--", lw=1, label=f"true E_d {truth[1]:g}")
+    ax_b.set_ylabel("calibrated E_b (-)")
+    ax_d.set_ylabel("calibrated E_d (-)")
+    ax_d.set_xlabel(
+        "side length of the test track (m)" if x == "side" else "travel of one test run (m)"
+    )
+    for ax in (ax_b, ax_d):
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8, loc="upper right")
+        ax.ticklabel_format(axis="y", useOffset=False)
+    ax_b.set_title(title)
+    return fig
+
+
+def _series(result, label: str):
+    """One series per shape, each with the candidate the rule picks for that shape."""
+    shapes = sorted({c.sides for c in result.candidates})
+    out = []
+    for sides in shapes:
+        cs = [c for c in result.candidates if c.sides == sides]
+        best = result.candidates[result.recommendation.per_shape[sides]]
+        out.append((label if len(shapes) == 1 else f"{sides}-gon", cs, best))
+    return out
+
+
+def design_figures(result, out_dir) -> list[Path]:
+    """Figures of ``odocal design --plot DIR``; returns the paths written."""
+    from ..design.result import shape_name
+
+    out = _out_dir(out_dir)
+    cands = result.candidates
+    multi = len({c.sides for c in cands}) > 1
+    x = "travel" if multi else "side"
+    label = "design" if multi else shape_name(cands[0].sides)
+    written = []
+    fig = post_error_figure(
+        _series(result, label),
+        f"Post-calibration error\n{result.method} method, {result.runs_per_direction} runs per "
+        f"direction, {result.trials} trials",
+        x=x,
+        floor_m=result.floor.mean_m,
+        uncalibrated_m=result.uncalibrated.mean_m,
+        validation_label=result.validation.label,
+    )
+    written.append(_save(fig, out / "design_error.png"))
+    fig = calibration_figure(cands, "Calibrated factors against the test-track size", x=x)
+    written.append(_save(fig, out / "design_calibration.png"))
+    fig = _new_figure(7.0, 4.4)
+    ax = fig.add_subplot()
+    for sides in sorted({c.sides for c in cands}):
+        cs = [c for c in cands if c.sides == sides]
+        xs = [c.side_m for c in cs]
+        ax.plot(xs, [100 * c.systematic_share for c in cs], "o-", ms=3, label=shape_name(sides))
+    ax.set_xlabel("side length of the test track (m)")
+    ax.set_ylabel("systematic share of the leg heading error (%)")
+    ax.set_ylim(0, 100)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="lower right")
+    ax.set_title(f"Systematic share (n = {result.runs_per_direction} runs per direction)")
+    written.append(_save(fig, out / "design_share.png"))
+    return written
+
+
+def reproduce_figures(rep, out_dir) -> dict[str, Path]:
+    """The paper's figures from a :class:`odocal.design.reproduce.Reproduction`."""
+    from ..design.reproduce import INSTRUMENT_SIGMA_THETA_DEG, PAPER
+    from ..presets import PRESETS
+
+    out = _out_dir(out_dir)
+
+    def cond(name: str) -> str:
+        r = PRESETS[name]
+        return (
+            f"E_b {r.systematic.E_b:g}, E_d {r.systematic.E_d:g}, k {r.nonsystematic.k_r_m:.3g} m"
+        )
+
+    files = {}
+    files["fig3"] = _save(
+        leg_heading_figure(rep.fig3, f"Fig. 3: leg heading error ({cond('paper-fig3')})"),
+        out / "fig3_leg_heading_error.png",
+    )
+    files["fig4"] = _save(
+        share_figure(
+            rep.fig3,
+            f"Fig. 4: systematic share ({cond('paper-fig3')})",
+            paper_share=PAPER["fig4_share_at_4m"],
+        ),  # fmt: skip
+        out / "fig4_systematic_share.png",
+    )
+    t = rep.trials
+    f5 = rep.fig5
+    files["fig5"] = _save(
+        post_error_figure(
+            [("square", f5.candidates, f5.recommended)],
+            f"Fig. 5: square test tracks\n{cond('paper-fig5')}, {t} trials",
+            x="side",
+            floor_m=f5.floor.mean_m,
+            uncalibrated_m=f5.uncalibrated.mean_m,
+            paper_choice=PAPER["chosen_side_m"],
+            validation_label=f5.validation.label,
+        ),  # fmt: skip
+        out / "fig5_square_post_error.png",
+    )
+    f6 = rep.fig6
+    files["fig6"] = _save(
+        post_error_figure(
+            [
+                ("octagon", f6.candidates, f6.recommended),
+                ("square (Fig. 5)", f5.candidates, f5.recommended),
+            ],
+            f"Fig. 6: octagon vs square at equal travel\n{cond('paper-fig5')}, {t} trials",
+            x="travel",
+            floor_m=f6.floor.mean_m,
+            uncalibrated_m=f6.uncalibrated.mean_m,
+            paper_choice=PAPER["chosen_travel_m"],
+            validation_label=f6.validation.label,
+        ),  # fmt: skip
+        out / "fig6_octagon_post_error.png",
+    )
+    files["fig8"] = _save(
+        share_figure(
+            rep.fig8,
+            f"Fig. 8: systematic share ({cond('paper-experiment')})",
+            paper_share=PAPER["fig8_share_at_4m"],
+        ),  # fmt: skip
+        out / "fig8_systematic_share_experiment.png",
+    )
+    f9 = rep.fig9
+    files["fig9"] = _save(
+        post_error_figure(
+            [("square", f9.candidates, f9.recommended)],
+            f"Fig. 9: experimental robot\n{cond('paper-experiment')}, {t} trials",
+            x="side",
+            floor_m=f9.floor.mean_m,
+            uncalibrated_m=f9.uncalibrated.mean_m,
+            paper_choice=PAPER["chosen_side_m"],
+            validation_label=f9.validation.label,
+        ),  # fmt: skip
+        out / "fig9_experiment_post_error.png",
+    )
+    fi = rep.instrument
+    files["fig5_instrument"] = _save(
+        post_error_figure(
+            [
+                ("perfect instrument (Fig. 5)", f5.candidates, f5.recommended),
+                (
+                    f"heading instrument {INSTRUMENT_SIGMA_THETA_DEG:g} deg",
+                    fi.candidates,
+                    fi.recommended,
+                ),
+            ],
+            f"Fig. 5 with a noisy heading instrument\n{cond('paper-fig5')}, {t} trials",
+            x="side",
+            floor_m=f5.floor.mean_m,
+            uncalibrated_m=f5.uncalibrated.mean_m,
+            paper_choice=PAPER["chosen_side_m"],
+            validation_label=f5.validation.label,
+        ),  # fmt: skip
+        out / "fig5_instrument_post_error.png",
+    )
+    r5 = PRESETS["paper-fig5"].systematic
+    files["fig5_calibration"] = _save(
+        calibration_figure(
+            f5.candidates,
+            f"Calibrated factors on square tracks ({cond('paper-fig5')})",
+            truth=(r5.E_b, r5.E_d),
+        ),  # fmt: skip
+        out / "fig5_calibrated_factors.png",
+    )
+    return files
