@@ -280,3 +280,16 @@ def test_track_file(cli, tmp_path):
     assert json.loads(out)["by_direction"].keys() == {"ccw"}
     track.write_text("segments:\n  - jump: 2\n")
     _one_line_error(*cli("simulate", "--track", track)[::2], str(track), "jump")
+
+
+def test_outputs_get_the_usual_file_mode(cli, robot, tmp_path):
+    import os
+    import stat
+
+    out = tmp_path / "runs.csv"
+    old = os.umask(0o022)
+    try:
+        assert cli("simulate", "--robot", robot, "--out", out)[0] == 0
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(out.stat().st_mode) == 0o644

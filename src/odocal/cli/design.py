@@ -202,6 +202,12 @@ def add_parser(sub) -> None:
         action="store_true",
         help="simulate with 1 cm midpoint increments everywhere (slow; to check the fast mode)",
     )
+    p.add_argument(
+        "--analytic",
+        action="store_true",
+        help="first-order propagation instead of Monte Carlo: the same report in milliseconds "
+        "(docs/nonsystematic-errors.md says when first order holds)",
+    )
     p.add_argument("--plot", metavar="DIR", help="write PNG figures into DIR")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -224,29 +230,45 @@ def run(args) -> int:
     if args.method == "umbmark" and any(s != 4 for s in sides):
         raise InputError("UMBmark is defined for squares only (--sides 4)")
     work = len(args.side_lengths) * args.trials * args.runs_per_direction * len(sides)
-    if work > _MAX_RUNS:
+    if work > _MAX_RUNS and not args.analytic:
         raise InputError(
             f"{work} simulated runs per direction is too many (at most {_MAX_RUNS}); "
             "reduce --trials or the number of side lengths"
         )
     settings = SimulationSettings.reference() if args.reference_sim else SimulationSettings()
-    bar = ProgressBar("odocal design", enabled=not args.quiet)
+    bar = ProgressBar("odocal design", enabled=not args.quiet and not args.analytic)
     try:
-        result = run_design(
-            robot,
-            np.random.default_rng(args.seed),
-            sides=sides,
-            side_lengths_m=args.side_lengths,
-            runs_per_direction=args.runs_per_direction,
-            trials=args.trials,
-            method=args.method,
-            validation=args.validate,
-            alpha=args.alpha,
-            tolerance=args.tolerance,
-            criterion=args.criterion,
-            settings=settings,
-            progress=bar,
-        )
+        if args.analytic:
+            from ..design.analytic import analytic_design_result
+
+            result = analytic_design_result(
+                robot,
+                sides=sides,
+                side_lengths_m=args.side_lengths,
+                runs_per_direction=args.runs_per_direction,
+                trials=args.trials,
+                method=args.method,
+                validation=args.validate,
+                alpha=args.alpha,
+                tolerance=args.tolerance,
+                criterion=args.criterion,
+            )
+        else:
+            result = run_design(
+                robot,
+                np.random.default_rng(args.seed),
+                sides=sides,
+                side_lengths_m=args.side_lengths,
+                runs_per_direction=args.runs_per_direction,
+                trials=args.trials,
+                method=args.method,
+                validation=args.validate,
+                alpha=args.alpha,
+                tolerance=args.tolerance,
+                criterion=args.criterion,
+                settings=settings,
+                progress=bar,
+            )
     finally:
         bar.close()
     written = []
@@ -255,9 +277,10 @@ def run(args) -> int:
 
         written = design_figures(result, args.plot)
     if args.json:
-        print_json(design_json(result, seed=args.seed, robot=robot_label(args)))
+        extra = {"engine": "analytic" if args.analytic else "monte-carlo"}
+        print_json(design_json(result, seed=args.seed, robot=robot_label(args), **extra))
         return 0
-    print_design(result, robot_label(args), args.seed)
+    print_design(result, robot_label(args), None if args.analytic else args.seed)
     for path in written:
         print(f"wrote {path}")
     return 0
@@ -276,9 +299,12 @@ def print_design(result, robot: str, seed: int | None = None) -> None:
     rec = result.recommendation
     r = cands[rec.index]
     seed_text = f", seed {seed}" if seed is not None else ""
+    how = f"{result.trials} trials{seed_text}"
+    if result.settings is None:
+        how = f"first-order analytic (t-tests as for {result.trials} trials)"
     print(
         f"Test-track design for {robot}: {result.method} method, "
-        f"{result.runs_per_direction} runs per direction, {result.trials} trials{seed_text}"
+        f"{result.runs_per_direction} runs per direction, {how}"
     )
     print(
         f"Validation: {result.validation.label}; uncalibrated error "

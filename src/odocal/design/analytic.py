@@ -45,6 +45,7 @@ from ..core.simulate import odometric_pose
 from ..core.tracks import Track, polygon
 
 __all__ = [
+    "analytic_design_result",
     "AnalyticCandidate",
     "AnalyticReference",
     "analytic_design",
@@ -110,6 +111,9 @@ class AnalyticCandidate:
         Mean validation position error vector (x, y), the systematic residual (m).
     post_error_cov_xy_m2 : tuple of tuple of float
         Its covariance (m^2).
+    residual_error_mean_m, residual_error_std_m : float
+        ||p|| of the same validation drive WITHOUT wheel noise (only the calibrated parameters'
+        spread), as the Monte-Carlo design's residual (m).
     """
 
     sides: int
@@ -132,6 +136,8 @@ class AnalyticCandidate:
         (math.nan, math.nan),
         (math.nan, math.nan),
     )
+    residual_error_mean_m: float = math.nan
+    residual_error_std_m: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -300,6 +306,9 @@ def analytic_design(
             axis=-1,
         )  # (S, 2, 2)
         C = H @ cov_E @ np.swapaxes(H, -1, -2)
+        rm, rs, _, _ = norm_stats(
+            np.where(ok[:, None], p0, 0.0), np.where(ok[:, None, None], C, 0.0)
+        )
         run = propagate(
             validate_track,
             true,
@@ -344,6 +353,73 @@ def analytic_design(
                     )
                     if good
                     else (nan2, nan2),
+                    residual_error_mean_m=float(rm[i]) if good else math.nan,
+                    residual_error_std_m=float(rs[i]) if good else math.nan,
                 )
             )
     return out
+
+
+def analytic_design_result(
+    robot: Robot,
+    *,
+    sides=(4,),
+    side_lengths_m=None,
+    runs_per_direction: int = 5,
+    trials: int = 800,
+    method: str = "heading",
+    validation=None,
+    alpha: float = 0.05,
+    tolerance: float = 0.05,
+    criterion: str = "error",
+):
+    """The whole design (``odocal design --analytic``) by first-order propagation.
+
+    Same candidates (shapes compared at equal travel), recommendation rule, report and JSON as
+    :func:`odocal.design.sweep.run_design`, without Monte Carlo. The rule's t-tests need a sample
+    size: they are applied as if every candidate's statistics came from ``trials`` trials, i.e.
+    the recommendation is the one a Monte-Carlo design of that many trials would make on these
+    expected statistics. Candidates carry ``trials``; the simulation settings are None.
+    """
+    from .recommend import recommend
+    from .result import Candidate, ErrorSummary, ValidationTrack, check_design_inputs
+    from .sweep import DesignResult, equal_travel_side_lengths
+
+    check_design_inputs(runs_per_direction, trials)
+    sides = [int(v) for v in dict.fromkeys(sides)]
+    if side_lengths_m is None:
+        side_lengths_m = np.arange(1, 21) * 0.5
+    validation = validation or ValidationTrack(4, 4.0, "ccw")
+    track = validation.track()
+    candidates = []
+    for N, lengths in equal_travel_side_lengths(np.asarray(side_lengths_m, float), sides).items():
+        for a in analytic_design(robot, N, lengths, runs_per_direction, method, track):
+            candidates.append(
+                Candidate(
+                    sides=a.sides,
+                    side_m=a.side_m,
+                    travel_m=a.travel_m,
+                    systematic_share=a.systematic_share,
+                    post_error_mean_m=a.post_error_mean_m,
+                    post_error_std_m=a.post_error_std_m,
+                    post_error_ci95_m=a.post_error_ci95_m,
+                    E_b_mean=a.E_b_mean,
+                    E_b_std=a.E_b_std,
+                    E_d_mean=a.E_d_mean,
+                    E_d_std=a.E_d_std,
+                    trials=trials,
+                    leg_heading_systematic_rad=abs(a.leg_heading_systematic_rad),
+                    leg_heading_noise_rad=a.leg_heading_nonsystematic_rad,
+                    residual_error_mean_m=a.residual_error_mean_m,
+                    residual_error_std_m=a.residual_error_std_m,
+                )
+            )
+    ref = analytic_reference(robot, track)
+    floor = ErrorSummary(ref.floor_m, ref.floor_std_m, ref.floor_ci95_m, trials)
+    uncal = ErrorSummary(
+        ref.uncalibrated_m, ref.uncalibrated_std_m, ref.uncalibrated_ci95_m, trials
+    )
+    rec = recommend(candidates, alpha, tolerance, criterion)
+    return DesignResult(
+        tuple(candidates), floor, uncal, rec, validation, method, runs_per_direction, trials, None
+    )
