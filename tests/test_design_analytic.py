@@ -62,3 +62,15 @@ def test_analytic_text_report_and_plots(cli, tmp_path):
     assert "first-order analytic" in out and "Recommended:" in out
     pngs = sorted(tmp_path.glob("*.png"))
     assert pngs and all(p.stat().st_size > 10_000 for p in pngs)
+
+
+def test_recommended_size_grows_with_a_poorer_instrument():
+    from odocal.design.reproduce import precision_sweep
+
+    sweep = precision_sweep(
+        PRESETS["paper-fig5"], levels=((0.001, 0.1), (0.01, 1.0), (0.03, 3.0)), trials=800
+    )
+    for key, sides in sweep.recommended_side_m.items():
+        # never smaller with a worse instrument, and strictly larger from 0.1 deg to 3 deg
+        assert list(sides) == sorted(sides), key
+        assert sides[-1] > sides[0], key

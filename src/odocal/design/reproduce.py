@@ -157,6 +157,56 @@ class Reproduction:
     fig9: DesignResult
     experiment: ExperimentPrediction
     instrument: DesignResult
+    precision: PrecisionSweep | None = None
+
+
+#: Ground-truth instruments from motion capture to a tape measure and protractor:
+#: (sigma_xy_m, sigma_theta_deg), one standard deviation per measured coordinate / heading.
+INSTRUMENT_LEVELS = (
+    (0.001, 0.1),
+    (0.002, 0.25),
+    (0.005, 0.5),
+    (0.01, 1.0),
+    (0.02, 2.0),
+    (0.03, 3.0),
+)
+
+
+@dataclass(frozen=True)
+class PrecisionSweep:
+    """How the recommended track size moves with the precision of the ground-truth instrument.
+
+    Attributes
+    ----------
+    levels : tuple of (sigma_xy_m, sigma_theta_deg)
+    recommended_side_m : dict
+        ``(method, criterion) -> tuple`` of the recommended side length (m) per level, for
+        method 'heading' and 'umbmark' and criterion 'error' and 'residual'.
+    """
+
+    levels: tuple[tuple[float, float], ...]
+    recommended_side_m: dict
+
+
+def precision_sweep(
+    robot: Robot, levels=INSTRUMENT_LEVELS, side_lengths_m=None, trials: int = 800
+) -> PrecisionSweep:
+    """Recommended square size per instrument precision, by the analytic design (first order;
+    deterministic, so the curve shows the trend without Monte-Carlo scatter)."""
+    from .analytic import analytic_design_result
+
+    side_lengths_m = SQUARE_SIDES_M if side_lengths_m is None else side_lengths_m
+    out: dict = {}
+    for sxy, sth in levels:
+        r = dataclasses.replace(robot, measurement=MeasurementNoise.from_degrees(sxy, sth))
+        for method in ("heading", "umbmark"):
+            res = analytic_design_result(
+                r, side_lengths_m=side_lengths_m, trials=trials, method=method
+            )
+            for criterion in ("error", "residual"):
+                idx = recommend(res.candidates, 0.05, 0.05, criterion).index
+                out.setdefault((method, criterion), []).append(res.candidates[idx].side_m)
+    return PrecisionSweep(tuple(levels), {k: tuple(v) for k, v in out.items()})
 
 
 def residual_recommendation(result: DesignResult) -> int:
@@ -294,6 +344,7 @@ def reproduce(
         fig9,
         experiment,
         instrument,
+        precision_sweep(PRESETS["paper-fig5"], trials=trials),
     )
 
 

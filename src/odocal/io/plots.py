@@ -290,6 +290,39 @@ def design_figures(result, out_dir) -> list[Path]:
     return written
 
 
+def precision_figure(sweep, title: str):
+    """Recommended side length against the ground-truth instrument's precision."""
+    fig = _new_figure(7.0, 4.6)
+    ax = fig.add_subplot()
+    x = [sth for _, sth in sweep.levels]
+    styles = {
+        ("heading", "error"): ("C0", "-", "o", "heading method, error after calibration"),
+        ("heading", "residual"): ("C0", ":", "s", "heading method, residual"),
+        ("umbmark", "error"): ("C1", "-", "o", "UMBmark (mean form), error after calibration"),
+        ("umbmark", "residual"): ("C1", ":", "s", "UMBmark (mean form), residual"),
+    }
+    for key, (color, ls, marker, label) in styles.items():
+        if key in sweep.recommended_side_m:
+            ax.plot(x, sweep.recommended_side_m[key], color=color, ls=ls, marker=marker,
+                    label=label)  # fmt: skip
+    ax.set_xscale("log")
+    ax.set_xticks(x)
+    ax.set_xticklabels([f"{sxy * 1000:g} mm\n{sth:g} deg" for sxy, sth in sweep.levels])
+    ax.minorticks_off()
+    ax.set_xlabel("ground-truth instrument: sigma per position coordinate / per heading")
+    ax.set_ylabel("recommended side of the square (m)")
+    ax.set_ylim(bottom=0)
+    ax.axhline(4.0, color="0.5", ls="--", lw=1, label="paper's choice (4 m)")
+    ax.annotate("motion capture", (x[0], 0.2), ha="left", fontsize=8, color="0.3")
+    if len(x) >= 4:
+        ax.annotate("tape measure +\nprotractor", (x[3], 0.2), ha="center", fontsize=8,
+                    color="0.3")  # fmt: skip
+    ax.set_title(title)
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize=8, loc="upper left")
+    return fig
+
+
 def reproduce_figures(rep, out_dir) -> dict[str, Path]:
     """The paper's figures from a :class:`odocal.design.reproduce.Reproduction`."""
     from ..design.reproduce import INSTRUMENT_SIGMA_THETA_DEG, PAPER
@@ -396,4 +429,12 @@ def reproduce_figures(rep, out_dir) -> dict[str, Path]:
         ),  # fmt: skip
         out / "fig5_calibrated_factors.png",
     )
+    if getattr(rep, "precision", None) is not None:
+        files["precision"] = _save(
+            precision_figure(
+                rep.precision,
+                f"Recommended track size vs instrument precision\n{cond('paper-fig5')}",
+            ),
+            out / "precision_recommended_size.png",
+        )
     return files
