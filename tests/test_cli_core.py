@@ -293,3 +293,22 @@ def test_outputs_get_the_usual_file_mode(cli, robot, tmp_path):
     finally:
         os.umask(old)
     assert stat.S_IMODE(out.stat().st_mode) == 0o644
+
+
+def test_heading_method_needs_only_headings_and_blank_cells_say_so(cli, robot, tmp_path):
+    p = tmp_path / "runs.csv"
+    p.write_text("direction,x_m,y_m,theta_deg\ncw,,,7.5\nccw,,,-12.1\n")
+    status, out, err = cli("calibrate", p, "--robot", robot, "--json")
+    assert status == 0, err
+    assert json.loads(out)["E_b"] > 1
+    # UMBmark needs the positions: an empty one is reported as not filled in
+    _one_line_error(
+        *cli("calibrate", p, "--robot", robot, "--method", "umbmark")[::2],
+        "line 2",
+        "x_m",
+        "not filled in",
+    )
+    p.write_text("direction,x_m,y_m,theta_deg\ncw,0.1,0.2,\nccw,0,0,1\n")
+    _one_line_error(
+        *cli("calibrate", p, "--robot", robot)[::2], "line 2", "theta_deg", "not filled in"
+    )

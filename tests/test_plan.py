@@ -8,10 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from odocal.cli.plan import build_plan
 from odocal.core.covariance import predict
 from odocal.core.simulate import measure, simulate
 from odocal.core.tracks import out_and_back, polygon
+from odocal.design.plan import build_plan
 from odocal.io.runs_csv import read_runs
 from odocal.presets import PRESETS
 
@@ -63,7 +63,7 @@ def test_unfilled_template_is_a_clear_error_in_calibrate(cli, tmp_path):
     status, text, err = cli("calibrate", out)
     assert status == 2 and text == ""
     assert err.startswith("odocal: error:") and len(err.strip().splitlines()) == 1
-    assert str(out) in err and "field 'x_m'" in err and "not a number" in err
+    assert str(out) in err and "field 'theta_deg'" in err and "not filled in" in err
 
 
 def test_filled_template_calibrates(cli, tmp_path):

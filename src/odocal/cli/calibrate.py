@@ -82,7 +82,8 @@ def calibrate_file(
         if radius_m is None:
             raise InputError("--method bcpt needs --radius R (the commanded circle radius, m)")
         return calibrate_bcpt(read_circle_runs(path), radius_m, ran_with)
-    runs = read_runs(path)
+    # each method reads only what it uses: heading the final headings, UMBmark the positions
+    runs = read_runs(path, required=("theta_deg",) if method == "heading" else ("x_m", "y_m"))
     if method == "umbmark":
         if sides != 4:
             raise InputError(

@@ -47,8 +47,17 @@ REQUIRED_COLUMNS = ("direction", "x_m", "y_m", "theta_deg")
 CIRCLE_COLUMNS = ("direction", "radius_m")
 
 
-def read_runs(path, directions: tuple[str, ...] = ("cw", "ccw")) -> EndPoseRuns:
-    """Parse RUNS.csv; every problem raises InputError naming the file, line and field."""
+def read_runs(
+    path,
+    directions: tuple[str, ...] = ("cw", "ccw"),
+    required: tuple[str, ...] = ("x_m", "y_m", "theta_deg"),
+) -> EndPoseRuns:
+    """Parse RUNS.csv; every problem raises InputError naming the file, line and field.
+
+    All four columns must be present. A value column not in ``required`` may be left empty in a
+    row (the method does not use it, e.g. x_m and y_m for the heading-error method): it is read
+    as NaN. An empty required value is reported as not filled in.
+    """
     text = read_text(path)
     rows = [
         (i + 1, line)
@@ -88,6 +97,11 @@ def read_runs(path, directions: tuple[str, ...] = ("cw", "ccw")) -> EndPoseRuns:
         row = []
         for name in REQUIRED_COLUMNS[1:]:
             raw = fields[col[name]].strip()
+            if not raw:
+                if name in required:
+                    raise InputError("not filled in (empty)", path, line_no, name)
+                row.append(math.nan)
+                continue
             try:
                 v = float(raw)
             except ValueError:

@@ -1,0 +1,224 @@
+"""The floor protocol: what a person drives, measures and should expect (``odocal plan``).
+
+Pure: builds a :class:`FloorPlan` from a robot and a track; the CLI prints it and writes the run
+sheet.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from ..core.covariance import PosePrediction, predict
+from ..core.model import Robot
+from ..core.tracks import Track, out_and_back, polygon, straight_line
+
+__all__ = ["FloorPlan", "build_plan"]
+
+
+@dataclass(frozen=True)
+class FloorPlan:
+    """What to drive, in which order, and what the model predicts for the end errors.
+
+    Attributes
+    ----------
+    kind : str
+        'polygon', 'out-and-back' or 'straight'.
+    title : str
+    order : tuple of str
+        Direction label of every run, in driving order ('cw'/'ccw' or 'fwd').
+    predictions : dict of str to PosePrediction
+        Predicted end pose (mean error and covariance incl. the instrument) per direction label.
+    steps : tuple of str
+        The protocol, one step per item.
+    next_command : str
+        The odocal command that reads the filled-in RUNS.csv.
+    calibration, reference : AnalyticCandidate, AnalyticReference or None
+        For polygons: the analytic design's prediction of the heading-error calibration from
+        these runs and of the error on the paper's 4 m CCW validation square (with the true
+        parameters: the floor; uncalibrated).
+    """
+
+    kind: str
+    title: str
+    order: tuple[str, ...]
+    predictions: dict[str, PosePrediction]
+    steps: tuple[str, ...]
+    next_command: str
+    calibration: object | None = None
+    reference: object | None = None
+
+    def template_csv(self) -> str:
+        """Blank RUNS.csv: comment lines, header, one row per run with the direction filled in."""
+        lines = [
+            f"# odocal run sheet: {self.title}",
+            "# Fill in x_m, y_m, theta_deg of every run: the final pose ERROR (actual - odometric)",
+            "# in the start frame: +x start heading, +y left, theta CCW positive, unwrapped.",
+            "# Keep the rows in driving order. Lines starting with '#' are ignored.",
+            "# Every field must hold a number: an empty one stops odocal with 'not a number'.",
+            "direction,x_m,y_m,theta_deg,run",
+        ]
+        lines += [f"{d},,,,{i}" for i, d in enumerate(self.order, start=1)]
+        return "\n".join(lines) + "\n"
+
+    def as_dict(self) -> dict:
+        def pose(v):
+            return {"x_m": float(v[0]), "y_m": float(v[1]), "theta_deg": math.degrees(v[2])}
+
+        extra = {}
+        if self.calibration is not None:
+            c, r = self.calibration, self.reference
+            extra["calibration_prediction"] = {
+                "method": "heading",
+                "E_b_mean": c.E_b_mean,
+                "E_b_std": c.E_b_std,
+                "E_d_mean": c.E_d_mean,
+                "E_d_std": c.E_d_std,
+                "validation": "4-gon 4 m ccw",
+                "post_error_mean_m": c.post_error_mean_m,
+                "post_error_ci95_m": list(c.post_error_ci95_m),
+                "floor_m": r.floor_m,
+                "uncalibrated_m": r.uncalibrated_m,
+            }
+        return extra | {
+            "kind": self.kind,
+            "title": self.title,
+            "order": list(self.order),
+            "runs": len(self.order),
+            "steps": list(self.steps),
+            "next_command": self.next_command,
+            "predicted": {
+                d: {"mean": pose(p.error_mean), "std": pose(p.std(measured=True))}
+                for d, p in self.predictions.items()
+            },
+        }
+
+
+_START = (
+    "Mark the start pose on the floor: a cross under the midpoint between the wheel contact "
+    "points (the axle centre), and a line (tape or a straight edge) of 1 m or more along the "
+    "start heading. This defines the start frame: origin at the cross, +x along the line, +y to "
+    "the robot's left."
+)
+_PLACE = (
+    "Before every run, place the robot on the start pose (axle centre on the cross, heading "
+    "along the line) and reset its odometry. Use the same parameters in the robot for all runs "
+    "(those in ROBOT.yaml 'believed', else nominal): do not recalibrate between runs."
+)
+_OPEN_LOOP = (
+    "Drive open loop on the wheel encoders (odometry only, no external correction), slowly and "
+    "with gentle accelerations so the wheels do not slip; the same speed profile for every run."
+)
+
+
+def _measure_step(closed: bool, extra: str = "", example: str = "") -> str:
+    what = (
+        "Since the track ends where it starts, the error (actual - odometric) is simply the "
+        "measured final pose."
+        if closed
+        else extra
+    )
+    return (
+        "At the end of each run, measure the final pose in the START frame: x_m along the start "
+        "line, y_m to its left (m), and theta_deg, the final heading minus the start heading, CCW "
+        "positive, unwrapped: the small deviation from the commanded total turn"
+        + (example or " (ending 2 deg to the left of the start line is +2)")
+        + ". "
+        + what
+    )
+
+
+def build_plan(
+    robot: Robot,
+    *,
+    sides: int | None = None,
+    side_m: float | None = None,
+    runs_per_direction: int = 5,
+    noise_track: tuple[str, float] | None = None,
+    runs_path: str = "RUNS.csv",
+    robot_arg: str = "ROBOT.yaml",
+) -> FloorPlan:
+    """The floor protocol for an N-gon of side ``side_m`` (m) driven ``runs_per_direction`` times
+    CW and CCW, or (``noise_track`` = ('out-and-back' | 'straight', D m)) ``runs_per_direction``
+    runs for measuring k. Predictions come from :func:`odocal.core.covariance.predict`."""
+    n = int(runs_per_direction)
+    if noise_track is None:
+        tracks: dict[str, Track] = {d: polygon(sides, side_m, d) for d in ("cw", "ccw")}
+        order = tuple(("cw", "ccw")[i % 2] for i in range(2 * n))
+        shape = {3: "triangle", 4: "square"}.get(sides, f"regular {sides}-gon")
+        turn = 360.0 / sides
+        title = (
+            f"{shape}, {sides} sides of {side_m:g} m ({sides * side_m:g} m travel), "
+            f"{n} CW + {n} CCW runs"
+        )
+        steps = (
+            _START,
+            f"Free floor: the {shape} lies to the right of the start line for CW runs (y < 0) "
+            f"and to its left for CCW runs (y > 0); keep about {side_m:g} m x {side_m:g} m clear "
+            "on both sides plus a margin for the errors below.",
+            f"One run: {sides} times (straight {side_m:g} m, then turn on the spot by "
+            f"{turn:g} deg): right turns (-{turn:g} deg) for CW, left turns (+{turn:g} deg) "
+            f"for CCW. Total commanded heading change: -360 deg (CW), +360 deg (CCW).",
+            _OPEN_LOOP,
+            f"Order: alternate CW and CCW (CW, CCW, CW, ...; {2 * n} runs, as in the template). "
+            "Why not blocks: a slow drift during the session (battery voltage, tyre temperature, "
+            "floor) then affects both directions alike and cancels, instead of becoming a "
+            "CW - CCW difference that the calibration would read as a wheelbase error.",
+            _PLACE,
+            _measure_step(
+                True,
+                example=" (a CW run turns -360 deg; ending 2 deg to the left of the start line is "
+                "+2, not -358)",
+            ),
+            "Write each run into the template row of the same number. Measure all three values "
+            "if you can: the heading-error method (default) uses theta_deg (with only a gyro or "
+            "a protractor, leave x_m and y_m empty), UMBmark (--method umbmark) uses x_m and "
+            "y_m.",
+        )
+        next_cmd = (
+            f"odocal calibrate {runs_path} --robot {robot_arg} --sides {sides} "
+            f"--side-length {side_m:g}"
+        )
+        kind = "polygon"
+    else:
+        kind, d = noise_track
+        tr = out_and_back(d) if kind == "out-and-back" else straight_line(d)
+        tracks = {"fwd": tr}
+        order = ("fwd",) * n
+        title = f"{kind} {d:g} m, {n} runs (non-systematic error k)"
+        drive = (
+            f"One run: forward {d:g} m, stop, then backward {d:g} m WITHOUT turning (reverse "
+            "the wheels). The robot retraces its own arc, so systematic errors cancel and the "
+            "end spread is purely random."
+            if kind == "out-and-back"
+            else f"One run: forward {d:g} m in a straight line. Systematic curvature only shifts "
+            "the mean; the spread about the mean is random."
+        )
+        meas_extra = (
+            "The robot ends near the start, so the error is simply the measured final pose."
+            if kind == "out-and-back"
+            else f"The robot believes it ends at x = {d:g} m, y = 0, heading 0: record "
+            f"x_m = measured x - {d:g}, y_m = measured y, theta_deg = measured heading."
+        )
+        steps = (
+            _START,
+            drive,
+            _OPEN_LOOP,
+            f"Drive {n} runs (10 to 20 give a usable 95 % interval; fewer than 3 cannot be "
+            "used) in one session; 'odocal noise' flags a drift with run order.",
+            _PLACE,
+            _measure_step(kind == "out-and-back", meas_extra)
+            + " The heading is what k is computed from: measure it as precisely as you can "
+            "(its instrument noise, ROBOT.yaml measurement.sigma_theta_deg, is subtracted).",
+            "Write each run into the template (direction 'fwd').",
+        )
+        next_cmd = f"odocal noise {runs_path} --robot {robot_arg} --track {kind}:{d:g}"
+    predictions = {lab: predict(t, robot, max_step_m=0.02) for lab, t in tracks.items()}
+    calibration = reference = None
+    if kind == "polygon":
+        from .analytic import analytic_design, analytic_reference
+
+        validate = polygon(4, 4.0, "ccw")
+        calibration = analytic_design(robot, sides, [side_m], n, "heading", validate)[0]
+        reference = analytic_reference(robot, validate)
+    return FloorPlan(kind, title, order, predictions, steps, next_cmd, calibration, reference)
