@@ -47,6 +47,70 @@ REQUIRED_COLUMNS = ("direction", "x_m", "y_m", "theta_deg")
 CIRCLE_COLUMNS = ("direction", "radius_m")
 
 
+def _read_table(path, columns: tuple[str, ...], directions, required, positive=False):
+    """Rows of a runs table: ``columns[0]`` is the direction, the rest are numbers.
+
+    Returns (directions, values of shape (n, len(columns) - 1)); an empty value not in
+    ``required`` is NaN. Every problem raises InputError naming the file, line and field.
+    """
+    text = read_text(path)
+    rows = [
+        (i + 1, line)
+        for i, line in enumerate(text.splitlines())
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
+    if not rows:
+        raise InputError(f"empty file, expected a header row '{','.join(columns)}'", path)
+    header_line, header_text = rows[0]
+    header = [h.strip() for h in next(csv.reader([header_text]))]
+    missing = [c for c in columns if c not in header]
+    if missing:
+        raise InputError(
+            f"missing column(s) {', '.join(missing)}; the header must contain {','.join(columns)}",
+            path,
+            header_line,
+        )
+    col = {c: header.index(c) for c in columns}
+    dirs: list[str] = []
+    values: list[list[float]] = []
+    for line_no, line in rows[1:]:
+        fields = next(csv.reader(io.StringIO(line)))
+        if len(fields) != len(header):
+            raise InputError(
+                f"expected {len(header)} fields as in the header, got {len(fields)}", path, line_no
+            )
+        d = fields[col[columns[0]]].strip().lower()
+        if d not in directions:
+            raise InputError(
+                f"unknown direction {fields[col[columns[0]]].strip()!r}; expected "
+                f"{' or '.join(directions)}",
+                path,
+                line_no,
+                columns[0],
+            )
+        row = []
+        for name in columns[1:]:
+            raw = fields[col[name]].strip()
+            if not raw:
+                if name in required:
+                    raise InputError("not filled in (empty)", path, line_no, name)
+                row.append(math.nan)
+                continue
+            try:
+                v = float(raw)
+            except ValueError:
+                raise InputError(f"not a number: {raw!r}", path, line_no, name) from None
+            if not math.isfinite(v) or (positive and v <= 0):
+                what = "a finite number > 0" if positive else "finite"
+                raise InputError(f"must be {what}, got {raw!r}", path, line_no, name)
+            row.append(v)
+        dirs.append(d)
+        values.append(row)
+    if not values:
+        raise InputError("no runs: the file has a header but no data rows", path)
+    return tuple(dirs), np.array(values)
+
+
 def read_runs(
     path,
     directions: tuple[str, ...] = ("cw", "ccw"),
@@ -58,116 +122,16 @@ def read_runs(
     row (the method does not use it, e.g. x_m and y_m for the heading-error method): it is read
     as NaN. An empty required value is reported as not filled in.
     """
-    text = read_text(path)
-    rows = [
-        (i + 1, line)
-        for i, line in enumerate(text.splitlines())
-        if line.strip() and not line.lstrip().startswith("#")
-    ]
-    if not rows:
-        raise InputError("empty file, expected a header row 'direction,x_m,y_m,theta_deg'", path)
-    header_line, header_text = rows[0]
-    header = [h.strip() for h in next(csv.reader([header_text]))]
-    missing = [c for c in REQUIRED_COLUMNS if c not in header]
-    if missing:
-        raise InputError(
-            f"missing column(s) {', '.join(missing)}; the header must contain "
-            f"{','.join(REQUIRED_COLUMNS)}",
-            path,
-            header_line,
-        )
-    col = {c: header.index(c) for c in REQUIRED_COLUMNS}
-    dirs: list[str] = []
-    values: list[list[float]] = []
-    for line_no, line in rows[1:]:
-        fields = next(csv.reader(io.StringIO(line)))
-        if len(fields) != len(header):
-            raise InputError(
-                f"expected {len(header)} fields as in the header, got {len(fields)}", path, line_no
-            )
-        d = fields[col["direction"]].strip().lower()
-        if d not in directions:
-            raise InputError(
-                f"unknown direction {fields[col['direction']].strip()!r}; expected "
-                f"{' or '.join(directions)}",
-                path,
-                line_no,
-                "direction",
-            )
-        row = []
-        for name in REQUIRED_COLUMNS[1:]:
-            raw = fields[col[name]].strip()
-            if not raw:
-                if name in required:
-                    raise InputError("not filled in (empty)", path, line_no, name)
-                row.append(math.nan)
-                continue
-            try:
-                v = float(raw)
-            except ValueError:
-                raise InputError(f"not a number: {raw!r}", path, line_no, name) from None
-            if not math.isfinite(v):
-                raise InputError(f"must be finite, got {raw!r}", path, line_no, name)
-            row.append(v)
-        dirs.append(d)
-        values.append(row)
-    if not values:
-        raise InputError("no runs: the file has a header but no data rows", path)
-    err = np.array(values)
+    dirs, err = _read_table(path, REQUIRED_COLUMNS, directions, required)
     err[:, 2] = np.radians(err[:, 2])
-    return EndPoseRuns(tuple(dirs), err)
+    return EndPoseRuns(dirs, err)
 
 
 def read_circle_runs(path) -> CircleRuns:
     """Parse a BCPT runs file (``direction,radius_m``); every problem raises InputError naming
     the file, line and field."""
-    text = read_text(path)
-    rows = [
-        (i + 1, line)
-        for i, line in enumerate(text.splitlines())
-        if line.strip() and not line.lstrip().startswith("#")
-    ]
-    if not rows:
-        raise InputError("empty file, expected a header row 'direction,radius_m'", path)
-    header_line, header_text = rows[0]
-    header = [h.strip() for h in next(csv.reader([header_text]))]
-    missing = [c for c in CIRCLE_COLUMNS if c not in header]
-    if missing:
-        raise InputError(
-            f"missing column(s) {', '.join(missing)}; the header must contain "
-            f"{','.join(CIRCLE_COLUMNS)}",
-            path,
-            header_line,
-        )
-    col = {c: header.index(c) for c in CIRCLE_COLUMNS}
-    dirs: list[str] = []
-    radii: list[float] = []
-    for line_no, line in rows[1:]:
-        fields = next(csv.reader(io.StringIO(line)))
-        if len(fields) != len(header):
-            raise InputError(
-                f"expected {len(header)} fields as in the header, got {len(fields)}", path, line_no
-            )
-        d = fields[col["direction"]].strip().lower()
-        if d not in ("cw", "ccw"):
-            raise InputError(
-                f"unknown direction {fields[col['direction']].strip()!r}; expected cw or ccw",
-                path,
-                line_no,
-                "direction",
-            )
-        raw = fields[col["radius_m"]].strip()
-        try:
-            v = float(raw)
-        except ValueError:
-            raise InputError(f"not a number: {raw!r}", path, line_no, "radius_m") from None
-        if not math.isfinite(v) or v <= 0:
-            raise InputError(f"must be a finite number > 0, got {raw!r}", path, line_no, "radius_m")
-        dirs.append(d)
-        radii.append(v)
-    if not radii:
-        raise InputError("no runs: the file has a header but no data rows", path)
-    return CircleRuns(tuple(dirs), np.array(radii))
+    dirs, radii = _read_table(path, CIRCLE_COLUMNS, ("cw", "ccw"), ("radius_m",), positive=True)
+    return CircleRuns(dirs, radii[:, 0])
 
 
 def runs_csv_text(runs: EndPoseRuns, extra: dict[str, list] | None = None) -> str:
