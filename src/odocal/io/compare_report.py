@@ -242,9 +242,10 @@ def plot_comparison(sim: SimulatedComparison | None, real: RealComparison | None
         ax.set_xticks(range(1, len(names) + 1), names, rotation=30, ha="right")
         sys_err = [1e3 * np.nanmean(m.systematic_error_m) for m in sim.methods]
         ax.plot(range(1, len(names) + 1), sys_err, "rD", label="noise-free residual (mean)")
-        top = max(np.quantile(d, 0.95) for d in data if len(d))
-        ax.set_ylim(0, 1.25 * max(top, max(sys_err)))
-        ax.set_ylabel("validation final position error (mm)")
+        # log scale: a poorly conditioned method (linear) can miss by metres while the others
+        # differ by millimetres
+        ax.set_yscale("log")
+        ax.set_ylabel("validation final position error (mm, log scale)")
         nom = 1e3 * float(np.mean(sim.nominal_final_error_m))
         ax.set_title(
             f"Simulated: {sim.validation}, {sim.trials} trials\n(box: quartiles, whiskers: "
@@ -254,10 +255,23 @@ def plot_comparison(sim: SimulatedComparison | None, real: RealComparison | None
         ax.legend(fontsize=8, loc="upper left")
 
         ax = axes.pop(0)
+        stats = []
         for i, m in enumerate(sim.methods):
             eb = 1e2 * m.E_b_error[np.isfinite(m.E_b_error)]
             ed = 1e2 * m.E_d_error[np.isfinite(m.E_d_error)]
-            if len(eb) == 0:
+            if len(eb) > 1:
+                stats.append((i, m.name, eb, ed))
+        # a method whose spread is 20 times the typical one would squash the others: list it in
+        # a note instead of drawing it
+        typical = np.median([max(eb.std(ddof=1), 1e-12) for _, _, eb, _ in stats] or [1.0])
+        typical_d = np.median([max(ed.std(ddof=1), 1e-12) for _, _, _, ed in stats] or [1.0])
+        off = []
+        for i, name, eb, ed in stats:
+            if eb.std(ddof=1) > 20 * typical or ed.std(ddof=1) > 20 * typical_d:
+                off.append(
+                    f"{name}: E_b {eb.mean():+.2f} +- {eb.std(ddof=1):.2f} %, "
+                    f"E_d {ed.mean():+.3f} +- {ed.std(ddof=1):.3f} % (off scale)"
+                )
                 continue
             ax.errorbar(
                 eb.mean(),
@@ -266,15 +280,17 @@ def plot_comparison(sim: SimulatedComparison | None, real: RealComparison | None
                 yerr=ed.std(ddof=1),
                 fmt="o",
                 capsize=3,
-                label=m.name,
+                label=name,
                 color=f"C{i}",
             )
+        for k, text in enumerate(off):
+            ax.text(0.02, 0.03 + 0.06 * k, text, transform=ax.transAxes, fontsize=7, color="0.3")
         ax.axhline(0, color="gray", lw=0.8)
         ax.axvline(0, color="gray", lw=0.8)
         ax.set_xlabel("E_b error (%): bias +- std")
         ax.set_ylabel("E_d error (%): bias +- std")
         ax.set_title("Calibrated vs true geometry", fontsize=10)
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=8, loc="upper right")
     if real is not None:
         ax = axes.pop(0)
         names, means, lo, hi = [], [], [], []
