@@ -163,12 +163,16 @@ def test_cli_text_table(cli):
         (["--runs", "2"], "--runs must be >= 3"),
         (["--seed", "-1"], "--seed"),
         (["--travel", "nan"], "--travel"),
-        (["--realdata", "/nonexistent/optiodom"], "/nonexistent/optiodom"),
-        (["--plot", "/nonexistent/dir"], "/nonexistent/dir"),
-        (["--robot", "/nonexistent/robot.yaml"], "/nonexistent/robot.yaml"),
+        (["--realdata", "MISSING/optiodom"], "MISSING/optiodom"),
+        (["--plot", "MISSING/dir"], "MISSING/dir"),
+        (["--robot", "MISSING/robot.yaml"], "MISSING/robot.yaml"),
     ],
 )
-def test_cli_bad_input(cli, args, message):
+def test_cli_bad_input(cli, tmp_path, args, message):
+    # MISSING: a folder that certainly does not exist (not a global path another run may create)
+    missing = str(tmp_path / "missing")
+    args = [a.replace("MISSING", missing) for a in args]
+    message = message.replace("MISSING", missing)
     status, out, err = (
         cli("compare", "--trials", 3, *args) if "--trials" not in args else cli("compare", *args)
     )
