@@ -13,6 +13,8 @@ __all__ = [
     "positive_float",
     "positive_int",
     "print_json",
+    "print_recording_warnings",
+    "print_warnings",
     "print_table",
     "resolve_robot",
 ]
@@ -100,6 +102,18 @@ def resolve_robot(args):
     if getattr(args, "params", None):
         robot = robot.with_believed(load_params(args.params))
     return robot
+
+
+def print_warnings(warnings, prefix: str = "") -> None:
+    """Each warning as one line ``odocal: warning: ...`` on stderr (never on stdout)."""
+    for w in warnings:
+        print(f"odocal: warning: {prefix}{w}", file=sys.stderr)
+
+
+def print_recording_warnings(recordings) -> None:
+    """The loaders' warnings about recorded runs (e.g. a bag's wheel signs), one line each."""
+    for r in recordings:
+        print_warnings(r.meta.get("warnings", ()) if r.meta else (), f"{r.name}: ")
 
 
 def print_json(obj) -> None:

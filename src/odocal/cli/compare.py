@@ -17,6 +17,9 @@ from .common import (
     seed_int,
 )
 
+# Largest trials x runs per method: the work arrays grow with it (2000 x 10 needs about 2 GB).
+_MAX_TRIAL_RUNS = 20_000
+
 
 def add_parser(sub) -> None:
     p = sub.add_parser(
@@ -100,6 +103,11 @@ def run(args) -> int:
     if args.runs < 3:
         raise InputError(
             f"--runs must be >= 3 (Ivanjko needs straight runs and two spins), got {args.runs}"
+        )
+    if args.trials * args.runs > _MAX_TRIAL_RUNS:
+        raise InputError(
+            f"--trials x --runs = {args.trials * args.runs} is too much work (at most "
+            f"{_MAX_TRIAL_RUNS}; 2000 trials of 10 runs take about 2 GB and 5 minutes)"
         )
     comparison = run_comparison(
         robot,
