@@ -163,6 +163,14 @@ def ivanjko_fit(
             "ivanjko: the fit diverged or is undefined (check the run labels and units, and that "
             "the straight runs are long enough to tell the wheel diameters apart)"
         )
+    bad = ~((d_r > 0) & (d_l > 0) & (b > 0))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise CalibrationError(
+            f"ivanjko: non-physical result in {int(bad.sum())} of {bad.size} fit(s) "
+            f"(D_R={d_r[i]:.6g} m, D_L={d_l[i]:.6g} m, b={b[i]:.6g} m): the errors are too large "
+            "for the method, or the left and right wheels are swapped"
+        )
     return IvanjkoFit(WheelGeometry(d_r, d_l, b), iterations, ~active)
 
 

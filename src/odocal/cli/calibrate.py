@@ -14,6 +14,7 @@ from .common import (
     positive_float,
     print_json,
     print_table,
+    print_warnings,
     resolve_robot,
 )
 
@@ -106,6 +107,15 @@ def run(args) -> int:
         args.side_length,
         args.umbmark_form,
         args.radius,
+    )
+    from ..calibration.linear import check_physical
+
+    c = result.corrected
+    # an absurd calibration (e.g. the wrong --side-length or units) is reported, not hidden
+    print_warnings(
+        check_physical(
+            (c.diameter_right_m, c.diameter_left_m, c.wheelbase_m), result.ran_with, result.method
+        )
     )
     if args.out:
         atomic_write(

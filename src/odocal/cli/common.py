@@ -117,8 +117,8 @@ def print_recording_warnings(recordings) -> None:
 
 
 def print_json(obj) -> None:
-    json.dump(obj, sys.stdout, indent=2, allow_nan=False)
-    sys.stdout.write("\n")
+    text = json.dumps(obj, indent=2, allow_nan=False)  # all or nothing: no half-printed object
+    sys.stdout.write(text + "\n")
 
 
 def print_table(rows: list[tuple], title: str | None = None) -> None:

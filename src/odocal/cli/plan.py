@@ -13,6 +13,7 @@ from .common import (
     positive_int,
     print_json,
     print_table,
+    print_warnings,
     resolve_robot,
     sides_int,
 )
@@ -81,6 +82,14 @@ def run(args) -> int:
         robot_arg=args.robot or "paper-fig5",
     )
     atomic_write(args.out, plan.template_csv())
+    c = plan.calibration
+    if c is not None and not np.isfinite(c.post_error_mean_m):
+        print_warnings(
+            [
+                f"no calibration prediction: the heading-error method is undefined for a "
+                f"{args.side_length:g} m side (too short to resolve E_d)"
+            ]
+        )
     if args.json:
         print_json(plan.as_dict() | {"template": args.out})
         return 0

@@ -93,7 +93,16 @@ def read_column(path, column: str | None = None) -> ColumnSample:
         values.append(v)
     if len(values) < 2:
         raise InputError(f"a t-test needs at least 2 values, got {len(values)}", path, None, column)
-    return ColumnSample(str(path), column, np.asarray(values))
+    values = np.asarray(values)
+    with np.errstate(over="ignore", invalid="ignore"):
+        spread_ok = math.isfinite(float(np.mean(values))) and math.isfinite(
+            float(np.std(values, ddof=1))
+        )
+    if not spread_ok:
+        raise InputError(
+            "values too large for a t-test (their mean or spread overflows)", path, None, column
+        )
+    return ColumnSample(str(path), column, values)
 
 
 def ttest_files(path_a, path_b, column: str | None = None) -> TTestFiles:

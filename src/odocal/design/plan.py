@@ -65,18 +65,21 @@ class FloorPlan:
         def pose(v):
             return {"x_m": float(v[0]), "y_m": float(v[1]), "theta_deg": math.degrees(v[2])}
 
+        def num(v):  # undefined predictions (e.g. a side too short to resolve E_d) are null
+            return float(v) if math.isfinite(v) else None
+
         extra = {}
         if self.calibration is not None:
             c, r = self.calibration, self.reference
             extra["calibration_prediction"] = {
                 "method": "heading",
-                "E_b_mean": c.E_b_mean,
-                "E_b_std": c.E_b_std,
-                "E_d_mean": c.E_d_mean,
-                "E_d_std": c.E_d_std,
+                "E_b_mean": num(c.E_b_mean),
+                "E_b_std": num(c.E_b_std),
+                "E_d_mean": num(c.E_d_mean),
+                "E_d_std": num(c.E_d_std),
                 "validation": "4-gon 4 m ccw",
-                "post_error_mean_m": c.post_error_mean_m,
-                "post_error_ci95_m": list(c.post_error_ci95_m),
+                "post_error_mean_m": num(c.post_error_mean_m),
+                "post_error_ci95_m": [num(v) for v in c.post_error_ci95_m],
                 "floor_m": r.floor_m,
                 "uncalibrated_m": r.uncalibrated_m,
             }
