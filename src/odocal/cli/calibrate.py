@@ -11,7 +11,7 @@ from ..errors import InputError
 from .common import (
     add_robot_args,
     add_track_args,
-    positive_float,
+    length_m,
     print_json,
     print_table,
     print_warnings,
@@ -48,7 +48,7 @@ def add_parser(sub) -> None:
     )
     p.add_argument(
         "--radius",
-        type=positive_float,
+        type=length_m,
         metavar="R",
         default=None,
         help="bcpt: commanded axle-centre circle radius in m",

@@ -9,7 +9,7 @@ import numpy as np
 from ..errors import InputError
 from .common import (
     add_robot_args,
-    positive_float,
+    length_m,
     positive_int,
     print_json,
     print_table,
@@ -50,7 +50,7 @@ def add_parser(sub) -> None:
     )
     p.add_argument(
         "--travel",
-        type=positive_float,
+        type=length_m,
         default=None,
         metavar="METRES",
         help="budget: total mean wheel travel per method in m (default: what 5 CW + 5 CCW runs "
@@ -58,7 +58,7 @@ def add_parser(sub) -> None:
     )
     p.add_argument(
         "--ivanjko-straight",
-        type=positive_float,
+        type=length_m,
         default=None,
         metavar="METRES",
         help="cap Ivanjko's straight runs at this length in m (default: they take the budget "

@@ -10,6 +10,7 @@ import time
 import numpy as np
 
 from .common import (
+    MAX_LENGTH_M,
     add_robot_args,
     positive_int,
     print_json,
@@ -46,6 +47,10 @@ def parse_side_lengths(text: str) -> np.ndarray:
         )
     if stop < start:
         raise argparse.ArgumentTypeError(f"STOP must be >= START, got {text!r}")
+    if stop > MAX_LENGTH_M:
+        raise argparse.ArgumentTypeError(
+            f"side lengths must be at most {MAX_LENGTH_M:g} m (check the units), got {text!r}"
+        )
     count = math.floor((stop - start) / step + 1e-9) + 1
     if count > 1000:
         raise argparse.ArgumentTypeError(f"{count} side lengths is too many (at most 1000)")
@@ -76,8 +81,10 @@ def parse_validation(text: str):
         raise argparse.ArgumentTypeError(
             f"a polygon has at most {MAX_POLYGON_SIDES} sides, got {text!r}"
         )
-    if not (math.isfinite(length) and length > 0):
-        raise argparse.ArgumentTypeError(f"LENGTH must be a finite number > 0, got {text!r}")
+    if not (math.isfinite(length) and 0 < length <= MAX_LENGTH_M):
+        raise argparse.ArgumentTypeError(
+            f"LENGTH must be a number > 0 and at most {MAX_LENGTH_M:g} m, got {text!r}"
+        )
     if direction not in ("cw", "ccw"):
         raise argparse.ArgumentTypeError(f"DIRECTION must be cw or ccw, got {text!r}")
     return ValidationTrack(sides, length, direction)

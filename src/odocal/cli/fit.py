@@ -9,6 +9,7 @@ from pathlib import Path
 
 from ..errors import InputError
 from .common import (
+    length_m,
     nonnegative_float,
     positive_float,
     print_json,
@@ -72,7 +73,7 @@ def add_parser(sub) -> None:
     )
     t.add_argument(
         "--segment-length",
-        type=positive_float,
+        type=length_m,
         default=1.0,
         metavar="M",
         help="segment travel for --residual segment, m (default 1)",
@@ -103,7 +104,7 @@ def add_parser(sub) -> None:
     s = p.add_argument_group("umbmark / heading methods")
     s.add_argument(
         "--side-length",
-        type=positive_float,
+        type=length_m,
         metavar="L",
         help="square side, m (default: from the recordings' metadata)",
     )

@@ -9,7 +9,7 @@ import numpy as np
 from ..design.plan import build_plan
 from .common import (
     add_robot_args,
-    positive_float,
+    length_m,
     positive_int,
     print_json,
     print_table,
@@ -37,7 +37,7 @@ def add_parser(sub) -> None:
     p.add_argument("--sides", type=sides_int, default=4, metavar="N", help="N-gon (default 4)")
     p.add_argument(
         "--side-length",
-        type=positive_float,
+        type=length_m,
         default=4.0,
         metavar="L",
         help="side length in m (default 4)",

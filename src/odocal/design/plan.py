@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from ..core.covariance import PosePrediction, predict
 from ..core.model import Robot
 from ..core.tracks import Track, out_and_back, polygon, straight_line
+from ..errors import ModelError
 
 __all__ = ["FloorPlan", "build_plan"]
 
@@ -131,6 +132,10 @@ def _measure_step(closed: bool, extra: str = "", example: str = "") -> str:
     )
 
 
+# Most runs per direction a floor plan lists.
+MAX_PLAN_RUNS = 1000
+
+
 def build_plan(
     robot: Robot,
     *,
@@ -145,6 +150,10 @@ def build_plan(
     CW and CCW, or (``noise_track`` = ('out-and-back' | 'straight', D m)) ``runs_per_direction``
     runs for measuring k. Predictions come from :func:`odocal.core.covariance.predict`."""
     n = int(runs_per_direction)
+    if not 1 <= n <= MAX_PLAN_RUNS:
+        raise ModelError(
+            f"runs per direction must be 1 .. {MAX_PLAN_RUNS} (runs a person drives), got {n}"
+        )
     if noise_track is None:
         tracks: dict[str, Track] = {d: polygon(sides, side_m, d) for d in ("cw", "ccw")}
         order = tuple(("cw", "ccw")[i % 2] for i in range(2 * n))
