@@ -253,3 +253,18 @@ def test_print_json_prints_all_or_nothing(capsys):
     with pytest.raises(ValueError):  # NaN is a programming error: must become null upstream
         print_json({"ok": 1.0, "bad": math.nan})
     assert capsys.readouterr().out == ""
+
+
+def test_tiny_fit_segments_do_not_blow_up(cli, realdata):
+    # 1 nm segments used to build a grid of billions of points (27 GB); below the sample
+    # spacing every sample starts a segment, exactly as 10 um segments give on these runs
+    fits = []
+    for seg in ("1e-9", "1e-5"):
+        status, out, err = cli(
+            "fit", realdata / SQUARE, "--residual", "segment", "--segment-length", seg, "--json"
+        )
+        assert status == 0, err
+        doc = json.loads(out)
+        doc.pop("segment_m")
+        fits.append(doc)
+    assert fits[0] == fits[1]

@@ -101,7 +101,12 @@ class _Run:
             self.idx = np.unique(np.linspace(1, n - 1, min(samples, n - 1)).round().astype(int))
             count = len(self.idx)
         else:
-            marks = np.searchsorted(travel, np.arange(0.0, travel[-1], segment_m))
+            if travel[-1] / segment_m > 10 * n:
+                # segments shorter than the samples: every sample that moved starts one (what the
+                # grid below gives in that limit, without a grid of billions of points)
+                marks = np.r_[0, np.flatnonzero(np.diff(travel) > 0) + 1]
+            else:
+                marks = np.searchsorted(travel, np.arange(0.0, travel[-1], segment_m))
             marks = np.unique(np.append(marks, n - 1))
             if len(marks) < 2:
                 marks = np.array([0, n - 1])
