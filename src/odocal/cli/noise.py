@@ -22,9 +22,11 @@ def noise_track(text: str) -> tuple[str, float]:
         d = float(dist)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a distance in m: {dist!r} in {text!r}") from None
-    if not math.isfinite(d) or d <= 0 or d > MAX_LENGTH_M:
+    if not math.isfinite(d) or d <= 0:
+        raise argparse.ArgumentTypeError(f"the distance must be > 0 m, got {dist!r}")
+    if d > MAX_LENGTH_M:
         raise argparse.ArgumentTypeError(
-            f"the distance must be > 0 and at most {MAX_LENGTH_M:g} m, got {dist!r}"
+            f"the distance must be at most {MAX_LENGTH_M:g} m (check the units), got {dist!r}"
         )
     return kind, d
 
