@@ -268,3 +268,11 @@ def test_tiny_fit_segments_do_not_blow_up(cli, realdata):
         doc.pop("segment_m")
         fits.append(doc)
     assert fits[0] == fits[1]
+
+
+def test_ttest_of_constant_samples_warns(cli, tmp_path):
+    a = write(tmp_path / "a.csv", "e\n5\n5\n5\n")
+    status, out, err = cli("ttest", a, a, "--json")
+    assert status == 0, err
+    assert json.loads(out)["welch"]["t"] is None  # undefined, not a number that lies
+    assert err.startswith("odocal: warning: both samples have zero spread")

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..core.stats import TTest, ttest_samples
 from ..errors import InputError
-from .common import print_json, print_table
+from .common import print_json, print_table, print_warnings
 
 
 @dataclass(frozen=True)
@@ -147,6 +147,14 @@ def _finite(v):
 def run(args) -> int:
     res = ttest_files(args.a_csv, args.b_csv, args.column)
     a, b = res.a, res.b
+    if res.student.std_a == 0 and res.student.std_b == 0:
+        print_warnings(
+            [
+                "both samples have zero spread: t is "
+                + ("undefined (equal means)" if res.student.mean_difference == 0 else "infinite")
+                + " and the test says nothing beyond the means"
+            ]
+        )
     if args.json:
         print_json(
             {
