@@ -106,7 +106,7 @@ def bcpt_factors(radius_cw_m, radius_ccw_m, commanded_radius_m, wheelbase_m, com
     rc_cw = np.asarray(commanded_radius_m, dtype=float)
     rc_ccw = rc_cw if commanded_ccw_m is None else np.asarray(commanded_ccw_m, dtype=float)
     half = 0.5 * np.asarray(wheelbase_m, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         g_cw = _ratio(rc_cw, half)
         g_ccw = _ratio(rc_ccw, half)
         k = g_cw * g_ccw
@@ -128,8 +128,9 @@ def bcpt_first_order(radius_cw_m, radius_ccw_m, commanded_radius_m, wheelbase_m)
     """First-order (linearised) E_b, E_d, for intuition and sanity checks only:
     E_b ~ (R_cw + R_ccw)/(2 R_c), E_d ~ 1 + b_n (R_cw - R_ccw)/(2 R_c^2)."""
     rc = np.asarray(commanded_radius_m, dtype=float)
-    E_b = (np.asarray(radius_cw_m) + radius_ccw_m) / (2.0 * rc)
-    E_d = 1.0 + wheelbase_m * (np.asarray(radius_cw_m) - radius_ccw_m) / (2.0 * rc * rc)
+    with np.errstate(over="ignore", under="ignore"):  # absurd radii: inf/0, rejected downstream
+        E_b = (np.asarray(radius_cw_m) + radius_ccw_m) / (2.0 * rc)
+        E_d = 1.0 + wheelbase_m * (np.asarray(radius_cw_m) - radius_ccw_m) / (2.0 * rc * rc)
     return E_b, E_d
 
 

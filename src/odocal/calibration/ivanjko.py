@@ -73,7 +73,19 @@ def _fit_diameter_factors(predict, target, d_r, d_l, b, iterations=30):
         jac = np.stack([jr, jl], axis=-1)  # (M, 2n, 2)
         jtj = np.einsum("mki,mkj->mij", jac, jac)
         jtr = np.einsum("mki,mk->mi", jac, res)
-        step = np.linalg.solve(jtj, -jtr[..., None])[..., 0]
+        # 2 x 2 solve per trial; a (near-)singular system (straight runs too short to tell the
+        # diameters apart) gives NaN for that trial, which callers report as a failed calibration
+        det = jtj[:, 0, 0] * jtj[:, 1, 1] - jtj[:, 0, 1] * jtj[:, 1, 0]
+        singular = ~(np.abs(det) > 1e-12 * (jtj[:, 0, 0] + jtj[:, 1, 1]) ** 2)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            det = np.where(singular, np.nan, det)
+            step = np.stack(
+                [
+                    -(jtj[:, 1, 1] * jtr[:, 0] - jtj[:, 0, 1] * jtr[:, 1]) / det,
+                    -(jtj[:, 0, 0] * jtr[:, 1] - jtj[:, 1, 0] * jtr[:, 0]) / det,
+                ],
+                axis=-1,
+            )
         k = k + step
         if np.max(np.abs(step)) < 1e-13:
             break
@@ -147,7 +159,18 @@ def ivanjko_fit(
         done = (np.abs(k - 1.0).max(axis=1) < tolerance) & (np.abs(kb - 1.0) < tolerance)
         active[idx[done]] = False
     if not (np.all(np.isfinite(d_r)) and np.all(np.isfinite(d_l)) and np.all(np.isfinite(b))):
-        raise CalibrationError("ivanjko: the fit diverged (check the run labels and units)")
+        raise CalibrationError(
+            "ivanjko: the fit diverged or is undefined (check the run labels and units, and that "
+            "the straight runs are long enough to tell the wheel diameters apart)"
+        )
+    bad = ~((d_r > 0) & (d_l > 0) & (b > 0))
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise CalibrationError(
+            f"ivanjko: non-physical result in {int(bad.sum())} of {bad.size} fit(s) "
+            f"(D_R={d_r[i]:.6g} m, D_L={d_l[i]:.6g} m, b={b[i]:.6g} m): the errors are too large "
+            "for the method, or the left and right wheels are swapped"
+        )
     return IvanjkoFit(WheelGeometry(d_r, d_l, b), iterations, ~active)
 
 

@@ -101,7 +101,12 @@ class _Run:
             self.idx = np.unique(np.linspace(1, n - 1, min(samples, n - 1)).round().astype(int))
             count = len(self.idx)
         else:
-            marks = np.searchsorted(travel, np.arange(0.0, travel[-1], segment_m))
+            if travel[-1] / segment_m > 10 * n:
+                # segments shorter than the samples: every sample that moved starts one (what the
+                # grid below gives in that limit, without a grid of billions of points)
+                marks = np.r_[0, np.flatnonzero(np.diff(travel) > 0) + 1]
+            else:
+                marks = np.searchsorted(travel, np.arange(0.0, travel[-1], segment_m))
             marks = np.unique(np.append(marks, n - 1))
             if len(marks) < 2:
                 marks = np.array([0, n - 1])
@@ -152,6 +157,10 @@ def _solve(runs, x0, kind, w_head):
     return sol
 
 
+# Largest heading weight (m of residual per rad): 1 km/rad already ignores the positions.
+MAX_HEADING_WEIGHT_M = 1e3
+
+
 def fit_trajectory(
     recordings,
     start: WheelGeometry | None = None,
@@ -178,6 +187,11 @@ def fit_trajectory(
         )
     if residual not in RESIDUALS:
         raise CalibrationError(f"residual must be one of {', '.join(RESIDUALS)}, got {residual!r}")
+    if not 0.0 <= heading_weight_m <= MAX_HEADING_WEIGHT_M:  # also rejects NaN
+        raise CalibrationError(
+            f"heading_weight_m must be between 0 and {MAX_HEADING_WEIGHT_M:g} m/rad (beyond, the "
+            f"position no longer counts and the squares overflow), got {heading_weight_m!r}"
+        )
     names = [r.name for r in recordings]
     excluded = match_runs(names, list(exclude))
     unmatched = [p for p in exclude if not match_runs(names, [p])]

@@ -11,9 +11,10 @@ from ..errors import InputError
 from .common import (
     add_robot_args,
     add_track_args,
-    positive_float,
+    length_m,
     print_json,
     print_table,
+    print_warnings,
     resolve_robot,
 )
 
@@ -47,7 +48,7 @@ def add_parser(sub) -> None:
     )
     p.add_argument(
         "--radius",
-        type=positive_float,
+        type=length_m,
         metavar="R",
         default=None,
         help="bcpt: commanded axle-centre circle radius in m",
@@ -106,6 +107,15 @@ def run(args) -> int:
         args.side_length,
         args.umbmark_form,
         args.radius,
+    )
+    from ..calibration.linear import check_physical
+
+    c = result.corrected
+    # an absurd calibration (e.g. the wrong --side-length or units) is reported, not hidden
+    print_warnings(
+        check_physical(
+            (c.diameter_right_m, c.diameter_left_m, c.wheelbase_m), result.ran_with, result.method
+        )
     )
     if args.out:
         atomic_write(

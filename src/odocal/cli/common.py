@@ -10,9 +10,12 @@ import sys
 __all__ = [
     "add_robot_args",
     "add_track_args",
+    "length_m",
     "positive_float",
     "positive_int",
     "print_json",
+    "print_recording_warnings",
+    "print_warnings",
     "print_table",
     "resolve_robot",
 ]
@@ -25,6 +28,21 @@ def positive_float(text: str) -> float:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
     if not math.isfinite(v) or v <= 0:
         raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
+    return v
+
+
+# Largest length a flag may give (m): beyond 100 km a length is a unit mistake, and the
+# statistics of a track that long overflow.
+MAX_LENGTH_M = 1e5
+
+
+def length_m(text: str) -> float:
+    """A length in metres: finite, > 0 and at most MAX_LENGTH_M."""
+    v = positive_float(text)
+    if v > MAX_LENGTH_M:
+        raise argparse.ArgumentTypeError(
+            f"must be at most {MAX_LENGTH_M:g} m (check the units), got {text!r}"
+        )
     return v
 
 
@@ -85,7 +103,7 @@ def add_track_args(p: argparse.ArgumentParser, default_sides=4, default_side=4.0
     )
     p.add_argument(
         "--side-length",
-        type=positive_float,
+        type=length_m,
         default=default_side,
         metavar="L",
         help=f"side length in m (default {default_side:g})",
@@ -102,9 +120,21 @@ def resolve_robot(args):
     return robot
 
 
+def print_warnings(warnings, prefix: str = "") -> None:
+    """Each warning as one line ``odocal: warning: ...`` on stderr (never on stdout)."""
+    for w in warnings:
+        print(f"odocal: warning: {prefix}{w}", file=sys.stderr)
+
+
+def print_recording_warnings(recordings) -> None:
+    """The loaders' warnings about recorded runs (e.g. a bag's wheel signs), one line each."""
+    for r in recordings:
+        print_warnings(r.meta.get("warnings", ()) if r.meta else (), f"{r.name}: ")
+
+
 def print_json(obj) -> None:
-    json.dump(obj, sys.stdout, indent=2, allow_nan=False)
-    sys.stdout.write("\n")
+    text = json.dumps(obj, indent=2, allow_nan=False)  # all or nothing: no half-printed object
+    sys.stdout.write(text + "\n")
 
 
 def print_table(rows: list[tuple], title: str | None = None) -> None:

@@ -9,13 +9,16 @@ import numpy as np
 from ..errors import InputError
 from .common import (
     add_robot_args,
-    positive_float,
+    length_m,
     positive_int,
     print_json,
     print_table,
     resolve_robot,
     seed_int,
 )
+
+# Largest trials x runs per method: the work arrays grow with it (2000 x 10 needs about 2 GB).
+_MAX_TRIAL_RUNS = 20_000
 
 
 def add_parser(sub) -> None:
@@ -47,7 +50,7 @@ def add_parser(sub) -> None:
     )
     p.add_argument(
         "--travel",
-        type=positive_float,
+        type=length_m,
         default=None,
         metavar="METRES",
         help="budget: total mean wheel travel per method in m (default: what 5 CW + 5 CCW runs "
@@ -55,7 +58,7 @@ def add_parser(sub) -> None:
     )
     p.add_argument(
         "--ivanjko-straight",
-        type=positive_float,
+        type=length_m,
         default=None,
         metavar="METRES",
         help="cap Ivanjko's straight runs at this length in m (default: they take the budget "
@@ -100,6 +103,11 @@ def run(args) -> int:
     if args.runs < 3:
         raise InputError(
             f"--runs must be >= 3 (Ivanjko needs straight runs and two spins), got {args.runs}"
+        )
+    if args.trials * args.runs > _MAX_TRIAL_RUNS:
+        raise InputError(
+            f"--trials x --runs = {args.trials * args.runs} is too much work (at most "
+            f"{_MAX_TRIAL_RUNS}; 2000 trials of 10 runs take about 2 GB and 5 minutes)"
         )
     comparison = run_comparison(
         robot,

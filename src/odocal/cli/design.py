@@ -10,6 +10,7 @@ import time
 import numpy as np
 
 from .common import (
+    MAX_LENGTH_M,
     add_robot_args,
     positive_int,
     print_json,
@@ -46,14 +47,22 @@ def parse_side_lengths(text: str) -> np.ndarray:
         )
     if stop < start:
         raise argparse.ArgumentTypeError(f"STOP must be >= START, got {text!r}")
+    if stop > MAX_LENGTH_M:
+        raise argparse.ArgumentTypeError(
+            f"side lengths must be at most {MAX_LENGTH_M:g} m (check the units), got {text!r}"
+        )
     count = math.floor((stop - start) / step + 1e-9) + 1
     if count > 1000:
         raise argparse.ArgumentTypeError(f"{count} side lengths is too many (at most 1000)")
-    return np.round(start + step * np.arange(count), 12)
+    lengths = np.round(start + step * np.arange(count), 12)
+    if lengths[0] <= 0:  # below the 1e-12 m rounding
+        raise argparse.ArgumentTypeError(f"side lengths must be at least 1e-12 m, got {text!r}")
+    return lengths
 
 
 def parse_validation(text: str):
     """'SIDES:LENGTH:DIRECTION', e.g. '4:4:ccw' (the paper's 4 m x 4 m square CCW)."""
+    from ..core.tracks import MAX_POLYGON_SIDES
     from ..design.result import ValidationTrack
 
     parts = text.split(":")
@@ -68,8 +77,14 @@ def parse_validation(text: str):
     direction = parts[2].strip().lower()
     if sides < 3:
         raise argparse.ArgumentTypeError(f"a polygon needs at least 3 sides, got {text!r}")
-    if not (math.isfinite(length) and length > 0):
-        raise argparse.ArgumentTypeError(f"LENGTH must be a finite number > 0, got {text!r}")
+    if sides > MAX_POLYGON_SIDES:
+        raise argparse.ArgumentTypeError(
+            f"a polygon has at most {MAX_POLYGON_SIDES} sides, got {text!r}"
+        )
+    if not (math.isfinite(length) and 0 < length <= MAX_LENGTH_M):
+        raise argparse.ArgumentTypeError(
+            f"LENGTH must be a number > 0 and at most {MAX_LENGTH_M:g} m, got {text!r}"
+        )
     if direction not in ("cw", "ccw"):
         raise argparse.ArgumentTypeError(f"DIRECTION must be cw or ccw, got {text!r}")
     return ValidationTrack(sides, length, direction)

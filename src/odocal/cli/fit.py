@@ -8,7 +8,14 @@ from collections import Counter
 from pathlib import Path
 
 from ..errors import InputError
-from .common import nonnegative_float, positive_float, print_json, print_table
+from .common import (
+    length_m,
+    nonnegative_float,
+    positive_float,
+    print_json,
+    print_recording_warnings,
+    print_table,
+)
 
 METHODS = ("trajectory", "linear", "umbmark", "heading", "gyro")
 
@@ -66,7 +73,7 @@ def add_parser(sub) -> None:
     )
     t.add_argument(
         "--segment-length",
-        type=positive_float,
+        type=length_m,
         default=1.0,
         metavar="M",
         help="segment travel for --residual segment, m (default 1)",
@@ -97,7 +104,7 @@ def add_parser(sub) -> None:
     s = p.add_argument_group("umbmark / heading methods")
     s.add_argument(
         "--side-length",
-        type=positive_float,
+        type=length_m,
         metavar="L",
         help="square side, m (default: from the recordings' metadata)",
     )
@@ -286,6 +293,7 @@ def run(args) -> int:
     if args.method == "gyro":
         return _run_gyro(args)
     recordings = load_recordings(args.paths, ticks_per_rev=args.ticks_per_rev, **bag_options(args))
+    print_recording_warnings(recordings)
     nominal = nominal_geometry(args.robot, recordings)
     ran_with = None
     if args.robot:
@@ -309,6 +317,8 @@ def run(args) -> int:
     _write_outputs(args, result.geometry, nominal, result.method)
     out = result.as_dict()
     out["nominal"] = None if nominal is None else nominal.as_dict()
+    for w in result.warnings:
+        print(f"odocal: warning: {w}", file=sys.stderr)
     if args.json:
         print_json(out)
         return 0
@@ -331,8 +341,6 @@ def run(args) -> int:
         )
     if result.excluded:
         print("excluded: " + ", ".join(Path(n).name for n in result.excluded))
-    for w in result.warnings:
-        print(f"odocal: warning: {w}", file=sys.stderr)
     if "residual_rms" in result.extras:
         print(f"residual RMS {result.extras['residual_rms']:.3g} ({result.extras['residual']})")
     for f in (args.out, args.ros2):

@@ -7,7 +7,7 @@ import math
 import sys
 
 from ..calibration.noise import NOISE_TRACKS, estimate_k
-from .common import add_robot_args, print_json, print_table, resolve_robot
+from .common import MAX_LENGTH_M, add_robot_args, print_json, print_table, resolve_robot
 
 
 def noise_track(text: str) -> tuple[str, float]:
@@ -24,6 +24,10 @@ def noise_track(text: str) -> tuple[str, float]:
         raise argparse.ArgumentTypeError(f"not a distance in m: {dist!r} in {text!r}") from None
     if not math.isfinite(d) or d <= 0:
         raise argparse.ArgumentTypeError(f"the distance must be > 0 m, got {dist!r}")
+    if d > MAX_LENGTH_M:
+        raise argparse.ArgumentTypeError(
+            f"the distance must be at most {MAX_LENGTH_M:g} m (check the units), got {dist!r}"
+        )
     return kind, d
 
 

@@ -9,10 +9,11 @@ import numpy as np
 from ..design.plan import build_plan
 from .common import (
     add_robot_args,
-    positive_float,
+    length_m,
     positive_int,
     print_json,
     print_table,
+    print_warnings,
     resolve_robot,
     sides_int,
 )
@@ -36,7 +37,7 @@ def add_parser(sub) -> None:
     p.add_argument("--sides", type=sides_int, default=4, metavar="N", help="N-gon (default 4)")
     p.add_argument(
         "--side-length",
-        type=positive_float,
+        type=length_m,
         default=4.0,
         metavar="L",
         help="side length in m (default 4)",
@@ -81,6 +82,14 @@ def run(args) -> int:
         robot_arg=args.robot or "paper-fig5",
     )
     atomic_write(args.out, plan.template_csv())
+    c = plan.calibration
+    if c is not None and not np.isfinite(c.post_error_mean_m):
+        print_warnings(
+            [
+                f"no calibration prediction: the heading-error method is undefined for a "
+                f"{args.side_length:g} m side (too short to resolve E_d)"
+            ]
+        )
     if args.json:
         print_json(plan.as_dict() | {"template": args.out})
         return 0

@@ -11,7 +11,7 @@ import numpy as np
 
 from ..core.stats import TTest, ttest_samples
 from ..errors import InputError
-from .common import print_json, print_table
+from .common import print_json, print_table, print_warnings
 
 
 @dataclass(frozen=True)
@@ -93,7 +93,16 @@ def read_column(path, column: str | None = None) -> ColumnSample:
         values.append(v)
     if len(values) < 2:
         raise InputError(f"a t-test needs at least 2 values, got {len(values)}", path, None, column)
-    return ColumnSample(str(path), column, np.asarray(values))
+    values = np.asarray(values)
+    with np.errstate(over="ignore", invalid="ignore"):
+        spread_ok = math.isfinite(float(np.mean(values))) and math.isfinite(
+            float(np.std(values, ddof=1))
+        )
+    if not spread_ok:
+        raise InputError(
+            "values too large for a t-test (their mean or spread overflows)", path, None, column
+        )
+    return ColumnSample(str(path), column, values)
 
 
 def ttest_files(path_a, path_b, column: str | None = None) -> TTestFiles:
@@ -138,6 +147,14 @@ def _finite(v):
 def run(args) -> int:
     res = ttest_files(args.a_csv, args.b_csv, args.column)
     a, b = res.a, res.b
+    if res.student.std_a == 0 and res.student.std_b == 0:
+        print_warnings(
+            [
+                "both samples have zero spread: t is "
+                + ("undefined (equal means)" if res.student.mean_difference == 0 else "infinite")
+                + " and the test says nothing beyond the means"
+            ]
+        )
     if args.json:
         print_json(
             {

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .common import positive_float, print_json, print_table
+from .common import positive_float, print_json, print_recording_warnings, print_table
 from .fit import add_bag_args, bag_options
 
 
@@ -128,6 +128,7 @@ def run(args) -> int:
 
     params = load_params(args.params)
     recordings = load_recordings(args.paths, ticks_per_rev=args.ticks_per_rev, **bag_options(args))
+    print_recording_warnings(recordings)
     nominal = None
     if args.robot:
         from ..io.robot_file import load_robot

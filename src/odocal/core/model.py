@@ -28,24 +28,35 @@ __all__ = [
 ]
 
 
+def _show(value, bad) -> str:
+    """``value`` for a one-line message: a scalar as is; of an array, the first bad element."""
+    arr = np.asarray(value, dtype=float)
+    if arr.ndim == 0:
+        return repr(value)
+    bad = np.broadcast_to(bad, arr.shape)
+    return f"{float(arr[bad].flat[0])!r} ({int(bad.sum())} of {arr.size} values)"
+
+
 def _finite(name: str, value) -> None:
     arr = np.asarray(value, dtype=float)
     if not np.all(np.isfinite(arr)):
-        raise ModelError(f"{name} must be finite, got {value!r}")
+        raise ModelError(f"{name} must be finite, got {_show(value, ~np.isfinite(arr))}")
 
 
 def check_positive(name: str, value) -> None:
     """Raise ModelError unless every element of ``value`` is finite and > 0."""
     _finite(name, value)
-    if not np.all(np.asarray(value, dtype=float) > 0):
-        raise ModelError(f"{name} must be > 0, got {value!r}")
+    arr = np.asarray(value, dtype=float)
+    if not np.all(arr > 0):
+        raise ModelError(f"{name} must be > 0, got {_show(value, ~(arr > 0))}")
 
 
 def check_nonnegative(name: str, value) -> None:
     """Raise ModelError unless every element of ``value`` is finite and >= 0."""
     _finite(name, value)
-    if not np.all(np.asarray(value, dtype=float) >= 0):
-        raise ModelError(f"{name} must be >= 0, got {value!r}")
+    arr = np.asarray(value, dtype=float)
+    if not np.all(arr >= 0):
+        raise ModelError(f"{name} must be >= 0, got {_show(value, ~(arr >= 0))}")
 
 
 @dataclass(frozen=True)

@@ -79,11 +79,25 @@ def odometric_pose(track: Track) -> np.ndarray:
     return pose
 
 
+# Bounds on the work of one simulation call, so that absurd lengths, steps or run counts are a
+# clear error instead of a memory blow-up: increments per segment (1e6 = 10 km at the default
+# 1 cm), and runs x increments over the whole track (about a minute of numpy work at the most).
+MAX_STEPS_PER_SEGMENT = 1_000_000
+MAX_RUN_INCREMENTS = 2_000_000_000
+
+
 def _steps(s_r, s_l, max_step_m: float | None, steps_per_segment: int | None) -> int:
     if steps_per_segment is not None:
         return int(steps_per_segment)
     longest = float(np.max(np.maximum(np.abs(s_r), np.abs(s_l))))
-    return max(1, math.ceil(longest / max_step_m - 1e-9))
+    ratio = longest / max_step_m
+    if not ratio <= MAX_STEPS_PER_SEGMENT:  # also catches inf/NaN (an absurd length or step)
+        raise ModelError(
+            f"a segment of {longest:.3g} m of wheel travel in increments of at most "
+            f"{max_step_m:.3g} m needs more than {MAX_STEPS_PER_SEGMENT} increments: "
+            "use a shorter track or a larger maximum step"
+        )
+    return max(1, math.ceil(ratio - 1e-9))
 
 
 def drive(
@@ -126,6 +140,12 @@ def drive(
     if not noise.is_zero and rng is None:
         raise ModelError("a numpy.random.Generator is needed to simulate noise")
 
+    if runs * len(track.segments) > MAX_RUN_INCREMENTS:  # every segment takes >= 1 increment
+        raise ModelError(
+            f"{runs} runs is too much work (at most {MAX_RUN_INCREMENTS:.0e} increments in one "
+            "simulation): use fewer runs"
+        )
+
     def batch(v):
         return np.broadcast_to(np.asarray(v, dtype=float), (runs,))
 
@@ -135,13 +155,21 @@ def drive(
     b_true = batch(true.wheelbase_m)
     b_hat = batch(believed.wheelbase_m)
 
-    pose = np.zeros((runs, 3))
-    pieces = [pose[:, None, :].copy()] if trajectory else None
+    travel = []  # true wheel travel over each segment (m), shape (runs,), and its increments
     for seg in track.segments:
         s_hat_r, s_hat_l = seg.wheel_travel(b_hat)
-        s_r = batch(s_hat_r * f_r)  # true wheel travel over the segment (m)
-        s_l = batch(s_hat_l * f_l)
-        n = _steps(s_r, s_l, max_step_m, steps_per_segment)
+        s_r, s_l = batch(s_hat_r * f_r), batch(s_hat_l * f_l)
+        travel.append((s_r, s_l, _steps(s_r, s_l, max_step_m, steps_per_segment)))
+    steps = [n for _, _, n in travel]
+    if runs * sum(steps) > MAX_RUN_INCREMENTS:
+        raise ModelError(
+            f"{runs} runs x {sum(steps)} increments is too much work (at most "
+            f"{MAX_RUN_INCREMENTS:.0e} increments in one simulation): use fewer runs, a shorter "
+            "track or a larger maximum step"
+        )
+    pose = np.zeros((runs, 3))
+    pieces = [pose[:, None, :].copy()] if trajectory else None
+    for s_r, s_l, n in travel:
         chunk = max(1, _MAX_ELEMENTS // n)
         seg_traj = np.empty((runs, n, 3)) if trajectory else None
         for lo in range(0, runs, chunk):

@@ -107,11 +107,21 @@ class Track:
         return sum(s.angle_rad for s in self.segments)
 
 
+# Largest N of a regular N-gon: beyond it the track is a circle and the work grows without
+# purpose (2 N segments per run).
+MAX_POLYGON_SIDES = 1000
+
+
 def polygon(sides: int, side_m, direction: str) -> Track:
     """Regular N-gon: N times (straight ``side_m``, spot turn of 2 pi / N), left turns for 'ccw',
     right turns for 'cw'. UMBmark is ``polygon(4, 4.0, ...)``. ``side_m`` may be an array."""
     if not isinstance(sides, (int, np.integer)) or sides < 3:
         raise ModelError(f"a polygon needs an integer number of sides >= 3, got {sides!r}")
+    if sides > MAX_POLYGON_SIDES:
+        raise ModelError(
+            f"a polygon of {sides} sides is too many (at most {MAX_POLYGON_SIDES}; "
+            "for a circle use a circle track)"
+        )
     check_positive("side length", side_m)
     turn = direction_sign(direction) * 2.0 * math.pi / sides
     segs: list[Segment] = []

@@ -267,7 +267,9 @@ def analytic_design(
     sides_list = [sides] if np.ndim(sides) == 0 else list(sides)
     L = np.atleast_1d(np.asarray(side_lengths_m, dtype=float))
     if L.ndim != 1 or not np.all(np.isfinite(L) & (L > 0)):
-        raise ModelError(f"side lengths must be finite and > 0 m, got {side_lengths_m!r}")
+        raise ModelError(
+            f"side lengths must be finite and > 0 m, got {np.asarray(side_lengths_m).tolist()}"
+        )
     true, ran_with = robot.true_geometry, robot.believed_geometry
     meas = np.diag([robot.measurement.sigma_xy_m**2] * 2 + [robot.measurement.sigma_theta_rad**2])
     share, beta, sig = systematic_share(robot, L, n)

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 from ..core.covariance import PosePrediction, predict
 from ..core.model import Robot
 from ..core.tracks import Track, out_and_back, polygon, straight_line
+from ..errors import ModelError
 
 __all__ = ["FloorPlan", "build_plan"]
 
@@ -65,18 +66,21 @@ class FloorPlan:
         def pose(v):
             return {"x_m": float(v[0]), "y_m": float(v[1]), "theta_deg": math.degrees(v[2])}
 
+        def num(v):  # undefined predictions (e.g. a side too short to resolve E_d) are null
+            return float(v) if math.isfinite(v) else None
+
         extra = {}
         if self.calibration is not None:
             c, r = self.calibration, self.reference
             extra["calibration_prediction"] = {
                 "method": "heading",
-                "E_b_mean": c.E_b_mean,
-                "E_b_std": c.E_b_std,
-                "E_d_mean": c.E_d_mean,
-                "E_d_std": c.E_d_std,
+                "E_b_mean": num(c.E_b_mean),
+                "E_b_std": num(c.E_b_std),
+                "E_d_mean": num(c.E_d_mean),
+                "E_d_std": num(c.E_d_std),
                 "validation": "4-gon 4 m ccw",
-                "post_error_mean_m": c.post_error_mean_m,
-                "post_error_ci95_m": list(c.post_error_ci95_m),
+                "post_error_mean_m": num(c.post_error_mean_m),
+                "post_error_ci95_m": [num(v) for v in c.post_error_ci95_m],
                 "floor_m": r.floor_m,
                 "uncalibrated_m": r.uncalibrated_m,
             }
@@ -128,6 +132,10 @@ def _measure_step(closed: bool, extra: str = "", example: str = "") -> str:
     )
 
 
+# Most runs per direction a floor plan lists.
+MAX_PLAN_RUNS = 1000
+
+
 def build_plan(
     robot: Robot,
     *,
@@ -142,6 +150,10 @@ def build_plan(
     CW and CCW, or (``noise_track`` = ('out-and-back' | 'straight', D m)) ``runs_per_direction``
     runs for measuring k. Predictions come from :func:`odocal.core.covariance.predict`."""
     n = int(runs_per_direction)
+    if not 1 <= n <= MAX_PLAN_RUNS:
+        raise ModelError(
+            f"runs per direction must be 1 .. {MAX_PLAN_RUNS} (runs a person drives), got {n}"
+        )
     if noise_track is None:
         tracks: dict[str, Track] = {d: polygon(sides, side_m, d) for d in ("cw", "ccw")}
         order = tuple(("cw", "ccw")[i % 2] for i in range(2 * n))

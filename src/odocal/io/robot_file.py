@@ -42,13 +42,21 @@ _TOP = (
 )
 _GEOMETRY = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
 
+# Plausible ranges: beyond them a value is a typo or a unit mistake, and the equations overflow
+# or become undefined. Lengths in m; error factors (E_b, E_d, E_s) are near 1 for any real robot.
+_LENGTH = {"at_least": 1e-4, "at_most": 1e3}
+_FACTOR = {"at_least": 0.5, "at_most": 2.0}
+_K_MAX_M = 1.0
+_SIGMA_XY_MAX_M = 1e3
+_SIGMA_THETA_MAX_DEG = 360.0
+
 
 def _geometry(doc: YamlDoc, mapping: dict, prefix: str) -> WheelGeometry:
     vals = {}
     for key in _GEOMETRY:
         if key not in mapping:
             raise InputError(f"missing required key '{prefix}{key}'", doc.path)
-        vals[key] = doc.number(f"{prefix}{key}", mapping[key], positive=True)
+        vals[key] = doc.number(f"{prefix}{key}", mapping[key], positive=True, **_LENGTH)
     return WheelGeometry(*(vals[k] for k in _GEOMETRY))
 
 
@@ -58,27 +66,44 @@ def robot_from_doc(doc: YamlDoc) -> Robot:
     for key in ("wheel_diameter_m", "wheelbase_m"):
         if key not in d:
             raise InputError(f"missing required key '{key}'", doc.path)
-    diameter = doc.number("wheel_diameter_m", d["wheel_diameter_m"], positive=True)
-    wheelbase = doc.number("wheelbase_m", d["wheelbase_m"], positive=True)
+    diameter = doc.number("wheel_diameter_m", d["wheel_diameter_m"], positive=True, **_LENGTH)
+    wheelbase = doc.number("wheelbase_m", d["wheelbase_m"], positive=True, **_LENGTH)
     d_r = d_l = diameter
     if "wheel_diameter_right_m" in d:
-        d_r = doc.number("wheel_diameter_right_m", d["wheel_diameter_right_m"], positive=True)
+        d_r = doc.number(
+            "wheel_diameter_right_m", d["wheel_diameter_right_m"], positive=True, **_LENGTH
+        )
     if "wheel_diameter_left_m" in d:
-        d_l = doc.number("wheel_diameter_left_m", d["wheel_diameter_left_m"], positive=True)
+        d_l = doc.number(
+            "wheel_diameter_left_m", d["wheel_diameter_left_m"], positive=True, **_LENGTH
+        )
     nominal = WheelGeometry(d_r, d_l, wheelbase)
 
     s = doc.section("systematic", ("E_b", "E_d", "E_s"))
     systematic = SystematicError(
-        **{k: doc.number(f"systematic.{k}", v, positive=True) for k, v in s.items()}
+        **{k: doc.number(f"systematic.{k}", v, positive=True, **_FACTOR) for k, v in s.items()}
     )
     n = doc.section("nonsystematic", ("k_r_m", "k_l_m"))
     nonsys = NonSystematicError(
-        **{k: doc.number(f"nonsystematic.{k}", v, nonnegative=True) for k, v in n.items()}
+        **{
+            k: doc.number(f"nonsystematic.{k}", v, nonnegative=True, at_most=_K_MAX_M)
+            for k, v in n.items()
+        }
     )
     m = doc.section("measurement", ("sigma_xy_m", "sigma_theta_deg"))
     measurement = MeasurementNoise.from_degrees(
-        doc.number("measurement.sigma_xy_m", m.get("sigma_xy_m", 0.0), nonnegative=True),
-        doc.number("measurement.sigma_theta_deg", m.get("sigma_theta_deg", 0.0), nonnegative=True),
+        doc.number(
+            "measurement.sigma_xy_m",
+            m.get("sigma_xy_m", 0.0),
+            nonnegative=True,
+            at_most=_SIGMA_XY_MAX_M,
+        ),
+        doc.number(
+            "measurement.sigma_theta_deg",
+            m.get("sigma_theta_deg", 0.0),
+            nonnegative=True,
+            at_most=_SIGMA_THETA_MAX_DEG,
+        ),
     )
     believed = None
     if d.get("believed") is not None:

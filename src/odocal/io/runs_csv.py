@@ -44,6 +44,8 @@ __all__ = [
 ]
 
 REQUIRED_COLUMNS = ("direction", "x_m", "y_m", "theta_deg")
+# Largest magnitude of a measured value (m or deg): 1000 km, or 2778 turns.
+MAX_MAGNITUDE = 1e6
 CIRCLE_COLUMNS = ("direction", "radius_m")
 
 
@@ -103,6 +105,15 @@ def _read_table(path, columns: tuple[str, ...], directions, required, positive=F
             if not math.isfinite(v) or (positive and v <= 0):
                 what = "a finite number > 0" if positive else "finite"
                 raise InputError(f"must be {what}, got {raw!r}", path, line_no, name)
+            if abs(v) > MAX_MAGNITUDE:
+                # no floor measurement is this large; the statistics would overflow
+                raise InputError(
+                    f"implausibly large, got {raw!r} (at most {MAX_MAGNITUDE:g} in magnitude; "
+                    "check the units)",
+                    path,
+                    line_no,
+                    name,
+                )
             row.append(v)
         dirs.append(d)
         values.append(row)

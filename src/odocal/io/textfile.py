@@ -50,13 +50,24 @@ def atomic_path(path) -> Iterator[Path]:
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.is_dir():
         raise InputError("the output folder does not exist", parent)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=parent)
+    if path.is_dir():
+        raise InputError("is a directory, expected an output file name", path)
+    if path.exists() and not path.is_file():
+        # a device, FIFO or socket: renaming a file onto it would replace it
+        raise InputError("exists and is not a regular file; choose another output name", path)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=parent)
+    except OSError as exc:
+        raise InputError(f"cannot write here: {exc.strerror}", path) from None
     os.close(fd)
     tmp = Path(tmp)
     try:
         yield tmp
-        os.chmod(tmp, 0o666 & ~_umask())  # mkstemp creates 0600; give the usual mode
-        os.replace(tmp, path)
+        try:
+            os.chmod(tmp, 0o666 & ~_umask())  # mkstemp creates 0600; give the usual mode
+            os.replace(tmp, path)
+        except OSError as exc:
+            raise InputError(f"cannot write: {exc.strerror}", path) from None
     finally:
         if tmp.exists():
             tmp.unlink()
@@ -65,4 +76,7 @@ def atomic_path(path) -> Iterator[Path]:
 def atomic_write(path, text: str) -> None:
     """Write ``text`` to ``path`` atomically (temporary file + rename)."""
     with atomic_path(path) as tmp:
-        tmp.write_text(text, encoding="utf-8")
+        try:
+            tmp.write_text(text, encoding="utf-8")
+        except OSError as exc:  # e.g. the disk is full
+            raise InputError(f"cannot write: {exc.strerror}", path) from None

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 
 import yaml
 
@@ -10,6 +11,9 @@ from ..errors import InputError
 from .textfile import read_text
 
 __all__ = ["YamlDoc", "load_yaml"]
+
+# A number in exponent form without a dot (1e-6, 2E3), which YAML 1.1 leaves as a string.
+_EXPONENT_NUMBER = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)[eE][-+]?\d+")
 
 
 class YamlDoc:
@@ -38,8 +42,14 @@ class YamlDoc:
                     f"{prefix}{k}", f"unknown key; expected one of: {', '.join(allowed)}"
                 )
 
-    def number(self, key: str, value, *, positive=False, nonnegative=False) -> float:
-        """``value`` (found at dotted ``key``) as a finite float, with the given sign."""
+    def number(
+        self, key: str, value, *, positive=False, nonnegative=False, at_least=None, at_most=None
+    ) -> float:
+        """``value`` (found at dotted ``key``) as a finite float, with the given sign and within
+        the plausible range [``at_least``, ``at_most``] when given."""
+        if isinstance(value, str) and _EXPONENT_NUMBER.fullmatch(value.strip()):
+            # YAML 1.1 (PyYAML) reads 1e-6 (no dot) as text; YAML 1.2 and people read a number
+            value = float(value)
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise self.error(key, f"expected a number, got {value!r}")
         v = float(value)
@@ -49,6 +59,11 @@ class YamlDoc:
             raise self.error(key, f"must be > 0, got {value!r}")
         if nonnegative and v < 0:
             raise self.error(key, f"must be >= 0, got {value!r}")
+        if (at_least is not None and v < at_least) or (at_most is not None and v > at_most):
+            lo = "" if at_least is None else f"{at_least:g} .. "
+            raise self.error(
+                key, f"implausible value {value!r} (expected {lo or 'at most '}{at_most:g})"
+            )
         return v
 
 
