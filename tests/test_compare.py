@@ -164,7 +164,6 @@ def test_cli_text_table(cli):
         (["--seed", "-1"], "--seed"),
         (["--travel", "nan"], "--travel"),
         (["--realdata", "MISSING/optiodom"], "MISSING/optiodom"),
-        (["--plot", "MISSING/dir"], "MISSING/dir"),
         (["--robot", "MISSING/robot.yaml"], "MISSING/robot.yaml"),
     ],
 )
@@ -180,6 +179,16 @@ def test_cli_bad_input(cli, tmp_path, args, message):
     assert err.startswith("odocal: error:") and err.count("\n") == 1
     assert message in err
     assert "Traceback" not in err
+
+
+def test_cli_plot_folder_is_created_or_refused(cli, tmp_path):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("x")
+    status, _, err = cli("compare", "--trials", 2, "--plot", blocker / "dir")
+    assert status == 2 and err.count("\n") == 1 and str(blocker / "dir") in err
+    status, _, err = cli("compare", "--trials", 2, "--plot", tmp_path / "new" / "dir")
+    assert status == 0, err
+    assert (tmp_path / "new" / "dir" / "compare.png").stat().st_size > 10_000
 
 
 def test_cli_realdata_folder_without_datasets(cli, tmp_path):

@@ -202,17 +202,24 @@ def fit_trajectory(
         raise CalibrationError("trajectory: every run is excluded")
     warnings: list[str] = []
     starts = []
+    linear_start = "not used (start given)"
     if start is not None:
         starts.append(start)
     else:
         try:
             starts.append(fit_linear(use, nominal).geometry)
+            linear_start = "used"
         except CalibrationError as exc:
-            warnings.append(f"linear starting point unavailable ({exc})")
+            # Closed tracks (squares, spins) leave the linear estimator singular; that is no
+            # problem for this fit, which then starts from nominal, so it is recorded, not warned.
+            linear_start = f"unavailable: {exc}"
         if nominal is not None:
             starts.append(nominal)
         if not starts:
-            raise CalibrationError("trajectory: no starting point (give the nominal geometry)")
+            raise CalibrationError(
+                f"trajectory: no starting point (linear {linear_start}); give the nominal "
+                "geometry (--robot)"
+            )
 
     def fit(rs):
         # every start is tried and the lowest cost kept: the linear estimate is usually best,
@@ -292,5 +299,6 @@ def fit_trajectory(
             "residual_rms": float(np.sqrt(2.0 * sol.cost / max(m, 1))),
             "optimizer": {"nfev": int(sol.nfev), "status": int(sol.status)},
             "starts_tried": len(starts),
+            "linear_start": linear_start,
         },
     )

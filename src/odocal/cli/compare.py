@@ -90,14 +90,6 @@ def run(args) -> int:
     from ..io.compare_report import comparison_document, plot_comparison, run_comparison
 
     robot = resolve_robot(args)
-    png = None
-    if args.plot:
-        from pathlib import Path
-
-        folder = Path(args.plot)
-        if not folder.is_dir():
-            raise InputError("the plot folder does not exist", folder)
-        png = folder / "compare.png"
     if args.trials < 2:
         raise InputError(f"--trials must be >= 2, got {args.trials}")
     if args.runs < 3:
@@ -109,6 +101,12 @@ def run(args) -> int:
             f"--trials x --runs = {args.trials * args.runs} is too much work (at most "
             f"{_MAX_TRIAL_RUNS}; 2000 trials of 10 runs take about 2 GB and 5 minutes)"
         )
+    png = None
+    if args.plot:
+        from ..io.plots import output_folder
+
+        # created now, as design, validate and reproduce do, so a bad folder fails before the work
+        png = output_folder(args.plot) / "compare.png"
     comparison = run_comparison(
         robot,
         trials=args.trials,
