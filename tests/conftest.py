@@ -49,9 +49,24 @@ def realdata() -> Path:
     return REALDATA
 
 
+class CliResult(tuple):
+    """(exit_status, stdout, stderr) of one ``odocal`` run, with the bad-input check."""
+
+    def expect_error(self, *needles: str) -> None:
+        """The bad-input contract: exit status 2, nothing on stdout, one line
+        ``odocal: error: ...`` on stderr (no traceback) that contains every needle."""
+        status, out, err = self
+        assert status == 2, (status, err)
+        assert out == "", out
+        assert err.startswith("odocal: error: ") and err.count("\n") == 1, err
+        assert "Traceback" not in err
+        for n in needles:
+            assert str(n) in err, (n, err)
+
+
 @pytest.fixture
 def cli(capsys):
-    """Run ``odocal`` in-process: returns (exit_status, stdout, stderr)."""
+    """Run ``odocal`` in-process: returns a CliResult (exit_status, stdout, stderr)."""
     from odocal.cli.main import main
 
     def run(*argv):
@@ -60,6 +75,6 @@ def cli(capsys):
         except SystemExit as exc:  # argparse exits for --help and usage errors
             status = exc.code
         out, err = capsys.readouterr()
-        return status, out, err
+        return CliResult((status, out, err))
 
     return run

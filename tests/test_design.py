@@ -307,16 +307,6 @@ def test_cli_design_options(cli, tmp_path):
         assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and p.stat().st_size > 5000
 
 
-def _check_error(result, *needles):
-    status, out, err = result
-    assert status == 2
-    assert out == ""
-    assert err.startswith("odocal: error: ") and err.count("\n") == 1, err
-    assert "Traceback" not in err
-    for n in needles:
-        assert n in err, err
-
-
 @pytest.mark.parametrize(
     "args, needle",
     [
@@ -339,13 +329,13 @@ def _check_error(result, *needles):
     ],
 )
 def test_cli_design_bad_inputs(cli, args, needle):
-    _check_error(cli("design", *args), needle)
+    cli("design", *args).expect_error(needle)
 
 
 def test_cli_design_plot_into_a_file_fails_cleanly(cli, tmp_path):
     f = tmp_path / "file"
     f.write_text("x")
-    _check_error(cli("design", "--trials", "5", "--side-lengths", "1", "--plot", f), "file")
+    cli("design", "--trials", "5", "--side-lengths", "1", "--plot", f).expect_error("file")
 
 
 def test_report_json_and_plots_work_from_contract_fields_only(tmp_path, capsys):

@@ -107,29 +107,19 @@ def test_cli_reproduce(cli, tmp_path):
     assert (tmp_path / "r" / "REPORT.md").stat().st_size > 1000
 
 
-def _check_error(result, *needles):
-    status, out, err = result
-    assert status == 2
-    assert out == ""
-    assert err.startswith("odocal: error: ") and err.count("\n") == 1, err
-    assert "Traceback" not in err
-    for n in needles:
-        assert n in err, err
-
-
 def test_cli_reproduce_bad_inputs(cli, tmp_path):
-    _check_error(cli("reproduce", "--out", tmp_path, "--trials", "1"), "--trials")
-    _check_error(cli("reproduce"), "--out")
+    cli("reproduce", "--out", tmp_path, "--trials", "1").expect_error("--trials")
+    cli("reproduce").expect_error("--out")
     f = tmp_path / "file"
     f.write_text("x")
-    _check_error(cli("reproduce", "--out", f, "--trials", "5"), "file")
+    cli("reproduce", "--out", f, "--trials", "5").expect_error("file")
 
 
 def test_cli_reproduce_without_matplotlib(cli, tmp_path, monkeypatch):
     # a None entry in sys.modules makes the import fail as if matplotlib were not installed
     for mod in ("matplotlib.figure", "matplotlib.backends.backend_agg"):
         monkeypatch.setitem(sys.modules, mod, None)
-    _check_error(cli("reproduce", "--out", tmp_path / "r", "--trials", "5"), "pip install")
+    cli("reproduce", "--out", tmp_path / "r", "--trials", "5").expect_error("pip install")
     assert not (tmp_path / "r").exists()
 
 
