@@ -9,18 +9,18 @@ import numpy as np
 import pytest
 
 from odocal.calibration.bcpt import (
-    CircleRuns,
     bcpt_factors,
     bcpt_first_order,
     calibrate_bcpt,
     calibrate_bcpt_recordings,
 )
 from odocal.calibration.circle_fit import fit_circle
-from odocal.calibration.result import CalibrationError
 from odocal.core.model import ModelError, Robot, SystematicError, WheelGeometry
 from odocal.core.recording import Recording
+from odocal.core.runs import CircleRuns
 from odocal.core.simulate import simulate
 from odocal.core.tracks import circle
+from odocal.errors import CalibrationError
 
 NOMINAL = WheelGeometry.symmetric(0.15, 0.34)
 

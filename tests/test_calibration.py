@@ -6,11 +6,13 @@ import numpy as np
 import pytest
 
 from odocal.calibration.heading import calibrate_heading, heading_factors
-from odocal.calibration.result import CalibrationError, EndPoseRuns, circular_mean
 from odocal.calibration.umbmark import calibrate_umbmark, umbmark_factors
 from odocal.core.model import ModelError, Robot, SystematicError, WheelGeometry
+from odocal.core.runs import EndPoseRuns
 from odocal.core.simulate import simulate
+from odocal.core.stats import circular_mean
 from odocal.core.tracks import polygon
+from odocal.errors import CalibrationError
 
 NOMINAL = WheelGeometry.symmetric(0.15, 0.385)
 

@@ -110,7 +110,7 @@ def test_monte_carlo_spread_is_plausible():
 
 
 def test_budget_validation():
-    from odocal.calibration.result import CalibrationError
+    from odocal.errors import CalibrationError
 
     with pytest.raises(CalibrationError):
         compare_simulated(PRESETS["paper-fig5"], trials=2, budget=Budget(runs=2))

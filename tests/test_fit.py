@@ -10,12 +10,12 @@ import pytest
 import yaml
 
 from odocal.calibration.linear import fit_linear
-from odocal.calibration.recorded import fit_recorded_squares
-from odocal.calibration.result import CalibrationError
+from odocal.calibration.squares import fit_recorded_squares
 from odocal.calibration.trajectory import fit_trajectory
 from odocal.core.model import SystematicError, WheelGeometry
 from odocal.core.odometry import dead_reckon
 from odocal.core.recording import Recording
+from odocal.errors import CalibrationError
 from odocal.io.generic_csv import write_generic_csv
 from odocal.io.robot_file import load_params
 from odocal.io.ros2_export import read_ros2_params, ros2_params_yaml

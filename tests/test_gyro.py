@@ -19,7 +19,7 @@ from odocal.calibration.gyro import (
     still_bias,
     still_intervals,
 )
-from odocal.calibration.result import CalibrationError
+from odocal.errors import CalibrationError
 
 
 def scenario(ratio=1.04, bias=0.0, noise=0.0, rng=None, rotation=None, turns=2.0, still_s=5.0):

@@ -13,11 +13,11 @@ from odocal.calibration.ivanjko import (
     ivanjko_from_end_poses,
     ivanjko_result,
 )
-from odocal.calibration.result import CalibrationError
 from odocal.core.model import NonSystematicError, Robot, SystematicError, WheelGeometry
 from odocal.core.recording import Recording
 from odocal.core.simulate import simulate
 from odocal.core.tracks import Track, spot_turn, straight_line
+from odocal.errors import CalibrationError
 
 NOMINAL = WheelGeometry.symmetric(0.15, 0.385)
 SPIN = {

@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 
 from odocal.calibration.noise import estimate_k
-from odocal.calibration.result import CalibrationError, EndPoseRuns
 from odocal.core.model import MeasurementNoise, NonSystematicError, Robot, SystematicError
+from odocal.core.runs import EndPoseRuns
 from odocal.core.simulate import measure, simulate
 from odocal.core.tracks import out_and_back, straight_line
+from odocal.errors import CalibrationError
 from odocal.io.runs_csv import write_runs
 from odocal.presets import TETRA_DS2
 

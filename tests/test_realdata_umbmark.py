@@ -5,9 +5,9 @@ import csv
 import numpy as np
 import pytest
 
-from odocal.calibration.result import EndPoseRuns
 from odocal.calibration.umbmark import calibrate_umbmark
 from odocal.core.odometry import dead_reckon, final_error
+from odocal.core.runs import EndPoseRuns
 from odocal.io.optiodom import load_optiodom_dataset
 
 

@@ -19,13 +19,13 @@ from odocal.calibration.heading import heading_factors
 from odocal.calibration.ivanjko import ivanjko_from_end_poses
 from odocal.calibration.linear import fit_linear
 from odocal.calibration.noise import estimate_k
-from odocal.calibration.result import EndPoseRuns
 from odocal.calibration.trajectory import fit_trajectory
 from odocal.calibration.umbmark import umbmark_factors
 from odocal.core.covariance import propagate, straight_line_covariance
 from odocal.core.model import NonSystematicError, SystematicError, WheelGeometry
 from odocal.core.odometry import dead_reckon
 from odocal.core.recording import Recording
+from odocal.core.runs import EndPoseRuns
 from odocal.core.simulate import drive
 from odocal.core.stats import ttest_samples
 from odocal.core.tracks import (

@@ -12,7 +12,8 @@ from odocal.core.model import (
     SystematicError,
     WheelGeometry,
 )
-from odocal.core.simulate import compose, drive, measure, odometric_pose, simulate
+from odocal.core.pose import compose
+from odocal.core.simulate import drive, measure, odometric_pose, simulate
 from odocal.core.tracks import Track, arc, polygon, spot_turn, straight, straight_line
 
 NOMINAL = WheelGeometry.symmetric(0.15, 0.385)

@@ -9,6 +9,10 @@ class ModelError(OdocalError, ValueError):
     """A model value is invalid (not finite, not positive where it must be, ...)."""
 
 
+class CalibrationError(ModelError):
+    """The measurements do not allow a calibration (e.g. an equation is undefined)."""
+
+
 class InputError(OdocalError):
     """A file or argument is unusable. The message names the file, line and field."""
 

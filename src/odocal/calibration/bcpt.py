@@ -29,17 +29,17 @@ where, the robot drives). E_b, E_d are relative to the parameters the robot ran 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
 from ..core.model import WheelGeometry, check_positive
 from ..core.odometry import dead_reckon
+from ..core.runs import CircleRuns
+from ..errors import CalibrationError
 from .circle_fit import fit_circle
-from .result import CalibrationError, CalibrationResult
+from .result import CalibrationResult
 
 __all__ = [
-    "CircleRuns",
     "bcpt_factors",
     "bcpt_first_order",
     "calibrate_bcpt",
@@ -47,37 +47,6 @@ __all__ = [
     "circle_runs_from_recordings",
     "calibrate_bcpt_recordings",
 ]
-
-
-@dataclass(frozen=True)
-class CircleRuns:
-    """Measured circle runs for BCPT.
-
-    Attributes
-    ----------
-    directions : tuple of str
-        'cw' or 'ccw' per run.
-    radii_m : ndarray, shape (n,)
-        Measured (fitted) axle-centre radius of each run (m).
-    """
-
-    directions: tuple[str, ...]
-    radii_m: np.ndarray
-
-    def select(self, direction: str) -> np.ndarray:
-        mask = np.array([d == direction for d in self.directions], dtype=bool)
-        return np.asarray(self.radii_m, dtype=float)[mask]
-
-    def count(self, direction: str) -> int:
-        return int(sum(d == direction for d in self.directions))
-
-    def mean(self, direction: str) -> float:
-        r = self.select(direction)
-        if len(r) == 0:
-            raise CalibrationError(
-                f"BCPT needs CW and CCW circles; there are no {direction.upper()} runs"
-            )
-        return float(r.mean())
 
 
 def _ratio(radius, half_wheelbase):

@@ -32,13 +32,17 @@ import numpy as np
 
 from ..core.model import NonSystematicError, Robot, WheelGeometry
 from ..core.odometry import dead_reckon, evaluate
-from ..core.simulate import compose, drive, measure, odometric_pose, simulate
+from ..core.pose import compose
+from ..core.runs import EndPoseRuns
+from ..core.simulate import drive, measure, odometric_pose, simulate
+from ..core.stats import circular_mean
 from ..core.tracks import Track, arc, circle, polygon, spot_turn, straight_line
+from ..errors import CalibrationError
 from .bcpt import bcpt_factors, calibrate_bcpt_recordings
 from .circle_fit import fit_circle
 from .heading import calibrate_heading, heading_factors
 from .ivanjko import calibrate_ivanjko_recordings, ivanjko_from_end_poses
-from .result import CalibrationError, CalibrationResult, EndPoseRuns, circular_mean
+from .result import CalibrationResult
 from .umbmark import calibrate_umbmark, umbmark_factors
 
 __all__ = [

@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .result import CalibrationError
+from ..errors import CalibrationError
 
 __all__ = [
     "AXES",

@@ -18,7 +18,8 @@ import math
 import numpy as np
 
 from ..core.model import WheelGeometry
-from .result import CalibrationResult, EndPoseRuns, check_both_directions
+from ..core.runs import EndPoseRuns, check_both_directions
+from .result import CalibrationResult
 
 __all__ = ["heading_factors", "calibrate_heading"]
 

@@ -24,8 +24,9 @@ import numpy as np
 
 from ..core.model import WheelGeometry
 from ..core.odometry import dead_reckon
-from ..core.simulate import compose
-from .result import CalibrationError, CalibrationResult
+from ..core.pose import compose
+from ..errors import CalibrationError
+from .result import CalibrationResult
 
 __all__ = [
     "IvanjkoFit",

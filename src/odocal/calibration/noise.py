@@ -36,8 +36,9 @@ import numpy as np
 
 from ..core.covariance import propagate
 from ..core.model import MeasurementNoise, NonSystematicError, WheelGeometry
+from ..core.runs import EndPoseRuns
 from ..core.tracks import out_and_back, straight_line
-from .result import CalibrationError, EndPoseRuns
+from ..errors import CalibrationError
 
 __all__ = ["NoiseEstimate", "estimate_k", "NOISE_TRACKS", "MIN_RUNS", "RECOMMENDED_RUNS"]
 

@@ -1,4 +1,5 @@
-"""Calibration results and the measured end poses they are computed from."""
+"""Calibration results: factors relative to the parameters a robot ran with (``CalibrationResult``)
+and geometries fitted to recorded runs (``GeometryFit``)."""
 
 from __future__ import annotations
 
@@ -6,58 +7,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.model import ModelError, WheelGeometry
+from ..core.model import WheelGeometry
+from ..errors import CalibrationError
 
-__all__ = ["EndPoseRuns", "CalibrationResult", "CalibrationError", "circular_mean"]
-
-
-class CalibrationError(ModelError):
-    """The measurements do not allow a calibration (e.g. an equation is undefined)."""
-
-
-def circular_mean(angles_rad, axis=-1):
-    """Circular mean of unwrapped angles that keeps their unwrapped scale.
-
-    The mean direction is taken relative to the first sample, so a set of errors near -2 pi stays
-    near -2 pi (and small errors stay small) instead of being wrapped into (-pi, pi].
-    """
-    a = np.asarray(angles_rad, dtype=float)
-    ref = np.take(a, [0], axis=axis)
-    d = a - ref
-    return np.squeeze(ref, axis=axis) + np.arctan2(
-        np.mean(np.sin(d), axis=axis), np.mean(np.cos(d), axis=axis)
-    )
-
-
-@dataclass(frozen=True)
-class EndPoseRuns:
-    """Measured final pose errors of test runs (actual - odometric, start frame).
-
-    Attributes
-    ----------
-    directions : tuple of str
-        'cw' or 'ccw' per run (or 'fwd' for straight-line runs).
-    errors : ndarray, shape (n, 3)
-        x_m, y_m, theta_rad per run.
-    """
-
-    directions: tuple[str, ...]
-    errors: np.ndarray
-
-    def select(self, direction: str) -> np.ndarray:
-        """Errors of the runs in ``direction``, shape (k, 3)."""
-        mask = np.array([d == direction for d in self.directions], dtype=bool)
-        return self.errors[mask]
-
-    def mean(self, direction: str) -> np.ndarray:
-        """Mean error (x, y arithmetic; theta circular) of the runs in ``direction``, shape (3,)."""
-        e = self.select(direction)
-        if len(e) == 0:
-            raise CalibrationError(f"no {direction.upper()} runs")
-        return np.array([e[:, 0].mean(), e[:, 1].mean(), float(circular_mean(e[:, 2]))])
-
-    def count(self, direction: str) -> int:
-        return int(sum(d == direction for d in self.directions))
+__all__ = ["CalibrationResult", "GeometryFit", "check_physical", "stderr_dict"]
 
 
 @dataclass(frozen=True)
@@ -106,9 +59,106 @@ class CalibrationResult:
         }
 
 
-def check_both_directions(runs: EndPoseRuns) -> None:
-    missing = [d.upper() for d in ("cw", "ccw") if runs.count(d) == 0]
-    if missing:
+@dataclass(frozen=True)
+class GeometryFit:
+    """A calibrated geometry from recorded runs.
+
+    Attributes
+    ----------
+    method : str
+    geometry : WheelGeometry
+        Calibrated D_R, D_L (m), b (m).
+    stderr : dict
+        Standard errors (m) of ``wheel_diameter_right_m``, ``wheel_diameter_left_m``,
+        ``wheelbase_m`` (None where not estimable).
+    covariance : ndarray, shape (3, 3) or None
+        Covariance of (D_R, D_L, b) in m^2.
+    runs : list of str
+        Runs used.
+    per_run : list of dict
+        Per-run residual statistics (``name``, ``rms``, ``robust_z``, ``outlier``, ...).
+    outliers, excluded : list of str
+        Runs flagged as outliers; runs left out of the fit (by request or --drop-outliers).
+    warnings : list of str
+    extras : dict
+        Method-specific facts (residual kind, iterations, cost ...).
+    """
+
+    method: str
+    geometry: WheelGeometry
+    stderr: dict
+    covariance: np.ndarray | None
+    runs: list
+    per_run: list = field(default_factory=list)
+    outliers: list = field(default_factory=list)
+    excluded: list = field(default_factory=list)
+    warnings: list = field(default_factory=list)
+    extras: dict = field(default_factory=dict)
+
+    def as_dict(self) -> dict:
+        """The JSON contract of ``odocal fit --json`` (plus extras)."""
+        cov = None if self.covariance is None else _finite_or_none(self.covariance)
+        return {
+            "method": self.method,
+            **self.geometry.as_dict(),
+            "stderr": self.stderr,
+            "runs": list(self.runs),
+            "covariance_m2": cov,
+            "per_run": [
+                {
+                    k: (None if isinstance(v, float) and not np.isfinite(v) else v)
+                    for k, v in row.items()
+                }
+                for row in self.per_run
+            ],
+            "outliers": list(self.outliers),
+            "excluded": list(self.excluded),
+            "warnings": list(self.warnings),
+            **self.extras,
+        }
+
+
+def _finite_or_none(a):
+    """Nested lists of floats with non-finite entries as None (JSON has no NaN)."""
+    return [
+        _finite_or_none(v) if np.ndim(v) else (float(v) if np.isfinite(v) else None)
+        for v in np.asarray(a, dtype=float)
+    ]
+
+
+_KEYS = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
+
+
+def stderr_dict(cov) -> dict:
+    if cov is None:
+        return dict.fromkeys(_KEYS)
+    d = np.sqrt(np.clip(np.diag(cov), 0, None))
+    return {k: (float(v) if np.isfinite(v) else None) for k, v in zip(_KEYS, d, strict=True)}
+
+
+def check_physical(values, nominal: WheelGeometry | None, method: str) -> list[str]:
+    """Raise CalibrationError for non-positive values (the classic sign of swapped wheels);
+    return warnings for values far (> 25 %) from ``nominal``."""
+    d_r, d_l, b = (float(v) for v in values)
+    if not all(np.isfinite([d_r, d_l, b])):
+        raise CalibrationError(f"{method}: the fit did not converge to finite values")
+    if d_r <= 0 or d_l <= 0 or b <= 0:
         raise CalibrationError(
-            f"runs in both directions are needed; there are no {' and no '.join(missing)} runs"
+            f"{method}: non-physical result D_R={d_r:.6g} m, D_L={d_l:.6g} m, b={b:.6g} m; the "
+            "left and right wheels may be swapped (or one wheel's sign reversed) in the input"
         )
+    warnings = []
+    if nominal is not None:
+        for name, v, n in zip(
+            _KEYS,
+            (d_r, d_l, b),
+            (nominal.diameter_right_m, nominal.diameter_left_m, nominal.wheelbase_m),
+            strict=True,
+        ):
+            if abs(v / n - 1) > 0.25:
+                warnings.append(
+                    f"{name} = {v:.6g} m is {100 * (v / n - 1):+.0f} % from nominal {n:.6g} m: "
+                    "absurd for a calibration; check that the wheels are not swapped and the "
+                    "ticks per revolution"
+                )
+    return warnings

@@ -44,8 +44,9 @@ from scipy.optimize import least_squares
 
 from ..core.model import WheelGeometry
 from ..core.odometry import dead_reckon
-from .linear import GeometryFit, check_physical, fit_linear, stderr_dict
-from .result import CalibrationError
+from ..errors import CalibrationError
+from .linear import fit_linear
+from .result import GeometryFit, check_physical, stderr_dict
 
 __all__ = ["fit_trajectory", "RESIDUALS", "RUN_WEIGHTS", "robust_z", "match_runs"]
 

@@ -18,7 +18,8 @@ import math
 import numpy as np
 
 from ..core.model import ModelError, WheelGeometry
-from .result import CalibrationResult, EndPoseRuns, check_both_directions
+from ..core.runs import EndPoseRuns, check_both_directions
+from .result import CalibrationResult
 
 __all__ = ["umbmark_factors", "calibrate_umbmark", "UMBMARK_FORMS"]
 

@@ -108,7 +108,7 @@ def run(args) -> int:
         args.umbmark_form,
         args.radius,
     )
-    from ..calibration.linear import check_physical
+    from ..calibration.result import check_physical
 
     c = result.corrected
     # an absurd calibration (e.g. the wrong --side-length or units) is reported, not hidden

@@ -178,7 +178,7 @@ def fit_recordings(
 ):
     """Calibrate from loaded recordings (with ground truth); returns a ``GeometryFit``."""
     from ..calibration.linear import fit_linear
-    from ..calibration.recorded import fit_recorded_squares
+    from ..calibration.squares import fit_recorded_squares
     from ..calibration.trajectory import fit_trajectory
     from ..io.recordings import require_ground_truth
 

@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 
-from ..calibration.result import EndPoseRuns
 from ..core.covariance import correlation, predict
+from ..core.runs import EndPoseRuns
 from ..core.simulate import measure, simulate
 from ..core.tracks import polygon
 from .common import (

@@ -24,7 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .model import MeasurementNoise, ModelError, NonSystematicError, Robot, WheelGeometry
-from .simulate import _steps, compose, odometric_pose
+from .pose import compose
+from .simulate import increments_per_segment, odometric_pose
 from .tracks import Track
 
 __all__ = [
@@ -105,7 +106,7 @@ def _increments(track, true, believed, max_step_m, steps_per_segment):
     for seg in track.segments:
         s_hat_r, s_hat_l = seg.wheel_travel(b_hat)
         s_r, s_l = np.broadcast_arrays(s_hat_r * f_r, s_hat_l * f_l)
-        n = _steps(s_r, s_l, max_step_m, steps_per_segment)
+        n = increments_per_segment(s_r, s_l, max_step_m, steps_per_segment)
         drs.append(np.repeat((s_r / n)[..., None], n, axis=-1))
         dls.append(np.repeat((s_l / n)[..., None], n, axis=-1))
     batch = np.broadcast_shapes(*(d.shape[:-1] for d in drs + dls))

@@ -19,6 +19,7 @@ from ..errors import ModelError
 __all__ = [
     "ModelError",
     "WheelGeometry",
+    "wheel_factors",
     "SystematicError",
     "NonSystematicError",
     "MeasurementNoise",
@@ -59,6 +60,13 @@ def check_nonnegative(name: str, value) -> None:
         raise ModelError(f"{name} must be >= 0, got {_show(value, ~(arr >= 0))}")
 
 
+def wheel_factors(E_d):
+    """Per-wheel diameter factors (c_R, c_L) = (2 E_d / (E_d + 1), 2 / (E_d + 1)) of a diameter
+    ratio ``E_d`` (dimensionless; float or array): they change the ratio by ``E_d`` and keep the
+    mean diameter (docs/conventions.md). The one place this formula is written."""
+    return 2.0 * E_d / (E_d + 1.0), 2.0 / (E_d + 1.0)
+
+
 @dataclass(frozen=True)
 class WheelGeometry:
     """Wheel diameters and wheelbase of a differential-drive robot.
@@ -84,6 +92,16 @@ class WheelGeometry:
         check_positive("wheelbase_m", self.wheelbase_m)
 
     @classmethod
+    def unchecked(cls, diameter_right_m, diameter_left_m, wheelbase_m) -> WheelGeometry:
+        """A geometry built without the checks (values may be batches, NaN or <= 0): for
+        optimisers and Monte-Carlo batches, which check their results themselves."""
+        obj = object.__new__(cls)
+        object.__setattr__(obj, "diameter_right_m", diameter_right_m)
+        object.__setattr__(obj, "diameter_left_m", diameter_left_m)
+        object.__setattr__(obj, "wheelbase_m", wheelbase_m)
+        return obj
+
+    @classmethod
     def symmetric(cls, wheel_diameter_m: float, wheelbase_m: float) -> WheelGeometry:
         """Both wheels of diameter ``wheel_diameter_m`` (m), wheelbase ``wheelbase_m`` (m)."""
         return cls(wheel_diameter_m, wheel_diameter_m, wheelbase_m)
@@ -105,11 +123,8 @@ class WheelGeometry:
         mean nominal diameter. E_d is the absolute ratio of the true diameters.
         """
         d_n = self.mean_diameter_m * error.E_s
-        return WheelGeometry(
-            diameter_right_m=d_n * 2.0 * error.E_d / (error.E_d + 1.0),
-            diameter_left_m=d_n * 2.0 / (error.E_d + 1.0),
-            wheelbase_m=self.wheelbase_m * error.E_b,
-        )
+        c_r, c_l = wheel_factors(error.E_d)
+        return WheelGeometry(d_n * c_r, d_n * c_l, self.wheelbase_m * error.E_b)
 
     def corrected(self, E_b, E_d) -> WheelGeometry:
         """Compose a calibration (E_b, E_d, relative to ``self``) with ``self``.
@@ -117,8 +132,7 @@ class WheelGeometry:
         c_R = 2 E_d/(E_d + 1), c_L = 2/(E_d + 1) multiply the diameters per wheel (so the new ratio
         is E_d times the old one and the mean scale is kept); the wheelbase is multiplied by E_b.
         """
-        c_r = 2.0 * E_d / (E_d + 1.0)
-        c_l = 2.0 / (E_d + 1.0)
+        c_r, c_l = wheel_factors(E_d)
         return WheelGeometry(
             diameter_right_m=self.diameter_right_m * c_r,
             diameter_left_m=self.diameter_left_m * c_l,

@@ -18,9 +18,19 @@ from dataclasses import dataclass
 import numpy as np
 
 from .model import ModelError, NonSystematicError, Robot, WheelGeometry
+from .pose import compose
 from .tracks import Track
 
-__all__ = ["SimulationResult", "simulate", "drive", "odometric_pose", "measure", "compose"]
+__all__ = [
+    "SimulationResult",
+    "simulate",
+    "drive",
+    "odometric_pose",
+    "measure",
+    "measure_track",
+    "commanded_wheel_angles",
+    "increments_per_segment",
+]
 
 # Work arrays are at most about this many elements (chunks of runs); 2e6 doubles = 16 MB each.
 _MAX_ELEMENTS = 2_000_000
@@ -50,26 +60,6 @@ class SimulationResult:
         return self.true_final - self.odometric_final
 
 
-def compose(pose: np.ndarray, distance, angle) -> np.ndarray:
-    """Exact pose after a constant-curvature motion (distance m, heading change rad).
-
-    ``pose`` has shape (..., 3); ``distance`` and ``angle`` broadcast against pose[..., 0].
-    """
-    pose = np.asarray(pose, dtype=float)
-    distance = np.asarray(distance, dtype=float)
-    angle = np.asarray(angle, dtype=float)
-    chord = distance * np.sinc(angle / (2.0 * math.pi))  # d sin(a/2)/(a/2)
-    mid = pose[..., 2] + 0.5 * angle
-    return np.stack(
-        np.broadcast_arrays(
-            pose[..., 0] + chord * np.cos(mid),
-            pose[..., 1] + chord * np.sin(mid),
-            pose[..., 2] + angle,
-        ),
-        axis=-1,
-    )
-
-
 def odometric_pose(track: Track) -> np.ndarray:
     """The believed (commanded) final pose of ``track`` from the origin, shape (3,) or (runs, 3)
     when segment values are arrays."""
@@ -86,7 +76,11 @@ MAX_STEPS_PER_SEGMENT = 1_000_000
 MAX_RUN_INCREMENTS = 2_000_000_000
 
 
-def _steps(s_r, s_l, max_step_m: float | None, steps_per_segment: int | None) -> int:
+def increments_per_segment(
+    s_r, s_l, max_step_m: float | None, steps_per_segment: int | None = None
+) -> int:
+    """Increments a segment of wheel travel ``s_r``, ``s_l`` (m; scalars or arrays) is split into:
+    ``steps_per_segment`` if given, else enough that no increment exceeds ``max_step_m`` (m)."""
     if steps_per_segment is not None:
         return int(steps_per_segment)
     longest = float(np.max(np.maximum(np.abs(s_r), np.abs(s_l))))
@@ -159,7 +153,7 @@ def drive(
     for seg in track.segments:
         s_hat_r, s_hat_l = seg.wheel_travel(b_hat)
         s_r, s_l = batch(s_hat_r * f_r), batch(s_hat_l * f_l)
-        travel.append((s_r, s_l, _steps(s_r, s_l, max_step_m, steps_per_segment)))
+        travel.append((s_r, s_l, increments_per_segment(s_r, s_l, max_step_m, steps_per_segment)))
     steps = [n for _, _, n in travel]
     if runs * sum(steps) > MAX_RUN_INCREMENTS:
         raise ModelError(
@@ -232,3 +226,46 @@ def measure(errors: np.ndarray, robot: Robot, rng: np.random.Generator | None) -
     z = rng.standard_normal(np.shape(errors))
     scale = np.array([m.sigma_xy_m, m.sigma_xy_m, m.sigma_theta_rad])
     return errors + z * scale
+
+
+def measure_track(poses: np.ndarray, robot: Robot, rng: np.random.Generator | None) -> np.ndarray:
+    """Tracked poses as an instrument sees them: ``poses`` (..., 3) (x_m, y_m, theta_rad) plus the
+    instrument's noise (``robot.measurement``) on every sample, independently. A new array.
+
+    Draws the position noise, then the heading noise (only the parts whose sigma is > 0)."""
+    out = np.array(poses, dtype=float)
+    m = robot.measurement
+    if m.is_zero:
+        return out
+    if rng is None:
+        raise ModelError("a numpy.random.Generator is needed to simulate measurement noise")
+    if m.sigma_xy_m > 0:
+        out[..., :2] += m.sigma_xy_m * rng.standard_normal(out[..., :2].shape)
+    if m.sigma_theta_rad > 0:
+        out[..., 2] += m.sigma_theta_rad * rng.standard_normal(out[..., 2].shape)
+    return out
+
+
+def commanded_wheel_angles(
+    track: Track, believed: WheelGeometry, max_step_m: float
+) -> tuple[int, np.ndarray]:
+    """The encoder readings of an open-loop drive of ``track``, sampled after every increment.
+
+    One increment count ``n`` for every segment (enough that no increment exceeds ``max_step_m``
+    of wheel travel); returns ``(n, angles)`` with ``angles`` the cumulative commanded wheel
+    rotations (right, left; rad), shape (n * segments + 1, 2), starting at 0. Use with
+    ``drive(..., steps_per_segment=n, trajectory=True)`` to pair readings with true poses.
+    """
+    b_hat = float(np.mean(believed.wheelbase_m))
+    travel = [seg.wheel_travel(b_hat) for seg in track.segments]
+    longest = max(max(abs(float(r)), abs(float(lft))) for r, lft in travel)
+    n = increments_per_segment(longest, longest, max_step_m)
+    d_r = float(np.mean(believed.diameter_right_m))
+    d_l = float(np.mean(believed.diameter_left_m))
+    inc = np.concatenate(
+        [
+            np.repeat([[2.0 * float(r) / d_r / n, 2.0 * float(lft) / d_l / n]], n, axis=0)
+            for r, lft in travel
+        ]
+    )
+    return n, np.vstack([np.zeros((1, 2)), np.cumsum(inc, axis=0)])

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .model import ModelError, check_positive
+from .pose import compose
 
 __all__ = [
     "Segment",
@@ -105,6 +106,27 @@ class Track:
     def rotation_rad(self):
         """Total signed believed heading change (rad)."""
         return sum(s.angle_rad for s in self.segments)
+
+    def mean_wheel_travel_m(self, wheelbase_m: float) -> float:
+        """Mean wheel travel (m) of one drive: the sum over segments of
+        (|d + psi b/2| + |d - psi b/2|) / 2, so spot turns count (|psi| b / 2)."""
+        total = 0.0
+        for s in self.segments:
+            half = 0.5 * abs(float(s.angle_rad)) * wheelbase_m
+            d = abs(float(s.distance_m))
+            total += 0.5 * (abs(d + half) + abs(d - half))
+        return float(total)
+
+    def footprint_m(self, samples_per_segment: int = 32) -> float:
+        """Largest distance (m) of the commanded path from its start (floor space it needs)."""
+        pose = np.zeros(3)
+        far = 0.0
+        for s in self.segments:
+            for f in np.linspace(0.0, 1.0, samples_per_segment + 1)[1:]:
+                p = compose(pose, s.distance_m * f, s.angle_rad * f)
+                far = max(far, float(np.hypot(p[0], p[1])))
+            pose = compose(pose, s.distance_m, s.angle_rad)
+        return far
 
 
 # Largest N of a regular N-gon: beyond it the track is a circle and the work grows without

@@ -33,10 +33,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..calibration.heading import heading_factors
-from ..calibration.result import circular_mean
 from ..calibration.umbmark import umbmark_factors
 from ..core.model import ModelError, NonSystematicError, Robot, WheelGeometry
 from ..core.simulate import drive, measure
+from ..core.stats import circular_mean
 from ..core.tracks import polygon
 from .metrics import leg_heading_noise_rad, leg_heading_systematic_rad, systematic_share
 from .recommend import Recommendation, recommend

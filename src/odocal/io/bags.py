@@ -785,7 +785,7 @@ def fit_gyro_from_bag(
     Returns a :class:`~odocal.calibration.gyro.GyroResult`.
     """
     from ..calibration import gyro
-    from ..calibration.result import CalibrationError
+    from ..errors import CalibrationError
 
     p = _check_path(path)
     info = list_topics(p)

@@ -29,8 +29,7 @@ import math
 
 import numpy as np
 
-from ..calibration.bcpt import CircleRuns
-from ..calibration.result import EndPoseRuns
+from ..core.runs import CircleRuns, EndPoseRuns
 from ..errors import InputError
 from .textfile import atomic_write, read_text
 

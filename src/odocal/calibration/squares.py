@@ -31,9 +31,10 @@ import numpy as np
 
 from ..core.model import WheelGeometry
 from ..core.odometry import dead_reckon
+from ..core.runs import EndPoseRuns
+from ..errors import CalibrationError
 from .heading import calibrate_heading
-from .linear import GeometryFit
-from .result import CalibrationError, EndPoseRuns
+from .result import GeometryFit
 from .umbmark import calibrate_umbmark
 
 __all__ = ["recorded_end_errors", "direction_from_data", "fit_recorded_squares"]

@@ -1,0 +1,42 @@
+"""Planar poses (x_m, y_m, theta_rad): composition along constant-curvature motion and the start
+frame (docs/conventions.md: +x the start heading, +y to the left, theta CCW positive)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["compose", "start_frame"]
+
+
+def compose(pose: np.ndarray, distance, angle) -> np.ndarray:
+    """Exact pose after a constant-curvature motion (distance m, heading change rad).
+
+    ``pose`` has shape (..., 3); ``distance`` and ``angle`` broadcast against pose[..., 0].
+    """
+    pose = np.asarray(pose, dtype=float)
+    distance = np.asarray(distance, dtype=float)
+    angle = np.asarray(angle, dtype=float)
+    chord = distance * np.sinc(angle / (2.0 * math.pi))  # d sin(a/2)/(a/2)
+    mid = pose[..., 2] + 0.5 * angle
+    return np.stack(
+        np.broadcast_arrays(
+            pose[..., 0] + chord * np.cos(mid),
+            pose[..., 1] + chord * np.sin(mid),
+            pose[..., 2] + angle,
+        ),
+        axis=-1,
+    )
+
+
+def start_frame(x, y, theta_rad) -> np.ndarray:
+    """Poses re-expressed relative to the first one: shape (K, 3), first row (0, 0, 0).
+
+    ``x``, ``y`` (m) and ``theta_rad`` (rad, unwrapped) have shape (K,); the heading keeps its
+    unwrapping (only the first heading is subtracted).
+    """
+    x, y, th = (np.asarray(v, dtype=float) for v in (x, y, theta_rad))
+    c, s = math.cos(th[0]), math.sin(th[0])
+    dx, dy = x - x[0], y - y[0]
+    return np.column_stack([c * dx + s * dy, -s * dx + c * dy, th - th[0]])
