@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from odocal.cli.fit import fit_recordings
+from odocal.app.fit import fit_recordings
 from odocal.core.model import WheelGeometry
 from odocal.core.odometry import evaluate
 from odocal.io.recordings import load_recordings

@@ -118,15 +118,15 @@ def main(argv=None) -> int:
         f"{inc10 / 1e6:.1f} M trial-increments, {inc10 / t10 / 1e6:.1f} M/s"
     )
 
-    from odocal.cli.reproduce import run_reproduce
+    from odocal.app.reproduce import reproduce as reproduce_command
 
     with tempfile.TemporaryDirectory() as tmp:
         out = args.out or tmp
         t = time.perf_counter()
-        res = run_reproduce(out, args.trials, 0)
+        res = reproduce_command(out, trials=args.trials, seed=0)
         t_all = time.perf_counter() - t
     print(
-        f"whole 'odocal reproduce' (computation + {len(res['figures'])} figures + report): "
+        f"whole 'odocal reproduce' (computation + {len(res.figures)} figures + report): "
         f"{t_all:.2f} s"
     )
 

@@ -19,7 +19,8 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from odocal.io.bags import fit_gyro_from_bag, pose_series, read_bag
+from odocal.app.fit import fit_gyro_from_bag
+from odocal.io.bags import pose_series, read_bag
 
 ROOT = Path(__file__).resolve().parents[1]
 DEFAULT = ROOT.parent / "shared" / "realdata" / "husky" / "husky_test1.bag"

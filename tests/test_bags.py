@@ -17,6 +17,7 @@ from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
+from odocal.app.fit import fit_gyro_bag
 from odocal.calibration.gyro import rotation_from_rpy
 from odocal.core.model import NonSystematicError, WheelGeometry
 from odocal.core.odometry import dead_reckon
@@ -24,6 +25,7 @@ from odocal.core.simulate import drive
 from odocal.core.tracks import Track, arc, polygon, spot_turn, straight
 from odocal.errors import InputError
 from odocal.io import bags
+from odocal.io.bag_recording import load_bag_recording
 
 NOMINAL = WheelGeometry.symmetric(0.2, 0.5)  # believed: D = 0.2 m, b = 0.5 m
 E_B = 1.05  # true wheelbase 5 % larger: every turn really turns 1/1.05 of the belief
@@ -309,7 +311,9 @@ def test_list_topics_and_table(synthetic):
     if kind != "ros1":  # a ROS 2 storage file can be opened without its folder
         storage = next(p for p in path.iterdir() if p.suffix in (".mcap", ".db3"))
         assert bags.list_topics(storage) == topics
-    table = bags.format_topics(topics)
+    from odocal.cli.common import format_topics
+
+    table = format_topics(topics)
     assert (
         "/joint_states" in table and str(n) in table and table.splitlines()[0].startswith("topic")
     )
@@ -317,7 +321,7 @@ def test_list_topics_and_table(synthetic):
 
 def test_recording_matches_the_simulated_run(synthetic, run):
     kind, path = synthetic
-    rec = bags.load_bag_recording(path, ran_with=NOMINAL)
+    rec = load_bag_recording(path, ran_with=NOMINAL)
     assert rec.meta["right_joint"] == "right_wheel_joint"
     assert rec.meta["left_joint"] == "left_wheel_joint"
     # wheel angles exactly as written (float64 round trip), starting at 0; time from 0
@@ -356,7 +360,7 @@ def test_ground_truth_is_interpolated_at_wheel_times(tmp_path, run):
             w.joints("/joint_states", t, ("left_wheel_joint", "right_wheel_joint"), [lft, r])
         for k in range(2, len(run.time_s) - 2, 4):
             w.pose_stamped("/gt", run.time_s[k], *world(run.true_pose)[k])
-    rec = bags.load_bag_recording(path)
+    rec = load_bag_recording(path)
     first = 2
     keep = slice(first, first + len(rec.time_s))
     assert rec.meta["wheel_samples_dropped"] == len(run.time_s) - len(rec.time_s)
@@ -377,7 +381,7 @@ def test_ground_truth_is_interpolated_at_wheel_times(tmp_path, run):
 
 def test_gyro_from_joint_states_recovers_the_wheelbase(synthetic):
     kind, path = synthetic
-    res = bags.fit_gyro_from_bag(path, joint_topic="/joint_states", wheel_geometry=NOMINAL)
+    res = fit_gyro_bag(path, joint_topic="/joint_states", wheel_geometry=NOMINAL)
     # every turn really turns 1/E_b of the odometry's belief (E_d = 1): ratio = 1/E_b exactly;
     # noise: integrated white noise ~1.5e-3 rad and bias error ~1e-4 rad/s x 70 s over a net
     # rotation of 5 pi: ~3e-4 relative; 2e-3 is > 5 sigma
@@ -396,7 +400,7 @@ def test_gyro_from_joint_states_recovers_the_wheelbase(synthetic):
 
 def test_gyro_from_odometry_topic(synthetic):
     kind, path = synthetic
-    res = bags.fit_gyro_from_bag(path, odom_topic="/odom")
+    res = fit_gyro_bag(path, odom_topic="/odom")
     assert res.meta["odometry_source"] == "pose_yaw"
     # the 10 Hz odometry ends within one sample of the joints; same tolerance as above
     assert res.rotation_ratio == pytest.approx(1 / E_B, abs=2e-3)
@@ -404,13 +408,13 @@ def test_gyro_from_odometry_topic(synthetic):
 
 def test_gyro_axis_detected_without_tf_static(tmp_path, run):
     path = write_bag(tmp_path / "notf.bag", "ros1", run, tf=False)
-    res = bags.fit_gyro_from_bag(path, wheel_geometry=NOMINAL)
+    res = fit_gyro_bag(path, wheel_geometry=NOMINAL)
     assert res.mounting_source == "detected" and res.axis == "y"
     assert any("detected" in w for w in res.warnings)
     assert res.rotation_ratio == pytest.approx(1 / E_B, abs=2e-3)
     # the flag wins over detection; the wrong sign is an error naming the bag and topics
     with pytest.raises(InputError, match="opposite directions") as exc:
-        bags.fit_gyro_from_bag(path, wheel_geometry=NOMINAL, imu_axis="-y")
+        fit_gyro_bag(path, wheel_geometry=NOMINAL, imu_axis="-y")
     assert "notf.bag" in str(exc.value) and "/imu" in str(exc.value)
 
 
@@ -418,7 +422,7 @@ def test_wrapped_wheel_angles_are_unwrapped(tmp_path, run):
     wrapped = np.column_stack([run.right, run.left])
     wrapped = (wrapped + math.pi) % (2 * math.pi) - math.pi  # a driver reporting (-pi, pi]
     path = write_bag(tmp_path / "wrap.bag", "ros1", run, positions=wrapped, imu=False)
-    rec = bags.load_bag_recording(path)
+    rec = load_bag_recording(path)
     assert rec.meta["wraps_unwrapped"] > 10
     np.testing.assert_allclose(rec.wheel_angle_right_rad, run.right - run.right[0], atol=1e-9)
     np.testing.assert_allclose(rec.wheel_angle_left_rad, run.left - run.left[0], atol=1e-9)
@@ -427,7 +431,7 @@ def test_wrapped_wheel_angles_are_unwrapped(tmp_path, run):
 def test_ticks_per_rev(tmp_path, run):
     ticks = np.round(np.column_stack([run.right, run.left]) / (2 * math.pi) * 4096)
     path = write_bag(tmp_path / "ticks.bag", "ros1", run, positions=ticks, imu=False)
-    rec = bags.load_bag_recording(path, ticks_per_rev=4096)
+    rec = load_bag_recording(path, ticks_per_rev=4096)
     # quantisation: half a tick = pi / 4096 rad
     np.testing.assert_allclose(rec.wheel_angle_right_rad, run.right, atol=math.pi / 4096 + 1e-12)
 
@@ -439,8 +443,8 @@ def test_ticks_per_rev(tmp_path, run):
 def husky(realdata):
     d = realdata / "husky"
     return {
-        "ros1": bags.fit_gyro_from_bag(d / "husky_test1.bag"),
-        "ros2": bags.fit_gyro_from_bag(d / "husky_test1_ros2"),
+        "ros1": fit_gyro_bag(d / "husky_test1.bag"),
+        "ros2": fit_gyro_bag(d / "husky_test1_ros2"),
     }
 
 
@@ -465,7 +469,7 @@ def test_husky_gyro_ratio_ros1_and_ros2(husky):
 
 def test_husky_forced_bias_and_axis_flag(realdata):
     path = realdata / "husky" / "husky_test1.bag"
-    r = bags.fit_gyro_from_bag(path, imu_axis="y", bias="still")
+    r = fit_gyro_bag(path, imu_axis="y", bias="still")
     assert r.mounting_source == "flag" and r.bias_source == "still"
     assert r.rotation_ratio == pytest.approx(1.0071, abs=5e-4)
     assert not any("detected" in w for w in r.warnings)
@@ -474,7 +478,7 @@ def test_husky_forced_bias_and_axis_flag(realdata):
 def test_husky_mount_from_the_test_launch(husky, realdata):
     """robot_localization's launch: static_transform_publisher 0 -0.3 0.52 -pi/2 0 pi/2
     (yaw pitch roll) base_link imu_link; as a rotation it gives the detected result."""
-    r = bags.fit_gyro_from_bag(realdata / "husky" / "husky_test1_ros2", imu_rotation=R_BASE_IMU)
+    r = fit_gyro_bag(realdata / "husky" / "husky_test1_ros2", imu_rotation=R_BASE_IMU)
     assert r.mounting_source == "rotation" and r.axis == "y"
     assert r.rotation_ratio == pytest.approx(husky["ros2"].rotation_ratio, abs=1e-12)
 
@@ -493,7 +497,7 @@ def test_husky_bag_info_cli(cli, realdata):
 
 def test_husky_has_no_joint_states(realdata):
     with pytest.raises(InputError, match="no sensor_msgs/JointState topic") as exc:
-        bags.load_bag_recording(realdata / "husky" / "husky_test1.bag")
+        load_bag_recording(realdata / "husky" / "husky_test1.bag")
     assert "husky_test1.bag" in str(exc.value) and "/imu/data" in str(exc.value)
 
 
@@ -515,7 +519,7 @@ def test_truncated_bag(tmp_path, run, kind, cli):
     cut = tmp_path / ("cut.bag" if kind == "ros1" else "cut.mcap")
     cut.write_bytes(data[: len(data) // 2])
     with pytest.raises(InputError, match="truncated or corrupt") as exc:
-        bags.load_bag_recording(cut)
+        load_bag_recording(cut)
     assert str(cut) in str(exc.value)
     err = one_line_error(cli, "bag-info", cut)
     assert str(cut) in err
@@ -531,7 +535,7 @@ def test_corrupt_bag_body(tmp_path, run):
     )
     path.write_bytes(bytes(data))
     with pytest.raises(InputError, match=r"c\.bag: cannot read the bag after \d+ good messages"):
-        bags.load_bag_recording(path)
+        load_bag_recording(path)
 
 
 def test_not_a_bag(tmp_path, cli):
@@ -548,14 +552,14 @@ def test_not_a_bag(tmp_path, cli):
 def test_missing_and_wrong_topics(synthetic):
     kind, path = synthetic
     with pytest.raises(InputError, match="no topic '/nope'.*/joint_states") as exc:
-        bags.load_bag_recording(path, joint_topic="/nope")
+        load_bag_recording(path, joint_topic="/nope")
     assert str(path) in str(exc.value)
     with pytest.raises(InputError, match="topic '/imu' has type sensor_msgs/Imu, expected"):
-        bags.load_bag_recording(path, joint_topic="/imu")
+        load_bag_recording(path, joint_topic="/imu")
     with pytest.raises(InputError, match="topic '/joint_states' has type .*expected nav_msgs"):
-        bags.fit_gyro_from_bag(path, odom_topic="/joint_states")
+        fit_gyro_bag(path, odom_topic="/joint_states")
     with pytest.raises(InputError, match="needs the nominal wheel geometry"):
-        bags.fit_gyro_from_bag(path, joint_topic="/joint_states")
+        fit_gyro_bag(path, joint_topic="/joint_states")
 
 
 def test_several_candidate_topics(tmp_path, run):
@@ -565,8 +569,8 @@ def test_several_candidate_topics(tmp_path, run):
 
     path = write_bag(tmp_path / "two.bag", "ros1", run, imu=False, extra=second_pose)
     with pytest.raises(InputError, match="several .* ground truth: /mocap/pose, /other_pose"):
-        bags.load_bag_recording(path)
-    rec = bags.load_bag_recording(path, truth_topic="/mocap/pose")
+        load_bag_recording(path)
+    rec = load_bag_recording(path, truth_topic="/mocap/pose")
     assert rec.meta["truth_topic"] == "/mocap/pose"
 
 
@@ -575,7 +579,7 @@ def test_non_monotonic_time(tmp_path, run):
     t[100], t[101] = t[101], t[100]
     path = write_bag(tmp_path / "time.bag", "ros1", run, times=t, imu=False)
     with pytest.raises(InputError, match=r"field '/joint_states'.*goes backwards at message 101"):
-        bags.load_bag_recording(path)
+        load_bag_recording(path)
 
 
 def test_nan_position(tmp_path, run):
@@ -583,7 +587,7 @@ def test_nan_position(tmp_path, run):
     pos[57, 1] = np.nan
     path = write_bag(tmp_path / "nan.bag", "ros1", run, positions=pos, imu=False)
     with pytest.raises(InputError, match=r"nan.bag.*'/joint_states'.*message 57.*not finite"):
-        bags.load_bag_recording(path)
+        load_bag_recording(path)
 
 
 def test_encoder_glitch_is_rejected(tmp_path, run):
@@ -593,15 +597,15 @@ def test_encoder_glitch_is_rejected(tmp_path, run):
     with pytest.raises(
         InputError, match=r"joint 'right_wheel_joint' jumps by \+5\.\d+ rad at message 300"
     ):
-        bags.load_bag_recording(path)
+        load_bag_recording(path)
 
 
 def test_mirrored_wheel_is_detected(tmp_path, run):
     pos = np.column_stack([run.right, -run.left])  # left joint axis mirrored in the URDF
     path = write_bag(tmp_path / "mirror.bag", "ros1", run, positions=pos, imu=False)
     with pytest.raises(InputError, match="left wheel joint 'left_wheel_joint' turns backwards"):
-        bags.load_bag_recording(path)
-    rec = bags.load_bag_recording(path, invert_left=True)
+        load_bag_recording(path)
+    rec = load_bag_recording(path, invert_left=True)
     np.testing.assert_allclose(rec.wheel_angle_left_rad, run.left - run.left[0], atol=1e-12)
 
 
@@ -614,7 +618,7 @@ def test_mirrored_wheel_with_a_rotated_mocap_body(tmp_path, run):
     pos = np.column_stack([-run.right, run.left])
     path = write_bag(tmp_path / "mirror90.bag", "ros1", turned, positions=pos, imu=False)
     with pytest.raises(InputError, match="turn in opposite directions while the robot drives"):
-        bags.load_bag_recording(path)
+        load_bag_recording(path)
 
 
 def test_backwards_mocap_body_warns(tmp_path, run):
@@ -622,22 +626,20 @@ def test_backwards_mocap_body_warns(tmp_path, run):
     rotated[:, 2] += math.pi
     turned = Run(run.time_s, run.right, run.left, rotated, run.odo_pose)
     path = write_bag(tmp_path / "back.bag", "ros1", turned, imu=False)
-    rec = bags.load_bag_recording(path)
+    rec = load_bag_recording(path)
     assert any("points backwards" in w for w in rec.meta["warnings"])
 
 
 def test_swapped_wheels_are_detected(tmp_path, run):
     path = write_bag(tmp_path / "swap.bag", "ros1", run, imu=False)
     with pytest.raises(InputError, match="wheels look swapped"):
-        bags.load_bag_recording(
-            path, right_joint="left_wheel_joint", left_joint="right_wheel_joint"
-        )
+        load_bag_recording(path, right_joint="left_wheel_joint", left_joint="right_wheel_joint")
 
 
 def test_gyro_with_swapped_joints_says_so(synthetic):
     kind, path = synthetic
     with pytest.raises(InputError, match="opposite directions.*or the wheel joints are swapped"):
-        bags.fit_gyro_from_bag(
+        fit_gyro_bag(
             path,
             joint_topic="/joint_states",
             wheel_geometry=NOMINAL,
@@ -649,8 +651,8 @@ def test_gyro_with_swapped_joints_says_so(synthetic):
 def test_joint_names(tmp_path, run):
     path = write_bag(tmp_path / "names.bag", "ros1", run, imu=False, names=("wheel_a", "wheel_b"))
     with pytest.raises(InputError, match="no right-wheel joint among wheel_a, wheel_b"):
-        bags.load_bag_recording(path)
+        load_bag_recording(path)
     with pytest.raises(InputError, match="no joint 'nope'; joints: wheel_a, wheel_b"):
-        bags.load_bag_recording(path, right_joint="nope", left_joint="wheel_a")
-    rec = bags.load_bag_recording(path, right_joint="wheel_b", left_joint="wheel_a")
+        load_bag_recording(path, right_joint="nope", left_joint="wheel_a")
+    rec = load_bag_recording(path, right_joint="wheel_b", left_joint="wheel_a")
     np.testing.assert_allclose(rec.wheel_angle_right_rad, run.right - run.right[0], atol=1e-12)

@@ -245,12 +245,12 @@ def test_output_into_missing_folder_leaves_nothing(cli, robot, tmp_path):
 def test_failed_write_keeps_previous_file(cli, robot, tmp_path, monkeypatch):
     out = tmp_path / "runs.csv"
     out.write_text("previous\n")
-    import odocal.io.runs_csv as runs_csv
+    import odocal.app.simulate as app_simulate
 
     def boom(*a, **k):
         raise OSError("disk full")
 
-    monkeypatch.setattr(runs_csv, "runs_csv_text", boom)
+    monkeypatch.setattr(app_simulate, "runs_csv_text", boom)
     with pytest.raises(OSError):
         cli("simulate", "--robot", robot, "--out", out)
     assert out.read_text() == "previous\n"

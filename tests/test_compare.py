@@ -8,12 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from odocal.calibration.compare import (
-    METHODS,
-    Budget,
-    compare_real,
-    compare_simulated,
-)
+from odocal.comparison.methods import METHOD_REGISTRY as METHODS
+from odocal.comparison.methods import Budget
+from odocal.comparison.real import compare_real
+from odocal.comparison.simulated import compare_simulated
 from odocal.core.model import Robot, SystematicError
 from odocal.presets import PRESETS, TETRA_DS2
 
@@ -200,7 +198,7 @@ def test_real_optiodom_golden(realdata):
     # Held-out validation on OptiOdom free/ (7 runs) + circular/250620202104 (6 runs). Golden
     # values measured with this code (deterministic); the published OptiOdom parameters were
     # fitted on all data, held-out runs included, so they are a lower reference.
-    from odocal.io.compare_report import load_optiodom_split, read_published
+    from odocal.io.optiodom import load_optiodom_split, read_published
 
     base = realdata / "optiodom_diff"
     datasets, heldout = load_optiodom_split(base)
@@ -253,13 +251,14 @@ def test_group_data_is_a_recording_for_trajectory_methods():
     # encoder readings (wheel_angles_rad) with the TRUE geometry reproduces the tracked poses of a
     # noise-free robot. Headings agree to rounding; positions to the midpoint-rule error of the
     # ~200 coarser samples (chord error ~ R dtheta^3 / 24 per sample: ~5e-5 m on the 1 m circle).
-    from odocal.calibration.compare import RunGroup, _simulate_group
+    from odocal.comparison.methods import RunGroup
+    from odocal.comparison.simulated import simulate_group
     from odocal.core.odometry import dead_reckon
     from odocal.core.tracks import circle, polygon
 
     robot = Robot(TETRA_DS2, SystematicError(1.02, 1.003))
     for track in (circle(1.0, "ccw"), polygon(4, 2.0, "cw")):
-        g = _simulate_group(RunGroup("x", track, 2, points=True), robot, 3, None, 0.01)
+        g = simulate_group(RunGroup("x", track, 2, points=True), robot, 3, None, 0.01)
         assert g.trajectory.shape[:2] == (3, 2) and g.trajectory.shape[-1] == 3
         assert g.wheel_angles_rad.shape == (g.trajectory.shape[2], 2)
         odo = dead_reckon(g.wheel_angles_rad[:, 0], g.wheel_angles_rad[:, 1], robot.true_geometry)

@@ -342,7 +342,7 @@ def test_report_json_and_plots_work_from_contract_fields_only(tmp_path, capsys):
     """Candidates from another source (e.g. an analytic design) carry only the shared fields."""
     from odocal.cli.design import print_design
     from odocal.design import DesignResult, ErrorSummary
-    from odocal.io.plots import design_figures
+    from odocal.plot.design import design_figures
 
     cs = [cand(0.5 * (i + 1), m) for i, m in enumerate([0.2, 0.12, 0.1, 0.1])]
     floor = ErrorSummary(0.09, 0.04, (0.01, 0.2), 800)
@@ -358,5 +358,10 @@ def test_report_json_and_plots_work_from_contract_fields_only(tmp_path, capsys):
     print_design(res, "analytic robot")
     out = capsys.readouterr().out
     assert "Recommended: square, side 1.5 m" in out
-    paths = design_figures(res, tmp_path)
-    assert all(p.stat().st_size > 5000 for p in paths)
+    from odocal.io.outputs import OutputPlan
+
+    figs = design_figures(res)
+    plan = OutputPlan()
+    plan.folder(tmp_path, "--plot")
+    paths = plan.commit({tmp_path / name: fig for name, fig in figs.items()})
+    assert len(paths) == 3 and all(p.stat().st_size > 5000 for p in paths)

@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from odocal.cli.reproduce import run_reproduce
+from odocal.app.reproduce import reproduce
 from odocal.design.reproduce import PAPER
 
 TRIALS = 400
@@ -17,7 +17,7 @@ TRIALS = 400
 @pytest.fixture(scope="module")
 def produced(tmp_path_factory):
     out = tmp_path_factory.mktemp("reproduce")
-    return out, run_reproduce(out, trials=TRIALS, seed=1)
+    return out, reproduce(out, trials=TRIALS, seed=1)
 
 
 def _se(c):
@@ -26,7 +26,7 @@ def _se(c):
 
 @pytest.mark.parametrize("name", ["fig5", "fig6", "fig9"])
 def test_worst_at_the_smallest_track_and_flat_beyond_the_recommendation(produced, name):
-    result = getattr(produced[1]["reproduction"], name)
+    result = getattr(produced[1].reproduction, name)
     cands = result.candidates
     means = np.array([c.post_error_mean_m for c in cands])
     # the paper: the smallest track (2 m travel) is the worst
@@ -52,14 +52,14 @@ def test_worst_at_the_smallest_track_and_flat_beyond_the_recommendation(produced
 
 
 def test_systematic_share_matches_the_papers_figures_4_and_8(produced):
-    rep = produced[1]["reproduction"]
+    rep = produced[1].reproduction
     assert rep.fig3.share_at(4.0) == pytest.approx(PAPER["fig4_share_at_4m"], abs=0.005)
     assert rep.fig8.share_at(4.0) == pytest.approx(PAPER["fig8_share_at_4m"], abs=0.01)
     assert np.all(np.diff(rep.fig3.share) > 0)  # grows with L
 
 
 def test_octagon_and_square_agree_at_equal_travel(produced):
-    rep = produced[1]["reproduction"]
+    rep = produced[1].reproduction
     sq = np.array([c.residual_error_mean_m for c in rep.fig5.candidates])
     oc = np.array([c.residual_error_mean_m for c in rep.fig6.candidates])
     np.testing.assert_allclose([c.travel_m for c in rep.fig6.candidates], np.arange(1, 21) * 2.0)
@@ -69,7 +69,7 @@ def test_octagon_and_square_agree_at_equal_travel(produced):
 
 
 def test_experiment_prediction(produced):
-    exp = produced[1]["reproduction"].experiment
+    exp = produced[1].reproduction.experiment
     # calibrations are unbiased: within 4 standard errors of the true E_b 1.0255, E_d 1.0017
     se = exp.E_b_std / math.sqrt(TRIALS)
     np.testing.assert_array_less(np.abs(exp.E_b_mean - 1.0255), 4 * se)
@@ -88,12 +88,12 @@ def test_experiment_prediction(produced):
 def test_figures_and_report_are_written(produced):
     out, res = produced
     expected = {"fig3", "fig4", "fig5", "fig6", "fig8", "fig9"}
-    assert expected <= set(res["figures"])
-    for path in res["figures"].values():
+    assert expected <= set(res.figures)
+    for path in res.figures.values():
         data = path.read_bytes()
         assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 20_000
     text = (out / "REPORT.md").read_text()
-    for path in res["figures"].values():
+    for path in res.figures.values():
         assert f"]({path.name})" in text
     for needle in ("91 %", "91.5 %", "Table 1", "1.1370", "1.69", "26.855", "agrees", "differs"):
         assert needle in text
@@ -124,7 +124,7 @@ def test_cli_reproduce_without_matplotlib(cli, tmp_path, monkeypatch):
 
 
 def test_a_noisy_heading_instrument_moves_the_choice_to_larger_tracks(produced):
-    rep = produced[1]["reproduction"]
+    rep = produced[1].reproduction
     from odocal.design.reproduce import residual_recommendation
 
     clean, noisy = rep.fig5, rep.instrument
@@ -141,4 +141,4 @@ def test_a_noisy_heading_instrument_moves_the_choice_to_larger_tracks(produced):
         noisy.candidates[residual_recommendation(noisy)].side_m
         > clean.candidates[residual_recommendation(clean)].side_m
     )
-    assert "fig5_instrument" in produced[1]["figures"]
+    assert "fig5_instrument" in produced[1].figures

@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from odocal.cli.validate import validate_recordings
+from odocal.app.validate import validate_recordings
 from odocal.core.model import SystematicError, WheelGeometry
 from odocal.core.odometry import dead_reckon
 from odocal.core.recording import Recording

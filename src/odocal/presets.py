@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from .core.model import NonSystematicError, Robot, SystematicError, WheelGeometry
 
-__all__ = ["PRESETS", "TETRA_DS2"]
+__all__ = ["PRESETS", "TETRA_DS2", "DEFAULT_ROBOT"]
 
 TETRA_DS2 = WheelGeometry.symmetric(0.15, 0.385)
 
@@ -25,3 +25,6 @@ PRESETS: dict[str, Robot] = {
     # Figs. 8 and 9: the experimental robot, E_b 1.0255, E_d 1.0017, k 2.89e-6 m
     "paper-experiment": _paper(1.0255, 1.0017, 2.89e-6),
 }
+
+#: The robot every command uses when none is given: the paper's Fig. 5 conditions.
+DEFAULT_ROBOT = "paper-fig5"

@@ -56,6 +56,9 @@ __all__ = [
     "still_bias",
     "choose_bias",
     "gyro_calibration",
+    "yaw_axis",
+    "GyroHeading",
+    "gyro_heading",
 ]
 
 AXES = ("x", "y", "z", "-x", "-y", "-z")
@@ -310,6 +313,133 @@ class GyroResult:
         return d
 
 
+def yaw_axis(
+    imu_time_s,
+    angular_velocity_rad_s,
+    ref_time_s,
+    ref_heading,
+    *,
+    rotation=None,
+    imu_axis: str | None = None,
+    mounting_source: str | None = None,
+):
+    """The base's z axis in IMU coordinates: from ``rotation`` (R_base_imu), else the named
+    ``imu_axis``, else detected from the data (the axis whose integrated rate correlates best with
+    ``ref_heading``, any series proportional to the heading, e.g. right minus left wheel angle).
+
+    Returns (n shape (3,), source, detected axis name, signed correlations per axis, warnings).
+    A given mounting that the data contradict is kept, with a warning.
+    """
+    detected, det_corr, corr = detect_yaw_axis(
+        imu_time_s, angular_velocity_rad_s, ref_time_s, ref_heading
+    )
+    warnings = []
+    if rotation is not None:
+        r = np.asarray(rotation, dtype=float)
+        if r.shape != (3, 3) or not np.allclose(r @ r.T, np.eye(3), atol=1e-6):
+            raise CalibrationError("rotation must be a 3x3 rotation matrix")
+        n = r[2, :].copy()
+        source = mounting_source or "rotation"
+    elif imu_axis is not None:
+        n = axis_vector(imu_axis)
+        source = mounting_source or "flag"
+    else:
+        if det_corr < _MIN_DETECT_CORRELATION:
+            raise CalibrationError(
+                "cannot detect the IMU's yaw axis: no axis correlates with the odometry heading "
+                f"rate (best {detected}, correlation {det_corr:.2f}); give the IMU axis"
+            )
+        n = axis_vector(detected)
+        source = "detected"
+        warnings.append(
+            f"IMU mounting detected from the data: yaw on the IMU's {detected} axis "
+            f"(correlation {det_corr:.3f}); give the axis or publish /tf_static to make it explicit"
+        )
+    if source != "detected":
+        c = float(np.dot(n, [corr["x"], corr["y"], corr["z"]]))
+        axis = _axis_name(n) or "rotation"
+        if det_corr >= _MIN_DETECT_CORRELATION and c < 0.5 * det_corr:
+            warnings.append(
+                f"the given IMU mounting ({source}, yaw on {axis}) correlates {c:.2f} with the "
+                f"odometry, the data suggest {detected} ({det_corr:.2f})"
+            )
+    return n, source, detected, corr, warnings
+
+
+@dataclass(frozen=True)
+class GyroHeading:
+    """The integrated gyro heading at reference times, and how it was obtained.
+
+    ``yaw_rad`` shape (M,), starting at 0 (rad, CCW +, unwrapped); ``yaw_axis_in_imu`` the base z
+    axis in IMU coordinates; ``bias_rad_s`` the bias removed and ``bias_source`` why.
+    """
+
+    yaw_rad: np.ndarray
+    yaw_axis_in_imu: tuple[float, float, float]
+    mounting_source: str
+    bias_rad_s: float
+    bias_source: str
+    warnings: tuple[str, ...] = ()
+
+
+def gyro_heading(
+    imu_time_s,
+    angular_velocity_rad_s,
+    time_s,
+    turn_rad,
+    travel_rad=None,
+    *,
+    rotation=None,
+    imu_axis: str | None = None,
+    mounting_source: str | None = None,
+    bias="auto",
+    max_still_rate: float = 0.02,
+    min_still_s: float = 1.0,
+) -> GyroHeading:
+    """Integrate a gyro into a heading at ``time_s`` (s, shape (M,)), mounting and bias handled.
+
+    Without a wheel geometry, wheel angles stand in for the odometry: ``turn_rad`` (shape (M,),
+    e.g. right minus left wheel angle, rad) for the axis detection and ``travel_rad`` (e.g. the
+    mean wheel angle) with it for standing still: still where both change slower than
+    ``max_still_rate`` (rad/s of wheel angle) for ``min_still_s``. Bias policy as
+    :func:`choose_bias`. Mounting as :func:`yaw_axis`.
+    """
+    t_i = np.asarray(imu_time_s, dtype=float)
+    w = np.asarray(angular_velocity_rad_s, dtype=float)
+    t = np.asarray(time_s, dtype=float)
+    turn = np.asarray(turn_rad, dtype=float)
+    if w.ndim != 2 or w.shape[1] != 3:
+        raise CalibrationError(f"angular velocity must have shape (K, 3), got {w.shape}")
+    _check_series("IMU", t_i, w)
+    n, source, _, _, warnings = yaw_axis(
+        t_i, w, t, turn, rotation=rotation, imu_axis=imu_axis, mounting_source=mounting_source
+    )
+    rate = w @ n
+    turn_rate = _rate(t, turn)
+    travel_rate = None if travel_rad is None else _rate(t, np.asarray(travel_rad, dtype=float))
+    intervals = still_intervals(
+        t,
+        turn_rate,
+        travel_rate,
+        max_speed_m_s=max_still_rate,
+        max_yaw_rate_rad_s=max_still_rate,
+        min_duration_s=min_still_s,
+    )
+    est, se, _, _ = still_bias(t_i, rate, intervals)
+    applied, bias_source, note = choose_bias(bias, est, se, min_still_s)
+    if note:
+        warnings.append(note)
+    yaw = np.interp(t, t_i, integrate_rate(t_i, rate - applied))
+    return GyroHeading(
+        yaw - yaw[0],
+        tuple(float(c) for c in n),
+        source,
+        float(applied),
+        bias_source,
+        tuple(warnings),
+    )
+
+
 def _check_series(name: str, t: np.ndarray, values: np.ndarray) -> None:
     if t.ndim != 1 or len(t) < 2:
         raise CalibrationError(f"{name}: need at least two samples, got {len(t)}")
@@ -398,37 +528,12 @@ def gyro_calibration(
     warnings: list[str] = []
 
     # mounting: the base z axis in IMU coordinates
-    detected, det_corr, corr = detect_yaw_axis(t_i, w, t_o, th_o)
-    if rotation is not None:
-        r = np.asarray(rotation, dtype=float)
-        if r.shape != (3, 3) or not np.allclose(r @ r.T, np.eye(3), atol=1e-6):
-            raise CalibrationError("rotation must be a 3x3 rotation matrix")
-        n = r[2, :].copy()
-        source = mounting_source or "rotation"
-    elif imu_axis is not None:
-        n = axis_vector(imu_axis)
-        source = mounting_source or "flag"
-    else:
-        if det_corr < _MIN_DETECT_CORRELATION:
-            raise CalibrationError(
-                "cannot detect the IMU's yaw axis: no axis correlates with the odometry heading "
-                f"rate (best {detected}, correlation {det_corr:.2f}); give the IMU axis"
-            )
-        n = axis_vector(detected)
-        source = "detected"
-        warnings.append(
-            f"IMU mounting detected from the data: yaw on the IMU's {detected} axis "
-            f"(correlation {det_corr:.3f}); give the axis or publish /tf_static to make it explicit"
-        )
+    n, source, detected, corr, mount_warnings = yaw_axis(
+        t_i, w, t_o, th_o, rotation=rotation, imu_axis=imu_axis, mounting_source=mounting_source
+    )
+    warnings += mount_warnings
     axis = _axis_name(n) or "rotation"
     yaw_rate = w @ n  # rad/s about base z
-    if source != "detected":
-        c = float(np.dot(n, [corr["x"], corr["y"], corr["z"]]))
-        if det_corr >= _MIN_DETECT_CORRELATION and c < 0.5 * det_corr:
-            warnings.append(
-                f"the given IMU mounting ({source}, yaw on {axis}) correlates {c:.2f} with the "
-                f"odometry, the data suggest {detected} ({det_corr:.2f})"
-            )
 
     # bias from still periods
     intervals = still_intervals(

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from .common import print_json
+from .common import format_topics, print_json
 
 
 def add_parser(sub) -> None:
@@ -19,16 +19,12 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
-    from ..io.bags import format_topics, list_topics
+    from ..app.bag_info import bag_info
 
-    topics = list_topics(args.bag)
+    info = bag_info(args.bag)
+    topics = info.topics
     if args.json:
-        print_json(
-            {
-                "path": str(args.bag),
-                "topics": [{"name": t.name, "type": t.msgtype, "count": t.count} for t in topics],
-            }
-        )
+        print_json(info.as_dict())
         return 0
     print(f"{args.bag}: {len(topics)} topics")
     print(format_topics(topics))

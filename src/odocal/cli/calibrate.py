@@ -4,10 +4,6 @@ from __future__ import annotations
 
 import math
 
-from ..calibration.bcpt import calibrate_bcpt
-from ..calibration.heading import calibrate_heading
-from ..calibration.umbmark import UMBMARK_FORMS, calibrate_umbmark
-from ..errors import InputError
 from .common import (
     add_robot_args,
     add_track_args,
@@ -15,7 +11,6 @@ from .common import (
     print_json,
     print_table,
     print_warnings,
-    resolve_robot,
 )
 
 
@@ -55,7 +50,7 @@ def add_parser(sub) -> None:
     )
     p.add_argument(
         "--umbmark-form",
-        choices=UMBMARK_FORMS,
+        choices=("x", "y", "mean"),
         default="mean",
         help="UMBmark equations from x, y or their mean (default mean)",
     )
@@ -64,74 +59,28 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
-def calibrate_file(
-    path,
-    robot,
-    method: str,
-    sides: int,
-    side_m: float,
-    form: str = "mean",
-    radius_m: float | None = None,
-):
-    """Read RUNS.csv (or the BCPT runs file) and calibrate; returns a CalibrationResult."""
-    from ..io.runs_csv import read_circle_runs, read_runs
-
-    ran_with = robot.believed_geometry
-    if radius_m is not None and method != "bcpt":
-        raise InputError(f"--radius is only used with --method bcpt (got --method {method})")
-    if method == "bcpt":
-        if radius_m is None:
-            raise InputError("--method bcpt needs --radius R (the commanded circle radius, m)")
-        return calibrate_bcpt(read_circle_runs(path), radius_m, ran_with)
-    # each method reads only what it uses: heading the final headings, UMBmark the positions
-    runs = read_runs(path, required=("theta_deg",) if method == "heading" else ("x_m", "y_m"))
-    if method == "umbmark":
-        if sides != 4:
-            raise InputError(
-                f"UMBmark is defined for squares only (--sides 4), got --sides {sides}"
-            )
-        return calibrate_umbmark(runs, side_m, ran_with, form)
-    return calibrate_heading(runs, sides, side_m, ran_with)
-
-
 def run(args) -> int:
-    from ..io.robot_file import params_yaml
-    from ..io.textfile import atomic_write
+    from ..app.calibrate import calibrate
 
-    robot = resolve_robot(args)
-    result = calibrate_file(
+    res = calibrate(
         args.runs_csv,
-        robot,
-        args.method,
-        args.sides,
-        args.side_length,
-        args.umbmark_form,
-        args.radius,
+        args.robot,
+        params=args.params,
+        method=args.method,
+        sides=args.sides,
+        side_m=args.side_length,
+        umbmark_form=args.umbmark_form,
+        radius_m=args.radius,
+        out=args.out,
     )
-    from ..calibration.result import check_physical
-
-    c = result.corrected
-    # an absurd calibration (e.g. the wrong --side-length or units) is reported, not hidden
-    print_warnings(
-        check_physical(
-            (c.diameter_right_m, c.diameter_left_m, c.wheelbase_m), result.ran_with, result.method
-        )
-    )
-    if args.out:
-        atomic_write(
-            args.out,
-            params_yaml(result.corrected, method=result.method, E_b=result.E_b, E_d=result.E_d),
-        )
+    print_warnings(res.warnings)
     if args.json:
-        print_json(result.as_dict())
+        print_json(res.as_dict())
         return 0
+    result = res.calibration
     ins = result.inputs
     label = result.method + (f" ({ins['form']}-form)" if "form" in ins else "")
-    if result.method == "bcpt":
-        track = f"circles of commanded radius {ins['commanded_radius_m']:g} m"
-    else:
-        track = f"{args.sides}-gon side {args.side_length:g} m"
-    print(f"{label} from {ins['runs_cw']} CW and {ins['runs_ccw']} CCW runs, {track}")
+    print(f"{label} from {ins['runs_cw']} CW and {ins['runs_ccw']} CCW runs, {res.track}")
     r, c = result.ran_with, result.corrected
     print_table(
         [
@@ -154,6 +103,6 @@ def run(args) -> int:
             f"CCW {ins['mean_radius_ccw_m']:.6f} m"
             f" (first order: E_b {ins['first_order_E_b']:.6f}, E_d {ins['first_order_E_d']:.6f})"
         )
-    if args.out:
-        print(f"wrote {args.out}")
+    for f in res.written:
+        print(f"wrote {f}")
     return 0

@@ -1,4 +1,5 @@
-"""Arguments and output helpers shared by the commands."""
+"""What the commands share: argument types (from one factory), argument groups, output helpers
+and the progress bar. Command modules import from here, never from each other."""
 
 from __future__ import annotations
 
@@ -6,89 +7,141 @@ import argparse
 import json
 import math
 import sys
+import time
+from collections.abc import Callable, Iterable
+from typing import Any
 
 __all__ = [
+    "MAX_LENGTH_M",
+    "number",
+    "positive_float",
+    "nonnegative_float",
+    "length_m",
+    "positive_int",
+    "sides_int",
+    "seed_int",
+    "trials_int",
+    "fraction",
+    "noise_track",
     "add_robot_args",
     "add_track_args",
-    "length_m",
-    "positive_float",
-    "positive_int",
+    "add_recording_args",
+    "add_bag_args",
+    "bag_options",
     "print_json",
-    "print_recording_warnings",
     "print_warnings",
     "print_table",
-    "resolve_robot",
+    "format_topics",
+    "ProgressBar",
 ]
-
-
-def positive_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not math.isfinite(v) or v <= 0:
-        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
-    return v
-
 
 # Largest length a flag may give (m): beyond 100 km a length is a unit mistake, and the
 # statistics of a track that long overflow.
 MAX_LENGTH_M = 1e5
 
 
-def length_m(text: str) -> float:
-    """A length in metres: finite, > 0 and at most MAX_LENGTH_M."""
-    v = positive_float(text)
-    if v > MAX_LENGTH_M:
-        raise argparse.ArgumentTypeError(
-            f"must be at most {MAX_LENGTH_M:g} m (check the units), got {text!r}"
+def number(
+    kind: type = float,
+    *,
+    above: float | None = None,
+    at_least: float | None = None,
+    below: float | None = None,
+    at_most: float | None = None,
+    hint: str = "",
+) -> Callable[[str], Any]:
+    """An argparse type: ``kind`` (float or int) within the given bounds, finite."""
+
+    def parse(text: str):
+        try:
+            v = kind(text)
+        except ValueError:
+            what = "an integer" if kind is int else "a number"
+            raise argparse.ArgumentTypeError(f"not {what}: {text!r}") from None
+        if kind is float and not math.isfinite(v):
+            raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+        bad = (
+            (above is not None and not v > above)
+            or (at_least is not None and not v >= at_least)
+            or (below is not None and not v < below)
+            or (at_most is not None and not v <= at_most)
         )
-    return v
+        if bad:
+            parts = []
+            if above is not None:
+                parts.append(f"> {above:g}")
+            if at_least is not None:
+                parts.append(f">= {at_least:g}")
+            if below is not None:
+                parts.append(f"< {below:g}")
+            if at_most is not None:
+                parts.append(f"<= {at_most:g}")
+            raise argparse.ArgumentTypeError(f"must be {' and '.join(parts)}{hint}, got {text!r}")
+        return v
+
+    return parse
 
 
-def nonnegative_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-    if not math.isfinite(v) or v < 0:
-        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text!r}")
-    return v
-
-
-def positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {text!r}")
-    return v
+positive_float = number(float, above=0)
+nonnegative_float = number(float, at_least=0)
+length_m = number(float, above=0, at_most=MAX_LENGTH_M, hint=" m (check the units)")
+positive_int = number(int, at_least=1)
+seed_int = number(int, at_least=0)
+trials_int = number(int, at_least=2, hint=" (a standard deviation is needed)")
 
 
 def sides_int(text: str) -> int:
+    """A polygon's number of sides (the simulator bounds it from above, with its reason)."""
     v = positive_int(text)
     if v < 3:
         raise argparse.ArgumentTypeError(f"a polygon needs at least 3 sides, got {text!r}")
     return v
 
 
-def seed_int(text: str) -> int:
+def fraction(lo_open: bool) -> Callable[[str], float]:
+    """A number in (0, 1) (``lo_open``) or [0, 1)."""
+    interval = "(0, 1)" if lo_open else "[0, 1)"
+    check = number(float, above=0, below=1) if lo_open else number(float, at_least=0, below=1)
+
+    def parse(text: str) -> float:
+        try:
+            return check(text)
+        except argparse.ArgumentTypeError as exc:
+            if "not a number" in str(exc):
+                raise
+            raise argparse.ArgumentTypeError(f"must be in {interval}, got {text!r}") from None
+
+    return parse
+
+
+def noise_track(text: str) -> tuple[str, float]:
+    """'out-and-back:D' or 'straight:D' (D in m) as (kind, D)."""
+    from ..calibration.noise import NOISE_TRACKS
+
+    kind, sep, dist = text.partition(":")
+    kind = kind.strip().lower()
+    if not sep or kind not in NOISE_TRACKS:
+        raise argparse.ArgumentTypeError(
+            f"expected out-and-back:D or straight:D (D in m), got {text!r}"
+        )
     try:
-        v = int(text)
+        d = float(dist)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {text!r}")
-    return v
+        raise argparse.ArgumentTypeError(f"not a distance in m: {dist!r} in {text!r}") from None
+    if not math.isfinite(d) or d <= 0:
+        raise argparse.ArgumentTypeError(f"the distance must be > 0 m, got {dist!r}")
+    if d > MAX_LENGTH_M:
+        raise argparse.ArgumentTypeError(
+            f"the distance must be at most {MAX_LENGTH_M:g} m (check the units), got {dist!r}"
+        )
+    return kind, d
 
 
 def add_robot_args(p: argparse.ArgumentParser, params_help: str) -> None:
+    from ..presets import DEFAULT_ROBOT, PRESETS
+
+    names = ", ".join(f"{n} (default)" if n == DEFAULT_ROBOT else n for n in PRESETS)
     p.add_argument(
-        "--robot",
-        metavar="ROBOT.yaml",
-        default=None,
-        help="robot file, or a built-in: paper-fig3, paper-fig5 (default), paper-experiment",
+        "--robot", metavar="ROBOT.yaml", default=None, help=f"robot file, or a built-in: {names}"
     )
     p.add_argument("--params", metavar="PARAMS.yaml", default=None, help=params_help)
 
@@ -110,29 +163,42 @@ def add_track_args(p: argparse.ArgumentParser, default_sides=4, default_side=4.0
     )
 
 
-def resolve_robot(args):
-    """The Robot of --robot, with --params (if given) installed as its believed geometry."""
-    from ..io.robot_file import load_params, load_robot
+def add_recording_args(p: argparse.ArgumentParser) -> None:
+    """Recorded runs (files, folders, bags) and how to read them (shared by fit and validate)."""
+    p.add_argument("paths", nargs="+", metavar="RUN_OR_DIR", help="run file, folder or bag")
+    p.add_argument(
+        "--ticks-per-rev",
+        type=positive_float,
+        metavar="N",
+        help="encoder ticks per wheel revolution for tick inputs that do not give it",
+    )
+    add_bag_args(p)
 
-    robot = load_robot(args.robot)
-    if getattr(args, "params", None):
-        robot = robot.with_believed(load_params(args.params))
-    return robot
+
+def add_bag_args(p: argparse.ArgumentParser) -> None:
+    """Topic and joint options for ROS bags."""
+    g = p.add_argument_group("ROS bags")
+    g.add_argument("--joint-topic", metavar="T", help="sensor_msgs/JointState wheel positions")
+    g.add_argument("--truth-topic", metavar="T", help="ground-truth pose (PoseStamped/Odometry)")
+    g.add_argument("--imu-topic", metavar="T", help="sensor_msgs/Imu topic")
+    g.add_argument("--right-joint", metavar="NAME", help="right wheel joint name")
+    g.add_argument("--left-joint", metavar="NAME", help="left wheel joint name")
 
 
-def print_warnings(warnings, prefix: str = "") -> None:
+def bag_options(args: argparse.Namespace) -> dict:
+    return {
+        k: getattr(args, k, None)
+        for k in ("joint_topic", "truth_topic", "imu_topic", "right_joint", "left_joint")
+    }
+
+
+def print_warnings(warnings: Iterable[str], prefix: str = "") -> None:
     """Each warning as one line ``odocal: warning: ...`` on stderr (never on stdout)."""
     for w in warnings:
         print(f"odocal: warning: {prefix}{w}", file=sys.stderr)
 
 
-def print_recording_warnings(recordings) -> None:
-    """The loaders' warnings about recorded runs (e.g. a bag's wheel signs), one line each."""
-    for r in recordings:
-        print_warnings(r.meta.get("warnings", ()) if r.meta else (), f"{r.name}: ")
-
-
-def print_json(obj) -> None:
+def print_json(obj: Any) -> None:
     text = json.dumps(obj, indent=2, allow_nan=False)  # all or nothing: no half-printed object
     sys.stdout.write(text + "\n")
 
@@ -146,3 +212,37 @@ def print_table(rows: list[tuple], title: str | None = None) -> None:
     for r in cells:
         parts = [r[0].ljust(widths[0])] + [c.rjust(widths[i + 1]) for i, c in enumerate(r[1:])]
         print("  " + "  ".join(parts).rstrip())
+
+
+def format_topics(topics) -> str:
+    """A readable table of topics (name, type, count)."""
+    rows = [("topic", "type", "messages")] + [(t.name, t.msgtype, str(t.count)) for t in topics]
+    w0 = max(len(r[0]) for r in rows)
+    w1 = max(len(r[1]) for r in rows)
+    w2 = max(len(r[2]) for r in rows)
+    return "\n".join(f"{a.ljust(w0)}  {b.ljust(w1)}  {c.rjust(w2)}" for a, b, c in rows)
+
+
+class ProgressBar:
+    """A one-line progress bar on stderr, drawn only when stderr is a terminal."""
+
+    def __init__(self, label: str, enabled: bool = True, stream=None):
+        self.stream = stream or sys.stderr
+        self.enabled = enabled and getattr(self.stream, "isatty", lambda: False)()
+        self.label = label
+        self.start = time.monotonic()
+
+    def __call__(self, done: int, total: int, what: str = "") -> None:
+        if not self.enabled:
+            return
+        width = 24
+        filled = round(width * done / max(total, 1))
+        bar = "#" * filled + "-" * (width - filled)
+        elapsed = time.monotonic() - self.start
+        self.stream.write(f"\r{self.label} [{bar}] {done}/{total} {elapsed:5.1f} s {what:<24}")
+        self.stream.flush()
+
+    def close(self) -> None:
+        if self.enabled:
+            self.stream.write("\r\033[K")
+            self.stream.flush()

@@ -6,19 +6,15 @@ import math
 
 import numpy as np
 
-from ..errors import InputError
+from ..presets import DEFAULT_ROBOT
 from .common import (
     add_robot_args,
     length_m,
     positive_int,
     print_json,
     print_table,
-    resolve_robot,
     seed_int,
 )
-
-# Largest trials x runs per method: the work arrays grow with it (2000 x 10 needs about 2 GB).
-_MAX_TRIAL_RUNS = 20_000
 
 
 def add_parser(sub) -> None:
@@ -87,28 +83,11 @@ def _fmt(v, scale=1.0, f=".2f"):
 
 
 def run(args) -> int:
-    from ..io.compare_report import comparison_document, plot_comparison, run_comparison
+    from ..app.compare import compare, comparison_document
 
-    robot = resolve_robot(args)
-    if args.trials < 2:
-        raise InputError(f"--trials must be >= 2, got {args.trials}")
-    if args.runs < 3:
-        raise InputError(
-            f"--runs must be >= 3 (Ivanjko needs straight runs and two spins), got {args.runs}"
-        )
-    if args.trials * args.runs > _MAX_TRIAL_RUNS:
-        raise InputError(
-            f"--trials x --runs = {args.trials * args.runs} is too much work (at most "
-            f"{_MAX_TRIAL_RUNS}; 2000 trials of 10 runs take about 2 GB and 5 minutes)"
-        )
-    png = None
-    if args.plot:
-        from ..io.plots import output_folder
-
-        # created now, as design, validate and reproduce do, so a bad folder fails before the work
-        png = output_folder(args.plot) / "compare.png"
-    comparison = run_comparison(
-        robot,
+    comparison = compare(
+        args.robot,
+        params=args.params,
         trials=args.trials,
         seed=args.seed,
         runs=args.runs,
@@ -116,19 +95,16 @@ def run(args) -> int:
         ivanjko_straight_m=args.ivanjko_straight,
         realdata=args.realdata,
         circle_set=args.circle_set,
+        plot=args.plot,
     )
-    sim, real = comparison.simulated, comparison.real
-    if png is not None:
-        plot_comparison(sim, real, png)
+    real = comparison.real
+    png = comparison.written[0] if comparison.written else None
     doc = comparison_document(
-        sim,
-        real,
-        robot=args.robot or "paper-fig5",
+        comparison,
+        robot=args.robot or DEFAULT_ROBOT,
         seed=args.seed,
         plot=None if png is None else str(png),
     )
-    if real is not None:
-        doc["realdata"]["published_same_method"] = comparison.published_same_method
     if args.json:
         print_json(doc)
         return 0

@@ -4,25 +4,21 @@ from __future__ import annotations
 
 import argparse
 import math
-import sys
-import time
 
 import numpy as np
 
 from .common import (
     MAX_LENGTH_M,
+    ProgressBar,
     add_robot_args,
+    fraction,
     positive_int,
     print_json,
     print_table,
-    resolve_robot,
     seed_int,
     sides_int,
+    trials_int,
 )
-
-# Largest number of simulated test runs per direction (candidates x trials x runs) a sweep may ask
-# for: about 1 GB of work arrays at the most.
-_MAX_RUNS = 20_000_000
 
 
 def parse_side_lengths(text: str) -> np.ndarray:
@@ -88,53 +84,6 @@ def parse_validation(text: str):
     if direction not in ("cw", "ccw"):
         raise argparse.ArgumentTypeError(f"DIRECTION must be cw or ccw, got {text!r}")
     return ValidationTrack(sides, length, direction)
-
-
-def fraction(lo_open: bool):
-    def parse(text: str) -> float:
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
-        ok = (0 < v < 1) if lo_open else (0 <= v < 1)
-        if not (math.isfinite(v) and ok):
-            rng = "(0, 1)" if lo_open else "[0, 1)"
-            raise argparse.ArgumentTypeError(f"must be in {rng}, got {text!r}")
-        return v
-
-    return parse
-
-
-def trials_int(text: str) -> int:
-    v = positive_int(text)
-    if v < 2:
-        raise argparse.ArgumentTypeError(f"must be >= 2 (a standard deviation is needed), got {v}")
-    return v
-
-
-class ProgressBar:
-    """A one-line progress bar on stderr, drawn only when stderr is a terminal."""
-
-    def __init__(self, label: str, enabled: bool = True, stream=None):
-        self.stream = stream or sys.stderr
-        self.enabled = enabled and getattr(self.stream, "isatty", lambda: False)()
-        self.label = label
-        self.start = time.monotonic()
-
-    def __call__(self, done: int, total: int, what: str = "") -> None:
-        if not self.enabled:
-            return
-        width = 24
-        filled = round(width * done / max(total, 1))
-        bar = "#" * filled + "-" * (width - filled)
-        elapsed = time.monotonic() - self.start
-        self.stream.write(f"\r{self.label} [{bar}] {done}/{total} {elapsed:5.1f} s {what:<24}")
-        self.stream.flush()
-
-    def close(self) -> None:
-        if self.enabled:
-            self.stream.write("\r\033[K")
-            self.stream.flush()
 
 
 def add_parser(sub) -> None:
@@ -229,74 +178,40 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
-def robot_label(args) -> str:
-    label = args.robot if args.robot else "paper-fig5 (built-in)"
-    if getattr(args, "params", None):
-        label += f" running with {args.params}"
-    return label
-
-
 def run(args) -> int:
-    from ..design.sweep import SimulationSettings, design_json, run_design
-    from ..errors import InputError
+    from ..app.design import design
+    from ..design.result import DesignSpec
 
-    robot = resolve_robot(args)
-    sides = args.sides or [4]
-    if args.method == "umbmark" and any(s != 4 for s in sides):
-        raise InputError("UMBmark is defined for squares only (--sides 4)")
-    work = len(args.side_lengths) * args.trials * args.runs_per_direction * len(sides)
-    if work > _MAX_RUNS and not args.analytic:
-        raise InputError(
-            f"{work} simulated runs per direction is too many (at most {_MAX_RUNS}); "
-            "reduce --trials or the number of side lengths"
-        )
-    settings = SimulationSettings.reference() if args.reference_sim else SimulationSettings()
+    spec = DesignSpec(
+        sides=tuple(args.sides or [4]),
+        side_lengths_m=tuple(float(v) for v in args.side_lengths),
+        runs_per_direction=args.runs_per_direction,
+        trials=args.trials,
+        method=args.method,
+        validation=args.validate,
+    )
     bar = ProgressBar("odocal design", enabled=not args.quiet and not args.analytic)
     try:
-        if args.analytic:
-            from ..design.analytic import analytic_design_result
-
-            result = analytic_design_result(
-                robot,
-                sides=sides,
-                side_lengths_m=args.side_lengths,
-                runs_per_direction=args.runs_per_direction,
-                trials=args.trials,
-                method=args.method,
-                validation=args.validate,
-                alpha=args.alpha,
-                tolerance=args.tolerance,
-                criterion=args.criterion,
-            )
-        else:
-            result = run_design(
-                robot,
-                np.random.default_rng(args.seed),
-                sides=sides,
-                side_lengths_m=args.side_lengths,
-                runs_per_direction=args.runs_per_direction,
-                trials=args.trials,
-                method=args.method,
-                validation=args.validate,
-                alpha=args.alpha,
-                tolerance=args.tolerance,
-                criterion=args.criterion,
-                settings=settings,
-                progress=bar,
-            )
+        res = design(
+            args.robot,
+            spec,
+            params=args.params,
+            engine="analytic" if args.analytic else "monte-carlo",
+            seed=args.seed,
+            alpha=args.alpha,
+            tolerance=args.tolerance,
+            criterion=args.criterion,
+            reference_sim=args.reference_sim,
+            plot=args.plot,
+            progress=bar,
+        )
     finally:
         bar.close()
-    written = []
-    if args.plot:
-        from ..io.plots import design_figures
-
-        written = design_figures(result, args.plot)
     if args.json:
-        extra = {"engine": "analytic" if args.analytic else "monte-carlo"}
-        print_json(design_json(result, seed=args.seed, robot=robot_label(args), **extra))
+        print_json(res.as_dict())
         return 0
-    print_design(result, robot_label(args), None if args.analytic else args.seed)
-    for path in written:
+    print_design(res.result, res.robot, None if args.analytic else args.seed)
+    for path in res.written:
         print(f"wrote {path}")
     return 0
 

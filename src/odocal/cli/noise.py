@@ -2,33 +2,9 @@
 
 from __future__ import annotations
 
-import argparse
 import math
-import sys
 
-from ..calibration.noise import NOISE_TRACKS, estimate_k
-from .common import MAX_LENGTH_M, add_robot_args, print_json, print_table, resolve_robot
-
-
-def noise_track(text: str) -> tuple[str, float]:
-    """Parse 'out-and-back:D' or 'straight:D' (D in m) into (kind, D)."""
-    kind, sep, dist = text.partition(":")
-    kind = kind.strip().lower()
-    if not sep or kind not in NOISE_TRACKS:
-        raise argparse.ArgumentTypeError(
-            f"expected out-and-back:D or straight:D (D in m), got {text!r}"
-        )
-    try:
-        d = float(dist)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not a distance in m: {dist!r} in {text!r}") from None
-    if not math.isfinite(d) or d <= 0:
-        raise argparse.ArgumentTypeError(f"the distance must be > 0 m, got {dist!r}")
-    if d > MAX_LENGTH_M:
-        raise argparse.ArgumentTypeError(
-            f"the distance must be at most {MAX_LENGTH_M:g} m (check the units), got {dist!r}"
-        )
-    return kind, d
+from .common import add_robot_args, noise_track, print_json, print_table, print_warnings
 
 
 def add_parser(sub) -> None:
@@ -64,41 +40,18 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
-def noise_file(path, robot, track: str, distance_m: float, force: bool = False):
-    """Read RUNS.csv (direction 'fwd') and estimate k; returns a NoiseEstimate."""
-    from ..io.runs_csv import read_runs
-
-    runs = read_runs(path, directions=("fwd",))
-    true, believed = robot.true_geometry, robot.believed_geometry
-    # systematic curvature of the forward path (rad/m), from ROBOT.yaml's systematic errors
-    curvature = float(
-        (
-            true.diameter_right_m / believed.diameter_right_m
-            - true.diameter_left_m / believed.diameter_left_m
-        )
-        / true.wheelbase_m
-    )
-    return estimate_k(
-        runs,
-        track,
-        distance_m,
-        float(true.wheelbase_m),
-        robot.measurement,
-        curvature_rad_per_m=curvature,
-        strict=not force,
-    )
-
-
 def _fmt(v, f=".4g"):
     return "-" if v is None else format(v, f)
 
 
 def run(args) -> int:
-    robot = resolve_robot(args)
+    from ..app.noise import noise
+
     kind, dist = args.track
-    est = noise_file(args.runs_csv, robot, kind, dist, args.force)
-    for w in est.warnings:
-        print(f"odocal: warning: {w}", file=sys.stderr)
+    est = noise(
+        args.runs_csv, args.robot, params=args.params, track=kind, distance_m=dist, force=args.force
+    )
+    print_warnings(est.warnings)
     if args.json:
         print_json(est.as_dict())
         return 0

@@ -6,25 +6,22 @@ import math
 
 import numpy as np
 
-from ..design.plan import build_plan
 from .common import (
     add_robot_args,
     length_m,
+    noise_track,
     positive_int,
     print_json,
     print_table,
     print_warnings,
-    resolve_robot,
     sides_int,
 )
 
-DEFAULT_TEMPLATE = "runs-template.csv"
+DEFAULT_TEMPLATE = "runs-template.csv"  # as odocal.app.plan (not imported: keeps --help fast)
 DEFAULT_NOISE_RUNS = 20
 
 
 def add_parser(sub) -> None:
-    from .noise import noise_track
-
     p = sub.add_parser(
         "plan",
         help="floor protocol for calibration runs (or k runs) and a blank RUNS.csv",
@@ -63,35 +60,33 @@ def add_parser(sub) -> None:
         default=DEFAULT_TEMPLATE,
         help=f"blank run sheet to write (default {DEFAULT_TEMPLATE})",
     )
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace --out even if it already holds measured runs (never needed for a blank "
+        "sheet)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
-    from ..io.textfile import atomic_write
+    from ..app.plan import plan as make_plan
 
-    robot = resolve_robot(args)
-    n = args.runs_per_direction or (DEFAULT_NOISE_RUNS if args.track else 5)
-    plan = build_plan(
-        robot,
+    res = make_plan(
+        args.robot,
+        params=args.params,
         sides=args.sides,
         side_m=args.side_length,
-        runs_per_direction=n,
+        runs_per_direction=args.runs_per_direction,
         noise_track=args.track,
-        runs_path=args.out,
-        robot_arg=args.robot or "paper-fig5",
+        out=args.out,
+        force=args.force,
     )
-    atomic_write(args.out, plan.template_csv())
-    c = plan.calibration
-    if c is not None and not np.isfinite(c.post_error_mean_m):
-        print_warnings(
-            [
-                f"no calibration prediction: the heading-error method is undefined for a "
-                f"{args.side_length:g} m side (too short to resolve E_d)"
-            ]
-        )
+    plan = res.floor_plan
+    print_warnings(res.warnings)
     if args.json:
-        print_json(plan.as_dict() | {"template": args.out})
+        print_json(res.as_dict())
         return 0
     print(f"Floor protocol: {plan.title}")
     for i, step in enumerate(plan.steps, start=1):

@@ -6,10 +6,6 @@ import math
 
 import numpy as np
 
-from ..core.covariance import correlation, predict
-from ..core.runs import EndPoseRuns
-from ..core.simulate import measure, simulate
-from ..core.tracks import polygon
 from .common import (
     add_robot_args,
     add_track_args,
@@ -17,7 +13,6 @@ from .common import (
     positive_int,
     print_json,
     print_table,
-    resolve_robot,
     seed_int,
 )
 
@@ -61,42 +56,10 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
-def _stats(e: np.ndarray) -> dict:
-    n = len(e)
-    std = e.std(axis=0, ddof=1) if n > 1 else np.full(3, math.nan)
+def _print_prediction(runs, predicted: dict) -> None:
+    from ..app.simulate import PAIRS
+    from ..core.covariance import correlation
 
-    def pose(v):
-        return {
-            "x_m": float(v[0]),
-            "y_m": float(v[1]),
-            "theta_deg": None if math.isnan(v[2]) else math.degrees(float(v[2])),
-        } | ({} if not math.isnan(v[0]) else {"x_m": None, "y_m": None})
-
-    return {"runs": n, "mean": pose(e.mean(axis=0)), "std": pose(std)}
-
-
-def _cov_list(c: np.ndarray) -> list:
-    return [[float(v) for v in row] for row in c]
-
-
-_PAIRS = (("x", "y", 0, 1), ("x", "theta", 0, 2), ("y", "theta", 1, 2))
-
-
-def _prediction_dict(p) -> dict:
-    """JSON of a PosePrediction: mean error, std and correlations of a MEASURED final pose."""
-    mean, std, c = p.error_mean, p.std(measured=True), p.measured_covariance
-    r = correlation(c)
-    return {
-        "mean": {"x_m": float(mean[0]), "y_m": float(mean[1]), "theta_deg": math.degrees(mean[2])},
-        "std": {"x_m": float(std[0]), "y_m": float(std[1]), "theta_deg": math.degrees(std[2])},
-        "correlation": {f"{a}_{b}": float(r[i, j]) for a, b, i, j in _PAIRS},
-        "covariance": _cov_list(c),
-        "covariance_units": "x_m, y_m, theta_rad (m^2, m rad, rad^2)",
-        "includes_measurement_noise": True,
-    }
-
-
-def _print_prediction(runs: EndPoseRuns, predicted: dict) -> None:
     print("predicted (first-order propagation + instrument noise) vs Monte Carlo:")
     rows = [
         (
@@ -131,56 +94,33 @@ def _print_prediction(runs: EndPoseRuns, predicted: dict) -> None:
                     f"{s[0]:.4f}",
                     f"{s[1]:.4f}",
                     f"{math.degrees(s[2]):.3f}",
-                    *(f"{r[i, j]:+.3f}" for _, _, i, j in _PAIRS),
+                    *(f"{r[i, j]:+.3f}" for _, _, i, j in PAIRS),
                 )
             )
     print_table(rows)
 
 
-def simulate_runs(robot, track_for, directions, runs: int, seed: int, max_step: float):
-    """Simulate ``runs`` runs per direction; returns EndPoseRuns of measured errors."""
-    rng = np.random.default_rng(seed)
-    labels, errs = [], []
-    for d in directions:
-        res = simulate(track_for(d), robot, runs, rng, max_step_m=max_step)
-        errs.append(measure(res.errors, robot, rng))
-        labels += [d] * runs
-    return EndPoseRuns(tuple(labels), np.vstack(errs))
-
-
 def run(args) -> int:
-    from ..io.runs_csv import write_runs
-    from ..io.track_file import load_track
+    from ..app.simulate import simulate
 
-    robot = resolve_robot(args)
-    if args.track:
-        track, label = load_track(args.track)
-        directions = [label]
-        track_for = lambda d: track  # noqa: E731
-        name = track.name
-    else:
-        directions = ["cw", "ccw"] if args.direction == "both" else [args.direction]
-        track_for = lambda d: polygon(args.sides, args.side_length, d)  # noqa: E731
-        name = f"{args.sides}-gon, side {args.side_length:g} m"
-    runs = simulate_runs(robot, track_for, directions, args.runs, args.seed, args.max_step)
-    if args.out:
-        write_runs(args.out, runs, {"run": list(range(1, len(runs.directions) + 1))})
-    summary = _stats(runs.errors) | {
-        "seed": args.seed,
-        "track": name,
-        "by_direction": {d: _stats(runs.select(d)) for d in directions},
-    }
-    if args.predict:
-        predicted = {d: predict(track_for(d), robot, max_step_m=args.max_step) for d in directions}
-        summary["predicted"] = {d: _prediction_dict(p) for d, p in predicted.items()}
-        summary["monte_carlo_covariance"] = {
-            d: _cov_list(np.cov(runs.select(d).T, ddof=1)) if runs.count(d) > 1 else None
-            for d in directions
-        }
+    res = simulate(
+        args.robot,
+        params=args.params,
+        sides=args.sides,
+        side_m=args.side_length,
+        track=args.track,
+        directions=("cw", "ccw") if args.direction == "both" else (args.direction,),
+        runs=args.runs,
+        seed=args.seed,
+        max_step_m=args.max_step,
+        predict_covariance=args.predict,
+        out=args.out,
+    )
+    summary = res.as_dict()
     if args.json:
         print_json(summary)
         return 0
-    print(f"{name}: {args.runs} run(s) per direction, seed {args.seed}")
+    print(f"{res.track}: {args.runs} run(s) per direction, seed {args.seed}")
     rows = [
         (
             "direction",
@@ -209,8 +149,8 @@ def run(args) -> int:
             )
         )
     print_table(rows)
-    if args.predict:
-        _print_prediction(runs, predicted)
-    if args.out:
-        print(f"wrote {args.out}")
+    if res.predicted is not None:
+        _print_prediction(res.runs, res.predicted)
+    for f in res.written:
+        print(f"wrote {f}")
     return 0

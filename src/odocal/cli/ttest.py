@@ -2,122 +2,7 @@
 
 from __future__ import annotations
 
-import csv
-import io
-import math
-from dataclasses import dataclass
-
-import numpy as np
-
-from ..core.stats import TTest, ttest_samples
-from ..errors import InputError
 from .common import print_json, print_table, print_warnings
-
-
-@dataclass(frozen=True)
-class ColumnSample:
-    """The finite values of one CSV column (blank cells skipped)."""
-
-    path: str
-    column: str
-    values: np.ndarray
-
-
-@dataclass(frozen=True)
-class TTestFiles:
-    """Both t-tests of sample a (first file) against sample b (second file)."""
-
-    a: ColumnSample
-    b: ColumnSample
-    student: TTest
-    welch: TTest
-
-
-def _rows(path) -> tuple[list[str], list[tuple[int, list[str]]]]:
-    from ..io.textfile import read_text
-
-    text = read_text(path)
-    lines = [
-        (i + 1, line)
-        for i, line in enumerate(text.splitlines())
-        if line.strip() and not line.lstrip().startswith("#")
-    ]
-    if not lines:
-        raise InputError("empty file, expected a header row and values", path)
-    header = [h.strip() for h in next(csv.reader([lines[0][1]]))]
-    if any(h == "" for h in header) or len(set(header)) != len(header):
-        raise InputError("the header row needs unique, non-empty column names", path, lines[0][0])
-    rows = []
-    for line_no, line in lines[1:]:
-        fields = [f.strip() for f in next(csv.reader(io.StringIO(line)))]
-        if len(fields) != len(header):
-            raise InputError(
-                f"expected {len(header)} fields as in the header, got {len(fields)}", path, line_no
-            )
-        rows.append((line_no, fields))
-    return header, rows
-
-
-def _number(text: str) -> float | None:
-    try:
-        v = float(text)
-    except ValueError:
-        return None
-    return v if math.isfinite(v) else None
-
-
-def read_column(path, column: str | None = None) -> ColumnSample:
-    """The values of ``column`` (default: the first column whose every non-blank cell is a
-    finite number). Raises InputError naming the file, line and field for anything else."""
-    header, rows = _rows(path)
-    if not rows:
-        raise InputError("no data rows after the header", path)
-    if column is None:
-        for j, name in enumerate(header):
-            cells = [f[j] for _, f in rows if f[j] != ""]
-            if cells and all(_number(c) is not None for c in cells):
-                column = name
-                break
-        else:
-            raise InputError("no numeric column (every column holds text)", path)
-    elif column not in header:
-        raise InputError(f"no column '{column}'; the header has {', '.join(header)}", path)
-    j = header.index(column)
-    values = []
-    for line_no, fields in rows:
-        if fields[j] == "":
-            continue
-        v = _number(fields[j])
-        if v is None:
-            raise InputError(f"not a finite number: {fields[j]!r}", path, line_no, column)
-        values.append(v)
-    if len(values) < 2:
-        raise InputError(f"a t-test needs at least 2 values, got {len(values)}", path, None, column)
-    values = np.asarray(values)
-    with np.errstate(over="ignore", invalid="ignore"):
-        spread_ok = math.isfinite(float(np.mean(values))) and math.isfinite(
-            float(np.std(values, ddof=1))
-        )
-    if not spread_ok:
-        raise InputError(
-            "values too large for a t-test (their mean or spread overflows)", path, None, column
-        )
-    return ColumnSample(str(path), column, values)
-
-
-def ttest_files(path_a, path_b, column: str | None = None) -> TTestFiles:
-    """Student and Welch t-tests of ``column`` of ``path_a`` against the same column of
-    ``path_b`` (default: each file's first numeric column)."""
-    a = read_column(path_a, column)
-    # without --column, B uses A's column when it has one of that name
-    if column is None:
-        header_b, _ = _rows(path_b)
-        if a.column in header_b:
-            column = a.column
-    b = read_column(path_b, column)
-    return TTestFiles(
-        a, b, ttest_samples(a.values, b.values, True), ttest_samples(a.values, b.values, False)
-    )
 
 
 def add_parser(sub) -> None:
@@ -140,35 +25,14 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
-def _finite(v):
-    return v if v is not None and math.isfinite(v) else None
-
-
 def run(args) -> int:
-    res = ttest_files(args.a_csv, args.b_csv, args.column)
+    from ..app.ttest import ttest
+
+    res = ttest(args.a_csv, args.b_csv, args.column)
     a, b = res.a, res.b
-    if res.student.std_a == 0 and res.student.std_b == 0:
-        print_warnings(
-            [
-                "both samples have zero spread: t is "
-                + ("undefined (equal means)" if res.student.mean_difference == 0 else "infinite")
-                + " and the test says nothing beyond the means"
-            ]
-        )
+    print_warnings(res.warnings)
     if args.json:
-        print_json(
-            {
-                "a": {"path": a.path, "column": a.column, "n": int(a.values.size)},
-                "b": {"path": b.path, "column": b.column, "n": int(b.values.size)},
-                "mean_a": res.student.mean_a,
-                "mean_b": res.student.mean_b,
-                "std_a": res.student.std_a,
-                "std_b": res.student.std_b,
-                "mean_difference": res.student.mean_difference,
-                "student": {k: _finite(v) for k, v in _test_dict(res.student).items()},
-                "welch": {k: _finite(v) for k, v in _test_dict(res.welch).items()},
-            }
-        )
+        print_json(res.as_dict())
         return 0
     how = "" if args.column else " (first numeric column; choose with --column)"
     print(f"A: {a.path}, column '{a.column}', n = {a.values.size}{how}")
@@ -192,13 +56,3 @@ def run(args) -> int:
         )
     print_table(rows)
     return 0
-
-
-def _test_dict(t: TTest) -> dict:
-    return {
-        "t": t.t,
-        "df": t.df,
-        "p_two_sided": t.p_two_sided,
-        "p_less": t.p_less,
-        "p_greater": t.p_greater,
-    }

@@ -107,6 +107,16 @@ class Track:
         """Total signed believed heading change (rad)."""
         return sum(s.angle_rad for s in self.segments)
 
+    @property
+    def direction_label(self) -> str:
+        """'ccw' or 'cw' by the sign of the total believed rotation; 'fwd' for none."""
+        rot = (
+            float(np.max(self.rotation_rad))
+            if np.ndim(self.rotation_rad)
+            else float(self.rotation_rad)
+        )
+        return "ccw" if rot > 1e-12 else "cw" if rot < -1e-12 else "fwd"
+
     def mean_wheel_travel_m(self, wheelbase_m: float) -> float:
         """Mean wheel travel (m) of one drive: the sum over segments of
         (|d + psi b/2| + |d - psi b/2|) / 2, so spot turns count (|psi| b / 2)."""

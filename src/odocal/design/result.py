@@ -19,7 +19,16 @@ import numpy as np
 from ..core.model import ModelError
 from ..core.tracks import Track, direction_sign, polygon
 
-__all__ = ["ErrorSummary", "Candidate", "ValidationTrack", "rounded"]
+__all__ = [
+    "ErrorSummary",
+    "Candidate",
+    "ValidationTrack",
+    "DesignSpec",
+    "DEFAULT_SIDE_LENGTHS_M",
+    "check_design_inputs",
+    "shape_name",
+    "rounded",
+]
 
 
 def rounded(value, digits: int = 9):
@@ -178,3 +187,51 @@ def check_design_inputs(runs_per_direction: int, trials: int) -> None:
         raise ModelError(f"runs per direction must be >= 1, got {runs_per_direction}")
     if trials < 2:
         raise ModelError(f"trials must be >= 2 (a standard deviation is needed), got {trials}")
+
+
+#: Default candidate side lengths (m): 0.5, 1.0, ..., 10 m (the paper's sweep).
+DEFAULT_SIDE_LENGTHS_M = tuple(float(v) for v in np.arange(1, 21) * 0.5)
+
+
+@dataclass(frozen=True)
+class DesignSpec:
+    """What a track design compares: candidate shapes and sizes, runs and trials, the method and
+    the validation track (the paper's defaults).
+
+    Attributes
+    ----------
+    sides : tuple of int
+        Polygon shapes; shapes after the first are compared at equal travel.
+    side_lengths_m : tuple of float
+        Candidate side lengths of the first shape (m).
+    runs_per_direction, trials : int
+    method : str
+        'heading' or 'umbmark' (squares only).
+    validation : ValidationTrack
+    """
+
+    sides: tuple[int, ...] = (4,)
+    side_lengths_m: tuple[float, ...] = DEFAULT_SIDE_LENGTHS_M
+    runs_per_direction: int = 5
+    trials: int = 800
+    method: str = "heading"
+    validation: ValidationTrack = ValidationTrack(4, 4.0, "ccw")
+
+    def __post_init__(self) -> None:
+        check_design_inputs(self.runs_per_direction, self.trials)
+        if not self.sides:
+            raise ModelError("at least one polygon shape (sides) is needed")
+        if self.method not in ("heading", "umbmark"):
+            raise ModelError(f"method must be heading or umbmark, got {self.method!r}")
+        if self.method == "umbmark" and any(s != 4 for s in self.sides):
+            raise ModelError("UMBmark is defined for squares only (--sides 4)")
+        lengths = np.asarray(self.side_lengths_m, dtype=float)
+        if lengths.ndim != 1 or lengths.size == 0:
+            raise ModelError("at least one candidate side length is needed")
+        if not np.all(np.isfinite(lengths) & (lengths > 0)):
+            raise ModelError(f"side lengths must be finite and > 0, got {lengths.tolist()}")
+
+    @property
+    def simulated_runs(self) -> int:
+        """Test runs per direction a Monte-Carlo design simulates (candidates x trials x runs)."""
+        return len(self.side_lengths_m) * self.trials * self.runs_per_direction * len(self.sides)

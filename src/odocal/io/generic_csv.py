@@ -37,61 +37,81 @@ Blank lines are skipped; ``#`` lines before the header carry ``key: value`` sett
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 
 import numpy as np
 
-from ..core.model import ModelError, WheelGeometry
+from ..core.model import WheelGeometry
+from ..core.pose import start_frame
 from ..core.recording import Recording
 from ..errors import InputError
-from .textfile import read_text
+from .table import parse_number, read_table
 
 __all__ = ["load_generic_csv", "write_generic_csv", "looks_like_generic_csv", "WRAP_JUMP_COUNTS"]
 
 #: a single-sample tick jump larger than this is treated as a wrap-around (see module docstring)
 WRAP_JUMP_COUNTS = 2**15
 
-_SETTINGS_FLOAT = (
-    "ticks_per_rev",
-    "ticks_wrap",
-    "side_m",
-    "wheel_diameter_right_m",
-    "wheel_diameter_left_m",
-    "wheelbase_m",
-)
+# Settings (``# key: value`` above the header) and their plausible ranges: beyond them a value is a
+# typo or a unit slip (the lengths as in ROBOT.yaml).
+_SETTINGS_RANGE = {
+    "ticks_per_rev": (1e-3, 1e9),
+    "ticks_wrap": (2.0, 2.0**64),
+    "side_m": (1e-4, 1e5),
+    "wheel_diameter_right_m": (1e-4, 1e3),
+    "wheel_diameter_left_m": (1e-4, 1e3),
+    "wheelbase_m": (1e-4, 1e3),
+}
+_SETTINGS = (*_SETTINGS_RANGE, "label")
+
+# Largest magnitude of a value per column: time (s; 1e12 s is 30000 years), wheel angles (rad),
+# cumulative ticks (2^53, where floats stop counting exactly), poses (m, rad).
+_COLUMN_MAX = {
+    "time_s": 1e12,
+    "wheel_right_rad": 1e9,
+    "wheel_left_rad": 1e9,
+    "ticks_right": 2.0**53,
+    "ticks_left": 2.0**53,
+    "x_m": 1e5,
+    "y_m": 1e5,
+    "theta_rad": 1e6,
+    "gyro_yaw_rad": 1e6,
+}
 
 
-def looks_like_generic_csv(path) -> bool:
-    """True if the first non-comment line of ``path`` is a header holding ``time_s``."""
+def looks_like_generic_csv(path, text: str | None = None) -> bool:
+    """True if the first non-comment line of ``path`` (or of ``text``) is a header holding
+    ``time_s``."""
     try:
-        with open(path, encoding="utf-8-sig", errors="replace") as fh:
-            for line in fh:
-                if line.strip() and not line.lstrip().startswith("#"):
-                    return "time_s" in [c.strip() for c in line.split(",")]
+        lines = (
+            text.splitlines()
+            if text is not None
+            else open(path, encoding="utf-8-sig", errors="replace")
+        )
+        for line in lines:
+            if line.strip() and not line.lstrip().startswith("#"):
+                return "time_s" in [c.strip() for c in line.split(",")]
     except OSError:
         return False
     return False
 
 
-def _settings(lines: list[tuple[int, str]], path) -> dict:
+def _settings(table, path) -> dict:
     out: dict = {}
-    for no, line in lines:
-        body = line.lstrip()[1:].strip()
-        if ":" not in body:
-            continue
-        key, value = (s.strip() for s in body.split(":", 1))
-        if key in _SETTINGS_FLOAT:
-            try:
-                v = float(value)
-            except ValueError:
-                raise InputError(f"not a number: {value!r}", path, no, key) from None
-            if not math.isfinite(v) or v <= 0:
-                raise InputError(f"must be a finite number > 0, got {value!r}", path, no, key)
-            out[key] = (v, no)
-        elif key == "label":
+    for key, (value, no) in table.settings.items():
+        if key == "label":
             out[key] = (value, no)
+            continue
+        lo, hi = _SETTINGS_RANGE[key]
+        v = parse_number(value, path, no, key, positive=True)
+        if not lo <= v <= hi:
+            raise InputError(
+                f"implausible value {value!r} (expected {lo:g} .. {hi:g}; check the units)",
+                path,
+                no,
+                key,
+            )
+        out[key] = (v, no)
     return out
 
 
@@ -113,19 +133,18 @@ def _unwrap_ticks(ticks: np.ndarray, lines: list[int], name: str, wrap, path) ->
     return np.concatenate([[0.0], np.cumsum(d)])
 
 
-def load_generic_csv(path, ticks_per_rev: float | None = None) -> Recording:
-    """One run from a generic run CSV (see module docstring); InputError names file/line/field."""
-    text = read_text(path)
-    numbered = [(i + 1, line) for i, line in enumerate(text.splitlines()) if line.strip()]
-    comments = [(n, ln) for n, ln in numbered if ln.lstrip().startswith("#")]
-    body = [(n, ln) for n, ln in numbered if not ln.lstrip().startswith("#")]
-    if not body:
-        raise InputError("empty file, expected a header row starting with 'time_s'", path)
-    header_no, header_line = body[0]
-    header = [h.strip() for h in next(csv.reader([header_line]))]
-    header_comments = [(n, ln) for n, ln in comments if n < header_no]
-    settings = _settings(header_comments, path)
-    col = {name: i for i, name in enumerate(header)}
+def load_generic_csv(
+    path, ticks_per_rev: float | None = None, text: str | None = None
+) -> Recording:
+    """One run from a generic run CSV (see module docstring); InputError names file/line/field.
+
+    ``text``: the file's content when it was already read (a pipe can be read only once)."""
+    table = read_table(
+        path, what="a header row starting with 'time_s'", text=text, settings=_SETTINGS
+    )
+    settings = _settings(table, path)
+    header_no = table.header_line
+    col = table.header
 
     if "time_s" not in col:
         raise InputError("missing column 'time_s' in the header", path, header_no, "time_s")
@@ -153,29 +172,10 @@ def load_generic_csv(path, ticks_per_rev: float | None = None) -> Recording:
             missing,
         )
     wanted = ["time_s", *wheel_cols, *present] + (["gyro_yaw_rad"] if "gyro_yaw_rad" in col else [])
-
-    rows, line_nos = [], []
-    for no, line in body[1:]:
-        fields = next(csv.reader(io.StringIO(line)))
-        if len(fields) != len(header):
-            raise InputError(
-                f"expected {len(header)} fields as in the header, got {len(fields)}", path, no
-            )
-        vals = []
-        for name in wanted:
-            raw = fields[col[name]].strip()
-            try:
-                v = float(raw)
-            except ValueError:
-                raise InputError(f"not a number: {raw!r}", path, no, name) from None
-            if not math.isfinite(v):
-                raise InputError(f"must be finite, got {raw!r}", path, no, name)
-            vals.append(v)
-        rows.append(vals)
-        line_nos.append(no)
-    if len(rows) < 2:
-        raise InputError(f"a run needs at least two samples, got {len(rows)}", path)
-    data = np.array(rows)
+    if len(table.rows) < 2:
+        raise InputError(f"a run needs at least two samples, got {len(table.rows)}", path)
+    data = table.numbers(wanted, at_most=_COLUMN_MAX)
+    line_nos = [no for no, _ in table.rows]
     t = data[:, 0]
     bad = np.nonzero(np.diff(t) <= 0)[0]
     if len(bad):
@@ -211,10 +211,7 @@ def load_generic_csv(path, ticks_per_rev: float | None = None) -> Recording:
 
     gt = None
     if present:
-        raw = data[:, 3:6]
-        c, s = math.cos(raw[0, 2]), math.sin(raw[0, 2])
-        dx, dy = raw[:, 0] - raw[0, 0], raw[:, 1] - raw[0, 1]
-        gt = np.column_stack([c * dx + s * dy, -s * dx + c * dy, raw[:, 2] - raw[0, 2]])
+        gt = start_frame(data[:, 3], data[:, 4], data[:, 5])
     gyro = None
     if "gyro_yaw_rad" in col:
         gyro = data[:, -1] - data[0, -1]
@@ -232,10 +229,7 @@ def load_generic_csv(path, ticks_per_rev: float | None = None) -> Recording:
                 header_no,
                 missing,
             )
-        try:
-            ran_with = WheelGeometry(*(settings[k][0] for k in geo_keys))
-        except ModelError as exc:
-            raise InputError(str(exc), path) from None
+        ran_with = WheelGeometry(*(settings[k][0] for k in geo_keys))
     if "side_m" in settings:
         meta["side_m"] = settings["side_m"][0]
     label = settings.get("label", (None,))[0]

@@ -22,6 +22,9 @@ from ..errors import InputError
 from .textfile import read_text
 
 __all__ = [
+    "CALIBRATION_CIRCLE_SET",
+    "load_optiodom_split",
+    "read_published",
     "load_optiodom_dataset",
     "load_optiodom_category",
     "is_optiodom_dataset",
@@ -157,3 +160,77 @@ def load_optiodom_dataset(folder) -> list[Recording]:
             )
         )
     return out
+
+
+# OptiOdom circle data set used to calibrate BCPT (first arc radius 0.85 m); the other circle
+# data set (250620202104, first arc 0.375 m) is held out with free/.
+CALIBRATION_CIRCLE_SET = "231220200121"
+
+
+def load_optiodom_split(folder, calibration_circle_set: str | None = None):
+    """Calibration data sets and held-out runs from an ``optiodom_diff`` folder.
+
+    Returns ``(datasets, heldout)``: ``datasets`` maps 'square', 'ivanjko' and
+    'circular-calibration' to lists of data sets (lists of Recording); ``heldout`` is the runs of
+    free/ and of every circular data set except the calibration one: ``calibration_circle_set``
+    (a data set id; default :data:`CALIBRATION_CIRCLE_SET`, or the first circular data set found
+    if that one is absent).
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError("not a folder (expected an optiodom_diff folder)", folder)
+
+    def sets(kind):
+        base = folder / kind
+        if not base.is_dir():
+            return []
+        return [d for d in sorted(base.iterdir()) if is_optiodom_dataset(d)]
+
+    found = {k: sets(k) for k in ("square", "ivanjko", "circular", "free")}
+    if not any(found.values()):
+        raise InputError(
+            "no OptiOdom data sets (expected square/, ivanjko/, circular/, free/ sub-folders)",
+            folder,
+        )
+    circles = found["circular"]
+    if calibration_circle_set is not None:
+        cal = [d for d in circles if d.name == calibration_circle_set]
+        if not cal:
+            raise InputError(
+                f"no circular data set '{calibration_circle_set}' (found: "
+                f"{', '.join(d.name for d in circles) or 'none'})",
+                folder / "circular",
+            )
+    else:
+        cal = [d for d in circles if d.name == CALIBRATION_CIRCLE_SET] or circles[:1]
+    datasets = {
+        "square": [load_optiodom_dataset(d) for d in found["square"]],
+        "ivanjko": [load_optiodom_dataset(d) for d in found["ivanjko"]],
+        "circular-calibration": [load_optiodom_dataset(d) for d in cal],
+    }
+    heldout = []
+    for d in found["free"] + [c for c in circles if c not in cal]:
+        heldout += load_optiodom_dataset(d)
+    if not heldout:
+        raise InputError("no held-out runs (free/ or a second circular/ data set)", folder)
+    return datasets, heldout
+
+
+def read_published(folder, method: str = "Sousa", dataset: str = "ALL_DATASETS_COMBINED"):
+    """Published calibrated geometry from ``reference_results_diff.csv`` (first row of
+    ``method`` and ``dataset`` with no note), or None if the file is absent."""
+    path = Path(folder) / "reference_results_diff.csv"
+    if not path.is_file():
+        return None
+    out = {}
+    for row in csv.DictReader(io.StringIO(read_text(path))):
+        if row.get("method") != method or row.get("note"):
+            continue
+        try:
+            g = WheelGeometry(float(row["cal_Dr_m"]), float(row["cal_Dl_m"]), float(row["cal_b_m"]))
+        except (KeyError, ValueError):
+            raise InputError("bad calibrated values", path, None, "cal_b_m") from None
+        out[row["dataset"]] = g
+    if dataset is None:
+        return out
+    return out.get(dataset)

@@ -5,7 +5,7 @@
 - a generic run CSV (``io/generic_csv.py``; header row starting with ``time_s``);
 - one OptiOdom run file ``<id>_run-NN.csv`` (its data set's metadata is read beside it);
 - a ROS bag: ``.bag`` (ROS 1), ``.db3`` or ``.mcap`` (ROS 2), or a ROS 2 bag folder holding
-  ``metadata.yaml`` (read by ``odocal.io.bags``; needs the optional ``rosbags`` package);
+  ``metadata.yaml`` (read by ``odocal.io.bag_recording``; needs the optional ``rosbags`` package);
 - a folder: an OptiOdom data set folder (holds ``*_metadata.csv``, e.g. ``square/230620202042``),
   an OptiOdom category folder holding several data sets (e.g. ``square/``), or a folder of
   generic run CSVs (all ``*.csv`` files in it, sorted by name).
@@ -18,37 +18,18 @@ from pathlib import Path
 
 from ..core.recording import Recording
 from ..errors import InputError
+from .bags import BAG_SUFFIXES, is_bag
 
-__all__ = ["load_recordings", "is_bag", "BAG_SUFFIXES"]
+__all__ = ["load_recordings", "require_ground_truth"]
 
-BAG_SUFFIXES = (".bag", ".db3", ".mcap")
 _OPTI_RUN = re.compile(r"^(?P<id>.+)_run-(?P<n>\d+)\.csv$")
 
 
-def is_bag(path) -> bool:
-    """True for a ROS 1/2 bag file or a ROS 2 bag folder (holding metadata.yaml)."""
-    path = Path(path)
-    if path.is_dir():
-        return (path / "metadata.yaml").is_file()
-    return path.suffix.lower() in BAG_SUFFIXES
-
-
-def _bags():
-    try:
-        from . import bags
-    except ImportError:
-        raise InputError(
-            "ROS bag support is not available in this build (odocal.io.bags is missing; install "
-            "odocal with the 'bags' extra: pip install 'odocal[bags]')"
-        ) from None
-    return bags
-
-
 def _load_bag(path: Path, bag_options: dict) -> list[Recording]:
-    bags = _bags()
+    from .bag_recording import load_bag_recording
+
     opts = {k: v for k, v in bag_options.items() if v is not None}
-    rec = bags.load_bag_recording(path, **opts)
-    return rec if isinstance(rec, list) else [rec]
+    return [load_bag_recording(path, **opts)]
 
 
 def _load_file(path: Path, ticks_per_rev) -> list[Recording]:
@@ -107,7 +88,8 @@ def load_recordings(paths, *, ticks_per_rev: float | None = None, **bag_options)
 
     ``ticks_per_rev`` applies to generic CSVs with tick columns whose header does not give it.
     ``bag_options`` (joint_topic, truth_topic, imu_topic, right_joint, left_joint,
-    ticks_per_rev) are passed to ``odocal.io.bags.load_bag_recording``; None values are dropped.
+    ticks_per_rev) are passed to ``odocal.io.bag_recording.load_bag_recording``; None values are
+    dropped.
     """
     if isinstance(paths, (str, Path)):
         paths = [paths]

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 from ..core.model import MeasurementNoise, NonSystematicError, Robot, SystematicError, WheelGeometry
 from ..errors import InputError, ModelError
-from ..presets import PRESETS
+from ..presets import DEFAULT_ROBOT, PRESETS
 from .yamlfile import YamlDoc, load_yaml
 
 __all__ = ["load_robot", "load_params", "robot_from_doc", "params_yaml"]
@@ -115,7 +115,7 @@ def robot_from_doc(doc: YamlDoc) -> Robot:
 def load_robot(spec) -> Robot:
     """A Robot from a ROBOT.yaml path, or a built-in preset name (see ``odocal.presets``)."""
     if spec is None:
-        spec = "paper-fig5"
+        spec = DEFAULT_ROBOT
     if str(spec) in PRESETS:
         return PRESETS[str(spec)]
     doc = load_yaml(spec, "robot file")

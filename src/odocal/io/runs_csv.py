@@ -31,7 +31,8 @@ import numpy as np
 
 from ..core.runs import CircleRuns, EndPoseRuns
 from ..errors import InputError
-from .textfile import atomic_write, read_text
+from .table import parse_number, read_table
+from .textfile import atomic_write
 
 __all__ = [
     "read_runs",
@@ -48,72 +49,37 @@ MAX_MAGNITUDE = 1e6
 CIRCLE_COLUMNS = ("direction", "radius_m")
 
 
-def _read_table(path, columns: tuple[str, ...], directions, required, positive=False):
+def _read_runs_table(path, columns: tuple[str, ...], directions, required, positive=False):
     """Rows of a runs table: ``columns[0]`` is the direction, the rest are numbers.
 
     Returns (directions, values of shape (n, len(columns) - 1)); an empty value not in
     ``required`` is NaN. Every problem raises InputError naming the file, line and field.
     """
-    text = read_text(path)
-    rows = [
-        (i + 1, line)
-        for i, line in enumerate(text.splitlines())
-        if line.strip() and not line.lstrip().startswith("#")
-    ]
-    if not rows:
-        raise InputError(f"empty file, expected a header row '{','.join(columns)}'", path)
-    header_line, header_text = rows[0]
-    header = [h.strip() for h in next(csv.reader([header_text]))]
-    missing = [c for c in columns if c not in header]
-    if missing:
-        raise InputError(
-            f"missing column(s) {', '.join(missing)}; the header must contain {','.join(columns)}",
-            path,
-            header_line,
-        )
-    col = {c: header.index(c) for c in columns}
+    table = read_table(path, what=f"a header row '{','.join(columns)}'")
+    table.require(columns)
+    col = {c: table.index(c) for c in columns}
     dirs: list[str] = []
     values: list[list[float]] = []
-    for line_no, line in rows[1:]:
-        fields = next(csv.reader(io.StringIO(line)))
-        if len(fields) != len(header):
-            raise InputError(
-                f"expected {len(header)} fields as in the header, got {len(fields)}", path, line_no
-            )
-        d = fields[col[columns[0]]].strip().lower()
+    for line_no, fields in table.rows:
+        raw_dir = fields[col[columns[0]]]
+        d = raw_dir.lower()
         if d not in directions:
             raise InputError(
-                f"unknown direction {fields[col[columns[0]]].strip()!r}; expected "
-                f"{' or '.join(directions)}",
+                f"unknown direction {raw_dir!r}; expected {' or '.join(directions)}",
                 path,
                 line_no,
                 columns[0],
             )
         row = []
         for name in columns[1:]:
-            raw = fields[col[name]].strip()
-            if not raw:
-                if name in required:
-                    raise InputError("not filled in (empty)", path, line_no, name)
+            raw = fields[col[name]]
+            if not raw and name not in required:
                 row.append(math.nan)
                 continue
-            try:
-                v = float(raw)
-            except ValueError:
-                raise InputError(f"not a number: {raw!r}", path, line_no, name) from None
-            if not math.isfinite(v) or (positive and v <= 0):
-                what = "a finite number > 0" if positive else "finite"
-                raise InputError(f"must be {what}, got {raw!r}", path, line_no, name)
-            if abs(v) > MAX_MAGNITUDE:
-                # no floor measurement is this large; the statistics would overflow
-                raise InputError(
-                    f"implausibly large, got {raw!r} (at most {MAX_MAGNITUDE:g} in magnitude; "
-                    "check the units)",
-                    path,
-                    line_no,
-                    name,
-                )
-            row.append(v)
+            # no floor measurement is this large; the statistics would overflow
+            row.append(
+                parse_number(raw, path, line_no, name, positive=positive, at_most=MAX_MAGNITUDE)
+            )
         dirs.append(d)
         values.append(row)
     if not values:
@@ -132,7 +98,7 @@ def read_runs(
     row (the method does not use it, e.g. x_m and y_m for the heading-error method): it is read
     as NaN. An empty required value is reported as not filled in.
     """
-    dirs, err = _read_table(path, REQUIRED_COLUMNS, directions, required)
+    dirs, err = _read_runs_table(path, REQUIRED_COLUMNS, directions, required)
     err[:, 2] = np.radians(err[:, 2])
     return EndPoseRuns(dirs, err)
 
@@ -140,7 +106,9 @@ def read_runs(
 def read_circle_runs(path) -> CircleRuns:
     """Parse a BCPT runs file (``direction,radius_m``); every problem raises InputError naming
     the file, line and field."""
-    dirs, radii = _read_table(path, CIRCLE_COLUMNS, ("cw", "ccw"), ("radius_m",), positive=True)
+    dirs, radii = _read_runs_table(
+        path, CIRCLE_COLUMNS, ("cw", "ccw"), ("radius_m",), positive=True
+    )
     return CircleRuns(dirs, radii[:, 0])
 
 

@@ -65,8 +65,7 @@ def load_track(path) -> tuple[Track, str]:
     track = Track(str(doc.data.get("name", path)), tuple(segs))
     direction = doc.data.get("direction")
     if direction is None:
-        rot = float(track.rotation_rad)
-        direction = "ccw" if rot > 1e-12 else "cw" if rot < -1e-12 else "fwd"
+        direction = track.direction_label
     if direction not in ("cw", "ccw", "fwd"):
         raise doc.error("direction", f"expected cw, ccw or fwd, got {direction!r}")
     return track, direction

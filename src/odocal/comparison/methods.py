@@ -1,9 +1,12 @@
-"""A fair comparison of calibration methods: same robot, same budget, same validation track.
+"""The method registry of the comparison: what each method drives, sized from one budget, and how it
+calibrates (from simulated measurements and from real data sets).
 
-Every method is an entry of a registry (:data:`METHODS`): its name, what it drives (a plan of run
-groups sized from a common :class:`Budget`), a function from the simulated runs to calibrated
-geometries (vectorised over Monte-Carlo trials), and optionally a function that calibrates from
-real recorded data sets. To add a method, append one :class:`MethodEntry`.
+A fair comparison of calibration methods: same robot, same budget, same validation track.
+
+Every method is an entry of a registry (:data:`METHOD_REGISTRY`): its name, what it drives (a
+plan of run groups sized from a common :class:`Budget`), a function from the simulated runs to
+calibrated geometries (vectorised over Monte-Carlo trials), and optionally a function that
+calibrates from real recorded data sets. To add a method, append one :class:`MethodEntry`.
 
 The budget (documented in docs/methods.md): every method gets the same number of runs (default
 10) and the same total driven distance, counted as mean WHEEL travel (so spot turns count:
@@ -23,27 +26,27 @@ run without noise (the systematic residual the calibration left).
 from __future__ import annotations
 
 import math
-import zlib
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
 import numpy as np
 
-from ..core.model import NonSystematicError, Robot, WheelGeometry
-from ..core.odometry import dead_reckon, evaluate
-from ..core.pose import compose
+from ..calibration.bcpt import bcpt_factors, calibrate_bcpt_recordings
+from ..calibration.circle_fit import fit_circle
+from ..calibration.heading import calibrate_heading, heading_factors
+from ..calibration.ivanjko import calibrate_ivanjko_recordings, ivanjko_from_end_poses
+from ..calibration.linear import fit_linear
+from ..calibration.result import CalibrationResult
+from ..calibration.trajectory import fit_trajectory
+from ..calibration.umbmark import calibrate_umbmark, umbmark_factors
+from ..core.model import Robot, WheelGeometry, wheel_factors
+from ..core.odometry import dead_reckon
+from ..core.recording import Recording
 from ..core.runs import EndPoseRuns
-from ..core.simulate import drive, measure, odometric_pose, simulate
 from ..core.stats import circular_mean
 from ..core.tracks import Track, arc, circle, polygon, spot_turn, straight_line
 from ..errors import CalibrationError
-from .bcpt import bcpt_factors, calibrate_bcpt_recordings
-from .circle_fit import fit_circle
-from .heading import calibrate_heading, heading_factors
-from .ivanjko import calibrate_ivanjko_recordings, ivanjko_from_end_poses
-from .result import CalibrationResult
-from .umbmark import calibrate_umbmark, umbmark_factors
 
 __all__ = [
     "Budget",
@@ -51,18 +54,9 @@ __all__ = [
     "GroupData",
     "GeometryBatch",
     "MethodEntry",
-    "METHODS",
-    "MethodStats",
-    "SimulatedComparison",
-    "compare_simulated",
-    "RealMethodResult",
-    "RealComparison",
-    "compare_real",
+    "METHOD_REGISTRY",
     "square_end_pose_runs",
 ]
-
-
-# --- the budget and the plan of runs ---------------------------------------------------------
 
 
 @dataclass(frozen=True)
@@ -167,8 +161,7 @@ class MethodEntry:
 
 
 def _from_factors(ran_with: WheelGeometry, E_b, E_d) -> GeometryBatch:
-    c_r = 2.0 * E_d / (E_d + 1.0)
-    c_l = 2.0 / (E_d + 1.0)
+    c_r, c_l = wheel_factors(E_d)
     return GeometryBatch(
         np.asarray(ran_with.diameter_right_m * c_r, dtype=float),
         np.asarray(ran_with.diameter_left_m * c_l, dtype=float),
@@ -287,8 +280,6 @@ def _open_arc_plan(budget: Budget, robot: Robot) -> tuple:
 
 def _trial_recordings(data: dict, trial: int) -> list:
     """The tracked runs of one trial as Recordings (encoder angles + tracked ground truth)."""
-    from ..core.recording import Recording
-
     recs = []
     for label, g in data.items():
         angles = g.wheel_angles_rad
@@ -325,14 +316,10 @@ def _fit_estimate(fit) -> Estimator:
 
 
 def _linear_fit(recs, nominal):
-    from .linear import fit_linear
-
     return fit_linear(recs, nominal)
 
 
 def _trajectory_fit(recs, nominal):
-    from .trajectory import fit_trajectory
-
     return fit_trajectory(recs, nominal=nominal)
 
 
@@ -416,7 +403,7 @@ def _real_fit(fit, kinds: tuple[str, ...], pooled: bool = False) -> Callable:
     return real
 
 
-METHODS: list[MethodEntry] = [
+METHOD_REGISTRY: list[MethodEntry] = [
     MethodEntry(
         "heading",
         "square CW+CCW (final heading)",
@@ -463,325 +450,3 @@ METHODS: list[MethodEntry] = [
         _real_fit(_trajectory_fit, ("square",)),
     ),
 ]
-
-
-# --- simulated comparison --------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class MethodStats:
-    """One method's numbers over the trials (errors relative to the TRUE geometry).
-
-    E_b_error = b_cal / b_true - 1; E_d_error = (D_R/D_L)_cal / (D_R/D_L)_true - 1;
-    E_s_error = mean D_cal / mean D_true - 1 (dimensionless). final_error_m: validation final
-    position error (m) per trial; systematic_error_m: the same run without noise.
-    """
-
-    name: str
-    drives: str
-    sizes: dict
-    runs: int
-    travel_m: float
-    footprint_m: float
-    failed: int
-    E_b_error: np.ndarray
-    E_d_error: np.ndarray
-    E_s_error: np.ndarray
-    final_error_m: np.ndarray
-    systematic_error_m: np.ndarray
-
-    def summary(self) -> dict:
-        def ms(v):
-            v = v[np.isfinite(v)]
-            if len(v) == 0:
-                return {"bias": None, "std": None}
-            return {"bias": float(v.mean()), "std": float(v.std(ddof=1)) if len(v) > 1 else None}
-
-        def dist(v):
-            v = v[np.isfinite(v)]
-            if len(v) == 0:
-                return {"mean": None, "std": None, "p95": None}
-            return {
-                "mean": float(v.mean()),
-                "std": float(v.std(ddof=1)) if len(v) > 1 else None,
-                "p95": float(np.quantile(v, 0.95)),
-            }
-
-        return {
-            "name": self.name,
-            "drives": self.drives,
-            "sizes": {k: float(v) for k, v in self.sizes.items()},
-            "runs": self.runs,
-            "travel_m": self.travel_m,
-            "footprint_m": self.footprint_m,
-            "failed_trials": self.failed,
-            "E_b_error": ms(self.E_b_error),
-            "E_d_error": ms(self.E_d_error),
-            "E_s_error": ms(self.E_s_error),
-            "final_error_m": dist(self.final_error_m),
-            "systematic_final_error_m": dist(self.systematic_error_m),
-        }
-
-
-@dataclass(frozen=True)
-class SimulatedComparison:
-    robot: Robot
-    trials: int
-    seed: int
-    budget_runs: int
-    budget_travel_m: float
-    validation: str
-    nominal_final_error_m: np.ndarray
-    nominal_systematic_error_m: float
-    methods: tuple[MethodStats, ...]
-
-
-def _method_rng(seed: int, name: str) -> np.random.Generator:
-    # One stream per (seed, method name): adding a method to the registry changes no other's draws.
-    return np.random.default_rng([seed, zlib.crc32(name.encode())])
-
-
-def _track_travel(track: Track, wheelbase_m: float) -> float:
-    """Mean wheel travel (m) of a track: sum of (|d + psi b/2| + |d - psi b/2|) / 2."""
-    total = 0.0
-    for s in track.segments:
-        half = 0.5 * abs(s.angle_rad) * wheelbase_m
-        d = abs(s.distance_m)
-        total += 0.5 * (abs(d + half) + abs(d - half))
-    return float(total)
-
-
-def _footprint(track: Track) -> float:
-    """Largest extent (m) of the commanded path: max distance of any point from the start."""
-    pose = np.zeros(3)
-    far = 0.0
-    for s in track.segments:
-        for f in np.linspace(0.0, 1.0, 33)[1:]:
-            p = _compose_partial(pose, s, f)
-            far = max(far, float(np.hypot(p[0], p[1])))
-        pose = _compose_partial(pose, s, 1.0)
-    return far
-
-
-def _compose_partial(pose, seg, f):
-    return compose(pose, seg.distance_m * f, seg.angle_rad * f)
-
-
-def _commanded_steps(track: Track, believed: WheelGeometry, max_step_m: float):
-    """Increments per segment (one count for all segments) and the cumulative commanded wheel
-    rotations after every increment, shape (K + 1, 2)."""
-    b_hat = float(np.mean(believed.wheelbase_m))
-    travel = [seg.wheel_travel(b_hat) for seg in track.segments]
-    longest = max(max(abs(float(r)), abs(float(lft))) for r, lft in travel)
-    n = max(1, math.ceil(longest / max_step_m - 1e-9))
-    d_r = float(np.mean(believed.diameter_right_m))
-    d_l = float(np.mean(believed.diameter_left_m))
-    inc = np.concatenate(
-        [
-            np.repeat([[2.0 * float(r) / d_r / n, 2.0 * float(lft) / d_l / n]], n, axis=0)
-            for r, lft in travel
-        ]
-    )
-    return n, np.vstack([np.zeros((1, 2)), np.cumsum(inc, axis=0)])
-
-
-def _simulate_group(group: RunGroup, robot: Robot, trials: int, rng, max_step_m: float):
-    n = trials * group.runs
-    if not group.points:
-        res = simulate(group.track, robot, n, rng, max_step_m=max_step_m)
-        errors = measure(res.errors, robot, rng).reshape(trials, group.runs, 3)
-        return GroupData(group, errors + np.asarray(odometric_pose(group.track)), errors)
-    # Fixed increments per segment, so that the encoder readings are known at every sample.
-    steps, angles = _commanded_steps(group.track, robot.believed_geometry, max_step_m)
-    res = simulate(group.track, robot, n, rng, steps_per_segment=steps, trajectory=True)
-    errors = measure(res.errors, robot, rng).reshape(trials, group.runs, 3)
-    final = errors + np.asarray(odometric_pose(group.track))
-    k = res.trajectory.shape[1]
-    idx = np.unique(np.r_[np.arange(0, k, max(1, k // 200)), k - 1])  # ~200 tracker samples
-    traj = res.trajectory[:, idx, :].copy()
-    m = robot.measurement
-    if m.sigma_xy_m > 0:
-        traj[..., :2] += m.sigma_xy_m * rng.standard_normal(traj[..., :2].shape)
-    if m.sigma_theta_rad > 0:
-        traj[..., 2] += m.sigma_theta_rad * rng.standard_normal(traj[..., 2].shape)
-    traj = traj.reshape(trials, group.runs, len(idx), 3)
-    return GroupData(group, final, errors, traj[..., :2], traj, angles[idx])
-
-
-def _validate(robot: Robot, geometry: WheelGeometry, track: Track, rng, max_step_m: float):
-    m = np.size(geometry.wheelbase_m)
-    noisy = simulate(track, robot.with_believed(geometry), m, rng, max_step_m=max_step_m)
-    clean = drive(
-        track, robot.true_geometry, geometry, NonSystematicError(), m, None, max_step_m=max_step_m
-    )
-    return np.hypot(*noisy.errors[:, :2].T), np.hypot(*clean.errors[:, :2].T)
-
-
-def compare_simulated(
-    robot: Robot,
-    trials: int = 200,
-    seed: int = 0,
-    budget: Budget | None = None,
-    validation: Track | None = None,
-    methods: list[MethodEntry] | None = None,
-    max_step_m: float = 0.01,
-) -> SimulatedComparison:
-    """Run every method in ``methods`` (default :data:`METHODS`) on ``robot`` over ``trials``
-    Monte-Carlo trials (vectorised) and validate each trial's calibration on ``validation``
-    (default: the 4 m square CCW). Seeded: the same arguments give the same numbers."""
-    if trials < 2:
-        raise CalibrationError(f"trials must be >= 2, got {trials}")
-    budget = budget or Budget()
-    validation = validation or polygon(4, 4.0, "ccw")
-    methods = METHODS if methods is None else methods
-    ran_with = robot.believed_geometry
-    true = robot.true_geometry
-    b_hat = float(np.mean(ran_with.wheelbase_m))
-    stats = []
-    for entry in methods:
-        rng = _method_rng(seed, entry.name)
-        groups = entry.plan(budget, robot)
-        data = {g.label: _simulate_group(g, robot, trials, rng, max_step_m) for g in groups}
-        est = entry.estimate(data, ran_with)
-        d_r, d_l, b = (np.broadcast_to(np.asarray(v, float), (trials,)) for v in est)
-        ok = np.isfinite(d_r) & np.isfinite(d_l) & np.isfinite(b) & (d_r > 0) & (d_l > 0) & (b > 0)
-        fin = np.full(trials, np.nan)
-        sysf = np.full(trials, np.nan)
-        if ok.any():
-            geom = WheelGeometry(d_r[ok], d_l[ok], b[ok])
-            fin[ok], sysf[ok] = _validate(robot, geom, validation, rng, max_step_m)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            e_b = np.where(ok, b / true.wheelbase_m - 1.0, np.nan)
-            e_d = np.where(ok, (d_r / d_l) / true.diameter_ratio - 1.0, np.nan)
-            e_s = np.where(ok, 0.5 * (d_r + d_l) / true.mean_diameter_m - 1.0, np.nan)
-        sizes = {}
-        for g in groups:
-            sizes.update(g.size)
-        stats.append(
-            MethodStats(
-                entry.name,
-                entry.drives,
-                sizes,
-                sum(g.runs for g in groups),
-                sum(g.runs * _track_travel(g.track, b_hat) for g in groups),
-                max(_footprint(g.track) for g in groups),
-                int((~ok).sum()),
-                e_b,
-                e_d,
-                e_s,
-                fin,
-                sysf,
-            )
-        )
-    rng = _method_rng(seed, "nominal")
-    nominal = WheelGeometry(
-        *(
-            np.full(trials, float(np.mean(v)))
-            for v in (ran_with.diameter_right_m, ran_with.diameter_left_m, ran_with.wheelbase_m)
-        )
-    )
-    nom, nom_sys = _validate(robot, nominal, validation, rng, max_step_m)
-    return SimulatedComparison(
-        robot,
-        trials,
-        seed,
-        budget.runs,
-        budget.total_travel_m(robot),
-        validation.name,
-        nom,
-        float(nom_sys[0]),
-        tuple(stats),
-    )
-
-
-# --- real data comparison --------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class RealMethodResult:
-    """Held-out validation of one method's calibrations from real data sets.
-
-    per_dataset : list of dict
-        ``dataset``, the calibrated geometry, ``heldout_mean_final_error_m`` (m).
-    """
-
-    name: str
-    per_dataset: list
-
-    def summary(self) -> dict:
-        errs = [d["heldout_mean_final_error_m"] for d in self.per_dataset]
-        return {
-            "name": self.name,
-            "calibrations": len(errs),
-            "heldout_mean_final_error_m": {
-                "mean": float(np.mean(errs)) if errs else None,
-                "min": float(np.min(errs)) if errs else None,
-                "max": float(np.max(errs)) if errs else None,
-            },
-            "per_dataset": self.per_dataset,
-        }
-
-
-@dataclass(frozen=True)
-class RealComparison:
-    heldout: list  # names of the held-out runs
-    nominal_mean_final_error_m: float
-    published: dict | None  # published OptiOdom ALL_DATASETS_COMBINED geometry and its error
-    methods: tuple[RealMethodResult, ...]
-    failures: list
-
-
-def heldout_error(geometry: WheelGeometry, heldout) -> float:
-    """Mean final position error (m) of dead reckoning the held-out recordings with ``geometry``."""
-    return float(np.mean([evaluate(r, geometry)["final_error_m"] for r in heldout]))
-
-
-def compare_real(
-    datasets: dict,
-    heldout,
-    methods: list[MethodEntry] | None = None,
-    published: WheelGeometry | None = None,
-) -> RealComparison:
-    """Calibrate with every method from real data sets and validate on held-out recordings.
-
-    Parameters
-    ----------
-    datasets : dict
-        kind -> list of data sets (each a list of Recording): 'square', 'ivanjko',
-        'circular-calibration' (circle runs for BCPT). Held-out runs must not be among them.
-    heldout : list of Recording
-        Validation runs (with ground truth), e.g. OptiOdom free/ plus the other circle set.
-    published : WheelGeometry, optional
-        A reference geometry to validate the same way (e.g. the published OptiOdom result).
-    """
-    methods = METHODS if methods is None else methods
-    heldout = list(heldout)
-    nominal = float(np.mean([evaluate(r, r.ran_with)["final_error_m"] for r in heldout]))
-    out, failures = [], []
-    for entry in methods:
-        if entry.real is None:
-            continue
-        try:
-            results = entry.real(datasets)
-        except CalibrationError as exc:
-            failures.append({"method": entry.name, "error": str(exc)})
-            continue
-        rows = []
-        for name, res in results:
-            res: CalibrationResult
-            g = res.corrected
-            rows.append(
-                {
-                    "dataset": name,
-                    **g.as_dict(),
-                    "heldout_mean_final_error_m": heldout_error(g, heldout),
-                }
-            )
-        out.append(RealMethodResult(entry.name, rows))
-    pub = None
-    if published is not None:
-        pub = {
-            **published.as_dict(),
-            "heldout_mean_final_error_m": heldout_error(published, heldout),
-        }
-    return RealComparison([r.name for r in heldout], nominal, pub, tuple(out), failures)

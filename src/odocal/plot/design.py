@@ -1,21 +1,14 @@
-"""PNG figures of a track design and of the paper's reproduction.
-
-matplotlib is optional (the ``plot`` extra) and imported inside the functions; figures are drawn
-on the Agg canvas directly (no pyplot, no global backend change) and written atomically.
-"""
+"""Figures of a track design and of the paper's reproduction (the paper's Figs. 3-6, 8, 9)."""
 
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 
-from ..errors import OdocalError
+from ._figure import new_figure as _new_figure
 
 __all__ = [
-    "require_matplotlib",
-    "output_folder",
     "leg_heading_figure",
     "share_figure",
     "post_error_figure",
@@ -23,50 +16,6 @@ __all__ = [
     "design_figures",
     "reproduce_figures",
 ]
-
-_INSTALL_HINT = "plotting needs matplotlib: pip install 'odocal[plot]'"
-
-
-def _new_figure(width: float = 7.0, height: float = 4.4):
-    try:
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
-    except ImportError:
-        raise OdocalError(_INSTALL_HINT) from None
-    fig = Figure(figsize=(width, height), layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig
-
-
-def require_matplotlib() -> None:
-    """Raise the one-line install hint unless matplotlib can be imported."""
-    _new_figure()
-
-
-def output_folder(path) -> Path:
-    """``path`` as a folder, created if needed (InputError if that is impossible)."""
-    return _out_dir(path)
-
-
-def _save(fig, path: Path) -> Path:
-    from .textfile import atomic_path
-
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, format="png", dpi=120)
-    return path
-
-
-def _out_dir(path) -> Path:
-    from ..errors import InputError
-
-    out = Path(path)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise InputError(f"cannot create the output folder: {exc.strerror}", out) from None
-    if not out.is_dir():
-        raise InputError("not a folder", out)
-    return out
 
 
 def leg_heading_figure(curve, title: str):
@@ -252,16 +201,15 @@ def _series(result, label: str):
     return out
 
 
-def design_figures(result, out_dir) -> list[Path]:
-    """Figures of ``odocal design --plot DIR``; returns the paths written."""
+def design_figures(result) -> dict:
+    """Figures of ``odocal design --plot DIR``: file name -> figure."""
     from ..design.result import shape_name
 
-    out = _out_dir(out_dir)
     cands = result.candidates
     multi = len({c.sides for c in cands}) > 1
     x = "travel" if multi else "side"
     label = "design" if multi else shape_name(cands[0].sides)
-    written = []
+    written = {}
     fig = post_error_figure(
         _series(result, label),
         f"Post-calibration error\n{result.method} method, {result.runs_per_direction} runs per "
@@ -271,9 +219,9 @@ def design_figures(result, out_dir) -> list[Path]:
         uncalibrated_m=result.uncalibrated.mean_m,
         validation_label=result.validation.label,
     )
-    written.append(_save(fig, out / "design_error.png"))
+    written["design_error.png"] = fig
     fig = calibration_figure(cands, "Calibrated factors against the test-track size", x=x)
-    written.append(_save(fig, out / "design_calibration.png"))
+    written["design_calibration.png"] = fig
     fig = _new_figure(7.0, 4.4)
     ax = fig.add_subplot()
     for sides in sorted({c.sides for c in cands}):
@@ -286,7 +234,7 @@ def design_figures(result, out_dir) -> list[Path]:
     ax.grid(alpha=0.3)
     ax.legend(loc="lower right")
     ax.set_title(f"Systematic share (n = {result.runs_per_direction} runs per direction)")
-    written.append(_save(fig, out / "design_share.png"))
+    written["design_share.png"] = fig
     return written
 
 
@@ -323,12 +271,11 @@ def precision_figure(sweep, title: str):
     return fig
 
 
-def reproduce_figures(rep, out_dir) -> dict[str, Path]:
-    """The paper's figures from a :class:`odocal.design.reproduce.Reproduction`."""
+def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
+    """The paper's figures from a :class:`odocal.design.reproduce.Reproduction`:
+    key -> (file name, figure)."""
     from ..design.reproduce import INSTRUMENT_SIGMA_THETA_DEG, PAPER
     from ..presets import PRESETS
-
-    out = _out_dir(out_dir)
 
     def cond(name: str) -> str:
         r = PRESETS[name]
@@ -337,21 +284,22 @@ def reproduce_figures(rep, out_dir) -> dict[str, Path]:
         )
 
     files = {}
-    files["fig3"] = _save(
+    files["fig3"] = (
+        "fig3_leg_heading_error.png",
         leg_heading_figure(rep.fig3, f"Fig. 3: leg heading error ({cond('paper-fig3')})"),
-        out / "fig3_leg_heading_error.png",
     )
-    files["fig4"] = _save(
+    files["fig4"] = (
+        "fig4_systematic_share.png",
         share_figure(
             rep.fig3,
             f"Fig. 4: systematic share ({cond('paper-fig3')})",
             paper_share=PAPER["fig4_share_at_4m"],
-        ),  # fmt: skip
-        out / "fig4_systematic_share.png",
+        ),
     )
     t = rep.trials
     f5 = rep.fig5
-    files["fig5"] = _save(
+    files["fig5"] = (
+        "fig5_square_post_error.png",
         post_error_figure(
             [("square", f5.candidates, f5.recommended)],
             f"Fig. 5: square test tracks\n{cond('paper-fig5')}, {t} trials",
@@ -360,11 +308,11 @@ def reproduce_figures(rep, out_dir) -> dict[str, Path]:
             uncalibrated_m=f5.uncalibrated.mean_m,
             paper_choice=PAPER["chosen_side_m"],
             validation_label=f5.validation.label,
-        ),  # fmt: skip
-        out / "fig5_square_post_error.png",
+        ),
     )
     f6 = rep.fig6
-    files["fig6"] = _save(
+    files["fig6"] = (
+        "fig6_octagon_post_error.png",
         post_error_figure(
             [
                 ("octagon", f6.candidates, f6.recommended),
@@ -376,19 +324,19 @@ def reproduce_figures(rep, out_dir) -> dict[str, Path]:
             uncalibrated_m=f6.uncalibrated.mean_m,
             paper_choice=PAPER["chosen_travel_m"],
             validation_label=f6.validation.label,
-        ),  # fmt: skip
-        out / "fig6_octagon_post_error.png",
+        ),
     )
-    files["fig8"] = _save(
+    files["fig8"] = (
+        "fig8_systematic_share_experiment.png",
         share_figure(
             rep.fig8,
             f"Fig. 8: systematic share ({cond('paper-experiment')})",
             paper_share=PAPER["fig8_share_at_4m"],
-        ),  # fmt: skip
-        out / "fig8_systematic_share_experiment.png",
+        ),
     )
     f9 = rep.fig9
-    files["fig9"] = _save(
+    files["fig9"] = (
+        "fig9_experiment_post_error.png",
         post_error_figure(
             [("square", f9.candidates, f9.recommended)],
             f"Fig. 9: experimental robot\n{cond('paper-experiment')}, {t} trials",
@@ -397,11 +345,11 @@ def reproduce_figures(rep, out_dir) -> dict[str, Path]:
             uncalibrated_m=f9.uncalibrated.mean_m,
             paper_choice=PAPER["chosen_side_m"],
             validation_label=f9.validation.label,
-        ),  # fmt: skip
-        out / "fig9_experiment_post_error.png",
+        ),
     )
     fi = rep.instrument
-    files["fig5_instrument"] = _save(
+    files["fig5_instrument"] = (
+        "fig5_instrument_post_error.png",
         post_error_figure(
             [
                 ("perfect instrument (Fig. 5)", f5.candidates, f5.recommended),
@@ -417,24 +365,23 @@ def reproduce_figures(rep, out_dir) -> dict[str, Path]:
             uncalibrated_m=f5.uncalibrated.mean_m,
             paper_choice=PAPER["chosen_side_m"],
             validation_label=f5.validation.label,
-        ),  # fmt: skip
-        out / "fig5_instrument_post_error.png",
+        ),
     )
     r5 = PRESETS["paper-fig5"].systematic
-    files["fig5_calibration"] = _save(
+    files["fig5_calibration"] = (
+        "fig5_calibrated_factors.png",
         calibration_figure(
             f5.candidates,
             f"Calibrated factors on square tracks ({cond('paper-fig5')})",
             truth=(r5.E_b, r5.E_d),
-        ),  # fmt: skip
-        out / "fig5_calibrated_factors.png",
+        ),
     )
     if getattr(rep, "precision", None) is not None:
-        files["precision"] = _save(
+        files["precision"] = (
+            "precision_recommended_size.png",
             precision_figure(
                 rep.precision,
                 f"Recommended track size vs instrument precision\n{cond('paper-fig5')}",
             ),
-            out / "precision_recommended_size.png",
         )
     return files

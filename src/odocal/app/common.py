@@ -1,0 +1,55 @@
+"""What several commands share: the robot they are given, and the paths they read."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from ..core.model import Robot, WheelGeometry
+from ..io.robot_file import load_params, load_robot
+from ..presets import DEFAULT_ROBOT, PRESETS
+
+__all__ = ["RobotSpec", "resolve_robot", "robot_label", "input_paths"]
+
+#: A robot as a command takes it: a Robot, a built-in name, a ROBOT.yaml path, or None (default).
+RobotSpec = Robot | str | Path | None
+
+
+def resolve_robot(
+    robot: RobotSpec = None, params: str | Path | WheelGeometry | None = None
+) -> Robot:
+    """The Robot of ``robot`` (default :data:`odocal.presets.DEFAULT_ROBOT`), with ``params``
+    (a PARAMS.yaml path or a geometry) installed as the parameters it runs with."""
+    r = robot if isinstance(robot, Robot) else load_robot(robot)
+    if params is not None:
+        r = r.with_believed(params if isinstance(params, WheelGeometry) else load_params(params))
+    return r
+
+
+def robot_label(robot: RobotSpec, params: Any = None) -> str:
+    """How a report names the robot."""
+    if isinstance(robot, Robot):
+        label = "given robot"
+    elif robot is None:
+        label = f"{DEFAULT_ROBOT} (built-in)"
+    else:
+        label = str(robot)
+    if params is not None and not isinstance(params, WheelGeometry):
+        label += f" running with {params}"
+    return label
+
+
+def input_paths(*specs: Any) -> list[Path]:
+    """The file-system paths among ``specs`` (built-in robot names and objects are not paths)."""
+    out = []
+    for s in specs:
+        if s is None or isinstance(s, (Robot, WheelGeometry)):
+            continue
+        if isinstance(s, (list, tuple)):
+            out += input_paths(*s)
+            continue
+        if isinstance(s, str) and s in PRESETS:
+            continue
+        if isinstance(s, (str, Path)):
+            out.append(Path(s))
+    return out

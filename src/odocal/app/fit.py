@@ -1,0 +1,339 @@
+"""``odocal fit``: calibrate D_R, D_L and b from recorded runs (files, folders, bags)."""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from ..calibration.gyro import GyroResult, gyro_calibration, integrate_rate
+from ..calibration.linear import fit_linear
+from ..calibration.result import GeometryFit
+from ..calibration.squares import fit_recorded_squares
+from ..calibration.trajectory import fit_trajectory
+from ..core.model import WheelGeometry
+from ..core.recording import Recording
+from ..errors import CalibrationError, InputError
+from ..io.bags import (
+    BASE_FRAMES,
+    IMU,
+    JOINT_STATE,
+    ODOMETRY,
+    check_bag_path,
+    imu_series,
+    joint_series,
+    list_topics,
+    pick_topic,
+    pose_series,
+    read_bag,
+    static_rotation,
+)
+from ..io.outputs import OutputPlan
+from ..io.recordings import load_recordings, require_ground_truth
+from ..io.robot_file import load_robot, params_yaml
+from ..io.ros2_export import ros2_params_yaml
+
+__all__ = [
+    "METHODS",
+    "FitResult",
+    "GyroFitResult",
+    "fit",
+    "fit_recordings",
+    "fit_gyro",
+    "fit_gyro_bag",
+    "nominal_geometry",
+]
+
+METHODS = ("trajectory", "linear", "umbmark", "heading", "gyro")
+
+
+def nominal_geometry(robot_spec, recordings: Sequence[Recording]) -> WheelGeometry | None:
+    """Nominal geometry: ROBOT.yaml's if given, else the most common ``ran_with`` (or None)."""
+    if robot_spec:
+        return load_robot(robot_spec).nominal
+    counts = Counter(r.ran_with for r in recordings if r.ran_with is not None)
+    return counts.most_common(1)[0][0] if counts else None
+
+
+def fit_recordings(
+    recordings: Sequence[Recording],
+    method: str = "trajectory",
+    *,
+    nominal: WheelGeometry | None = None,
+    ran_with: WheelGeometry | None = None,
+    residual: str = "pose",
+    segment_m: float = 1.0,
+    heading_weight_m: float = 0.1,
+    exclude=(),
+    drop_outliers: bool = False,
+    run_weight: str = "travel",
+    side_m: float | None = None,
+    umbmark_form: str = "mean",
+) -> GeometryFit:
+    """Calibrate from loaded recordings (with ground truth); returns a ``GeometryFit``."""
+    require_ground_truth(list(recordings), f"--method {method}")
+    if method == "linear":
+        return fit_linear(recordings, nominal)
+    if method == "trajectory":
+        return fit_trajectory(
+            recordings,
+            nominal=nominal,
+            residual=residual,
+            segment_m=segment_m,
+            heading_weight_m=heading_weight_m,
+            exclude=exclude,
+            drop_outliers=drop_outliers,
+            run_weight=run_weight,
+        )
+    if method in ("umbmark", "heading"):
+        return fit_recorded_squares(
+            recordings,
+            method,
+            side_m=side_m,
+            ran_with=ran_with,
+            nominal=nominal,
+            umbmark_form=umbmark_form,
+        )
+    raise InputError(f"unknown method {method!r}", field="method")
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """A fit from recorded runs, the nominal geometry it is compared with, the loaders'
+    warnings and the files written."""
+
+    fit: GeometryFit
+    nominal: WheelGeometry | None
+    recordings: int
+    load_warnings: tuple[str, ...] = ()
+    written: tuple[Path, ...] = ()
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        return tuple(self.fit.warnings)
+
+    def as_dict(self) -> dict:
+        """The JSON of ``odocal fit --json``."""
+        out = self.fit.as_dict()
+        out["nominal"] = None if self.nominal is None else self.nominal.as_dict()
+        return out
+
+
+def _outputs(plan: OutputPlan, out, ros2) -> None:
+    if out is not None:
+        plan.file(out, "--out")
+    if ros2 is not None:
+        plan.file(ros2, "--ros2")
+
+
+def _write(plan, geometry, nominal, method, out, ros2, controller_name) -> tuple[Path, ...]:
+    contents: dict[Path, str] = {}
+    if ros2 is not None:
+        if nominal is None:
+            raise InputError("--ros2 needs the nominal geometry: give --robot ROBOT.yaml")
+        contents[Path(ros2)] = ros2_params_yaml(geometry, nominal, controller_name, method=method)
+    if out is not None:
+        contents[Path(out)] = params_yaml(geometry, method=method)
+    return tuple(plan.commit(contents)) if contents else ()
+
+
+def _load_warnings(recordings) -> tuple[str, ...]:
+    return tuple(
+        f"{r.name}: {w}" for r in recordings for w in (r.meta.get("warnings", ()) if r.meta else ())
+    )
+
+
+def fit(
+    paths: Sequence[str | Path],
+    method: str = "trajectory",
+    *,
+    robot=None,
+    out: str | Path | None = None,
+    ros2: str | Path | None = None,
+    controller_name: str = "diff_drive_controller",
+    ticks_per_rev: float | None = None,
+    bag_options: dict | None = None,
+    **options,
+) -> FitResult:
+    """Load the runs in ``paths`` and calibrate with ``method`` (not 'gyro': see
+    :func:`fit_gyro`); write PARAMS.yaml to ``out`` and a ros2_control file to ``ros2``.
+
+    ``robot``: ROBOT.yaml (nominal geometry; for runs without metadata, the parameters they ran
+    with: its 'believed', else nominal). ``options`` go to :func:`fit_recordings`."""
+    if isinstance(paths, (str, Path)):
+        paths = [paths]
+    plan = OutputPlan(
+        [*map(Path, paths), *([Path(robot)] if robot and Path(robot).exists() else [])]
+    )
+    _outputs(plan, out, ros2)
+    recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, **(bag_options or {}))
+    nominal = nominal_geometry(robot, recordings)
+    ran_with = load_robot(robot).believed_geometry if robot else None
+    result = fit_recordings(recordings, method, nominal=nominal, ran_with=ran_with, **options)
+    written = _write(plan, result.geometry, nominal, result.method, out, ros2, controller_name)
+    return FitResult(result, nominal, len(recordings), _load_warnings(recordings), written)
+
+
+@dataclass(frozen=True)
+class GyroFitResult:
+    """A gyro-only calibration from a bag, with the calibrated geometry when the nominal one is
+    known (effective wheelbase = nominal b x wheelbase_multiplier; diameters unchanged)."""
+
+    gyro: GyroResult
+    nominal: WheelGeometry | None
+    geometry: WheelGeometry | None
+    written: tuple[Path, ...] = ()
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        return tuple(self.gyro.warnings)
+
+    def as_dict(self) -> dict:
+        out = self.gyro.as_dict()
+        if self.geometry is not None:
+            out.update({f"calibrated_{k}": v for k, v in self.geometry.as_dict().items()})
+        return out
+
+
+def fit_gyro(
+    bag: str | Path,
+    *,
+    robot=None,
+    out: str | Path | None = None,
+    ros2: str | Path | None = None,
+    controller_name: str = "diff_drive_controller",
+    odom_topic: str | None = None,
+    imu_topic: str | None = None,
+    joint_topic: str | None = None,
+    imu_axis: str | None = None,
+) -> GyroFitResult:
+    """``odocal fit BAG --method gyro``: the gyro's rotation against the wheel odometry's."""
+    plan = OutputPlan([Path(bag), *([Path(robot)] if robot and Path(robot).exists() else [])])
+    _outputs(plan, out, ros2)
+    nominal = load_robot(robot).nominal if robot else None
+    opts = {
+        "odom_topic": odom_topic,
+        "imu_topic": imu_topic,
+        "joint_topic": joint_topic,
+        "imu_axis": imu_axis,
+        "wheel_geometry": nominal,
+    }
+    result = fit_gyro_bag(bag, **{k: v for k, v in opts.items() if v})
+    if (out or ros2) and nominal is None:
+        raise InputError("--out/--ros2 with --method gyro need the nominal geometry: --robot")
+    geometry = None
+    written: tuple[Path, ...] = ()
+    if nominal is not None:
+        geometry = WheelGeometry(
+            nominal.diameter_right_m,
+            nominal.diameter_left_m,
+            nominal.wheelbase_m * result.wheelbase_multiplier,
+        )
+        written = _write(plan, geometry, nominal, "gyro", out, ros2, controller_name)
+    return GyroFitResult(result, nominal, geometry, written)
+
+
+def fit_gyro_bag(
+    path,
+    *,
+    odom_topic: str | None = None,
+    imu_topic: str | None = None,
+    joint_topic: str | None = None,
+    imu_axis: str | None = None,
+    wheel_geometry: WheelGeometry | None = None,
+    imu_rotation=None,
+    right_joint: str | None = None,
+    left_joint: str | None = None,
+    invert_right: bool = False,
+    invert_left: bool = False,
+    bias="auto",
+    min_still_s: float = 1.0,
+):
+    """Gyro-only heading calibration from a bag (see :mod:`odocal.calibration.gyro`).
+
+    The odometric rotation comes from a ``nav_msgs/Odometry`` topic (its POSE yaw, unwrapped:
+    the controller's own integrated heading, which also covers dropped messages and is not
+    smoothed like the twist; the twist's angular.z is integrated only if the pose never turns),
+    or from JointState wheel angles with ``wheel_geometry`` (nominal diameters and wheelbase).
+    Topic defaults: explicit topics win; else the only Odometry topic; else the JointState topic
+    (needs ``wheel_geometry``). IMU mounting: ``imu_axis`` if given, else ``/tf_static`` (base
+    frame = the odometry's child frame, or base_link / base_footprint), else detected.
+    With ``wheel_geometry`` the result's meta also holds ``wheelbase_used_m`` and
+    ``wheelbase_corrected_m`` (with an Odometry topic, pass the geometry the controller ran with).
+    ``imu_rotation`` (shape (3, 3), R_base_imu, e.g. from
+    :func:`~odocal.calibration.gyro.rotation_from_rpy`) overrides ``/tf_static``.
+    Returns a :class:`~odocal.calibration.gyro.GyroResult`. Bags only: reads it with
+    :mod:`odocal.io.bags`.
+    """
+    p = check_bag_path(path)
+    info = list_topics(p)
+    it = pick_topic(info, imu_topic, (IMU,), "gyro", p, "--imu-topic")
+    use_joints = joint_topic is not None
+    if odom_topic is None and joint_topic is None:
+        has_odom = any(t.msgtype == ODOMETRY for t in info)
+        has_joints = any(t.msgtype == JOINT_STATE for t in info)
+        use_joints = not has_odom and has_joints
+    if use_joints:
+        if wheel_geometry is None:
+            raise InputError(
+                "odometry from wheel joints needs the nominal wheel geometry (--robot)", p
+            )
+        src = pick_topic(info, joint_topic, (JOINT_STATE,), "wheel joints", p, "--joint-topic")
+    else:
+        src = pick_topic(info, odom_topic, (ODOMETRY,), "wheel odometry", p, "--odom-topic")
+    names = {t.name for t in info}
+    bag = read_bag(p, [it, src] + (["/tf_static"] if "/tf_static" in names else []))
+    imu = imu_series(bag, it)
+    meta = {"bag": str(p), "imu_topic": it, "odom_topic": src}
+    if use_joints:
+        js = joint_series(bag, src, right_joint, left_joint)
+        g = wheel_geometry
+        s_r = js.values["right"] * (0.5 * g.diameter_right_m * (-1.0 if invert_right else 1.0))
+        s_l = js.values["left"] * (0.5 * g.diameter_left_m * (-1.0 if invert_left else 1.0))
+        t_o, yaw = js.time_s, (s_r - s_l) / g.wheelbase_m
+        speed = np.gradient(0.5 * (s_r + s_l), t_o) if len(t_o) > 2 else None
+        base_frames = BASE_FRAMES
+        meta.update(odometry_source="joint_states", **js.meta)
+    else:
+        od = pose_series(bag, src)
+        t_o, speed = od.time_s, od.values["speed"]
+        yaw = od.values["yaw"]
+        meta["odometry_source"] = "pose_yaw"
+        if np.ptp(yaw) < 1e-9 and np.any(np.abs(od.values["yaw_rate"]) > 1e-6):
+            yaw = integrate_rate(t_o, od.values["yaw_rate"])
+            meta["odometry_source"] = "twist_integrated"
+        base_frames = ((od.child_frame_id,) if od.child_frame_id else ()) + BASE_FRAMES
+    rotation, source = imu_rotation, ("rotation" if imu_rotation is not None else None)
+    if imu_axis is None and imu_rotation is None and imu.frame_id:
+        rot, parent = static_rotation(bag, imu.frame_id, base_frames)
+        if rot is not None:
+            same = parent == imu.frame_id.lstrip("/")
+            rotation, source = rot, ("imu frame_id is the base frame" if same else "tf_static")
+            meta["tf_chain"] = f"{parent} -> {imu.frame_id}"
+    try:
+        result = gyro_calibration(
+            imu.time_s,
+            imu.values["angular_velocity"],
+            t_o,
+            odom_yaw_rad=yaw,
+            odom_speed_m_s=speed,
+            rotation=rotation,
+            imu_axis=imu_axis,
+            mounting_source=source,
+            bias=bias,
+            min_still_s=min_still_s,
+            meta=meta,
+        )
+    except CalibrationError as exc:
+        hint = ""
+        if use_joints and "opposite directions" in str(exc):
+            hint = "; or the wheel joints are swapped"
+        raise InputError(f"{exc}{hint} (IMU '{it}', odometry '{src}')", p) from None
+    if wheel_geometry is not None:
+        b = float(wheel_geometry.wheelbase_m)
+        extra = {"wheelbase_used_m": b, "wheelbase_corrected_m": b * result.wheelbase_multiplier}
+        result = replace(result, meta={**result.meta, **extra})
+    return result

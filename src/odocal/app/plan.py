@@ -1,0 +1,91 @@
+"""``odocal plan``: the floor protocol for calibration runs (or k runs) and a blank RUNS.csv."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from ..design.plan import FloorPlan, build_plan
+from ..errors import InputError
+from ..io.outputs import OutputPlan
+from ..io.table import read_table
+from ..io.textfile import read_text
+from ..presets import DEFAULT_ROBOT
+from .common import RobotSpec, input_paths, resolve_robot
+
+__all__ = ["PlanResult", "plan", "DEFAULT_TEMPLATE", "DEFAULT_NOISE_RUNS"]
+
+DEFAULT_TEMPLATE = "runs-template.csv"
+DEFAULT_NOISE_RUNS = 20
+
+
+@dataclass(frozen=True)
+class PlanResult:
+    """The floor plan, the run sheet written and the warnings."""
+
+    floor_plan: FloorPlan
+    sheet: Path
+    warnings: tuple[str, ...] = ()
+
+    def as_dict(self) -> dict:
+        return self.floor_plan.as_dict() | {"template": str(self.sheet)}
+
+
+def _holds_measurements(path: Path) -> bool:
+    """True if ``path`` is a run sheet with at least one measured value filled in (or a file
+    that is not a run sheet at all: never overwrite what we do not recognise)."""
+    try:
+        table = read_table(path, text=read_text(path))
+    except InputError:
+        return path.stat().st_size > 0
+    measured = [c for c in ("x_m", "y_m", "theta_deg", "radius_m") if table.has(c)]
+    if not measured:
+        return True
+    return any(f[table.index(c)] != "" for _, f in table.rows for c in measured)
+
+
+def plan(
+    robot: RobotSpec = None,
+    *,
+    params=None,
+    sides: int = 4,
+    side_m: float = 4.0,
+    runs_per_direction: int | None = None,
+    noise_track: tuple[str, float] | None = None,
+    out: str | Path = DEFAULT_TEMPLATE,
+    force: bool = False,
+) -> PlanResult:
+    """Build the floor protocol and write the blank run sheet ``out``.
+
+    A blank run sheet (e.g. from an earlier ``plan``) is replaced; one that already holds a
+    measured value, or a file that is not a run sheet, is not, unless ``force``."""
+    out = Path(out)
+    outputs = OutputPlan(input_paths(robot, params))
+    outputs.file(out, "--out")
+    if out.is_file() and _holds_measurements(out) and not force:
+        raise InputError(
+            "already holds measured runs: plan will not overwrite a filled-in run sheet; choose "
+            "another --out name (or --force to replace it)",
+            out,
+        )
+    r = resolve_robot(robot, params)
+    n = runs_per_direction or (DEFAULT_NOISE_RUNS if noise_track else 5)
+    fp = build_plan(
+        r,
+        sides=sides,
+        side_m=side_m,
+        runs_per_direction=n,
+        noise_track=noise_track,
+        runs_path=str(out),
+        robot_arg=str(robot) if isinstance(robot, (str, Path)) else DEFAULT_ROBOT,
+    )
+    warnings = []
+    c = fp.calibration
+    if c is not None and not math.isfinite(c.post_error_mean_m):
+        warnings.append(
+            f"no calibration prediction: the heading-error method is undefined for a "
+            f"{side_m:g} m side (too short to resolve E_d)"
+        )
+    outputs.commit({out: fp.template_csv()})
+    return PlanResult(fp, out, tuple(warnings))

@@ -1,0 +1,210 @@
+"""The simulated comparison: every method on one simulated robot, over seeded Monte-Carlo trials.
+
+See :mod:`odocal.comparison.methods` for the registry and the budget. Validation: with each trial's
+calibrated parameters, the robot drives the validation track (the 4 m square CCW by default) once,
+with noise; we report its final position error, and the same run without noise (the systematic
+residual the calibration left).
+"""
+
+from __future__ import annotations
+
+import zlib
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.model import NonSystematicError, Robot, WheelGeometry
+from ..core.simulate import (
+    commanded_wheel_angles,
+    drive,
+    measure,
+    measure_track,
+    odometric_pose,
+    simulate,
+)
+from ..core.tracks import Track, polygon
+from ..errors import CalibrationError
+from .methods import METHOD_REGISTRY, Budget, GroupData, MethodEntry, RunGroup
+
+__all__ = ["MethodStats", "SimulatedComparison", "compare_simulated", "simulate_group"]
+
+
+@dataclass(frozen=True)
+class MethodStats:
+    """One method's numbers over the trials (errors relative to the TRUE geometry).
+
+    E_b_error = b_cal / b_true - 1; E_d_error = (D_R/D_L)_cal / (D_R/D_L)_true - 1;
+    E_s_error = mean D_cal / mean D_true - 1 (dimensionless). final_error_m: validation final
+    position error (m) per trial; systematic_error_m: the same run without noise.
+    """
+
+    name: str
+    drives: str
+    sizes: dict
+    runs: int
+    travel_m: float
+    footprint_m: float
+    failed: int
+    E_b_error: np.ndarray
+    E_d_error: np.ndarray
+    E_s_error: np.ndarray
+    final_error_m: np.ndarray
+    systematic_error_m: np.ndarray
+
+    def summary(self) -> dict:
+        def ms(v):
+            v = v[np.isfinite(v)]
+            if len(v) == 0:
+                return {"bias": None, "std": None}
+            return {"bias": float(v.mean()), "std": float(v.std(ddof=1)) if len(v) > 1 else None}
+
+        def dist(v):
+            v = v[np.isfinite(v)]
+            if len(v) == 0:
+                return {"mean": None, "std": None, "p95": None}
+            return {
+                "mean": float(v.mean()),
+                "std": float(v.std(ddof=1)) if len(v) > 1 else None,
+                "p95": float(np.quantile(v, 0.95)),
+            }
+
+        return {
+            "name": self.name,
+            "drives": self.drives,
+            "sizes": {k: float(v) for k, v in self.sizes.items()},
+            "runs": self.runs,
+            "travel_m": self.travel_m,
+            "footprint_m": self.footprint_m,
+            "failed_trials": self.failed,
+            "E_b_error": ms(self.E_b_error),
+            "E_d_error": ms(self.E_d_error),
+            "E_s_error": ms(self.E_s_error),
+            "final_error_m": dist(self.final_error_m),
+            "systematic_final_error_m": dist(self.systematic_error_m),
+        }
+
+
+@dataclass(frozen=True)
+class SimulatedComparison:
+    robot: Robot
+    trials: int
+    seed: int
+    budget_runs: int
+    budget_travel_m: float
+    validation: str
+    nominal_final_error_m: np.ndarray
+    nominal_systematic_error_m: float
+    methods: tuple[MethodStats, ...]
+
+
+def _method_rng(seed: int, name: str) -> np.random.Generator:
+    # One stream per (seed, method name): adding a method to the registry changes no other's draws.
+    return np.random.default_rng([seed, zlib.crc32(name.encode())])
+
+
+def simulate_group(
+    group: RunGroup, robot: Robot, trials: int, rng: np.random.Generator, max_step_m: float
+) -> GroupData:
+    """Simulated measurements of ``group`` over ``trials`` trials (see :class:`GroupData`)."""
+    n = trials * group.runs
+    if not group.points:
+        res = simulate(group.track, robot, n, rng, max_step_m=max_step_m)
+        errors = measure(res.errors, robot, rng).reshape(trials, group.runs, 3)
+        return GroupData(group, errors + np.asarray(odometric_pose(group.track)), errors)
+    # Fixed increments per segment, so that the encoder readings are known at every sample.
+    steps, angles = commanded_wheel_angles(group.track, robot.believed_geometry, max_step_m)
+    res = simulate(group.track, robot, n, rng, steps_per_segment=steps, trajectory=True)
+    errors = measure(res.errors, robot, rng).reshape(trials, group.runs, 3)
+    final = errors + np.asarray(odometric_pose(group.track))
+    k = res.trajectory.shape[1]
+    idx = np.unique(np.r_[np.arange(0, k, max(1, k // 200)), k - 1])  # ~200 tracker samples
+    traj = measure_track(res.trajectory[:, idx, :], robot, rng)
+    traj = traj.reshape(trials, group.runs, len(idx), 3)
+    return GroupData(group, final, errors, traj[..., :2], traj, angles[idx])
+
+
+def _validate(robot: Robot, geometry: WheelGeometry, track: Track, rng, max_step_m: float):
+    m = np.size(geometry.wheelbase_m)
+    noisy = simulate(track, robot.with_believed(geometry), m, rng, max_step_m=max_step_m)
+    clean = drive(
+        track, robot.true_geometry, geometry, NonSystematicError(), m, None, max_step_m=max_step_m
+    )
+    return np.hypot(*noisy.errors[:, :2].T), np.hypot(*clean.errors[:, :2].T)
+
+
+def compare_simulated(
+    robot: Robot,
+    trials: int = 200,
+    seed: int = 0,
+    budget: Budget | None = None,
+    validation: Track | None = None,
+    methods: list[MethodEntry] | None = None,
+    max_step_m: float = 0.01,
+) -> SimulatedComparison:
+    """Run every method in ``methods`` (default :data:`METHOD_REGISTRY`) on ``robot`` over
+    ``trials`` Monte-Carlo trials (vectorised) and validate each trial's calibration on
+    ``validation`` (default: the 4 m square CCW). Seeded: the same arguments give the same
+    numbers."""
+    if trials < 2:
+        raise CalibrationError(f"trials must be >= 2, got {trials}")
+    budget = budget or Budget()
+    validation = validation or polygon(4, 4.0, "ccw")
+    methods = METHOD_REGISTRY if methods is None else methods
+    ran_with = robot.believed_geometry
+    true = robot.true_geometry
+    b_hat = float(np.mean(ran_with.wheelbase_m))
+    stats = []
+    for entry in methods:
+        rng = _method_rng(seed, entry.name)
+        groups = entry.plan(budget, robot)
+        data = {g.label: simulate_group(g, robot, trials, rng, max_step_m) for g in groups}
+        est = entry.estimate(data, ran_with)
+        d_r, d_l, b = (np.broadcast_to(np.asarray(v, float), (trials,)) for v in est)
+        ok = np.isfinite(d_r) & np.isfinite(d_l) & np.isfinite(b) & (d_r > 0) & (d_l > 0) & (b > 0)
+        fin = np.full(trials, np.nan)
+        sysf = np.full(trials, np.nan)
+        if ok.any():
+            geom = WheelGeometry(d_r[ok], d_l[ok], b[ok])
+            fin[ok], sysf[ok] = _validate(robot, geom, validation, rng, max_step_m)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            e_b = np.where(ok, b / true.wheelbase_m - 1.0, np.nan)
+            e_d = np.where(ok, (d_r / d_l) / true.diameter_ratio - 1.0, np.nan)
+            e_s = np.where(ok, 0.5 * (d_r + d_l) / true.mean_diameter_m - 1.0, np.nan)
+        sizes = {}
+        for g in groups:
+            sizes.update(g.size)
+        stats.append(
+            MethodStats(
+                entry.name,
+                entry.drives,
+                sizes,
+                sum(g.runs for g in groups),
+                sum(g.runs * g.track.mean_wheel_travel_m(b_hat) for g in groups),
+                max(g.track.footprint_m() for g in groups),
+                int((~ok).sum()),
+                e_b,
+                e_d,
+                e_s,
+                fin,
+                sysf,
+            )
+        )
+    rng = _method_rng(seed, "nominal")
+    nominal = WheelGeometry(
+        *(
+            np.full(trials, float(np.mean(v)))
+            for v in (ran_with.diameter_right_m, ran_with.diameter_left_m, ran_with.wheelbase_m)
+        )
+    )
+    nom, nom_sys = _validate(robot, nominal, validation, rng, max_step_m)
+    return SimulatedComparison(
+        robot,
+        trials,
+        seed,
+        budget.runs,
+        budget.total_travel_m(robot),
+        validation.name,
+        nom,
+        float(nom_sys[0]),
+        tuple(stats),
+    )

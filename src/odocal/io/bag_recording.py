@@ -1,0 +1,250 @@
+"""One run from a ROS bag: wheel angles, ground truth in the start frame, gyro heading.
+
+Reads the series with :mod:`odocal.io.bags`; checks the wheel joints' signs against the ground
+truth; integrates the gyro with :func:`odocal.calibration.gyro.gyro_heading`. Every problem is an
+:class:`~odocal.errors.InputError` naming the bag and the topic.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..calibration.gyro import gyro_heading
+from ..core.model import WheelGeometry
+from ..core.pose import start_frame
+from ..core.recording import Recording
+from ..errors import CalibrationError, InputError
+from .bags import (
+    BASE_FRAMES,
+    IMU,
+    JOINT_STATE,
+    ODOMETRY,
+    POSE_TYPES,
+    TopicSeries,
+    check_bag_path,
+    imu_series,
+    joint_series,
+    list_topics,
+    pick_topic,
+    pose_series,
+    read_bag,
+    static_rotation,
+)
+
+__all__ = ["load_bag_recording"]
+
+
+def _check_wheel_signs(time_s, right, left, gt, path, topic, names) -> list[str]:
+    """Detect a mirrored wheel joint or swapped left/right joints against the ground truth.
+
+    Increments over about 0.5 s. On straight stretches (the ground truth moves but does not
+    turn) both wheels must turn the same way; the one turning against the ground truth's heading
+    is named when that is clear. Where the ground truth turns, right minus left must turn with
+    it. Both checks do not depend on the ground truth's heading offset except the naming.
+    Returns warnings (a ground-truth heading pointing backwards).
+    """
+    if len(time_s) < 3:
+        return []
+    step = max(1, int(round(0.5 / max(float(np.median(np.diff(time_s))), 1e-9))))
+    idx = np.r_[np.arange(0, len(time_s) - 1, step), len(time_s) - 1]
+    th = gt[idx, 2]
+    dx, dy = np.diff(gt[idx, 0]), np.diff(gt[idx, 1])
+    moved = np.hypot(dx, dy)
+    fwd = dx * np.cos(th[:-1]) + dy * np.sin(th[:-1])
+    dth = np.diff(th)
+    dr, dl = np.diff(right[idx]), np.diff(left[idx])
+
+    def corr(a, b):
+        den = math.sqrt(float(np.dot(a, a) * np.dot(b, b)))
+        return float(np.dot(a, b) / den) if den > 0 else 0.0
+
+    rn, ln = names
+    warnings = []
+    # straight stretches: moving (> 1 mm per step) while turning less than 1 mrad per step
+    straight = (moved > 1e-3) & (np.abs(dth) < 1e-3)
+    if float(np.sum(moved[straight])) > 0.2:
+        s_dr, s_dl, s_fwd = dr[straight], dl[straight], fwd[straight]
+        if corr(s_dr, s_dl) < -0.5:
+            cr, cl = corr(s_dr, s_fwd), corr(s_dl, s_fwd)
+            which = None
+            if cl < -0.5 < 0.5 < cr:
+                which = ("left", ln)
+            elif cr < -0.5 < 0.5 < cl:
+                which = ("right", rn)
+            if which:
+                side, joint = which
+                what = (
+                    f"the {side} wheel joint '{joint}' turns backwards while the robot drives "
+                    f"straight forward: its axis is mirrored; invert it with the invert_{side} "
+                    f"option (--invert-{side})"
+                )
+            else:
+                what = (
+                    "the wheel joints turn in opposite directions while the robot drives "
+                    "straight: one joint's axis is mirrored; invert it with the invert_right or "
+                    "invert_left option (--invert-right / --invert-left)"
+                )
+            raise InputError(what, path, None, topic)
+        mean = 0.5 * (s_dr + s_dl)
+        if corr(mean, s_fwd) < -0.5:
+            warnings.append(
+                "the ground truth's heading points backwards relative to the wheels' forward "
+                "motion: its body frame may be rotated against the robot's"
+            )
+    if float(np.sum(np.abs(dth))) > math.radians(30):
+        cd = corr(dr - dl, dth)
+        if cd < -0.5:
+            raise InputError(
+                f"the wheels look swapped: right minus left wheel rotation turns opposite to the "
+                f"ground truth (correlation {cd:.2f}); swap the joints (right joint now '{rn}', "
+                f"left '{ln}')",
+                path,
+                None,
+                topic,
+            )
+    return warnings
+
+
+def _gyro_yaw(bag, imu: TopicSeries, t_ref, right, left, imu_axis, base_frames):
+    """Integrated gyro heading (rad) at ``t_ref`` (starting at 0), its facts and warnings.
+
+    Without a geometry, the wheel angles stand in for the odometry (right minus left for the
+    heading, both for standing still)."""
+    rot, parent = static_rotation(bag, imu.frame_id, base_frames) if imu.frame_id else (None, None)
+    source = None
+    if rot is not None and imu_axis is None:
+        same = parent == imu.frame_id
+        source = (
+            "imu frame_id is the base frame" if same else f"tf_static ({parent} -> {imu.frame_id})"
+        )
+    try:
+        h = gyro_heading(
+            imu.time_s,
+            imu.values["angular_velocity"],
+            t_ref,
+            right - left,
+            0.5 * (right + left),
+            rotation=None if imu_axis is not None else rot,
+            imu_axis=imu_axis,
+            mounting_source=source,
+        )
+    except CalibrationError as exc:
+        raise InputError(f"{exc} (--imu-axis)", bag.path, None, imu.topic) from None
+    meta = {
+        "imu_topic": imu.topic,
+        "imu_mounting": h.mounting_source,
+        "imu_yaw_axis": list(h.yaw_axis_in_imu),
+        "gyro_bias_rad_s": h.bias_rad_s,
+        "gyro_bias_source": h.bias_source,
+    }
+    return h.yaw_rad, meta, list(h.warnings)
+
+
+def load_bag_recording(
+    path,
+    *,
+    joint_topic: str | None = None,
+    truth_topic: str | None = None,
+    imu_topic: str | None = None,
+    right_joint: str | None = None,
+    left_joint: str | None = None,
+    ticks_per_rev: float | None = None,
+    invert_right: bool = False,
+    invert_left: bool = False,
+    imu_axis: str | None = None,
+    ran_with: WheelGeometry | None = None,
+) -> Recording:
+    """One run from a bag: wheel angles, ground truth and (optional) gyro heading.
+
+    Topics default to the only topic of the right type (JointState; a pose type, else Odometry
+    for the ground truth; Imu); with several candidates the error lists them. Ground truth and gyro
+    are resampled (linear interpolation) at the wheel-sample times, and wheel samples outside the
+    ground-truth time span are dropped. Ground truth is expressed in the start frame (first pose
+    (0, 0, 0), heading unwrapped). ``ticks_per_rev``: the joint positions are encoder ticks.
+    ``invert_right``/``invert_left`` negate a joint whose axis is mirrored. Times start at 0.
+    """
+    p = check_bag_path(path)
+    info = list_topics(p)
+    jt = pick_topic(info, joint_topic, (JOINT_STATE,), "wheel joints", p, "--joint-topic")
+    gt_topic = truth_topic
+    if gt_topic is None:
+        gt_topic = pick_topic(info, None, POSE_TYPES, "ground truth", p, "--truth-topic", False)
+        if gt_topic is None:
+            gt_topic = pick_topic(
+                info, None, (ODOMETRY,), "ground truth", p, "--truth-topic", False
+            )
+    else:
+        pick_topic(info, gt_topic, (*POSE_TYPES, ODOMETRY), "ground truth", p, "--truth-topic")
+    it = pick_topic(info, imu_topic, (IMU,), "gyro", p, "--imu-topic", required=False)
+    names = {t.name for t in info}
+    topics = (
+        [jt] + [t for t in (gt_topic, it) if t] + (["/tf_static"] if "/tf_static" in names else [])
+    )
+    bag = read_bag(p, topics)
+    joints = joint_series(bag, jt, right_joint, left_joint, ticks_per_rev)
+    t = joints.time_s
+    right = joints.values["right"] * (-1.0 if invert_right else 1.0)
+    left = joints.values["left"] * (-1.0 if invert_left else 1.0)
+    meta = {
+        "bag": str(p),
+        "joint_topic": jt,
+        **joints.meta,
+        "start_time_ns": bag.start_ns,
+    }
+    warnings: list[str] = []
+    gt = None
+    if gt_topic:
+        ps = pose_series(bag, gt_topic)
+        keep = (t >= ps.time_s[0]) & (t <= ps.time_s[-1])
+        if keep.sum() < 2:
+            raise InputError(
+                f"the ground truth ({ps.time_s[0]:.3f} to {ps.time_s[-1]:.3f} s) and the wheel "
+                f"joints ({t[0]:.3f} to {t[-1]:.3f} s) hardly overlap in time",
+                p,
+                None,
+                gt_topic,
+            )
+        if not keep.all():
+            meta["wheel_samples_dropped"] = int((~keep).sum())
+        t, right, left = t[keep], right[keep], left[keep]
+        x = np.interp(t, ps.time_s, ps.values["x"])
+        y = np.interp(t, ps.time_s, ps.values["y"])
+        yaw = np.interp(t, ps.time_s, ps.values["yaw"])
+        gt = start_frame(x, y, yaw)
+        meta["truth_topic"] = gt_topic
+        if bag.msgtype(gt_topic) == ODOMETRY and truth_topic is None:
+            warnings.append(
+                f"ground truth taken from the Odometry topic '{gt_topic}': make sure it is an "
+                "external reference, not the wheel odometry"
+            )
+        warnings += _check_wheel_signs(
+            t,
+            right - right[0],
+            left - left[0],
+            gt,
+            p,
+            jt,
+            (meta["right_joint"], meta["left_joint"]),
+        )
+    right, left = right - right[0], left - left[0]
+    gyro_yaw = None
+    if it:
+        imu = imu_series(bag, it)
+        base = (ps.child_frame_id,) if gt is not None and ps.child_frame_id else ()
+        gyro_yaw, gmeta, gw = _gyro_yaw(bag, imu, t, right, left, imu_axis, base + BASE_FRAMES)
+        meta.update(gmeta)
+        warnings += gw
+    if warnings:
+        meta["warnings"] = warnings
+    return Recording(
+        name=f"{p}:{jt}",
+        time_s=t - t[0],
+        wheel_angle_right_rad=right,
+        wheel_angle_left_rad=left,
+        ground_truth=gt,
+        gyro_yaw_rad=gyro_yaw,
+        ran_with=ran_with,
+        meta=meta,
+    )

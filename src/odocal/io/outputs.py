@@ -1,0 +1,271 @@
+"""The outputs of one command: checked against its inputs before any work, written all or none.
+
+Every command that writes files goes through an :class:`OutputPlan`:
+
+1. ``plan = OutputPlan(inputs)`` with every file or folder the command reads;
+2. ``plan.file(path, "--out")`` / ``plan.folder(path, "--plot")`` for every output, BEFORE the
+   work: an output that is one of the inputs (the same file, also through a link), lies inside an
+   input folder as an existing file, or names the same file as another output is refused with one
+   line; so is an output whose folder cannot exist;
+3. ``plan.commit({path: content})`` AFTER the work: every file is first staged as a temporary file
+   beside its target, then all are renamed into place with SIGINT and SIGTERM held back, so that
+   an interruption or a failure leaves either every output or none (and no temporary file, and
+   no folder the plan created).
+
+Contents are ``str`` (UTF-8 text), ``bytes``, an object with a matplotlib-like
+``savefig(path, format="png")`` (a figure; written as PNG), or a function of no arguments that
+returns one of these (called when its file is staged).
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import tempfile
+from collections.abc import Callable, Iterable, Mapping
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Protocol
+
+from ..errors import InputError
+
+__all__ = ["OutputPlan", "Savable", "Content"]
+
+
+class Savable(Protocol):
+    def savefig(self, fname: Any, *, format: str) -> None: ...  # noqa: A002 - matplotlib's API
+
+
+Content = str | bytes | Savable | Callable[[], "str | bytes | Savable"]
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _same(a: Path, b: Path) -> bool:
+    try:
+        return a.exists() and b.exists() and os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def _within(path: Path, folder: Path) -> bool:
+    try:
+        path.resolve().relative_to(folder.resolve())
+    except ValueError:
+        return False
+    return True
+
+
+@dataclass(frozen=True)
+class _Output:
+    path: Path
+    flag: str
+    is_folder: bool
+
+
+@contextmanager
+def _signals_held():
+    """Hold SIGINT and SIGTERM back (they are delivered when the block ends)."""
+    held = {signal.SIGINT, signal.SIGTERM}
+    try:
+        old = signal.pthread_sigmask(signal.SIG_BLOCK, held)
+    except (AttributeError, ValueError, OSError):  # pragma: no cover - not on this platform
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+class OutputPlan:
+    """The outputs of one command (see the module docstring).
+
+    Parameters
+    ----------
+    inputs : iterable of path-like
+        Every file or folder the command reads (None entries and built-in names that are not
+        paths are ignored when they do not exist).
+    """
+
+    def __init__(self, inputs: Iterable[Any] = ()):
+        self._inputs = [Path(p) for p in inputs if p is not None]
+        self._outputs: list[_Output] = []
+
+    # ------------------------------------------------------------------ planning
+
+    def _check_against_inputs(self, path: Path, flag: str, is_folder: bool) -> None:
+        for src in self._inputs:
+            if not src.exists():
+                continue
+            if _same(path, src):
+                what = "folder" if src.is_dir() else "file"
+                raise InputError(
+                    f"{flag} would overwrite an input {what} of this command; choose another "
+                    "output name",
+                    path,
+                )
+            if src.is_dir() and _within(path, src) and (path.exists() or is_folder):
+                raise InputError(
+                    f"{flag} lies inside the input folder {src}: an output there could replace "
+                    "or mix with the inputs; choose another place",
+                    path,
+                )
+
+    def _check_against_outputs(self, path: Path, flag: str) -> None:
+        for o in self._outputs:
+            if path.resolve() == o.path.resolve() or _same(path, o.path):
+                raise InputError(
+                    f"{flag} names the same file as {o.flag}; give each output its own name", path
+                )
+
+    def file(self, path: Any, flag: str) -> Path:
+        """Register an output file (its folder must exist or be a registered output folder)."""
+        path = Path(path)
+        if str(path) in ("", "."):
+            raise InputError(f"{flag}: an empty output name", path)
+        if path.is_dir():
+            raise InputError(f"{flag}: is a directory, expected an output file name", path)
+        if path.exists() and not path.is_file():
+            # a device, FIFO or socket: renaming a file onto it would replace it
+            raise InputError(
+                f"{flag}: exists and is not a regular file; choose another output name", path
+            )
+        parent = path.parent
+        planned_folder = any(
+            o.is_folder and o.path.resolve() == parent.resolve() for o in self._outputs
+        )
+        if not parent.is_dir() and not planned_folder:
+            raise InputError(f"{flag}: the output folder does not exist", parent)
+        if parent.is_dir() and not os.access(parent, os.W_OK | os.X_OK):
+            raise InputError(f"{flag}: cannot write into this folder (permission denied)", parent)
+        self._check_against_inputs(path, flag, is_folder=False)
+        self._check_against_outputs(path, flag)
+        self._outputs.append(_Output(path, flag, False))
+        return path
+
+    def folder(self, path: Any, flag: str) -> Path:
+        """Register an output folder (created at commit if missing, removed again on failure)."""
+        path = Path(path)
+        if path.exists() and not path.is_dir():
+            raise InputError(f"{flag}: exists and is not a folder", path)
+        if not path.exists():
+            # the nearest existing ancestor must be a writable folder
+            anc = path.parent
+            while not anc.exists() and anc != anc.parent:
+                anc = anc.parent
+            if not anc.is_dir():
+                raise InputError(f"{flag}: cannot create the output folder ({anc} is a file)", path)
+            if not os.access(anc, os.W_OK | os.X_OK):
+                raise InputError(
+                    f"{flag}: cannot create the output folder (permission denied)", path
+                )
+        elif not os.access(path, os.W_OK | os.X_OK):
+            raise InputError(f"{flag}: cannot write into this folder (permission denied)", path)
+        self._check_against_inputs(path, flag, is_folder=True)
+        self._outputs.append(_Output(path, flag, True))
+        return path
+
+    @property
+    def files(self) -> list[Path]:
+        return [o.path for o in self._outputs if not o.is_folder]
+
+    # ------------------------------------------------------------------ writing
+
+    def commit(self, contents: Mapping[Path, Content]) -> list[Path]:
+        """Write every registered file (all of them or none); returns the paths written.
+
+        ``contents`` maps each output file to its content; files inside a registered output
+        folder are registered on the way (their names checked against each other)."""
+        for path in contents:
+            if not any(Path(path) == o.path for o in self._outputs if not o.is_folder):
+                parent = Path(path).parent
+                if not any(
+                    o.is_folder and o.path.resolve() == parent.resolve() for o in self._outputs
+                ):
+                    raise RuntimeError(f"output {path} was not planned")  # a programming error
+                self._check_against_outputs(Path(path), str(path))
+                self._outputs.append(_Output(Path(path), str(path), False))
+        missing = [o.path for o in self._outputs if not o.is_folder and o.path not in contents]
+        if missing:
+            raise RuntimeError(f"no content for the planned output(s) {missing}")
+        created: list[Path] = []
+        staged: list[tuple[Path, Path]] = []
+        try:
+            for o in self._outputs:
+                if o.is_folder and not o.path.is_dir():
+                    created += _make_folder(o.path, o.flag)
+            for path, content in contents.items():
+                try:
+                    staged.append((_stage(Path(path), content), Path(path)))
+                except OSError as exc:
+                    raise InputError(f"cannot write: {exc.strerror or exc}", path) from None
+            mode = 0o666 & ~_umask()
+            with _signals_held():
+                for tmp, path in staged:
+                    try:
+                        os.chmod(tmp, mode)  # mkstemp creates 0600; give the usual mode
+                    except OSError as exc:
+                        raise InputError(f"cannot write: {exc.strerror or exc}", path) from None
+                for tmp, path in staged:
+                    try:
+                        os.replace(tmp, path)
+                    except OSError as exc:  # pragma: no cover - after staging in the same folder
+                        raise InputError(f"cannot write: {exc.strerror or exc}", path) from None
+            staged = []
+            created = []
+        finally:
+            for tmp, _ in staged:
+                tmp.unlink(missing_ok=True)
+            for folder in reversed(created):
+                try:
+                    folder.rmdir()
+                except OSError:
+                    pass
+        return list(contents)
+
+
+def _make_folder(path: Path, flag: str) -> list[Path]:
+    """Create ``path`` and missing parents; return the folders created (outermost first)."""
+    new = []
+    p = path
+    while not p.exists():
+        new.append(p)
+        p = p.parent
+    new.reverse()
+    for p in new:
+        try:
+            p.mkdir()
+        except OSError as exc:
+            for q in reversed(new[: new.index(p)]):
+                q.rmdir()
+            raise InputError(
+                f"{flag}: cannot create the output folder: {exc.strerror}", p
+            ) from None
+    return new
+
+
+def _stage(path: Path, content: Content) -> Path:
+    if callable(content) and not hasattr(content, "savefig"):
+        content = content()  # made only now, so that many figures never sit in memory at once
+    fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    tmp = Path(name)
+    try:
+        if isinstance(content, str):
+            with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
+                fh.write(content)
+        elif isinstance(content, bytes):
+            with os.fdopen(fd, "wb") as fh:
+                fh.write(content)
+        else:
+            os.close(fd)
+            content.savefig(tmp, format="png")
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return tmp
