@@ -1,0 +1,98 @@
+"""The import rule (README, Layout): cli -> app -> {plot, io} -> {comparison, design} ->
+calibration -> core -> errors. Imports flow one way; the math never imports files, plots or the
+command line."""
+
+from __future__ import annotations
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+SRC = Path(__file__).resolve().parents[1] / "src" / "odocal"
+
+# The layers from the top; a layer may import the layers below it, never one above it or a
+# sibling (io and plot; comparison and design). presets (built-in robots) sits just above core;
+# __version__ (the package itself) is everyone's.
+LAYERS = [
+    ("cli",),
+    ("app",),
+    ("plot", "io"),
+    ("comparison", "design"),
+    ("calibration",),
+    ("presets",),
+    ("core",),
+    ("errors",),
+]
+ALLOWED = {
+    name: {below for lower in LAYERS[i + 1 :] for below in lower} | {"__version__"}
+    for i, layer in enumerate(LAYERS)
+    for name in layer
+}
+
+
+def _layer(module: str) -> str | None:
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 and parts[0] == "odocal" else None
+
+
+def test_the_rule_is_the_readme_s():
+    assert ALLOWED["cli"] >= {"app", "io", "core"} and "cli" not in ALLOWED["app"]
+    assert "io" not in ALLOWED["plot"] and "plot" not in ALLOWED["io"]
+    assert "design" not in ALLOWED["comparison"] and "comparison" not in ALLOWED["design"]
+    assert ALLOWED["core"] == {"errors", "__version__"}
+
+
+def _imports(path: Path) -> list[tuple[int, str]]:
+    rel = path.relative_to(SRC.parent).with_suffix("")
+    package = list(rel.parts[:-1]) if rel.name != "__init__" else list(rel.parts[:-1])
+    out = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package[: len(package) - node.level + 1]
+                mod = ".".join(base + ([node.module] if node.module else []))
+                if node.module is None:  # from . import x
+                    out += [(node.lineno, f"{mod}.{a.name}") for a in node.names]
+                    continue
+            else:
+                mod = node.module or ""
+            out.append((node.lineno, mod))
+        elif isinstance(node, ast.Import):
+            out += [(node.lineno, a.name) for a in node.names]
+    return out
+
+
+def test_every_import_follows_the_rule():
+    bad = []
+    for path in sorted(SRC.rglob("*.py")):
+        rel = path.relative_to(SRC)
+        own = rel.parts[0].removesuffix(".py") if len(rel.parts) > 1 else rel.stem
+        if own in ("__init__", "__main__"):
+            continue
+        allowed = ALLOWED[own] | {own}
+        for line, mod in _imports(path):
+            layer = _layer(mod)
+            if layer is not None and layer not in allowed:
+                bad.append(f"{rel}:{line} imports {mod} ({own} may not import {layer})")
+    assert not bad, "\n".join(bad)
+
+
+@pytest.mark.parametrize(
+    "package", ["odocal.core", "odocal.calibration", "odocal.design", "odocal.comparison"]
+)
+def test_the_math_imports_no_files_plots_or_command_line(package):
+    # import every module of the package with the I/O side made unimportable
+    code = f"""
+import sys, pkgutil, importlib
+for name in ("matplotlib", "rosbags", "yaml", "odocal.io", "odocal.cli", "odocal.app",
+             "odocal.plot"):
+    sys.modules[name] = None
+pkg = importlib.import_module("{package}")
+for m in pkgutil.iter_modules(pkg.__path__):
+    importlib.import_module("{package}." + m.name)
+"""
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
