@@ -24,6 +24,10 @@ from odocal.design.analytic import (
     analytic_design,
     analytic_reference,
     norm_stats,
+)
+from odocal.design.metrics import (
+    leg_heading_noise_rad,
+    leg_heading_systematic_rad,
     systematic_share,
 )
 from odocal.presets import PRESETS
@@ -142,7 +146,10 @@ def test_candidate_attributes_and_noise_free_exactness():
 
 def test_systematic_share_reproduces_the_papers_91_percent():
     # model.md: share = beta^2 / (beta^2 + sigma_theta^2 / n) is ~91 % at L = 4 m (Fig. 4)
-    share, beta, sigma = systematic_share(PRESETS["paper-fig3"], 4.0, 5)
+    robot = PRESETS["paper-fig3"]
+    beta = leg_heading_systematic_rad(robot, 4.0)
+    sigma = leg_heading_noise_rad(robot, 4.0)
+    share = systematic_share(beta, sigma, 5)
     assert share == pytest.approx(0.91, abs=0.005)
     b_true = 0.385 * 1.025
     assert beta == pytest.approx(2 * 4.0 * (0.999 - 1) / (1.999 * b_true), rel=1e-9)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -15,6 +14,7 @@ from odocal.core.model import MeasurementNoise, NonSystematicError
 from odocal.core.simulate import drive
 from odocal.core.tracks import straight_line
 from odocal.design import (
+    Candidate,
     SimulationSettings,
     ValidationTrack,
     design_json,
@@ -75,8 +75,9 @@ def test_leg_heading_metrics_match_the_simulator():
 
 
 def cand(side, mean, std=0.01, n=800, sides=4):
-    """A candidate with only the contract fields (as an analytic design would produce)."""
-    return SimpleNamespace(
+    """A candidate with only the required fields (the optional ones NaN, as a source that does
+    not compute them leaves them)."""
+    return Candidate(
         sides=sides, side_m=side, travel_m=sides * side, systematic_share=0.9,
         post_error_mean_m=mean, post_error_std_m=std, post_error_ci95_m=(0.0, 1.0),
         E_b_mean=1.0, E_b_std=0.0, E_d_mean=1.0, E_d_std=0.0, trials=n,
@@ -142,9 +143,10 @@ def test_rule_neighbour_table_is_laid_out_like_the_papers_tables():
 
 
 def test_rule_on_the_residual_criterion():
-    cs = [cand(1, 0.30), cand(2, 0.30), cand(3, 0.30)]
-    for c, r in zip(cs, [0.05, 0.03, 0.03], strict=True):
-        c.residual_error_mean_m, c.residual_error_std_m = r, 0.01
+    cs = [
+        replace(cand(side, 0.30), residual_error_mean_m=r, residual_error_std_m=0.01)
+        for side, r in zip((1, 2, 3), [0.05, 0.03, 0.03], strict=True)
+    ]
     assert recommend(cs).index == 0
     rec = recommend(cs, criterion="residual")
     assert rec.index == 1 and rec.criterion == "residual"
@@ -338,8 +340,9 @@ def test_cli_design_plot_into_a_file_fails_cleanly(cli, tmp_path):
     cli("design", "--trials", "5", "--side-lengths", "1", "--plot", f).expect_error("file")
 
 
-def test_report_json_and_plots_work_from_contract_fields_only(tmp_path, capsys):
-    """Candidates from another source (e.g. an analytic design) carry only the shared fields."""
+def test_report_json_and_plots_work_from_required_fields_only(tmp_path, capsys):
+    """Candidates whose optional statistics are missing (NaN) still give a report, JSON and
+    figures."""
     from odocal.cli.design import print_design
     from odocal.design import DesignResult, ErrorSummary
     from odocal.plot.design import design_figures

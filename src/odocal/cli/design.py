@@ -268,8 +268,8 @@ def print_design(result, robot: str, seed: int | None = None) -> None:
                 _f(c.side_m, "g"),
                 _f(c.travel_m, "g"),
                 _f(100 * c.systematic_share, ".1f"),
-                _f(math.degrees(getattr(c, "leg_heading_systematic_rad", math.nan)), ".3f"),
-                _f(math.degrees(getattr(c, "leg_heading_noise_rad", math.nan)), ".3f"),
+                _f(math.degrees(c.leg_heading_systematic_rad), ".3f"),
+                _f(math.degrees(c.leg_heading_noise_rad), ".3f"),
                 _f(c.E_b_mean, ".5f"),
                 _f(c.E_b_std, ".5f"),
                 _f(c.E_d_mean, ".6f"),
@@ -277,7 +277,7 @@ def print_design(result, robot: str, seed: int | None = None) -> None:
                 _f(c.post_error_mean_m, ".4f"),
                 _f(c.post_error_std_m, ".4f"),
                 f"{_f(lo, '.3f')}-{_f(hi, '.3f')}",
-                _f(getattr(c, "residual_error_mean_m", math.nan), ".4f"),
+                _f(c.residual_error_mean_m, ".4f"),
             )
         )
     print_table(rows)
@@ -287,7 +287,7 @@ def print_design(result, robot: str, seed: int | None = None) -> None:
         "  error: final position error on the validation track after calibration (mean, std, "
         "central 95 % of trials); residual: the same without wheel noise"
     )
-    failed = sum(getattr(c, "failed_trials", 0) for c in cands)
+    failed = sum(c.failed_trials for c in cands)
     if failed:
         print(f"  {failed} trial(s) gave no calibration (equations undefined) and are left out")
     print()
@@ -295,7 +295,7 @@ def print_design(result, robot: str, seed: int | None = None) -> None:
     print(
         f"Recommended: {shape_name(r.sides)}, side {r.side_m:g} m ({r.travel_m:g} m travel per "
         f"run): error {r.post_error_mean_m:.4f} m after calibration, residual "
-        f"{_f(getattr(r, 'residual_error_mean_m', math.nan), '.4f')} m "
+        f"{_f(r.residual_error_mean_m, '.4f')} m "
         f"(uncalibrated {result.uncalibrated.mean_m:.4f} m, gain {gain:.4f} m; floor "
         f"{result.floor.mean_m:.4f} m)"
     )

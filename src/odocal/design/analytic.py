@@ -31,7 +31,7 @@ from __future__ import annotations
 import functools
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.special import ndtri
@@ -43,15 +43,15 @@ from ..core.covariance import mean_final_pose, propagate
 from ..core.model import ModelError, Robot, WheelGeometry
 from ..core.simulate import odometric_pose
 from ..core.tracks import Track, polygon
+from .metrics import leg_heading_noise_rad, leg_heading_systematic_rad, systematic_share
+from .result import Candidate
 
 __all__ = [
     "analytic_design_result",
-    "AnalyticCandidate",
     "AnalyticReference",
     "analytic_design",
     "analytic_reference",
     "norm_stats",
-    "systematic_share",
 ]
 
 _SOBOL_LOG2 = 14
@@ -84,63 +84,6 @@ def norm_stats(mean_xy, cov_xy) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.
 
 
 @dataclass(frozen=True)
-class AnalyticCandidate:
-    """Predicted outcome of calibrating on one candidate test track (same attribute names as the
-    Monte-Carlo design's candidates; ``trials`` is None here).
-
-    Attributes
-    ----------
-    sides : int
-    side_m, travel_m : float
-        Side length and total travel N L of the test track (m).
-    systematic_share : float
-        beta^2 / (beta^2 + sigma_theta^2 / n) of one straight leg (model.md).
-    post_error_mean_m, post_error_std_m : float
-        Mean and std of the final position error ||p|| on the validation track after calibration
-        (m).
-    post_error_ci95_m : tuple of float
-        2.5 % and 97.5 % quantiles of ||p|| (m).
-    E_b_mean, E_b_std, E_d_mean, E_d_std : float
-        Calibrated factors relative to the parameters the robot ran with (first order).
-    trials : None
-    leg_heading_systematic_rad, leg_heading_nonsystematic_rad : float
-        beta (signed, rad) and sigma_theta (rad) of one straight leg of a single run (Fig. 3).
-    E_corr : float
-        Correlation of the calibrated E_b and E_d.
-    post_error_mean_xy_m : tuple of float
-        Mean validation position error vector (x, y), the systematic residual (m).
-    post_error_cov_xy_m2 : tuple of tuple of float
-        Its covariance (m^2).
-    residual_error_mean_m, residual_error_std_m : float
-        ||p|| of the same validation drive WITHOUT wheel noise (only the calibrated parameters'
-        spread), as the Monte-Carlo design's residual (m).
-    """
-
-    sides: int
-    side_m: float
-    travel_m: float
-    systematic_share: float
-    post_error_mean_m: float
-    post_error_std_m: float
-    post_error_ci95_m: tuple[float, float]
-    E_b_mean: float
-    E_b_std: float
-    E_d_mean: float
-    E_d_std: float
-    trials: int | None = None
-    leg_heading_systematic_rad: float = math.nan
-    leg_heading_nonsystematic_rad: float = math.nan
-    E_corr: float = math.nan
-    post_error_mean_xy_m: tuple[float, float] = (math.nan, math.nan)
-    post_error_cov_xy_m2: tuple[tuple[float, float], tuple[float, float]] = (
-        (math.nan, math.nan),
-        (math.nan, math.nan),
-    )
-    residual_error_mean_m: float = math.nan
-    residual_error_std_m: float = math.nan
-
-
-@dataclass(frozen=True)
 class AnalyticReference:
     """The validation-track error with the TRUE parameters (the floor calibration can reach) and
     with the parameters the robot runs with before calibration (m)."""
@@ -151,26 +94,6 @@ class AnalyticReference:
     uncalibrated_m: float
     uncalibrated_std_m: float
     uncalibrated_ci95_m: tuple[float, float]
-
-
-def systematic_share(robot: Robot, side_m, runs_per_direction: int):
-    """(share, beta_rad, sigma_theta_rad) of one straight leg of length ``side_m`` (m; array ok).
-
-    beta is the leg's systematic heading change, sigma_theta the std of its noise part in one
-    run; share = beta^2 / (beta^2 + sigma_theta^2 / n) (model.md, Fig. 4).
-    """
-    true, believed = robot.true_geometry, robot.believed_geometry
-    L = np.asarray(side_m, dtype=float)
-    s_r = L * true.diameter_right_m / believed.diameter_right_m
-    s_l = L * true.diameter_left_m / believed.diameter_left_m
-    b = true.wheelbase_m
-    beta = (s_r - s_l) / b
-    k = robot.nonsystematic
-    var = (k.k_r_m * np.abs(s_r) + k.k_l_m * np.abs(s_l)) / b**2
-    total = beta**2 + var / runs_per_direction
-    with np.errstate(invalid="ignore", divide="ignore"):
-        share = np.where(total > 0, beta**2 / np.where(total > 0, total, 1.0), math.nan)
-    return share, beta, np.sqrt(var)
 
 
 def _validation_error(track: Track, true: WheelGeometry, believed: WheelGeometry) -> np.ndarray:
@@ -230,7 +153,7 @@ def analytic_design(
     umbmark_form: str = "mean",
     measured_validation: bool = False,
     steps: int = 64,
-) -> list[AnalyticCandidate]:
+) -> list[Candidate]:
     """First-order prediction of the Monte-Carlo design for every (sides, side length) candidate.
 
     Parameters
@@ -257,7 +180,8 @@ def analytic_design(
 
     Returns
     -------
-    list of AnalyticCandidate, sides-major then side length, in the order given.
+    list of Candidate (``trials`` None: no trials behind them), sides-major then side length,
+    in the order given; ``leg_heading_systematic_rad`` is |beta| as in the Monte-Carlo design.
     """
     n = int(runs_per_direction)
     if n < 1:
@@ -272,8 +196,10 @@ def analytic_design(
         )
     true, ran_with = robot.true_geometry, robot.believed_geometry
     meas = np.diag([robot.measurement.sigma_xy_m**2] * 2 + [robot.measurement.sigma_theta_rad**2])
-    share, beta, sig = systematic_share(robot, L, n)
-    out: list[AnalyticCandidate] = []
+    beta = leg_heading_systematic_rad(robot, L)
+    sig = leg_heading_noise_rad(robot, L)
+    share = systematic_share(beta, sig, n)
+    out: list[Candidate] = []
     for N in sides_list:
         # 1. test runs: mean end-pose errors exactly, covariances by propagation
         z = np.empty((len(L), 6))
@@ -330,7 +256,7 @@ def analytic_design(
             good = bool(ok[i])
             sd = np.sqrt(np.maximum(np.diag(cov_E[i]), 0.0)) if good else np.full(2, math.nan)
             out.append(
-                AnalyticCandidate(
+                Candidate(
                     sides=int(N),
                     side_m=float(side),
                     travel_m=float(N * side),
@@ -343,8 +269,8 @@ def analytic_design(
                     E_d_mean=float(E_d[i]),
                     E_d_std=float(sd[1]),
                     trials=None,
-                    leg_heading_systematic_rad=float(beta[i]),
-                    leg_heading_nonsystematic_rad=float(sig[i]),
+                    leg_heading_systematic_rad=abs(float(beta[i])),
+                    leg_heading_noise_rad=float(sig[i]),
                     E_corr=float(cov_E[i, 0, 1] / (sd[0] * sd[1]))
                     if good and sd[0] > 0 and sd[1] > 0
                     else math.nan,
@@ -384,7 +310,7 @@ def analytic_design_result(
     expected statistics. Candidates carry ``trials``; the simulation settings are None.
     """
     from .recommend import recommend
-    from .result import Candidate, ErrorSummary, ValidationTrack, check_design_inputs
+    from .result import ErrorSummary, ValidationTrack, check_design_inputs
     from .sweep import DesignResult, equal_travel_side_lengths
 
     check_design_inputs(runs_per_direction, trials)
@@ -396,26 +322,7 @@ def analytic_design_result(
     candidates = []
     for N, lengths in equal_travel_side_lengths(np.asarray(side_lengths_m, float), sides).items():
         for a in analytic_design(robot, N, lengths, runs_per_direction, method, track):
-            candidates.append(
-                Candidate(
-                    sides=a.sides,
-                    side_m=a.side_m,
-                    travel_m=a.travel_m,
-                    systematic_share=a.systematic_share,
-                    post_error_mean_m=a.post_error_mean_m,
-                    post_error_std_m=a.post_error_std_m,
-                    post_error_ci95_m=a.post_error_ci95_m,
-                    E_b_mean=a.E_b_mean,
-                    E_b_std=a.E_b_std,
-                    E_d_mean=a.E_d_mean,
-                    E_d_std=a.E_d_std,
-                    trials=trials,
-                    leg_heading_systematic_rad=abs(a.leg_heading_systematic_rad),
-                    leg_heading_noise_rad=a.leg_heading_nonsystematic_rad,
-                    residual_error_mean_m=a.residual_error_mean_m,
-                    residual_error_std_m=a.residual_error_std_m,
-                )
-            )
+            candidates.append(replace(a, trials=trials))
     ref = analytic_reference(robot, track)
     floor = ErrorSummary(ref.floor_m, ref.floor_std_m, ref.floor_ci95_m, trials)
     uncal = ErrorSummary(

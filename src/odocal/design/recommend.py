@@ -152,8 +152,8 @@ class _Residual:
     def __init__(self, c):
         self.sides, self.side_m, self.travel_m = c.sides, c.side_m, c.travel_m
         self.trials = c.trials
-        self.post_error_mean_m = getattr(c, "residual_error_mean_m", math.nan)
-        self.post_error_std_m = getattr(c, "residual_error_std_m", math.nan)
+        self.post_error_mean_m = c.residual_error_mean_m
+        self.post_error_std_m = c.residual_error_std_m
 
 
 def recommend(

@@ -103,8 +103,9 @@ class Candidate:
         Central 95 % interval of that error over the trials (m).
     E_b_mean, E_b_std, E_d_mean, E_d_std : float
         Distribution of the calibrated factors, relative to the parameters the robot ran with.
-    trials : int
-        Number of (successful) Monte-Carlo trials behind the statistics.
+    trials : int or None
+        Number of (successful) Monte-Carlo trials behind the statistics (for an analytic
+        candidate: the trials its t-tests are applied as if, or None).
     leg_heading_systematic_rad, leg_heading_noise_rad : float
         |beta(L)| and sigma_theta(L) of one straight leg (rad; Fig. 3).
     residual_error_mean_m, residual_error_std_m : float
@@ -115,6 +116,12 @@ class Candidate:
         Trials whose calibration equations were undefined (excluded from the statistics).
     post_errors_m : ndarray, shape (trials,), optional
         The per-trial errors (m), when simulated.
+    E_corr : float
+        Correlation of the calibrated E_b and E_d (analytic candidates; NaN otherwise).
+    post_error_mean_xy_m : tuple of float
+        Mean validation position error vector (x, y): the systematic residual (m; analytic).
+    post_error_cov_xy_m2 : tuple of tuple of float
+        Its covariance (m^2; analytic).
     """
 
     sides: int
@@ -128,13 +135,19 @@ class Candidate:
     E_b_std: float
     E_d_mean: float
     E_d_std: float
-    trials: int
+    trials: int | None
     leg_heading_systematic_rad: float = math.nan
     leg_heading_noise_rad: float = math.nan
     residual_error_mean_m: float = math.nan
     residual_error_std_m: float = math.nan
     failed_trials: int = 0
     post_errors_m: np.ndarray | None = field(default=None, repr=False, compare=False)
+    E_corr: float = math.nan
+    post_error_mean_xy_m: tuple[float, float] = (math.nan, math.nan)
+    post_error_cov_xy_m2: tuple[tuple[float, float], tuple[float, float]] = (
+        (math.nan, math.nan),
+        (math.nan, math.nan),
+    )
 
     @property
     def label(self) -> str:

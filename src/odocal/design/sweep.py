@@ -487,14 +487,14 @@ def design_json(result: DesignResult, **extra) -> dict:
                 "E_d_std": rounded(c.E_d_std),
                 "trials": c.trials,
                 "leg_heading_systematic_deg": rounded(
-                    math.degrees(getattr(c, "leg_heading_systematic_rad", math.nan))
+                    math.degrees(c.leg_heading_systematic_rad)
                 ),
                 "leg_heading_noise_deg": rounded(
-                    math.degrees(getattr(c, "leg_heading_noise_rad", math.nan))
+                    math.degrees(c.leg_heading_noise_rad)
                 ),
-                "residual_error_mean_m": rounded(getattr(c, "residual_error_mean_m", math.nan)),
-                "residual_error_std_m": rounded(getattr(c, "residual_error_std_m", math.nan)),
-                "failed_trials": getattr(c, "failed_trials", 0),
+                "residual_error_mean_m": rounded(c.residual_error_mean_m),
+                "residual_error_std_m": rounded(c.residual_error_std_m),
+                "failed_trials": c.failed_trials,
             }
             for c in cands
         ],

@@ -80,7 +80,7 @@ def _design_table(result) -> list[str]:
 
 
 def _precision_section(rep, img) -> list[str]:
-    sweep = getattr(rep, "precision", None)
+    sweep = rep.precision
     if sweep is None:
         return []
     rows = [

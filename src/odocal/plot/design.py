@@ -112,7 +112,7 @@ def post_error_figure(
             xs, mean, yerr=half, fmt="o-", ms=4, capsize=2, color=color,
             label=f"{label}: after calibration (mean, 95 % CI)",
         )  # fmt: skip
-        resid = np.array([getattr(c, "residual_error_mean_m", math.nan) for c in cands])
+        resid = np.array([c.residual_error_mean_m for c in cands])
         if np.any(np.isfinite(resid)):
             ax.plot(
                 xs, resid, ls=":", marker=".", color=color,
@@ -376,7 +376,7 @@ def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
             truth=(r5.E_b, r5.E_d),
         ),
     )
-    if getattr(rep, "precision", None) is not None:
+    if rep.precision is not None:
         files["precision"] = (
             "precision_recommended_size.png",
             precision_figure(
