@@ -144,7 +144,7 @@ def test_rule_neighbour_table_is_laid_out_like_the_papers_tables():
 
 def test_rule_on_the_residual_criterion():
     cs = [
-        replace(cand(side, 0.30), residual_error_mean_m=r, residual_error_std_m=0.01)
+        dataclasses.replace(cand(side, 0.30), residual_error_mean_m=r, residual_error_std_m=0.01)
         for side, r in zip((1, 2, 3), [0.05, 0.03, 0.03], strict=True)
     ]
     assert recommend(cs).index == 0
