@@ -40,12 +40,13 @@ sorted list (f = ``outlier_fraction``, 1 % by default, 4 iterations: at most abo
 round). The final estimate uses the tuples left after the last round.
 
 Covariance: Gauss-Newton, (J^T Sigma^-1 J)^-1 at the solution over the tuples used, Sigma =
-diag(sigma_x^2, sigma_y^2, sigma_theta^2) of the residuals of those tuples (dof-corrected).
-``covariance_paper`` is the authors' version: the same Fisher information with the noise taken as
-the sample standard deviation over the tuples left after the FIRST trimming round, summed over the
-tuples left after one more trimming round than the estimate used (so outliers still inflate its
-noise estimate; on the l90/lmov data it is about 10x wider than the spread between disjoint
-subsets, ours matches that spread).
+diag(sigma_x^2, sigma_y^2, sigma_theta^2), each sigma the larger of the residuals' RMS over the
+tuples used and 1.4826 MAD over all tuples (``_noise_std``). ``covariance_paper`` is the authors'
+version: the same Fisher information with the noise taken as the sample standard deviation over
+the tuples left after the FIRST trimming round, summed over the tuples left after one more
+trimming round than the estimate used. Outliers still inflate that noise estimate: on the l90 and
+lmov data it is 10-20 times wider than the spread between their disjoint subsets; ours is about
+10 times narrower there and consistent with that spread (docs/censi.md).
 """
 
 from __future__ import annotations
@@ -539,9 +540,9 @@ def _noise_std(p, phi_r, phi_l, sm, n_free: int, everything=None) -> np.ndarray:
     RMS residual over the tuples used, with the parameter count spread over the 3 components;
     with ``everything`` = (phi_r, phi_l, sm) of ALL tuples, at least 1.4826 MAD of their
     residuals: trimming removes the tails, so the RMS of the kept tuples is low for Gaussian noise
-    (about 15 % with the default rule), while the MAD of all tuples is consistent for Gaussian
+    (5-15 % with the default rule), while the MAD of all tuples is consistent for Gaussian
     inliers and robust to the outliers; on the authors' heavier-tailed real data the two agree
-    within 5 %.
+    within 7 %.
     """
     e = _residual(p, phi_r, phi_l, sm)
     dof = max(len(e) - n_free / 3.0, 1.0)
