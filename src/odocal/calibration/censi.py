@@ -110,8 +110,9 @@ class SensorOdometryFit:
     closed_form : ndarray, shape (6,)
         The closed-form (linear) estimate on the same tuples, ``PARAMETERS`` order.
     noise_std : ndarray, shape (3,)
-        Standard deviation of the residual predicted - measured sensor motion over the tuples
-        used (x_m, y_m, theta_rad).
+        Noise standard deviation of the sensor motion (x_m, y_m, theta_rad) used for the weights
+        and the covariance: the larger of the residuals' RMS over the tuples used and 1.4826 MAD
+        over all tuples.
     tuples_total, tuples_used : int
     dropped_indices : tuple of int
         0-based indices (into the input arrays) of the tuples dropped as outliers, ascending.
@@ -652,11 +653,13 @@ def fit_censi(
     """
     r, l_, sm = _as_inputs(phi_right_rad, phi_left_rad, sensor_motion)
     fixed = _as_pose(sensor_pose)
-    if isinstance(outlier_iterations, bool) or int(outlier_iterations) != outlier_iterations:
+    if isinstance(outlier_iterations, bool) or not isinstance(outlier_iterations, int | np.integer):
         raise ModelError(f"outlier_iterations must be an integer, got {outlier_iterations!r}")
     if not 0 <= outlier_iterations <= 100:
         raise ModelError(f"outlier_iterations must be in 0..100, got {outlier_iterations}")
-    if not 0.0 <= float(outlier_fraction) < 0.5:
+    if not isinstance(outlier_fraction, int | float | np.floating) or not (
+        0.0 <= float(outlier_fraction) < 0.5
+    ):
         raise ModelError(f"outlier_fraction must be in [0, 0.5), got {outlier_fraction!r}")
     outlier_iterations = int(outlier_iterations)
     outlier_fraction = float(outlier_fraction)
