@@ -27,7 +27,8 @@ Why not a library: pytransform3d's ``TemporalTransformManager`` is the closest, 
 matplotlib and lxml as hard dependencies (odocal's core depends on numpy, scipy and pyyaml only),
 interpolates by screw motion (ScLERP) instead of tf2's linear translation + slerp, has no
 extrapolation tolerance (it either raises or clips), and neither reports the chain used nor
-enforces the one-parent tree. The buffer here is about 300 lines on ``scipy.spatial.transform``.
+enforces the one-parent tree. The buffer here is a few hundred lines on
+``scipy.spatial.transform``.
 
 Planar helpers (SE(2)), for a robot on the floor: :func:`planar_pose` projects 3D transforms to
 (x_m, y_m, yaw_rad); :func:`se2_relative` gives the motion of pose b seen from pose a (in a's
@@ -324,7 +325,8 @@ class Lookup:
         return (self.parent, *(s.to for s in self.steps))
 
     def describe(self) -> str:
-        """The chain as text, e.g. 'map -> odom -> base_link (odom -> base_link interpolated)'."""
+        """The chain as text: 'map -> odom -> base_link (dynamic: map -> odom, odom -> base_link)'
+        names the frames walked and the edges interpolated in time."""
         dyn = [s.edge for s in self.steps if not s.static]
         path = " -> ".join(self.chain)
         return f"{path} (dynamic: {', '.join(dyn)})" if dyn else f"{path} (all static)"
@@ -532,7 +534,9 @@ class TransformBuffer:
             )
         e.finish()
         t = e.time_s.copy()
-        return _readonly(t), RigidTransforms._trusted(e.translation_m.copy(), e.quaternion_xyzw)
+        return _readonly(t), RigidTransforms._trusted(
+            e.translation_m.copy(), e.quaternion_xyzw.copy()
+        )
 
     def _check_known(self, frame: str) -> None:
         if frame not in self._parent and frame not in self._parent.values():
