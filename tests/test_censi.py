@@ -23,9 +23,8 @@ from odocal.calibration.censi import (
     predict_sensor_motion,
     relative_motion,
 )
-from odocal.calibration.result import CalibrationError
 from odocal.core.model import ModelError, WheelGeometry
-from odocal.errors import InputError
+from odocal.errors import CalibrationError, InputError
 from odocal.io.tuples import MAX_LINE_BYTES, read_tuples
 
 # A Khepera-like robot (the authors' real robot) with a sensor mounted off-centre and rotated, as

@@ -16,12 +16,11 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from odocal.calibration.result import CalibrationError
 from odocal.calibration.slam import SlamLimits, slam_relative_motions
 from odocal.core.model import WheelGeometry
 from odocal.core.odometry import dead_reckon
 from odocal.core.transforms import TransformBuffer, se2_compose, se2_inverse, se2_relative
-from odocal.errors import InputError, ModelError
+from odocal.errors import CalibrationError, InputError, ModelError
 
 D = 0.10  # wheel diameter (m), true and believed
 B_TRUE = 0.30  # true wheelbase (m)

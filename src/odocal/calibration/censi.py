@@ -57,8 +57,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from ..core.model import ModelError, WheelGeometry
-from .linear import check_physical
-from .result import CalibrationError
+from ..errors import CalibrationError
+from .result import check_physical
 
 __all__ = [
     "PARAMETERS",

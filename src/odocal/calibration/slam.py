@@ -58,8 +58,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.transforms import se2_compose, se2_inverse, se2_relative
-from ..errors import InputError, ModelError
-from .result import CalibrationError
+from ..errors import CalibrationError, InputError, ModelError
 
 __all__ = [
     "SlamLimits",
