@@ -139,5 +139,5 @@ def fit_circle(points, algebraic: str = "pratt", geometric: bool = True, iterati
         raise ModelError("the points do not determine a circle (collinear or coincident?)")
     out = (xc + c[..., 0, 0], yc + c[..., 0, 1], r, rms)
     if p.ndim == 2:
-        out = tuple(float(v) for v in out)
+        return CircleFit(*(float(v) for v in out))
     return CircleFit(*out)

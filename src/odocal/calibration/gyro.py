@@ -117,6 +117,10 @@ def rotation_from_rpy(roll_rad: float, pitch_rad: float, yaw_rad: float) -> np.n
     return rz @ ry @ rx
 
 
+def _vec3(v) -> tuple[float, float, float]:
+    return (float(v[0]), float(v[1]), float(v[2]))
+
+
 def integrate_rate(time_s, rate) -> np.ndarray:
     """Cumulative trapezoid integral of ``rate`` (shape (K,)) over ``time_s`` (s), starting at 0."""
     t = np.asarray(time_s, dtype=float)
@@ -432,7 +436,7 @@ def gyro_heading(
     yaw = np.interp(t, t_i, integrate_rate(t_i, rate - applied))
     return GyroHeading(
         yaw - yaw[0],
-        tuple(float(c) for c in n),
+        _vec3(n),
         source,
         float(applied),
         bias_source,
@@ -592,7 +596,7 @@ def gyro_calibration(
         rotation_ratio_uncorrected=float(ratio_raw),
         rotation_ratio_bias_corrected=None if ratio_corr is None else float(ratio_corr),
         rotation_ratio_stderr=None if ratio_se is None else float(ratio_se),
-        yaw_axis_in_imu=tuple(float(c) for c in n),
+        yaw_axis_in_imu=_vec3(n),
         axis=axis,
         mounting_source=source,
         axis_correlation=corr,

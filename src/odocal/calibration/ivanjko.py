@@ -190,9 +190,9 @@ def ivanjko_result(fit: IvanjkoFit, ran_with: WheelGeometry, **inputs) -> Calibr
     corrected geometry is the fitted one (absolute scale included, reported as ``E_s``)."""
     g = fit.geometry.take(0) if np.ndim(fit.geometry.wheelbase_m) else fit.geometry
     g = WheelGeometry(float(g.diameter_right_m), float(g.diameter_left_m), float(g.wheelbase_m))
-    E_b = g.wheelbase_m / float(ran_with.wheelbase_m)
-    E_d = g.diameter_ratio / float(ran_with.diameter_ratio)
-    E_s = g.mean_diameter_m / float(ran_with.mean_diameter_m)
+    E_b = float(g.wheelbase_m) / float(ran_with.wheelbase_m)
+    E_d = float(g.diameter_ratio) / float(ran_with.diameter_ratio)
+    E_s = float(g.mean_diameter_m) / float(ran_with.mean_diameter_m)
     if not (E_b > 0 and E_d > 0 and E_s > 0):
         raise CalibrationError(f"ivanjko: non-physical result {g}")
     return CalibrationResult(

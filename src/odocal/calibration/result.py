@@ -152,7 +152,11 @@ def check_physical(values, nominal: WheelGeometry | None, method: str) -> list[s
         for name, v, n in zip(
             _KEYS,
             (d_r, d_l, b),
-            (nominal.diameter_right_m, nominal.diameter_left_m, nominal.wheelbase_m),
+            (
+                float(nominal.diameter_right_m),
+                float(nominal.diameter_left_m),
+                float(nominal.wheelbase_m),
+            ),
             strict=True,
         ):
             if abs(v / n - 1) > 0.25:

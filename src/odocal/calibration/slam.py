@@ -121,7 +121,7 @@ class SlamLimits:
             "min_rotation_rad",
         ):
             v = getattr(self, name)
-            if not (isinstance(v, numbers.Real) and math.isfinite(v) and v >= 0):
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
                 raise ModelError(f"{name} must be a finite number >= 0, got {v!r}")
         v = self.max_interval_s
         if not (isinstance(v, numbers.Real) and math.isfinite(v) and v > 0):
@@ -169,9 +169,8 @@ class DroppedInterval:
     discrepancy: tuple[float, float, float] | None
 
 
-def _readonly(a: np.ndarray | None) -> np.ndarray | None:
-    if a is not None:
-        a.flags.writeable = False
+def _readonly(a: np.ndarray) -> np.ndarray:
+    a.flags.writeable = False
     return a
 
 
@@ -337,6 +336,7 @@ def slam_relative_motions(
         truth = se2_compose(corr, odo)  # yaw = unwrapped correction + unwrapped odometry
         source = corr
     else:
+        assert truth is not None  # checked above: direct mode needs the truth
         truth = _unwrapped(truth)
         odo = None if odo is None else _unwrapped(odo)
         source = truth
@@ -388,6 +388,8 @@ def slam_relative_motions(
     a, b = idx[:-1], idx[1:]
     dt = t[b] - t[a]
     true_motion = se2_relative(truth[a], truth[b], wrap=False)
+    odo_motion: np.ndarray | None
+    disc: np.ndarray | None
     if odo is not None:
         odo_motion = se2_relative(odo[a], odo[b], wrap=False)
         disc = se2_relative(odo_motion, true_motion)

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.model import WheelGeometry
+from ..core.model import WheelGeometry, wheel_factors
 from ..core.odometry import dead_reckon
 from ..core.runs import EndPoseRuns
 from ..errors import CalibrationError
@@ -110,6 +110,8 @@ def fit_recorded_squares(
                 f"{runs[0].name}: the square side length is unknown: give --side-length"
             )
         geo = runs[0].ran_with or ran_with
+        if geo is None:  # recorded_end_errors has refused such runs already
+            raise CalibrationError(f"{runs[0].name}: the parameters the robot ran with are unknown")
         warnings += w
         try:
             if method == "umbmark":
@@ -124,6 +126,7 @@ def fit_recorded_squares(
         if None in counts:
             del counts[None]
         nominal = counts.most_common(1)[0][0]
+    assert nominal is not None
     w = np.array([n for _, n, _, _ in per_set], dtype=float)
     ratio = np.array([res.corrected.diameter_ratio for _, _, res, _ in per_set])
     b_over_d = np.array(
@@ -132,7 +135,8 @@ def fit_recorded_squares(
     e_d = float(np.average(ratio, weights=w))
     k = float(np.average(b_over_d, weights=w))
     d_mean = float(nominal.mean_diameter_m)
-    geometry = WheelGeometry(d_mean * 2 * e_d / (e_d + 1), d_mean * 2 / (e_d + 1), k * d_mean)
+    c_r, c_l = wheel_factors(e_d)
+    geometry = WheelGeometry(d_mean * c_r, d_mean * c_l, k * d_mean)
     data_sets = []
     for key, n, res, ends in per_set:
         data_sets.append(

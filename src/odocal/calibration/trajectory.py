@@ -129,7 +129,7 @@ def _relative(P, i0, i1):
 
 
 def _run_residual(run: _Run, p, kind, w_head) -> np.ndarray:
-    odo = dead_reckon(run.phi_r, run.phi_l, _Geo(*p))
+    odo = dead_reckon(run.phi_r, run.phi_l, WheelGeometry.unchecked(*p))
     if kind == "pose":
         e = run.gt[run.idx] - odo[run.idx]
     else:
@@ -137,15 +137,6 @@ def _run_residual(run: _Run, p, kind, w_head) -> np.ndarray:
     e = e.copy()
     e[:, 2] *= w_head
     return e.ravel()
-
-
-class _Geo:
-    """Unchecked geometry for the optimiser's trial points (WheelGeometry rejects <= 0)."""
-
-    __slots__ = ("diameter_right_m", "diameter_left_m", "wheelbase_m")
-
-    def __init__(self, d_r, d_l, b):
-        self.diameter_right_m, self.diameter_left_m, self.wheelbase_m = d_r, d_l, b
 
 
 def _solve(runs, x0, kind, w_head):

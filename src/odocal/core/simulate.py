@@ -83,6 +83,8 @@ def increments_per_segment(
     ``steps_per_segment`` if given, else enough that no increment exceeds ``max_step_m`` (m)."""
     if steps_per_segment is not None:
         return int(steps_per_segment)
+    if max_step_m is None or not max_step_m > 0:
+        raise ModelError(f"max_step_m must be > 0, got {max_step_m!r}")
     longest = float(np.max(np.maximum(np.abs(s_r), np.abs(s_l))))
     ratio = longest / max_step_m
     if not ratio <= MAX_STEPS_PER_SEGMENT:  # also catches inf/NaN (an absurd length or step)
@@ -162,18 +164,19 @@ def drive(
             "track or a larger maximum step"
         )
     pose = np.zeros((runs, 3))
-    pieces = [pose[:, None, :].copy()] if trajectory else None
+    pieces: list[np.ndarray] = [pose[:, None, :].copy()]
+    draw = rng.standard_normal if rng is not None else None
     for s_r, s_l, n in travel:
         chunk = max(1, _MAX_ELEMENTS // n)
-        seg_traj = np.empty((runs, n, 3)) if trajectory else None
+        seg_traj = np.empty((runs, n, 3) if trajectory else (0, 0, 3))
         for lo in range(0, runs, chunk):
             hi = min(runs, lo + chunk)
             dr = np.repeat((s_r[lo:hi] / n)[:, None], n, axis=1)
             dl = np.repeat((s_l[lo:hi] / n)[:, None], n, axis=1)
-            if noise.k_r_m > 0:
-                dr = dr + np.sqrt(noise.k_r_m * np.abs(dr)) * rng.standard_normal(dr.shape)
-            if noise.k_l_m > 0:
-                dl = dl + np.sqrt(noise.k_l_m * np.abs(dl)) * rng.standard_normal(dl.shape)
+            if noise.k_r_m > 0 and draw is not None:
+                dr = dr + np.sqrt(noise.k_r_m * np.abs(dr)) * draw(dr.shape)
+            if noise.k_l_m > 0 and draw is not None:
+                dl = dl + np.sqrt(noise.k_l_m * np.abs(dl)) * draw(dl.shape)
             ds = 0.5 * (dr + dl)
             dth = (dr - dl) / b_true[lo:hi, None]
             theta_after = pose[lo:hi, 2:3] + np.cumsum(dth, axis=1)
@@ -191,7 +194,7 @@ def drive(
             pose[lo:hi, 2] = theta_after[:, -1]
         if trajectory:
             pieces.append(seg_traj)
-    traj = np.concatenate(pieces, axis=1) if trajectory else None
+    traj = np.concatenate(pieces, axis=1) if trajectory else None  # noqa: the first piece
     return SimulationResult(pose, odometric_pose(track), traj)
 
 

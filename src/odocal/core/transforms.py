@@ -373,21 +373,23 @@ class _Edge:
     def at(self, time_s: np.ndarray, tol: float, max_gap: float | None, name: str, query: str):
         """Translations (n, 3) and Rotation (n) at ``time_s``; InputError outside the data."""
         self.finish()
+        rot = self.rotation
+        assert rot is not None  # set by finish()
         n = len(time_s)
         if self.static:
-            return np.repeat(self.translation_m, n, axis=0), self.rotation[np.zeros(n, dtype=int)]
+            return np.repeat(self.translation_m, n, axis=0), rot[np.zeros(n, dtype=int)]
         t = self.time_s
         lo, hi = t[0] - tol, t[-1] + tol
         out = (time_s < lo) | (time_s > hi)
         if np.any(out):
-            i = int(np.flatnonzero(out)[0])
+            first = int(np.flatnonzero(out)[0])
             raise InputError(
-                f"cannot look up '{query}' at t = {time_s[i]:.6f} s: edge '{name}' has data from "
-                f"{t[0]:.6f} to {t[-1]:.6f} s (tolerance {tol:g} s); {int(out.sum())} of {n} "
+                f"cannot look up '{query}' at t = {time_s[first]:.6f} s: edge '{name}' has data "
+                f"from {t[0]:.6f} to {t[-1]:.6f} s (tolerance {tol:g} s); {int(out.sum())} of {n} "
                 "query times are outside"
             )
         if len(t) == 1:
-            return np.repeat(self.translation_m, n, axis=0), self.rotation[np.zeros(n, dtype=int)]
+            return np.repeat(self.translation_m, n, axis=0), rot[np.zeros(n, dtype=int)]
         i = np.clip(np.searchsorted(t, time_s, side="right") - 1, 0, len(t) - 2)
         w = np.clip((time_s - t[i]) / (t[i + 1] - t[i]), 0.0, 1.0)  # hold beyond the ends
         if max_gap is not None:
@@ -402,8 +404,8 @@ class _Edge:
                     f"{gap[k]:.3f} s, more than max_gap_s = {max_gap:g} s)"
                 )
         tr = (1.0 - w)[:, None] * self.translation_m[i] + w[:, None] * self.translation_m[i + 1]
-        r0 = self.rotation[i]
-        delta = (r0.inv() * self.rotation[i + 1]).as_rotvec()  # angle <= pi: the shorter arc
+        r0 = rot[i]
+        delta = (r0.inv() * rot[i + 1]).as_rotvec()  # angle <= pi: the shorter arc
         return tr, r0 * Rotation.from_rotvec(w[:, None] * delta)
 
 

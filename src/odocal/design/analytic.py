@@ -188,7 +188,7 @@ def analytic_design(
         raise ModelError(f"runs_per_direction must be >= 1, got {runs_per_direction!r}")
     if validate_track is None:
         validate_track = polygon(4, 4.0, "ccw")
-    sides_list = [sides] if np.ndim(sides) == 0 else list(sides)
+    sides_list = [int(sides)] if isinstance(sides, (int, np.integer)) else [int(s) for s in sides]
     L = np.atleast_1d(np.asarray(side_lengths_m, dtype=float))
     if L.ndim != 1 or not np.all(np.isfinite(L) & (L > 0)):
         raise ModelError(

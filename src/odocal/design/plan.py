@@ -13,6 +13,8 @@ from ..core.covariance import PosePrediction, predict
 from ..core.model import Robot
 from ..core.tracks import Track, out_and_back, polygon, straight_line
 from ..errors import ModelError
+from .analytic import AnalyticReference, analytic_design, analytic_reference
+from .result import Candidate
 
 __all__ = ["FloorPlan", "build_plan"]
 
@@ -34,7 +36,7 @@ class FloorPlan:
         The protocol, one step per item.
     next_command : str
         The odocal command that reads the filled-in RUNS.csv.
-    calibration, reference : AnalyticCandidate, AnalyticReference or None
+    calibration, reference : Candidate, AnalyticReference or None
         For polygons: the analytic design's prediction of the heading-error calibration from
         these runs and of the error on the paper's 4 m CCW validation square (with the true
         parameters: the floor; uncalibrated).
@@ -46,8 +48,8 @@ class FloorPlan:
     predictions: dict[str, PosePrediction]
     steps: tuple[str, ...]
     next_command: str
-    calibration: object | None = None
-    reference: object | None = None
+    calibration: Candidate | None = None
+    reference: AnalyticReference | None = None
 
     def template_csv(self) -> str:
         """Blank RUNS.csv: comment lines, header, one row per run with the direction filled in."""
@@ -72,6 +74,7 @@ class FloorPlan:
         extra = {}
         if self.calibration is not None:
             c, r = self.calibration, self.reference
+            assert r is not None
             extra["calibration_prediction"] = {
                 "method": "heading",
                 "E_b_mean": num(c.E_b_mean),
@@ -155,6 +158,8 @@ def build_plan(
             f"runs per direction must be 1 .. {MAX_PLAN_RUNS} (runs a person drives), got {n}"
         )
     if noise_track is None:
+        if sides is None or side_m is None:
+            raise ModelError("a polygon plan needs the number of sides and the side length")
         tracks: dict[str, Track] = {d: polygon(sides, side_m, d) for d in ("cw", "ccw")}
         order = tuple(("cw", "ccw")[i % 2] for i in range(2 * n))
         shape = {3: "triangle", 4: "square"}.get(sides, f"regular {sides}-gon")
@@ -163,7 +168,7 @@ def build_plan(
             f"{shape}, {sides} sides of {side_m:g} m ({sides * side_m:g} m travel), "
             f"{n} CW + {n} CCW runs"
         )
-        steps = (
+        steps: tuple[str, ...] = (
             _START,
             f"Free floor: the {shape} lies to the right of the start line for CW runs (y < 0) "
             f"and to its left for CCW runs (y > 0); keep about {side_m:g} m x {side_m:g} m clear "
@@ -228,8 +233,7 @@ def build_plan(
     predictions = {lab: predict(t, robot, max_step_m=0.02) for lab, t in tracks.items()}
     calibration = reference = None
     if kind == "polygon":
-        from .analytic import analytic_design, analytic_reference
-
+        assert sides is not None and side_m is not None
         validate = polygon(4, 4.0, "ccw")
         calibration = analytic_design(robot, sides, [side_m], n, "heading", validate)[0]
         reference = analytic_reference(robot, validate)

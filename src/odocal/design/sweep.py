@@ -104,7 +104,8 @@ class SimulationSettings:
     def describe(self) -> str:
         if self.steps_per_segment is not None:
             return f"{self.steps_per_segment} {self.integration} increments per segment"
-        return f"increments of at most {self.max_step_m * 100:g} cm, {self.integration} update"
+        step = float(self.max_step_m or 0.0)
+        return f"increments of at most {step * 100:g} cm, {self.integration} update"
 
 
 @dataclass(frozen=True)
