@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 import yaml
 
-from odocal.calibration.linear import fit_linear
+from odocal.calibration.linear import fit_linear, linear_geometry_trials
 from odocal.calibration.squares import fit_recorded_squares
-from odocal.calibration.trajectory import fit_trajectory
+from odocal.calibration.trajectory import fit_trajectory, fit_trajectory_trials
 from odocal.core.model import SystematicError, WheelGeometry
 from odocal.core.odometry import dead_reckon
 from odocal.core.recording import Recording
@@ -145,6 +145,34 @@ def test_trajectory_noise_stderr_and_outlier():
     np.testing.assert_allclose(values(excluded.geometry), values(dropped.geometry), rtol=1e-9)
     with pytest.raises(CalibrationError, match="matches no run"):
         fit_trajectory(runs, nominal=NOMINAL, exclude=["nope"])
+
+
+def test_batched_fits_of_many_trials_match_the_fits_of_each_trial():
+    # Two groups of runs that share their wheel angles (as the simulated comparison's runs do),
+    # 3 trials x 2 runs each, 3 mm / 0.3 deg white noise on the ground truth.
+    rng = np.random.default_rng(3)
+    tracks = (square("cw") + [("arc", 1.0, 2.0)], square("ccw") + [("arc", 1.5, -1.0)])
+    base = [make_run(f"g{i}", t) for i, t in enumerate(tracks)]
+    angles = [np.column_stack([r.wheel_angle_right_rad, r.wheel_angle_left_rad]) for r in base]
+    sigma = np.array([3e-3, 3e-3, 5e-3])
+    truth = [r.ground_truth + sigma * rng.standard_normal((3, 2, len(r.time_s), 3)) for r in base]
+    batched = fit_trajectory_trials(angles, truth, NOMINAL)
+    lin = linear_geometry_trials([a for a in angles for _ in range(2)],
+                                 np.concatenate([t[:, :, -1] for t in truth], axis=1))  # fmt: skip
+    for m in range(3):
+        recs = [
+            Recording(f"{i}-{j}", r.time_s, *angles[i].T, truth[i][m, j])
+            for i, r in enumerate(base)
+            for j in range(2)
+        ]
+        # the same minimum from the same start (scipy stops when the cost changes by less than
+        # 1e-12 relative, which pins the parameters to about 1e-9)
+        single = fit_trajectory(recs, NOMINAL, nominal=NOMINAL).geometry
+        np.testing.assert_allclose(batched[m], values(single), rtol=1e-8)
+        np.testing.assert_allclose(lin[m], values(fit_linear(recs).geometry), rtol=1e-10)
+    # noise free: exact
+    exact = fit_trajectory_trials(angles, [r.ground_truth[None, None] for r in base], NOMINAL)
+    np.testing.assert_allclose(exact[0], values(TRUE), rtol=1e-10)
 
 
 def test_swapped_wheels_are_reported():

@@ -29,57 +29,111 @@ from ..core.model import WheelGeometry
 from ..errors import CalibrationError
 from .result import GeometryFit, check_physical, stderr_dict
 
-__all__ = ["fit_linear", "linear_coefficients"]
+__all__ = ["fit_linear", "linear_coefficients", "coefficients_trials", "linear_geometry_trials"]
+
+
+def _rank_ok(A) -> np.ndarray:
+    """Full column rank per matrix of ``A`` (..., n, p), with numpy.linalg.matrix_rank's
+    tolerance (largest singular value x max(n, p) x machine epsilon)."""
+    sv = np.linalg.svd(A, compute_uv=False)
+    tol = sv[..., :1] * max(A.shape[-2:]) * np.finfo(float).eps
+    return np.all(sv > tol, axis=-1)
 
 
 def _lstsq(A, y):
-    """Solution and covariance (residual-variance scaled; None if no redundancy)."""
-    x, *_ = np.linalg.lstsq(A, y, rcond=None)
-    dof = len(y) - A.shape[1]
+    """Least squares per trial: ``A`` (M, n, p), ``y`` (M, n) -> solution (M, p) and covariance
+    (M, p, p; residual-variance scaled; None without redundancy). Full column rank assumed
+    (rank-deficient trials give non-finite values)."""
+    q, r = np.linalg.qr(A)
+    x = np.linalg.solve(r, np.einsum("mnp,mn->mp", q, y)[..., None])[..., 0]
+    dof = A.shape[1] - A.shape[2]
     cov = None
     if dof > 0:
-        s2 = float(np.sum((y - A @ x) ** 2)) / dof
-        cov = s2 * np.linalg.inv(A.T @ A)
+        s2 = np.sum((y - np.einsum("mnp,mp->mn", A, x)) ** 2, axis=1) / dof
+        r_inv = np.linalg.inv(r)
+        cov = s2[:, None, None] * (r_inv @ np.swapaxes(r_inv, 1, 2))
     return x, cov
+
+
+def coefficients_trials(angles, finals):
+    """The two steps of the module docstring for many trials at once.
+
+    ``angles``: per run, its cumulative wheel angles (right, left; rad), shape (K_j, 2),
+    starting at 0 and the same in every trial; ``finals``: the runs' true final poses (x_m, y_m,
+    theta_rad, unwrapped; start frame) per trial, shape (M, runs, 3).
+
+    Returns (c1, c2, cov1, cov2, ok1, ok2, cond): c1 = (c_R1, c_L1) and c2 = (c_R2, c_L2) of shape
+    (M, 2), their covariances (M, 2, 2) (None without redundancy), whether step 1 (the same
+    matrix in every trial) and step 2 (per trial, shape (M,)) have full rank, and cond(Phi^T
+    Phi) of step 1. Where a step is rank-deficient its values are not meaningful.
+    """
+    finals = np.asarray(finals, dtype=float)
+    trials = finals.shape[0]
+    phi = np.array([[a[-1, 0], a[-1, 1]] for a in angles], dtype=float)
+    ok1 = len(angles) >= 2 and bool(_rank_ok(phi[None])[0])
+    cond = float(np.linalg.cond(phi.T @ phi))
+    if not ok1:
+        nan = np.full((trials, 2), np.nan)
+        return nan, nan, None, None, False, np.zeros(trials, bool), cond
+    c2, cov2 = _lstsq(np.broadcast_to(phi, (trials, *phi.shape)), finals[:, :, 2])
+    rows = np.empty((trials, 2 * len(angles), 2))
+    done: dict[int, np.ndarray] = {}  # runs that share their wheel angles share their rows
+    for j, a in enumerate(angles):
+        if id(a) not in done:
+            dr = np.diff(a[:, 0])
+            dl = np.diff(a[:, 1])
+            dth = c2[:, 0:1] * dr + c2[:, 1:2] * dl
+            before = np.zeros_like(dth)  # the heading before each increment
+            before[:, 1:] = np.cumsum(dth, axis=1)[:, :-1]
+            m = before + 0.5 * dth
+            cm, sm = np.cos(m), np.sin(m)
+            done[id(a)] = np.stack([cm @ dr, cm @ dl, sm @ dr, sm @ dl], axis=1).reshape(-1, 2, 2)
+        rows[:, 2 * j : 2 * j + 2] = done[id(a)]
+    ok2 = _rank_ok(rows)
+    safe = np.where(ok2[:, None, None], rows, np.eye(2 * len(angles), 2))
+    c1, cov1 = _lstsq(safe, finals[:, :, :2].reshape(trials, -1))
+    return c1, c2, cov1, cov2, ok1, ok2, cond
 
 
 def linear_coefficients(recordings):
     """(c_R1, c_L1, c_R2, c_L2), their covariances (2x2 each or None) and cond(Phi^T Phi) of
     step 1. ``recordings`` need ground truth."""
-    phi = np.array([[r.wheel_angle_right_rad[-1], r.wheel_angle_left_rad[-1]] for r in recordings])
-    dtheta = np.array([r.ground_truth[-1, 2] for r in recordings])
-    if len(recordings) < 2 or np.linalg.matrix_rank(phi) < 2:
+    angles = [
+        np.column_stack([r.wheel_angle_right_rad, r.wheel_angle_left_rad]) for r in recordings
+    ]
+    finals = np.array([[r.ground_truth[-1] for r in recordings]], dtype=float)
+    c1, c2, cov1, cov2, ok1, ok2, cond = coefficients_trials(angles, finals)
+    if not ok1:
         raise CalibrationError(
             "linear: the heading step needs at least two runs with independent wheel rotations "
             "(e.g. CW and CCW turns, or a turn and a straight line)"
         )
-    cond = float(np.linalg.cond(phi.T @ phi))
-    c2, cov2 = _lstsq(phi, dtheta)
-    rows, rhs = [], []
-    for r in recordings:
-        dr = np.diff(r.wheel_angle_right_rad)
-        dl = np.diff(r.wheel_angle_left_rad)
-        dth = c2[0] * dr + c2[1] * dl
-        theta = np.concatenate([[0.0], np.cumsum(dth)])
-        m = theta[:-1] + 0.5 * dth
-        cm, sm = np.cos(m), np.sin(m)
-        rows += [[dr @ cm, dl @ cm], [dr @ sm, dl @ sm]]
-        rhs += [r.ground_truth[-1, 0], r.ground_truth[-1, 1]]
-    A = np.array(rows)
-    if np.linalg.matrix_rank(A) < 2:
+    if not ok2[0]:
         raise CalibrationError(
             "linear: the position step needs runs that drive different wheel travels"
         )
-    c1, cov1 = _lstsq(A, np.array(rhs))
-    return c1, c2, cov1, cov2, cond
+    first = (lambda c: None) if cov1 is None else (lambda c: c[0])
+    return c1[0], c2[0], first(cov1), None if cov2 is None else cov2[0], cond
 
 
 def _physical(c):
-    c_r1, c_l1, c_r2, c_l2 = c
+    """(D_R, D_L, b) (m) of the coefficients ``c`` = (c_R1, c_L1, c_R2, c_L2), shape (..., 4)."""
+    c = np.asarray(c, dtype=float)
+    c_r1, c_l1, c_r2, c_l2 = c[..., 0], c[..., 1], c[..., 2], c[..., 3]
     d_r, d_l = 4 * c_r1, 4 * c_l1
     r_r, r_l = d_r / 2, d_l / 2
     inv_b = (r_r * c_r2 - r_l * c_l2) / (r_r**2 + r_l**2)
-    return np.array([d_r, d_l, 1.0 / inv_b])
+    return np.stack([d_r, d_l, 1.0 / inv_b], axis=-1)
+
+
+def linear_geometry_trials(angles, finals) -> np.ndarray:
+    """D_R, D_L, b (m) per trial, shape (M, 3), from the runs of :func:`coefficients_trials`;
+    NaN rows where a step is rank-deficient."""
+    c1, c2, _, _, ok1, ok2, _ = coefficients_trials(angles, finals)
+    with np.errstate(all="ignore"):
+        out = _physical(np.concatenate([c1, c2], axis=1))
+    out[~(ok1 & ok2)] = np.nan
+    return out
 
 
 def fit_linear(recordings, nominal: WheelGeometry | None = None) -> GeometryFit:

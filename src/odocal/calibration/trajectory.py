@@ -1,8 +1,10 @@
 """Trajectory calibration: nonlinear least squares of dead-reckoned runs against ground truth.
 
 Estimates D_R, D_L and b (m), scale included, from any runs with ground truth (squares, lines,
-spins, circles, free paths), with ``scipy.optimize.least_squares`` started from the linear
-estimator (``calibration.linear``).
+spins, circles, free paths), with ``scipy.optimize.least_squares`` started from the nominal
+geometry and from the linear estimator (``calibration.linear``) where that one is informative
+(not on closed tracks, where it is singular). :func:`fit_trajectory_trials` is the 'pose' fit of
+many Monte-Carlo trials at once (exact Jacobian, one batched Levenberg-Marquardt).
 
 Residuals (``residual=``):
 
@@ -75,6 +77,28 @@ def match_runs(names, patterns) -> list[str]:
     return out
 
 
+def _travel(phi_r, phi_l, geometry: WheelGeometry) -> np.ndarray:
+    """Cumulative mean absolute wheel travel (m) at every sample, shape (K,): spins count too."""
+    step = 0.25 * (
+        np.abs(np.diff(phi_r)) * geometry.diameter_right_m
+        + np.abs(np.diff(phi_l)) * geometry.diameter_left_m
+    )
+    return np.concatenate([[0.0], np.cumsum(step)])
+
+
+def _pose_samples(n: int, samples: int) -> np.ndarray:
+    """Indices of the (at most ``samples``) evenly spaced samples of a run of ``n`` samples that
+    the 'pose' residual compares (the start, 0 = 0, is left out)."""
+    return np.unique(np.linspace(1, n - 1, min(samples, n - 1)).round().astype(int))
+
+
+def _block_weight(travel_m: float, count: int, run_weight: str) -> float:
+    """Scale of a run's residual rows: total weight 1 ('equal') or its travel in m ('travel'),
+    however many rows it has."""
+    total = 1.0 if run_weight == "equal" else max(travel_m, 1e-9)
+    return float(np.sqrt(total / count))
+
+
 class _Run:
     """Pre-computed arrays of one run for fast residual evaluation."""
 
@@ -84,22 +108,10 @@ class _Run:
         self.phi_l = np.asarray(rec.wheel_angle_left_rad, dtype=float)
         self.gt = np.asarray(rec.ground_truth, dtype=float)
         n = len(self.gt)
-        # travel = mean absolute wheel travel (m) with the start geometry: spins count too
-        travel = np.concatenate(
-            [
-                [0.0],
-                np.cumsum(
-                    0.25
-                    * (
-                        np.abs(np.diff(self.phi_r)) * start.diameter_right_m
-                        + np.abs(np.diff(self.phi_l)) * start.diameter_left_m
-                    )
-                ),
-            ]
-        )
+        travel = _travel(self.phi_r, self.phi_l, start)
         self.travel_m = float(travel[-1])
         if kind == "pose":
-            self.idx = np.unique(np.linspace(1, n - 1, min(samples, n - 1)).round().astype(int))
+            self.idx = _pose_samples(n, samples)
             count = len(self.idx)
         else:
             if travel[-1] / segment_m > 10 * n:
@@ -114,10 +126,7 @@ class _Run:
             self.i0, self.i1 = marks[:-1], marks[1:]
             self.gt_rel = _relative(self.gt, self.i0, self.i1)
             count = len(self.i0)
-        # a run's block is scaled so that its total weight is 1 ('equal') or its travel in m
-        # ('travel'), however many residual rows it has
-        total = 1.0 if run_weight == "equal" else max(self.travel_m, 1e-9)
-        self.weight = float(np.sqrt(total / count))
+        self.weight = _block_weight(self.travel_m, count, run_weight)
 
 
 def _relative(P, i0, i1):
@@ -145,12 +154,24 @@ def _solve(runs, x0, kind, w_head):
 
     scale = np.abs(np.asarray(x0)) * 1e-2
     with np.errstate(all="ignore"):
-        sol = least_squares(fun, x0, x_scale=scale, method="lm", xtol=1e-12, ftol=1e-12)
+        sol = least_squares(fun, x0, x_scale=scale, method="lm", xtol=1e-12, ftol=1e-12, gtol=1e-15)
     return sol
 
 
 # Largest heading weight (m of residual per rad): 1 km/rad already ignores the positions.
 MAX_HEADING_WEIGHT_M = 1e3
+
+# The linear estimate is a starting point only if its largest relative standard error is below
+# this: it is 0.2-2 % on open arcs and 6-360 % on closed squares, where its position step is
+# singular (calibration.linear).
+MAX_LINEAR_START_STDERR = 0.05
+
+
+def _relative_stderr(fit: GeometryFit) -> float:
+    """Largest standard error of a fit relative to its value (0 when it has none)."""
+    g = fit.geometry.as_dict()
+    rel = [fit.stderr[k] / abs(g[k]) for k in g if fit.stderr.get(k) is not None]
+    return max(rel, default=0.0)
 
 
 def fit_trajectory(
@@ -169,7 +190,9 @@ def fit_trajectory(
 ) -> GeometryFit:
     """Fit (D_R, D_L, b) to the ground truth of ``recordings`` (module docstring).
 
-    start : starting point (default: the linear estimate, else ``nominal``).
+    start : starting point (default: both the linear estimate and ``nominal``, the better fit
+        kept; the linear estimate only where its standard errors are below
+        MAX_LINEAR_START_STDERR of its values, as they are not on closed tracks).
     heading_weight_m : metres of residual per radian of heading error (0 = position only).
     exclude : run names (or file names, or substrings) to leave out.
     """
@@ -199,8 +222,16 @@ def fit_trajectory(
         starts.append(start)
     else:
         try:
-            starts.append(fit_linear(use, nominal).geometry)
-            linear_start = "used"
+            lin = fit_linear(use, nominal)
+            spread = _relative_stderr(lin)
+            if nominal is not None and spread > MAX_LINEAR_START_STDERR:
+                # Closed tracks (squares, circles) leave the linear position step singular: the
+                # estimate is noise (standard errors of 6 % to 360 % on the OptiOdom squares),
+                # a start far away that costs iterations and can end in a wrong minimum.
+                linear_start = f"not used: degenerate (standard error {100 * spread:.0f} %)"
+            else:
+                starts.append(lin.geometry)
+                linear_start = "used"
         except CalibrationError as exc:
             # Closed tracks (squares, spins) leave the linear estimator singular; that is no
             # problem for this fit, which then starts from nominal, so it is recorded, not warned.
@@ -213,15 +244,17 @@ def fit_trajectory(
                 "geometry (--robot)"
             )
 
+    # travel (run weights, segments) is measured with the first start: the informative linear
+    # estimate, else nominal
+    gauge = starts[0]
+
     def fit(rs):
         # every start is tried and the lowest cost kept: the linear estimate is usually best,
         # but it can be far off when the runs' end poses alone condition it badly
         best = None
         for g in starts:
             x0 = np.array([g.diameter_right_m, g.diameter_left_m, g.wheelbase_m], float)
-            runs = [
-                _Run(r, residual, samples_per_run, segment_m, starts[0], run_weight) for r in rs
-            ]
+            runs = [_Run(r, residual, samples_per_run, segment_m, gauge, run_weight) for r in rs]
             sol = _solve(runs, x0, residual, heading_weight_m)
             if np.all(np.isfinite(sol.x)) and np.all(sol.x > 0):
                 if best is None or sol.cost < best[1].cost:
@@ -233,7 +266,7 @@ def fit_trajectory(
     runs, sol = fit(use)
     # outlier statistic: RMS of the SEGMENT residuals whatever residual the fit used, because
     # segments have the same travel in every run, so short and long runs are comparable
-    seg_runs = [_Run(r, "segment", samples_per_run, segment_m, starts[0]) for r in use]
+    seg_runs = [_Run(r, "segment", samples_per_run, segment_m, gauge) for r in use]
     rms = np.array(
         [
             np.sqrt(np.mean(_run_residual(r, sol.x, "segment", heading_weight_m) ** 2))
@@ -294,3 +327,182 @@ def fit_trajectory(
             "linear_start": linear_start,
         },
     )
+
+
+# --- every Monte-Carlo trial at once ------------------------------------------------------------
+
+
+def _dead_reckon_trials(dphi_r, dphi_l, x: np.ndarray, jacobian: bool):
+    """Dead reckoning (the operations of :func:`odocal.core.odometry.dead_reckon`) of one run's
+    wheel-angle increments ``dphi_r``, ``dphi_l`` (rad, shape (K-1,)) with every geometry of
+    ``x`` (shape (M, 3): D_R, D_L, b in m).
+
+    Returns the poses after every increment, shape (3, M, K-1) (x, y, theta), and with
+    ``jacobian`` their exact derivatives with respect to (D_R, D_L, b), shape (3, 3, M, K-1)
+    (parameter, pose component, trial, increment); else None.
+    """
+    d_r, d_l, b = x[:, 0:1], x[:, 1:2], x[:, 2:3]
+    dr = dphi_r * (0.5 * d_r)
+    dl = dphi_l * (0.5 * d_l)
+    ds = 0.5 * (dr + dl)
+    dth = (dr - dl) / b
+    theta = np.cumsum(dth, axis=1)
+    before = np.zeros_like(theta)
+    before[:, 1:] = theta[:, :-1]
+    mid = before + 0.5 * dth
+    c, s = np.cos(mid), np.sin(mid)
+    dsc, dss = ds * c, ds * s
+    poses = np.stack([np.cumsum(dsc, axis=1), np.cumsum(dss, axis=1), theta])
+    if not jacobian:
+        return poses, None
+    # d(ds), d(dtheta) per increment and d(theta before the increment), for D_R, D_L, b
+    inv2b = 0.5 / b
+    phi_r_before = np.concatenate([[0.0], np.cumsum(dphi_r)[:-1]])
+    phi_l_before = np.concatenate([[0.0], np.cumsum(dphi_l)[:-1]])
+    parts = (
+        (0.25 * dphi_r, dphi_r * inv2b, phi_r_before * inv2b),
+        (0.25 * dphi_l, -dphi_l * inv2b, -phi_l_before * inv2b),
+        (None, -dth / b, -before / b),
+    )
+    jac = np.empty((3, 3, *theta.shape))
+    for p, (d_ds, d_dth, d_before) in enumerate(parts):
+        d_mid = d_before + 0.5 * d_dth
+        gx, gy = -dss * d_mid, dsc * d_mid
+        if d_ds is not None:
+            gx += d_ds * c
+            gy += d_ds * s
+        jac[p, 0] = np.cumsum(gx, axis=1)
+        jac[p, 1] = np.cumsum(gy, axis=1)
+        jac[p, 2] = np.cumsum(d_dth, axis=1)
+    return poses, jac
+
+
+class _TrialGroup:
+    """One group of runs with the same wheel angles: increments, samples, weight and the
+    (weighted) mean ground truth at the samples over the group's runs, per trial."""
+
+    def __init__(self, angles, truth, start: WheelGeometry, samples: int, run_weight: str):
+        angles = np.asarray(angles, dtype=float)
+        truth = np.asarray(truth, dtype=float)
+        if angles.ndim != 2 or angles.shape[1] != 2 or len(angles) < 2:
+            raise CalibrationError("wheel angles must have shape (K >= 2, 2)")
+        if truth.ndim != 4 or truth.shape[2:] != (len(angles), 3):
+            raise CalibrationError(
+                f"ground truth must have shape (trials, runs, {len(angles)}, 3), got {truth.shape}"
+            )
+        self.dphi_r = np.diff(angles[:, 0])
+        self.dphi_l = np.diff(angles[:, 1])
+        self.idx = _pose_samples(len(angles), samples)
+        travel = float(_travel(angles[:, 0], angles[:, 1], start)[-1])
+        runs = truth.shape[1]
+        # sum over the runs of w^2 |g_j - o|^2 = runs w^2 |mean g - o|^2 + const
+        self.weight = _block_weight(travel, len(self.idx), run_weight) * np.sqrt(runs)
+        self.truth = np.moveaxis(truth[:, :, self.idx, :].mean(axis=1), -1, 0)  # (3, M, S)
+
+
+def _normal_equations(groups, x, trials, w_head, jacobian=True):
+    """cost (M,), J^T J (M, 3, 3) and J^T r (M, 3) of the weighted pose residuals of the trials
+    ``trials`` at ``x`` (M, 3); r = ground truth - odometry, heading times ``w_head``."""
+    scale = np.array([1.0, 1.0, w_head])[:, None, None]
+    cost = np.zeros(len(x))
+    jtj = np.zeros((len(x), 3, 3))
+    jtr = np.zeros((len(x), 3))
+    for g in groups:
+        poses, jac = _dead_reckon_trials(g.dphi_r, g.dphi_l, x, jacobian)
+        idx = g.idx - 1  # pose after increment k is sample k + 1
+        r = g.weight * scale * (g.truth[:, trials] - poses[:, :, idx])
+        cost += np.einsum("cms,cms->m", r, r)
+        if jacobian:
+            j = -g.weight * scale * jac[:, :, :, idx]
+            jtj += np.einsum("pcms,qcms->mpq", j, j)
+            jtr += np.einsum("pcms,cms->mp", j, r)
+    return cost, jtj, jtr
+
+
+def fit_trajectory_trials(
+    angles,
+    truth,
+    start: WheelGeometry,
+    *,
+    heading_weight_m: float = 0.1,
+    samples_per_run: int = 200,
+    run_weight: str = "travel",
+    max_iterations: int = 100,
+) -> np.ndarray:
+    """The 'pose' fit of :func:`fit_trajectory` for many Monte-Carlo trials at once.
+
+    Parameters
+    ----------
+    angles : sequence of ndarray, shape (K_g, 2)
+        Per group of runs: the cumulative wheel angles (right, left; rad) that every run of the
+        group and every trial shares (the commanded rotations of an open-loop drive).
+    truth : sequence of ndarray, shape (M, R_g, K_g, 3)
+        Per group: the ground-truth poses (x_m, y_m, theta_rad; start frame) of its R_g runs in
+        each of M trials.
+    start : WheelGeometry
+        Scalar geometry every trial starts from (the one the robot ran with), also used to
+        measure the run weights' travel. Never the linear estimate: it is singular on closed
+        tracks (calibration.linear), where it starts far away and can end in a wrong minimum.
+    heading_weight_m, samples_per_run, run_weight
+        As in :func:`fit_trajectory`.
+
+    Returns
+    -------
+    ndarray, shape (M, 3)
+        D_R, D_L, b (m) per trial; NaN rows where a fit did not reach a finite, positive
+        geometry.
+
+    The runs of a group share their dead reckoning, so the sum of their squared residuals is
+    R_g times that of the group's mean trajectory plus a constant: the fit is made to the mean
+    (the same minimum, exactly). The Jacobian is exact (derivatives of the midpoint dead
+    reckoning), and one Levenberg-Marquardt iteration (Marquardt's diagonal scaling) serves all
+    trials at once, each with its own damping; a trial stops when its step is below 1e-12 of its
+    parameters or its cost stops falling (relative 1e-15).
+    """
+    if run_weight not in RUN_WEIGHTS:
+        raise CalibrationError(
+            f"run_weight must be one of {', '.join(RUN_WEIGHTS)}, got {run_weight!r}"
+        )
+    groups = [
+        _TrialGroup(a, t, start, samples_per_run, run_weight)
+        for a, t in zip(angles, truth, strict=True)
+    ]
+    m = groups[0].truth.shape[1]
+    x0 = np.array([start.diameter_right_m, start.diameter_left_m, start.wheelbase_m], float)
+    x = np.tile(x0, (m, 1))
+    everyone = np.arange(m)
+    with np.errstate(all="ignore"):
+        cost, jtj, jtr = _normal_equations(groups, x, everyone, heading_weight_m)
+        damping = np.full(m, 1e-3)
+        active = np.isfinite(cost)
+        for _ in range(max_iterations):
+            trials = np.flatnonzero(active)
+            if trials.size == 0:
+                break
+            a = jtj[trials]
+            diag = np.einsum("mii->mi", a)
+            lhs = a + damping[trials, None, None] * (diag[:, :, None] * np.eye(3))
+            try:
+                step = np.linalg.solve(lhs, -jtr[trials][:, :, None])[:, :, 0]
+            except np.linalg.LinAlgError:
+                step = (np.linalg.pinv(lhs) @ -jtr[trials][:, :, None])[:, :, 0]
+            new = x[trials] + step
+            c_new, a_new, g_new = _normal_equations(groups, new, trials, heading_weight_m)
+            better = np.isfinite(c_new) & (c_new <= cost[trials])
+            took = trials[better]
+            small = np.all(np.abs(step[better]) <= 1e-12 * np.abs(new[better]), axis=1)
+            flat = cost[took] - c_new[better] <= 1e-15 * cost[took]
+            x[took], cost[took], jtj[took], jtr[took] = (
+                new[better],
+                c_new[better],
+                a_new[better],
+                g_new[better],
+            )
+            damping[took] = np.maximum(damping[took] * 0.1, 1e-15)
+            failed = trials[~better]
+            damping[failed] *= 10.0
+            active[took[small | flat]] = False
+            active[failed[damping[failed] > 1e16]] = False
+    bad = ~np.all(np.isfinite(x) & (x > 0), axis=1) | ~np.isfinite(cost)
+    x[bad] = np.nan
+    return x

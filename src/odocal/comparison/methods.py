@@ -36,13 +36,12 @@ from ..calibration.bcpt import bcpt_factors, calibrate_bcpt_recordings
 from ..calibration.circle_fit import fit_circle
 from ..calibration.heading import calibrate_heading, heading_factors
 from ..calibration.ivanjko import calibrate_ivanjko_recordings, ivanjko_from_end_poses
-from ..calibration.linear import fit_linear
+from ..calibration.linear import fit_linear, linear_geometry_trials
 from ..calibration.result import CalibrationResult
-from ..calibration.trajectory import fit_trajectory
+from ..calibration.trajectory import fit_trajectory, fit_trajectory_trials
 from ..calibration.umbmark import calibrate_umbmark, umbmark_factors
 from ..core.model import Robot, WheelGeometry, wheel_factors
 from ..core.odometry import dead_reckon
-from ..core.recording import Recording
 from ..core.runs import EndPoseRuns
 from ..core.stats import circular_mean
 from ..core.tracks import Track, arc, circle, polygon, spot_turn, straight_line
@@ -278,49 +277,31 @@ def _open_arc_plan(budget: Budget, robot: Robot) -> tuple:
     )
 
 
-def _trial_recordings(data: dict, trial: int) -> list:
-    """The tracked runs of one trial as Recordings (encoder angles + tracked ground truth)."""
-    recs = []
-    for label, g in data.items():
-        angles = g.wheel_angles_rad
-        t = np.arange(len(angles), dtype=float)
-        for run in range(g.trajectory.shape[1]):
-            recs.append(
-                Recording(
-                    f"{label}-{run}",
-                    t,
-                    angles[:, 0],
-                    angles[:, 1],
-                    ground_truth=g.trajectory[trial, run],
-                    label=label,
-                )
-            )
-    return recs
-
-
-def _fit_estimate(fit) -> Estimator:
-    """Per-trial estimator from a recording fit ``fit(recordings, nominal) -> GeometryFit``."""
-
-    def estimate(data: dict, ran_with: WheelGeometry) -> GeometryBatch:
-        trials = next(iter(data.values())).trajectory.shape[0]
-        out = np.full((3, trials), np.nan)
-        for m in range(trials):
-            try:
-                g = fit(_trial_recordings(data, m), ran_with).geometry
-            except CalibrationError:
-                continue
-            out[:, m] = g.diameter_right_m, g.diameter_left_m, g.wheelbase_m
-        return GeometryBatch(*out)
-
-    return estimate
-
-
 def _linear_fit(recs, nominal):
     return fit_linear(recs, nominal)
 
 
 def _trajectory_fit(recs, nominal):
     return fit_trajectory(recs, nominal=nominal)
+
+
+def _linear_estimate(data: dict, ran_with: WheelGeometry) -> GeometryBatch:
+    """The linear least squares of every trial at once, from each run's wheel angles and its
+    last tracked pose (calibration.linear.linear_geometry_trials)."""
+    groups = list(data.values())
+    angles = [g.wheel_angles_rad for g in groups for _ in range(g.trajectory.shape[1])]
+    finals = np.concatenate([g.trajectory[:, :, -1, :] for g in groups], axis=1)
+    return GeometryBatch(*linear_geometry_trials(angles, finals).T)
+
+
+def _trajectory_estimate(data: dict, ran_with: WheelGeometry) -> GeometryBatch:
+    """The trajectory fit of every trial at once, started from the parameters the robot ran
+    with (calibration.trajectory.fit_trajectory_trials)."""
+    groups = list(data.values())
+    x = fit_trajectory_trials(
+        [g.wheel_angles_rad for g in groups], [g.trajectory for g in groups], ran_with
+    )
+    return GeometryBatch(*x.T)
 
 
 # --- real data (OptiOdom folders) ------------------------------------------------------------
@@ -439,14 +420,14 @@ METHOD_REGISTRY: list[MethodEntry] = [
         "linear",
         "open arcs r=1 m CW+CCW (tracked, Antonelli least squares)",
         _open_arc_plan,
-        _fit_estimate(_linear_fit),
+        _linear_estimate,
         _real_fit(_linear_fit, ("square", "ivanjko"), pooled=True),
     ),
     MethodEntry(
         "trajectory",
         "square CW+CCW (tracked poses, trajectory fit)",
         _tracked_square_plan,
-        _fit_estimate(_trajectory_fit),
+        _trajectory_estimate,
         _real_fit(_trajectory_fit, ("square",)),
     ),
 ]
