@@ -95,22 +95,25 @@ SLOPPY = Robot(  # k = 1e-3 m per wheel (k_CK = 0.032 m^0.5): very noisy wheels,
 
 
 # 4000 trials: the MC mean of ||p|| has a relative standard error of ~1 % (coefficient of
-# variation ~0.6) and the MC stds ~1.1 % (1/sqrt(2 T)); a 5 % tolerance is > 4 of them.
+# variation ~0.6) and the MC stds 1.1-1.4 % (sqrt((kurtosis - 1) / (4 T)); ||p|| has kurtosis ~4);
+# a 5 % tolerance is > 3.5 of them. The sloppy robot (k = 1e-3 m) is where first order starts
+# to bend: its analytic std of ||p|| lies 3-4 % above the Monte Carlo's (measured over seeds),
+# so it gets that plus the same 3.5 standard errors.
 @pytest.mark.parametrize(
-    ("name", "robot", "sides", "method", "side"),
+    ("name", "robot", "sides", "method", "side", "tolerance"),
     [
-        ("paper-fig5", PRESETS["paper-fig5"], 4, "heading", 0.5),
-        ("paper-fig5", PRESETS["paper-fig5"], 4, "heading", 4.0),
-        ("small-mocap", SMALL, 8, "heading", 1.0),
-        ("tape-umbmark", TAPE, 4, "umbmark", 2.0),
-        ("sloppy", SLOPPY, 4, "heading", 2.0),
+        ("paper-fig5", PRESETS["paper-fig5"], 4, "heading", 0.5, 0.05),
+        ("paper-fig5", PRESETS["paper-fig5"], 4, "heading", 4.0, 0.05),
+        ("small-mocap", SMALL, 8, "heading", 1.0, 0.05),
+        ("tape-umbmark", TAPE, 4, "umbmark", 2.0, 0.05),
+        ("sloppy", SLOPPY, 4, "heading", 2.0, 0.09),
     ],
 )
-def test_within_5_percent_of_monte_carlo(name, robot, sides, method, side):
+def test_within_5_percent_of_monte_carlo(name, robot, sides, method, side, tolerance):
     cand = analytic_design(robot, sides, [side], 5, method, VALIDATE)[0]
     mc = monte_carlo(robot, sides, side, 5, method, trials=4000, seed=1)
     for key, value in mc.items():
-        assert getattr(cand, key) == pytest.approx(value, rel=0.05), (name, key)
+        assert getattr(cand, key) == pytest.approx(value, rel=tolerance), (name, key)
 
 
 def test_first_order_is_worse_for_large_noise_on_a_tiny_track():

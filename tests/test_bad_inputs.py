@@ -148,7 +148,9 @@ def test_undefined_equations_fail_cleanly(cli, realdata):
 
 
 def test_non_physical_ivanjko_result_is_named(cli, tmp_path):
-    robot = write(tmp_path / "r.yaml", ROBOT + "systematic: {E_b: 1.028, E_d: 2}\n")
+    # E_d 1.5 (at E_d 2 the 42 m straights spiral through 70 rad and the iteration is chaotic:
+    # rounding decides between a negative and an absurd positive geometry)
+    robot = write(tmp_path / "r.yaml", ROBOT + "systematic: {E_b: 1.028, E_d: 1.5}\n")
     assert_error(cli("compare", "--robot", robot, "--trials", 2), "ivanjko: non-physical")
 
 

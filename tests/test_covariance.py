@@ -159,8 +159,10 @@ def test_polygons_agree_with_monte_carlo(sides, side, direction):
     pred = predict(track, robot, max_step_m=0.05)
     c = pred.measured_covariance
     s = np.sqrt(np.diag(c))
-    # means: 4 standard errors sigma / sqrt(runs)
-    assert np.all(np.abs(e.mean(axis=0) - pred.error_mean) < 4 * s / math.sqrt(runs))
+    # means: 4 standard errors sigma / sqrt(runs), plus the second-order bias that the first-order
+    # mean leaves out (a heading spread shrinks the mean of cos: e^(-var/2)): up to 0.04 sigma
+    # for this robot on these tracks, measured with 400,000 runs
+    assert np.all(np.abs(e.mean(axis=0) - pred.error_mean) < (4 / math.sqrt(runs) + 0.05) * s)
     # variances: the sample variance has relative standard error sqrt(2 / (runs - 1)) = 2.2 %;
     # 4 of them (9 %) plus ~1 % for the first-order (linearisation) error of the model
     ratio = np.var(e, axis=0, ddof=1) / np.diag(c)

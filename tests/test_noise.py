@@ -109,9 +109,10 @@ def test_k_r_and_k_l_separately_when_the_runs_allow_it(kind, make):
     tol = 4 * est.k_diff_se_m / 2 + 4 * 0.058 * 4e-6 / 2
     assert est.k_r_m == pytest.approx(3e-6, abs=tol)
     assert est.k_l_m == pytest.approx(1e-6, abs=tol)
-    # with few runs the split is refused, with the reason
+    # with few runs the split is refused, with the reason (8 runs: refused for every one of 30
+    # seeds tried; at 15 runs the rule, standard error > 25 % of k_r + k_l, holds for ~90 %)
     few = estimate_k(
-        EndPoseRuns(runs.directions[:15], runs.errors[:15]),
+        EndPoseRuns(runs.directions[:8], runs.errors[:8]),
         kind,
         10.0,
         B,

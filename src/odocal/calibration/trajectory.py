@@ -410,13 +410,19 @@ def _normal_equations(groups, x, trials, w_head, jacobian=True):
     for g in groups:
         poses, jac = _dead_reckon_trials(g.dphi_r, g.dphi_l, x, jacobian)
         idx = g.idx - 1  # pose after increment k is sample k + 1
-        r = g.weight * scale * (g.truth[:, trials] - poses[:, :, idx])
-        cost += np.einsum("cms,cms->m", r, r)
+        r = g.weight * scale * (g.truth[:, trials] - poses[:, :, idx])  # (3, M, S)
+        r = np.moveaxis(r, 1, 0).reshape(len(x), -1)  # (M, 3 S)
+        cost += np.einsum("mn,mn->m", r, r)
         if jacobian:
-            j = -g.weight * scale * jac[:, :, :, idx]
-            jtj += np.einsum("pcms,qcms->mpq", j, j)
-            jtr += np.einsum("pcms,cms->mp", j, r)
+            j = -g.weight * scale * jac[:, :, :, idx]  # (3, 3, M, S)
+            j = np.moveaxis(j, 2, 0).reshape(len(x), 3, -1)  # (M, 3, 3 S)
+            jtj += j @ np.swapaxes(j, 1, 2)
+            jtr += (j @ r[:, :, None])[:, :, 0]
     return cost, jtj, jtr
+
+
+# Relative rounding of the trials' cost (see fit_trajectory_trials).
+_COST_ROUNDING = 1e-10
 
 
 def fit_trajectory_trials(
@@ -456,8 +462,10 @@ def fit_trajectory_trials(
     R_g times that of the group's mean trajectory plus a constant: the fit is made to the mean
     (the same minimum, exactly). The Jacobian is exact (derivatives of the midpoint dead
     reckoning), and one Levenberg-Marquardt iteration (Marquardt's diagonal scaling) serves all
-    trials at once, each with its own damping; a trial stops when its step is below 1e-12 of its
-    parameters or its cost stops falling (relative 1e-15).
+    trials at once, each with its own damping. A step is taken unless it raises the cost by more
+    than its rounding (1e-10 relative, with margin); a trial stops when its step is below 1e-10
+    of its parameters or the reduction its quadratic model still promises is below 1e-12 of its
+    cost.
     """
     if run_weight not in RUN_WEIGHTS:
         raise CalibrationError(
@@ -487,11 +495,19 @@ def fit_trajectory_trials(
             except np.linalg.LinAlgError:
                 step = (np.linalg.pinv(lhs) @ -jtr[trials][:, :, None])[:, :, 0]
             new = x[trials] + step
+            # reduction the local quadratic model predicts for the step
+            g = jtr[trials]
+            predicted = -np.einsum("mi,mi->m", g, step) - 0.5 * np.einsum(
+                "mi,mij,mj->m", step, a, step
+            )
             c_new, a_new, g_new = _normal_equations(groups, new, trials, heading_weight_m)
-            better = np.isfinite(c_new) & (c_new <= cost[trials])
+            # the cost is known to about 1e-12 relative (residuals of millimetres are sums of
+            # hundreds of increments of metres): a step that raises it by less is taken
+            better = np.isfinite(c_new) & (c_new <= cost[trials] * (1.0 + _COST_ROUNDING))
             took = trials[better]
-            small = np.all(np.abs(step[better]) <= 1e-12 * np.abs(new[better]), axis=1)
-            flat = cost[took] - c_new[better] <= 1e-15 * cost[took]
+            done = np.all(np.abs(step[better]) <= 1e-10 * np.abs(new[better]), axis=1) | (
+                predicted[better] <= 1e-2 * _COST_ROUNDING * cost[took]
+            )
             x[took], cost[took], jtj[took], jtr[took] = (
                 new[better],
                 c_new[better],
@@ -501,7 +517,7 @@ def fit_trajectory_trials(
             damping[took] = np.maximum(damping[took] * 0.1, 1e-15)
             failed = trials[~better]
             damping[failed] *= 10.0
-            active[took[small | flat]] = False
+            active[took[done]] = False
             active[failed[damping[failed] > 1e16]] = False
     bad = ~np.all(np.isfinite(x) & (x > 0), axis=1) | ~np.isfinite(cost)
     x[bad] = np.nan

@@ -111,14 +111,15 @@ def simulate_group(
         res = simulate(group.track, robot, n, rng, max_step_m=max_step_m)
         errors = measure(res.errors, robot, rng).reshape(trials, group.runs, 3)
         return GroupData(group, errors + np.asarray(odometric_pose(group.track)), errors)
-    # Fixed increments per segment, so that the encoder readings are known at every sample.
+    # Fixed increments per segment, so that the encoder readings are known at every sample;
+    # the poses are kept at about 200 tracker samples only (the last one included).
     steps, angles = commanded_wheel_angles(group.track, robot.believed_geometry, max_step_m)
-    res = simulate(group.track, robot, n, rng, steps_per_segment=steps, trajectory=True)
+    k = len(angles)
+    idx = np.unique(np.r_[np.arange(0, k, max(1, k // 200)), k - 1])
+    res = simulate(group.track, robot, n, rng, steps_per_segment=steps, trajectory=idx)
     errors = measure(res.errors, robot, rng).reshape(trials, group.runs, 3)
     final = errors + np.asarray(odometric_pose(group.track))
-    k = res.trajectory.shape[1]
-    idx = np.unique(np.r_[np.arange(0, k, max(1, k // 200)), k - 1])  # ~200 tracker samples
-    traj = measure_track(res.trajectory[:, idx, :], robot, rng)
+    traj = measure_track(res.trajectory, robot, rng)
     traj = traj.reshape(trials, group.runs, len(idx), 3)
     return GroupData(group, final, errors, traj[..., :2], traj, angles[idx])
 

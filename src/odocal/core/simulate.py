@@ -5,14 +5,24 @@ rotations with the parameters it BELIEVES; the true wheel travel is that rotatio
 radius, plus Gaussian noise of variance k |ds| per increment; the true pose follows the midpoint
 update (Siegwart eq. 5.6) over increments of at most ``max_step_m`` of wheel travel.
 
-Everything is vectorised over a batch of runs (axis 0) and, within a segment, over its increments
-(axis 1, through cumulative sums), so there is no Python loop per increment. Geometry values and
-segment values may be arrays of shape (runs,): one robot or one track size per run.
+Everything is vectorised over a batch of runs and, within a segment, over its increments
+(through cumulative sums), so there is no Python loop per increment. Geometry values and segment
+values may be arrays of shape (runs,): one robot or one track size per run.
+
+Random streams and threads: the runs are cut into blocks of about 2^18 run-increments, fixed by
+the problem alone (runs and increments, never by the machine). Each block draws its wheel noise
+from its own stream, seeded from two 63-bit integers drawn from the caller's generator and the
+block's number; within a block, segment by segment and a few runs at a time, the right wheel's
+normals are drawn before the left wheel's. The blocks run on as many threads as the process may
+use (``ODOCAL_THREADS`` to choose): the same seed gives the same runs on any number of cores.
 """
 
 from __future__ import annotations
 
 import math
+import os
+from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,9 +41,6 @@ __all__ = [
     "commanded_wheel_angles",
     "increments_per_segment",
 ]
-
-# Work arrays are at most about this many elements (chunks of runs); 2e6 doubles = 16 MB each.
-_MAX_ELEMENTS = 2_000_000
 
 
 @dataclass(frozen=True)
@@ -107,7 +114,7 @@ def drive(
     max_step_m: float | None = 0.01,
     steps_per_segment: int | None = None,
     integration: str = "midpoint",
-    trajectory: bool = False,
+    trajectory: bool | Sequence[int] | np.ndarray = False,
 ) -> SimulationResult:
     """Drive ``track`` ``runs`` times open loop; see the module docstring.
 
@@ -117,6 +124,9 @@ def drive(
         True and believed geometry; values are scalars or arrays of shape (runs,).
     noise : NonSystematicError
         Wheel-travel noise (k in metres). Zero noise needs no ``rng``.
+    runs : int
+    rng : numpy.random.Generator or None
+        Source of the noise (see the module docstring: it seeds one stream per block of runs).
     max_step_m : float
         Largest wheel travel (m) of one increment (default 1 cm, model.md).
     steps_per_segment : int, optional
@@ -124,8 +134,10 @@ def drive(
     integration : {'midpoint', 'exact'}
         'midpoint' is eq. (8); 'exact' integrates each increment as an exact arc, which makes the
         deterministic part exact at any step size (used for fast design sweeps).
-    trajectory : bool
-        Also return the pose after every increment (memory: runs x increments x 3 doubles).
+    trajectory : bool or sequence of int
+        True: also return the pose after every increment (memory: runs x increments x 3
+        doubles); a sorted sequence of increment counts (0 = the start, K = the end): the poses
+        after those increments only.
     """
     if runs < 1:
         raise ModelError(f"runs must be >= 1, got {runs}")
@@ -151,51 +163,203 @@ def drive(
     b_true = batch(true.wheelbase_m)
     b_hat = batch(believed.wheelbase_m)
 
-    travel = []  # true wheel travel over each segment (m), shape (runs,), and its increments
+    segments = []  # true wheel travel over each segment (m), shape (runs,), and its increments
     for seg in track.segments:
         s_hat_r, s_hat_l = seg.wheel_travel(b_hat)
         s_r, s_l = batch(s_hat_r * f_r), batch(s_hat_l * f_l)
-        travel.append((s_r, s_l, increments_per_segment(s_r, s_l, max_step_m, steps_per_segment)))
-    steps = [n for _, _, n in travel]
-    if runs * sum(steps) > MAX_RUN_INCREMENTS:
+        segments.append((s_r, s_l, increments_per_segment(s_r, s_l, max_step_m, steps_per_segment)))
+    total = sum(n for _, _, n in segments)
+    if runs * total > MAX_RUN_INCREMENTS:
         raise ModelError(
-            f"{runs} runs x {sum(steps)} increments is too much work (at most "
+            f"{runs} runs x {total} increments is too much work (at most "
             f"{MAX_RUN_INCREMENTS:.0e} increments in one simulation): use fewer runs, a shorter "
             "track or a larger maximum step"
         )
+    record = _recorded(trajectory, total)
     pose = np.zeros((runs, 3))
-    pieces: list[np.ndarray] = [pose[:, None, :].copy()]
-    draw = rng.standard_normal if rng is not None else None
-    for s_r, s_l, n in travel:
-        chunk = max(1, _MAX_ELEMENTS // n)
-        seg_traj = np.empty((runs, n, 3) if trajectory else (0, 0, 3))
-        for lo in range(0, runs, chunk):
-            hi = min(runs, lo + chunk)
-            dr = np.repeat((s_r[lo:hi] / n)[:, None], n, axis=1)
-            dl = np.repeat((s_l[lo:hi] / n)[:, None], n, axis=1)
-            if noise.k_r_m > 0 and draw is not None:
-                dr = dr + np.sqrt(noise.k_r_m * np.abs(dr)) * draw(dr.shape)
-            if noise.k_l_m > 0 and draw is not None:
-                dl = dl + np.sqrt(noise.k_l_m * np.abs(dl)) * draw(dl.shape)
-            ds = 0.5 * (dr + dl)
-            dth = (dr - dl) / b_true[lo:hi, None]
-            theta_after = pose[lo:hi, 2:3] + np.cumsum(dth, axis=1)
-            mid = theta_after - 0.5 * dth
-            if integration == "exact":
-                ds = ds * np.sinc(dth / (2.0 * math.pi))
-            dx = ds * np.cos(mid)
-            dy = ds * np.sin(mid)
-            if trajectory:
-                seg_traj[lo:hi, :, 0] = pose[lo:hi, 0:1] + np.cumsum(dx, axis=1)
-                seg_traj[lo:hi, :, 1] = pose[lo:hi, 1:2] + np.cumsum(dy, axis=1)
-                seg_traj[lo:hi, :, 2] = theta_after
-            pose[lo:hi, 0] += dx.sum(axis=1)
-            pose[lo:hi, 1] += dy.sum(axis=1)
-            pose[lo:hi, 2] = theta_after[:, -1]
-        if trajectory:
-            pieces.append(seg_traj)
-    traj = np.concatenate(pieces, axis=1) if trajectory else None  # noqa: the first piece
+    traj = None if record is None else np.zeros((runs, len(record), 3))
+    # blocks of runs, each with its own random stream: fixed by the problem alone, so the result
+    # is the same however many threads run them
+    rows = max(1, _BLOCK_INCREMENTS // total)
+    blocks = [(lo, min(runs, lo + rows)) for lo in range(0, runs, rows)]
+    keys = None if noise.is_zero or rng is None else rng.integers(0, 2**63, size=2)
+
+    def run_block(i: int) -> None:
+        lo, hi = blocks[i]
+        stream = None
+        if keys is not None and rng is not None:
+            seed = np.random.SeedSequence([int(keys[0]), int(keys[1]), i])
+            stream = np.random.Generator(type(rng.bit_generator)(seed))
+        _drive_block(
+            [(s_r[lo:hi], s_l[lo:hi], n) for s_r, s_l, n in segments],
+            b_true[lo:hi],
+            noise,
+            stream,
+            integration == "exact",
+            pose[lo:hi],
+            record,
+            None if traj is None else traj[lo:hi],
+        )
+
+    workers = min(len(blocks), _threads())
+    if workers > 1:
+        with ThreadPoolExecutor(workers) as pool:
+            list(pool.map(run_block, range(len(blocks))))
+    else:
+        for i in range(len(blocks)):
+            run_block(i)
     return SimulationResult(pose, odometric_pose(track), traj)
+
+
+# Work of one block of runs (runs x increments) with its own random stream; and the elements of
+# one numpy pass (small enough to stay in the cache). Both fixed: they decide the random stream.
+_BLOCK_INCREMENTS = 1 << 18
+_CHUNK = 1 << 14
+
+
+def _threads() -> int:
+    """Worker threads for the blocks: ODOCAL_THREADS, else the CPUs this process may use."""
+    env = os.environ.get("ODOCAL_THREADS", "")
+    if env.strip().isdigit() and int(env) > 0:
+        return int(env)
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _recorded(trajectory, total: int) -> np.ndarray | None:
+    """The increment counts whose poses are recorded (0 .. total), or None."""
+    if trajectory is True:
+        return np.arange(total + 1)
+    if trajectory is False or trajectory is None:
+        return None
+    idx = np.asarray(trajectory, dtype=int).ravel()
+    if idx.size == 0 or np.any(np.diff(idx) <= 0) or idx[0] < 0 or idx[-1] > total:
+        raise ModelError(
+            f"trajectory samples must be increasing increment counts within 0..{total}"
+        )
+    return idx
+
+
+# Taylor coefficients of cos x, sin(x)/x in powers of x^2: 1/(2k)! and 1/(2k+1)! with signs.
+_COS = np.array([(-1) ** k / math.factorial(2 * k) for k in range(10)])
+_SINC = np.array([(-1) ** k / math.factorial(2 * k + 1) for k in range(10)])
+# Polynomials replace cos, sin and sin(x)/x where every |x| of a pass is at most this.
+_SMALL_ANGLE = 0.25
+
+
+def _terms(largest: float, coefficients: np.ndarray) -> int:
+    """Taylor terms after which the next one is below 2^-60 (relative) for |x| <= largest."""
+    for t in range(1, len(coefficients)):
+        if abs(coefficients[t]) * largest ** (2 * t) < 2.0**-60:
+            return t
+    return len(coefficients)
+
+
+def _series(u: np.ndarray, coefficients: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """sum_k c_k u^k (Horner) into ``out``."""
+    out.fill(coefficients[-1])
+    for c in coefficients[-2::-1]:
+        out *= u
+        out += c
+    return out
+
+
+def _accumulate(x: np.ndarray) -> np.ndarray:
+    """Cumulative sum along axis 0 (increments) of ``x`` (n, m), as a new array: row by row
+    where rows are long and few (numpy's cumsum does not vectorise across rows)."""
+    if len(x) > _ROW_LOOP:
+        return np.cumsum(x, axis=0)
+    out = x.copy()
+    for k in range(1, len(out)):
+        out[k] += out[k - 1]
+    return out
+
+
+# Segments of at most this many increments are accumulated row by row.
+_ROW_LOOP = 32
+
+
+def _drive_block(segments, b_true, noise, rng, exact, pose, record, traj) -> None:
+    """Drive one block of runs (rows of ``pose``, updated in place) through ``segments``.
+
+    Per segment of n increments, runs are taken a few at a time (about _CHUNK increments; arrays
+    of shape (n, runs)); for each such pass the right wheel's normals are drawn, then the left
+    wheel's (where k > 0). Within a segment the heading relative to its start is a cumulative
+    sum, and the displacement is rotated by the start heading th0 once per run:
+    sum_k ds_k (cos, sin)(th0 + m_k) = R(th0) sum_k ds_k (cos m_k, sin m_k), with m_k the
+    increment's mid heading relative to th0. Where every |m_k| of a pass is small (straight
+    legs), cos and sin are Taylor polynomials accurate to the last bit; likewise sin(x)/x of
+    the exact arcs.
+    """
+    start = 0  # increments driven before the segment
+    for s_r, s_l, n in segments:
+        step = max(1, _CHUNK // n)
+        wanted = None
+        if record is not None:
+            inside = (record >= start + 1) & (record <= start + n)
+            if inside.any():
+                wanted = (np.flatnonzero(inside), record[inside] - start - 1)
+        for lo in range(0, len(b_true), step):
+            hi = min(len(b_true), lo + step)
+            m = hi - lo
+            a_r = s_r[lo:hi] / n
+            a_l = s_l[lo:hi] / n
+            dr = np.empty((n, m))
+            dl = np.empty((n, m))
+            dr[:] = a_r
+            dl[:] = a_l
+            if noise.k_r_m > 0 and rng is not None:
+                z = rng.standard_normal((n, m))
+                z *= np.sqrt(noise.k_r_m * np.abs(a_r))
+                dr += z
+            if noise.k_l_m > 0 and rng is not None:
+                z = rng.standard_normal((n, m))
+                z *= np.sqrt(noise.k_l_m * np.abs(a_l))
+                dl += z
+            ds = dr + dl
+            ds *= 0.5
+            dth = dr - dl
+            dth /= b_true[lo:hi]
+            rel = _accumulate(dth)  # heading change after each increment
+            mid = dr  # reuse: the mid heading relative to the segment's start
+            np.multiply(dth, 0.5, out=mid)
+            np.subtract(rel, mid, out=mid)
+            if exact:
+                # chord of the arc: ds sin(dth/2) / (dth/2)
+                half = np.multiply(dth, 0.5, out=dl)
+                largest = float(np.max(np.abs(half)))
+                if largest <= _SMALL_ANGLE:
+                    u = np.multiply(half, half, out=half)
+                    ds *= _series(u, _SINC[: _terms(largest, _SINC)], np.empty_like(u))
+                else:
+                    with np.errstate(invalid="ignore", divide="ignore"):
+                        ds *= np.where(half == 0, 1.0, np.sin(half) / half)
+            largest = float(np.max(np.abs(mid)))
+            if largest <= _SMALL_ANGLE:
+                u = np.multiply(mid, mid, out=dth)
+                cos_m = _series(u, _COS[: _terms(largest, _COS)], np.empty_like(u))
+                sin_m = _series(u, _SINC[: _terms(largest, _SINC)], np.empty_like(u))
+                sin_m *= mid
+            else:
+                cos_m, sin_m = np.cos(mid), np.sin(mid)
+            cos_m *= ds
+            sin_m *= ds
+            x0, y0, th0 = pose[lo:hi, 0], pose[lo:hi, 1], pose[lo:hi, 2]
+            c0, s0 = np.cos(th0), np.sin(th0)
+            if wanted is not None:
+                cols, at = wanted
+                cx = _accumulate(cos_m)[at]
+                cy = _accumulate(sin_m)[at]
+                traj[lo:hi, cols, 0] = (x0 + c0 * cx - s0 * cy).T
+                traj[lo:hi, cols, 1] = (y0 + s0 * cx + c0 * cy).T
+                traj[lo:hi, cols, 2] = (th0 + rel[at]).T
+            sx, sy = cos_m.sum(axis=0), sin_m.sum(axis=0)
+            pose[lo:hi, 0] += c0 * sx - s0 * sy
+            pose[lo:hi, 1] += s0 * sx + c0 * sy
+            pose[lo:hi, 2] += rel[-1]
+        start += n
 
 
 def simulate(

@@ -69,9 +69,12 @@ def _check_wheel_signs(time_s, right, left, gt, path, topic, names) -> list[str]
         if corr(s_dr, s_dl) < -0.5:
             cr, cl = corr(s_dr, s_fwd), corr(s_dl, s_fwd)
             which = None
-            if cl < -0.5 < 0.5 < cr:
+            # which wheel is wrong only if the ground truth's body axis resolves forward (a body
+            # frame turned 90 deg leaves |fwd| at rounding level, whose correlations mean nothing)
+            resolved = float(np.sum(np.abs(s_fwd))) > 0.5 * float(np.sum(moved[straight]))
+            if resolved and cl < -0.5 < 0.5 < cr:
                 which = ("left", ln)
-            elif cr < -0.5 < 0.5 < cl:
+            elif resolved and cr < -0.5 < 0.5 < cl:
                 which = ("right", rn)
             if which:
                 side, joint = which
