@@ -37,7 +37,7 @@ def main() -> None:
     )
     robot = PRESETS["paper-fig5"]
     sizes = np.arange(0.5, 10.01, 0.5)
-    analytic_design(robot, 4, sizes, 5)  # warm up (Sobol sample)
+    analytic_design(robot, 4, sizes, 5)  # warm up (the fixed normal sample)
     for sides in (4, [4, 8]):
         t = time.perf_counter()
         reps = 20

@@ -182,8 +182,8 @@ def _heavy_imports(cmd: list[str], cwd: Path) -> str:
         [cmd[0], "-X", "importtime", *cmd[1:]], cwd=cwd, capture_output=True, text=True
     )
     names = {ln.split("|")[-1].strip() for ln in p.stderr.splitlines() if "|" in ln}
-    heavy = [m for m in ("scipy", "matplotlib", "yaml", "rosbags") if m in names]
-    return ", ".join(heavy) or "numpy only"
+    heavy = [m for m in ("numpy", "scipy", "matplotlib", "yaml", "rosbags") if m in names]
+    return ", ".join(heavy) or "none of numpy, scipy, matplotlib, yaml"
 
 
 def section_startup() -> None:

@@ -161,7 +161,7 @@ def test_systematic_share_reproduces_the_papers_91_percent():
 
 def test_norm_stats_against_the_rayleigh_distribution():
     # p ~ N(0, s^2 I): ||p|| is Rayleigh: mean s sqrt(pi/2), std s sqrt(2 - pi/2),
-    # quantile q at s sqrt(-2 ln(1 - q)). The fixed Sobol sample is accurate to ~1e-4 (mean, std)
+    # quantile q at s sqrt(-2 ln(1 - q)). The fixed sample is accurate to ~1e-4 (mean, std)
     # and ~1e-3 (quantiles).
     s = 0.3
     m, sd, lo, hi = norm_stats(np.zeros(2), s**2 * np.eye(2))

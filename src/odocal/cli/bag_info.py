@@ -8,7 +8,6 @@ from .common import format_topics, print_json
 def add_parser(sub) -> None:
     p = sub.add_parser(
         "bag-info",
-        help="list the topics of a ROS bag",
         description="List the topics (name, message type, count) of a ROS 1 .bag or a ROS 2 "
         "bag (.mcap, .db3 or a rosbag2 folder), to choose --joint-topic, --truth-topic, "
         "--imu-topic and --odom-topic.",

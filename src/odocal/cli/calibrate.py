@@ -17,7 +17,6 @@ from .common import (
 def add_parser(sub) -> None:
     p = sub.add_parser(
         "calibrate",
-        help="calibrate E_b, E_d from RUNS.csv",
         description="Calibrate the wheelbase and wheel-diameter ratio from the measured final "
         "pose errors of CW and CCW runs on a regular N-gon (heading, umbmark), or from the "
         "measured radii of CW and CCW circles of commanded radius R (bcpt).",

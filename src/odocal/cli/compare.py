@@ -3,8 +3,7 @@
 from __future__ import annotations
 
 import math
-
-import numpy as np
+import statistics
 
 from ..presets import DEFAULT_ROBOT
 from .common import (
@@ -20,7 +19,6 @@ from .common import (
 def add_parser(sub) -> None:
     p = sub.add_parser(
         "compare",
-        help="compare calibration methods on one simulated robot (and real OptiOdom runs)",
         description="Run every calibration method (heading, UMBmark x/y/mean, BCPT, Ivanjko, "
         "...) on the same simulated robot with the same budget of runs and driven distance, "
         "over M seeded Monte-Carlo trials; report the bias and spread of the calibrated E_b, "
@@ -203,7 +201,8 @@ def run(args) -> int:
         for (ours, theirs), diffs in agree.items():
             print(
                 f"  {ours} vs published {theirs}: {len(diffs)} data sets, largest parameter "
-                f"difference {1e6 * max(diffs):.1f} um (median {1e6 * float(np.median(diffs)):.1f})"
+                f"difference {1e6 * max(diffs):.1f} um "
+                f"(median {1e6 * statistics.median(diffs):.1f})"
             )
     if png:
         print(f"wrote {png}")

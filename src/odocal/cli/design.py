@@ -4,8 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from .common import (
     MAX_LENGTH_M,
@@ -19,6 +18,9 @@ from .common import (
     sides_int,
     trials_int,
 )
+
+if TYPE_CHECKING:
+    import numpy as np
 
 
 def parse_side_lengths(text: str) -> np.ndarray:
@@ -50,6 +52,8 @@ def parse_side_lengths(text: str) -> np.ndarray:
     count = math.floor((stop - start) / step + 1e-9) + 1
     if count > 1000:
         raise argparse.ArgumentTypeError(f"{count} side lengths is too many (at most 1000)")
+    import numpy as np
+
     lengths = np.round(start + step * np.arange(count), 12)
     if lengths[0] <= 0:  # below the 1e-12 m rounding
         raise argparse.ArgumentTypeError(f"side lengths must be at least 1e-12 m, got {text!r}")
@@ -89,7 +93,6 @@ def parse_validation(text: str):
 def add_parser(sub) -> None:
     p = sub.add_parser(
         "design",
-        help="choose the test-track size (Monte-Carlo, the paper's procedure)",
         description="For each candidate polygon test track, simulate the calibration many times "
         "(n CW + n CCW runs, calibrate, drive a validation track with the result) and recommend "
         "the smallest track that no larger one beats significantly by more than the tolerance. "

@@ -23,7 +23,6 @@ METHODS = ("trajectory", "linear", "umbmark", "heading", "gyro")  # as odocal.ap
 def add_parser(sub) -> None:
     p = sub.add_parser(
         "fit",
-        help="calibrate wheel diameters and wheelbase from recorded runs",
         description="Calibrate D_R, D_L and b from recorded runs: generic run CSVs, OptiOdom "
         "folders (a data set such as square/230620202042, or a category folder such as square/) "
         "or ROS bags. Nominal values come from --robot or from the recordings' metadata.",

@@ -1,42 +1,37 @@
 """The ``odocal`` command: parses arguments, runs one command, turns known errors into one line.
 
 Each command lives in its own module with ``add_parser(subparsers)`` and ``run(args) -> int``.
+Only the module of the command being run is imported (and builds its parser); the others are
+listed by name and one-line help from :data:`COMMANDS`, so ``odocal --help`` and every short
+command start fast.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 
 from .. import __version__
 from ..errors import OdocalError
-from . import (
-    bag_info,
-    calibrate,
-    compare,
-    design,
-    fit,
-    noise,
-    plan,
-    reproduce,
-    simulate,
-    ttest,
-    validate,
-)
 
-COMMANDS = [
-    design,
-    simulate,
-    calibrate,
-    plan,
-    noise,
-    fit,
-    validate,
-    compare,
-    reproduce,
-    ttest,
-    bag_info,
-]
+#: command name -> (module in odocal.cli, the one line of ``odocal --help``)
+COMMANDS: dict[str, tuple[str, str]] = {
+    "design": ("design", "choose the test-track size (Monte-Carlo, the paper's procedure)"),
+    "simulate": ("simulate", "simulate test runs on a polygon track and write RUNS.csv"),
+    "calibrate": ("calibrate", "calibrate E_b, E_d from RUNS.csv"),
+    "plan": ("plan", "floor protocol for calibration runs (or k runs) and a blank RUNS.csv"),
+    "noise": ("noise", "estimate the non-systematic error k_r + k_l from repeated straight runs"),
+    "fit": ("fit", "calibrate wheel diameters and wheelbase from recorded runs"),
+    "validate": ("validate", "compare calibrated and nominal parameters on recorded runs"),
+    "compare": (
+        "compare",
+        "compare calibration methods on one simulated robot (and real OptiOdom runs)",
+    ),
+    "reproduce": ("reproduce", "regenerate the paper's figures and compare with its numbers"),
+    "ttest": ("ttest", "Student and Welch t-tests of two samples (CSV columns)"),
+    "bag-info": ("bag_info", "list the topics of a ROS bag"),
+}
 
 
 class _Parser(argparse.ArgumentParser):
@@ -46,7 +41,19 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"odocal: error: {message} (see '{self.prog} --help')\n")
 
 
-def build_parser() -> argparse.ArgumentParser:
+class _Listed:
+    """The subparsers action as a command module sees it: its parser gets the listing's line."""
+
+    def __init__(self, sub, line: str):
+        self._sub, self._line = sub, line
+
+    def add_parser(self, name: str, **kwargs) -> argparse.ArgumentParser:
+        return self._sub.add_parser(name, help=self._line, **kwargs)
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The parser. The module of ``command`` (of every command when None) adds its own; the
+    others are listed by name and one-line help only."""
     parser = _Parser(
         prog="odocal",
         description="Odometry calibration and test-track design for differential-drive robots.",
@@ -54,13 +61,27 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"odocal {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
-    for module in COMMANDS:
-        module.add_parser(sub)
+    for name, (module, line) in COMMANDS.items():
+        if command is None or name == command:
+            importlib.import_module(f".{module}", __package__).add_parser(_Listed(sub, line))
+        else:
+            sub.add_parser(name, help=line)
     return parser
 
 
+def _command(argv: list[str]) -> str:
+    """The command named in ``argv`` (its first word that is a command), else ''."""
+    for word in argv:
+        if not word.startswith("-"):
+            return word if word in COMMANDS else ""
+        if word in ("-h", "--help", "--version"):
+            return ""
+    return ""
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    args = build_parser(_command(argv) or "").parse_args(argv)
     try:
         return int(args.run(args) or 0)
     except OdocalError as exc:

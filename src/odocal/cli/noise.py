@@ -10,7 +10,6 @@ from .common import add_robot_args, noise_track, print_json, print_table, print_
 def add_parser(sub) -> None:
     p = sub.add_parser(
         "noise",
-        help="estimate the non-systematic error k_r + k_l from repeated straight runs",
         description="Estimate the non-systematic wheel-noise parameters (k in METRES; Chong & "
         "Kleeman's m^0.5 value is the square root) from the final pose errors of repeated "
         "out-and-back or one-way straight runs (RUNS.csv, direction 'fwd'). See "

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from .common import (
     add_robot_args,
     length_m,
@@ -24,7 +22,6 @@ DEFAULT_NOISE_RUNS = 20
 def add_parser(sub) -> None:
     p = sub.add_parser(
         "plan",
-        help="floor protocol for calibration runs (or k runs) and a blank RUNS.csv",
         description="Print the protocol a person follows on the floor: what to drive, in which "
         "order, how to mark the start pose, what to measure and what the model predicts the "
         "end errors will look like; write a blank RUNS.csv to fill in for 'odocal calibrate' "
@@ -71,6 +68,8 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
+    import numpy as np
+
     from ..app.plan import plan as make_plan
 
     res = make_plan(

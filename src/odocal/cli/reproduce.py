@@ -10,7 +10,6 @@ from .common import ProgressBar, seed_int, trials_int
 def add_parser(sub) -> None:
     p = sub.add_parser(
         "reproduce",
-        help="regenerate the paper's figures and compare with its numbers",
         description="Regenerate the paper's simulations from its stated conditions (Figs. 3, 4, "
         "5, 6, 8, 9) and predict its experiment (Tables 1-3); write PNG figures and REPORT.md "
         "(the paper's numbers beside odocal's) into DIR. Needs matplotlib (the 'plot' extra).",

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from .common import (
     add_robot_args,
     add_track_args,
@@ -20,7 +18,6 @@ from .common import (
 def add_parser(sub) -> None:
     p = sub.add_parser(
         "simulate",
-        help="simulate test runs on a polygon track and write RUNS.csv",
         description="Drive a regular N-gon (or a track file) open loop with a simulated robot "
         "and report the final pose errors (actual - odometric). With --out, write them as "
         "RUNS.csv for 'odocal calibrate'.",
@@ -57,6 +54,8 @@ def add_parser(sub) -> None:
 
 
 def _print_prediction(runs, predicted: dict) -> None:
+    import numpy as np
+
     from ..app.simulate import PAIRS
     from ..core.covariance import correlation
 

@@ -8,7 +8,6 @@ from .common import print_json, print_table, print_warnings
 def add_parser(sub) -> None:
     p = sub.add_parser(
         "ttest",
-        help="Student and Welch t-tests of two samples (CSV columns)",
         description="Independent-samples t-tests of sample A against sample B (e.g. the final "
         "position errors after two calibrations, as in the paper's Tables 2 and 3): t, df, "
         "two-sided and one-sided p, mean difference A - B. Blank cells and lines starting with "

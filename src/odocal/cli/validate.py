@@ -11,7 +11,6 @@ from .common import add_recording_args, bag_options, print_json, print_table, pr
 def add_parser(sub) -> None:
     p = sub.add_parser(
         "validate",
-        help="compare calibrated and nominal parameters on recorded runs",
         description="Dead-reckon recorded runs with the given parameters and with the nominal "
         "ones, and report the final and maximum position and heading errors per run.",
     )

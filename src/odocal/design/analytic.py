@@ -13,8 +13,9 @@ measures over its trials, in milliseconds for a whole sweep:
    calibrated parameters: mean at the mean E_b, E_d (the systematic residual), covariance
    H Cov(E) H^T + P_run, where H is the numeric Jacobian of the noise-free validation error with
    respect to (E_b, E_d) and P_run the validation run's own noise covariance.
-4. ||p|| for p ~ N(mean, covariance): its mean, std and 95 % interval from a fixed scrambled
-   Sobol sample of 2^14 points of the 2-D Gaussian (deterministic; relative error ~1e-4).
+4. ||p|| for p ~ N(mean, covariance): its mean, std and 95 % interval from a fixed sample of
+   2^14 points of the 2-D Gaussian: the Hammersley point set (a (0, 14, 2)-net) mapped by the
+   Box-Muller transform (deterministic; relative error ~1e-4).
 
 Assumptions (docs/nonsystematic-errors.md): noise small enough that everything is linear in it
 over one standard deviation (the calibration equations and the validation error as functions of
@@ -34,8 +35,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.special import ndtri
-from scipy.stats import qmc
 
 from ..calibration.heading import heading_factors
 from ..calibration.umbmark import umbmark_factors
@@ -54,22 +53,29 @@ __all__ = [
     "norm_stats",
 ]
 
-_SOBOL_LOG2 = 14
+_SAMPLE_LOG2 = 14
 
 
 @functools.lru_cache(maxsize=1)
 def _normal_sample() -> np.ndarray:
-    """A fixed scrambled Sobol sample of the standard 2-D normal, shape (2^14, 2); the same on
-    every machine (fixed scrambling seed)."""
-    u = qmc.Sobol(d=2, scramble=True, seed=20140201).random_base2(_SOBOL_LOG2)
-    return ndtri(u)
+    """A fixed sample of the standard 2-D normal, shape (2^14, 2), the same on every machine: the
+    Hammersley points u_i = ((i + 1/2) / N, (bit-reversed i + 1/2) / N) mapped by Box-Muller,
+    radius sqrt(-2 ln(1 - u_1)) and angle 2 pi u_2 (numpy only: no scipy import)."""
+    n = 1 << _SAMPLE_LOG2
+    i = np.arange(n)
+    reversed_i = np.zeros(n, dtype=np.int64)
+    for bit in range(_SAMPLE_LOG2):
+        reversed_i |= ((i >> bit) & 1) << (_SAMPLE_LOG2 - 1 - bit)
+    radius = np.sqrt(-2.0 * np.log1p(-(i + 0.5) / n))
+    angle = (2.0 * math.pi / n) * (reversed_i + 0.5)
+    return np.column_stack([radius * np.cos(angle), radius * np.sin(angle)])
 
 
 def norm_stats(mean_xy, cov_xy) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Mean, std, 2.5 % and 97.5 % quantiles of ||p|| for p ~ N(mean_xy, cov_xy).
 
     ``mean_xy`` has shape (..., 2), ``cov_xy`` shape (..., 2, 2) (m, m^2); results have shape
-    (...). Computed on a fixed scrambled Sobol sample of 2^14 points (deterministic).
+    (...). Computed on a fixed sample of 2^14 points (deterministic; :func:`_normal_sample`).
     """
     mu = np.asarray(mean_xy, dtype=float)
     c = np.asarray(cov_xy, dtype=float)

@@ -5,8 +5,6 @@ from __future__ import annotations
 import math
 import re
 
-import yaml
-
 from ..errors import InputError
 from .textfile import read_text
 
@@ -68,6 +66,8 @@ class YamlDoc:
 
 
 def _to_python(node, loader, prefix, lines):
+    import yaml
+
     if isinstance(node, yaml.MappingNode):
         out = {}
         for knode, vnode in node.value:
@@ -85,6 +85,8 @@ def _to_python(node, loader, prefix, lines):
 
 def load_yaml(path, what: str = "YAML file") -> YamlDoc:
     """Parse a YAML file whose top level must be a mapping."""
+    import yaml  # here, so that commands that read no YAML do not pay for it
+
     text = read_text(path)
     loader = yaml.SafeLoader(text)
     try:
