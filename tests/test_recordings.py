@@ -112,6 +112,29 @@ def test_generic_csv_bad_input_names_file_line_and_field(tmp_path, text, match):
     assert "bad.csv" in str(info.value)
 
 
+def test_large_files_are_read_in_chunks_with_the_same_numbers_and_line_numbers(
+    tmp_path, monkeypatch
+):
+    # chunks of ~64 characters: every path of the vectorised reader is crossed by few lines
+    monkeypatch.setattr("odocal.io.table._CHUNK_CHARS", 64)
+    rows = [f"{0.1 * i:.1f},{i},{2 * i}" for i in range(40)]
+    rows[7] = " " + rows[7] + " \r"  # spaces around fields, a CRLF line
+    rows[12] = ""  # a blank line, counted for the line numbers
+    rows[21] = f"{2.1:.1f},2_1,42"  # Python reads 21, numpy's loadtxt does not
+    head = "time_s,wheel_right_rad,wheel_left_rad\n"
+    rec = load_generic_csv(_write(tmp_path / "ok.csv", head + "\n".join(rows) + "\n"))
+    kept = [i for i in range(40) if i != 12]
+    np.testing.assert_allclose(rec.wheel_angle_right_rad, kept)
+    np.testing.assert_allclose(rec.time_s, [0.1 * i for i in kept])
+    # a bad value far down is named by its line (header on line 1: row i is on line i + 2)
+    rows[30] = "3.0,1e999,60"
+    with pytest.raises(InputError, match=r"bad.csv, line 32, field 'wheel_right_rad'"):
+        load_generic_csv(_write(tmp_path / "bad.csv", head + "\n".join(rows) + "\n"))
+    rows[30] = "3.0,30,60,7"  # a row of the wrong width, whose extra field numpy would ignore
+    with pytest.raises(InputError, match=r"line 32: expected 3 fields"):
+        load_generic_csv(_write(tmp_path / "bad.csv", head + "\n".join(rows) + "\n"))
+
+
 def test_bad_input_through_the_cli_is_one_line_exit_2(tmp_path, cli):
     path = _write(tmp_path / "bad.csv", "time_s,wheel_right_rad,wheel_left_rad\n0,0,0\n0,1,1\n")
     out_file = tmp_path / "p.yaml"

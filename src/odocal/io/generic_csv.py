@@ -115,7 +115,7 @@ def _settings(table, path) -> dict:
     return out
 
 
-def _unwrap_ticks(ticks: np.ndarray, lines: list[int], name: str, wrap, path) -> np.ndarray:
+def _unwrap_ticks(ticks: np.ndarray, line_of, name: str, wrap, path) -> np.ndarray:
     d = np.diff(ticks)
     if wrap is not None:
         d = (d + wrap / 2) % wrap - wrap / 2
@@ -127,7 +127,7 @@ def _unwrap_ticks(ticks: np.ndarray, lines: list[int], name: str, wrap, path) ->
                 f"the tick counter jumps by {d[i]:.0f} counts in one sample: this looks like an "
                 "encoder wrap-around; give the counter modulus as '# ticks_wrap: 65536' (16-bit)",
                 path,
-                lines[i + 1],
+                line_of(i + 1),
                 name,
             )
     return np.concatenate([[0.0], np.cumsum(d)])
@@ -172,10 +172,9 @@ def load_generic_csv(
             missing,
         )
     wanted = ["time_s", *wheel_cols, *present] + (["gyro_yaw_rad"] if "gyro_yaw_rad" in col else [])
-    if len(table.rows) < 2:
-        raise InputError(f"a run needs at least two samples, got {len(table.rows)}", path)
     data = table.numbers(wanted, at_most=_COLUMN_MAX)
-    line_nos = [no for no, _ in table.rows]
+    if len(data) < 2:
+        raise InputError(f"a run needs at least two samples, got {len(data)}", path)
     t = data[:, 0]
     bad = np.nonzero(np.diff(t) <= 0)[0]
     if len(bad):
@@ -183,7 +182,7 @@ def load_generic_csv(
         raise InputError(
             f"time is not strictly increasing ({t[i - 1]:g} s then {t[i]:g} s)",
             path,
-            line_nos[i],
+            table.line_of(i),
             "time_s",
         )
 
@@ -203,8 +202,8 @@ def load_generic_csv(
             )
         wrap = settings.get("ticks_wrap", (None,))[0]
         scale = 2.0 * math.pi / tpr
-        right = _unwrap_ticks(right, line_nos, "ticks_right", wrap, path) * scale
-        left = _unwrap_ticks(left, line_nos, "ticks_left", wrap, path) * scale
+        right = _unwrap_ticks(right, table.line_of, "ticks_right", wrap, path) * scale
+        left = _unwrap_ticks(left, table.line_of, "ticks_left", wrap, path) * scale
         meta["ticks_per_rev"] = tpr
     else:
         right, left = right - right[0], left - left[0]

@@ -9,17 +9,21 @@ Every problem is an :class:`~odocal.errors.InputError` naming the file, the line
 over-long lines or fields, duplicated column names or settings, a row of the wrong width, a value
 that is not a finite number, or a number beyond the plausible magnitude the caller gives.
 
-Numeric columns are parsed in one vectorised pass (:meth:`Table.numbers`); only when that fails is
-the table scanned line by line to name the first bad field.
+The rows after the header are split when they are read: :attr:`Table.rows` line by line (small
+tables); :meth:`Table.numbers` parses numeric columns in vectorised passes over chunks of a few
+megabytes (numpy's loadtxt; row widths checked by counting separators), so a table of millions
+of rows needs memory of the order of its size. Only a chunk where that fails is parsed line by
+line, which names the first bad line or field.
 """
 
 from __future__ import annotations
 
 import csv
+import functools
 import io
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -97,6 +101,39 @@ def _split(line: str) -> list[str]:
     return [f.strip() for f in next(csv.reader(io.StringIO(line)))]
 
 
+# Characters that str.splitlines() also breaks lines at (besides "\n" and "\r\n"); a text holding
+# any of them, or a lone "\r", is split the slow way (line numbers are those of splitlines).
+_ODD_BREAKS = "\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029"
+
+
+def _odd_breaks(text: str, start: int = 0) -> bool:
+    """Whether text[start:] breaks lines at anything but "\n" and "\r\n" (fast scans)."""
+    if any(text.find(c, start) >= 0 for c in _ODD_BREAKS):
+        return True
+    return text.find("\r", start) >= 0 and text.count("\r", start) != text.count("\r\n", start)
+
+
+# Characters of one vectorised pass (the pass ends at a line break).
+_CHUNK_CHARS = 1 << 23
+
+
+def _body_fields(path, no: int, line: str, width: int) -> list[str] | None:
+    """The fields of one line after the header (None for a blank or comment line); an InputError
+    for an over-long line, bad CSV or the wrong width."""
+    if len(line) > MAX_LINE_CHARS:
+        raise InputError(f"over-long line ({len(line)} characters)", path, no)
+    stripped = line.strip()
+    if not stripped or stripped.startswith("#"):
+        return None
+    try:
+        fields = _split(line)
+    except csv.Error as exc:
+        raise InputError(f"not valid CSV: {exc}", path, no) from None
+    if len(fields) != width:
+        raise InputError(f"expected {width} fields as in the header, got {len(fields)}", path, no)
+    return fields
+
+
 @dataclass(frozen=True)
 class Table:
     """A parsed table.
@@ -109,17 +146,53 @@ class Table:
         Column names, in file order.
     header_line : int
         Line number of the header row (1-based).
-    rows : list of (int, list of str)
-        Each data row's line number and its trimmed fields.
     settings : dict of str -> (str, int)
         ``# key: value`` comment lines above the header: value and line number.
+    text : str
+        The whole text; the rows start at offset ``body`` (the character after the header line).
     """
 
     path: str
     header: tuple[str, ...]
     header_line: int
-    rows: list[tuple[int, list[str]]]
     settings: dict[str, tuple[str, int]] = field(default_factory=dict)
+    text: str = field(default="", repr=False)
+    body: int = 0
+
+    def _lines(self, start: int = 0, stop: int | None = None) -> Iterator[tuple[int, str]]:
+        """(line number, line) of the body's characters [start, stop) (offsets into the body,
+        at line starts; only for bodies without odd line breaks)."""
+        first = self.header_line + 1 + self.text.count("\n", self.body, self.body + start)
+        chunk = self.text[self.body + start : None if stop is None else self.body + stop]
+        return enumerate(chunk.splitlines(), start=first)
+
+    @functools.cached_property
+    def _odd(self) -> bool:
+        return _odd_breaks(self.text, self.body)
+
+    @functools.cached_property
+    def rows(self) -> list[tuple[int, list[str]]]:
+        """Each data row's line number and its trimmed fields (every line checked)."""
+        if self._odd:  # splitlines() numbering of the whole text, as the header scan had
+            lines = enumerate(self.text.splitlines(), start=1)
+            numbered: Iterator[tuple[int, str]] = (x for x in lines if x[0] > self.header_line)
+        else:
+            numbered = self._lines()
+        width = len(self.header)
+        out = []
+        for no, line in numbered:
+            fields = _body_fields(self.path, no, line, width)
+            if fields is not None:
+                out.append((no, fields))
+        return out
+
+    def _split_slowly(self) -> bool:
+        """Rows already split, or comment lines or odd line breaks after the header."""
+        return "rows" in self.__dict__ or self.text.find("#", self.body) >= 0 or self._odd
+
+    def line_of(self, index: int) -> int:
+        """Line number of data row ``index`` (0-based), for messages."""
+        return self.rows[index][0]
 
     def has(self, name: str) -> bool:
         return name in self.header
@@ -162,27 +235,92 @@ class Table:
         """The columns ``names`` as floats, shape (rows, len(names)).
 
         Every value must be a finite number (at most ``at_most`` in magnitude: one bound for
-        all, or per column). A vectorised pass first; on failure, the first bad field is named.
+        all, or per column), and every row must have the header's width. Vectorised passes over
+        chunks of a few megabytes; a chunk where one fails is parsed line by line, which names
+        the first bad line or field.
         """
         idx = [self.index(n) for n in names]
         limits = [(at_most.get(n) if isinstance(at_most, dict) else at_most) for n in names]
+        checks = (names, idx, limits, unit_hint)
+        if self._split_slowly():
+            return self._parse_rows(self.rows, checks)
+        parts = []
+        end = len(self.text) - self.body
+        start = 0
+        width = len(self.header)
+        while start < end:
+            stop = self.text.find("\n", self.body + min(start + _CHUNK_CHARS, end - 1))
+            stop = end if stop < 0 else stop - self.body + 1
+            part = self._fast(start, stop, idx, limits)
+            if part is None:  # the slow way names what is wrong (or accepts what numpy did not)
+                rows = []
+                for no, line in self._lines(start, stop):
+                    fields = _body_fields(self.path, no, line, width)
+                    if fields is not None:
+                        rows.append((no, fields))
+                part = self._parse_rows(rows, checks)
+            parts.append(part)
+            start = stop
+        if not parts:
+            return np.empty((0, len(names)))
+        return parts[0] if len(parts) == 1 else np.concatenate(parts)
+
+    def _fast(self, start: int, stop: int, idx: list[int], limits) -> np.ndarray | None:
+        """The body's characters [start, stop) parsed in one vectorised pass, or None where that
+        cannot be trusted: quotes, lines of spaces, a line long enough to hold an over-long
+        field, a row of the wrong width, a value numpy does not read, a non-finite or too large
+        value."""
+        chunk = self.text[self.body + start : self.body + stop]
+        if '"' in chunk:
+            return None
+        raw = np.frombuffer(chunk.encode("utf-8"), dtype=np.uint8)
+        ends = np.flatnonzero(raw == 10)
+        if len(raw) and raw[-1] != 10:
+            ends = np.append(ends, len(raw))
+        starts = np.r_[0, ends[:-1] + 1]
+        lengths = ends - starts
+        if lengths.max(initial=0) > MAX_FIELD_CHARS:
+            return None
+        filled = lengths > 0  # numpy's loadtxt skips empty lines, as the table does
+        commas = np.flatnonzero(raw == 44)
+        count = np.searchsorted(commas, ends) - np.searchsorted(commas, starts)
+        if np.any(count[filled] != len(self.header) - 1):
+            return None
         try:
-            with np.errstate(over="ignore", invalid="ignore"):
-                data = np.array([[f[j] for j in idx] for _, f in self.rows], dtype=float)
-            ok = data.size == 0 or bool(np.all(np.isfinite(data)))
-            if ok:
-                for k, lim in enumerate(limits):
-                    if lim is not None and data.size and np.max(np.abs(data[:, k])) > lim:
-                        ok = False
-            if ok and all(len(f[j]) <= MAX_FIELD_CHARS for _, f in self.rows for j in idx):
-                return data.reshape(len(self.rows), len(names))
+            data = np.loadtxt(
+                io.StringIO(chunk), delimiter=",", usecols=idx, ndmin=2, comments=None
+            )
         except ValueError:
-            pass
-        # slow path: name the first bad field
-        for no, f in self.rows:
-            for n, j, lim in zip(names, idx, limits, strict=True):
-                parse_number(f[j], self.path, no, n, at_most=lim, unit_hint=unit_hint)
-        raise AssertionError("unreachable: the vectorised and per-field parses disagree")
+            return None
+        if len(data) != int(filled.sum()) or not np.all(np.isfinite(data)):
+            return None
+        for k, lim in enumerate(limits):
+            if lim is not None and len(data) and np.max(np.abs(data[:, k])) > lim:
+                return None
+        return data
+
+    def _parse_rows(self, rows, checks) -> np.ndarray:
+        """Rows already split, parsed field by field (each error named)."""
+        names, idx, limits, unit_hint = checks
+        out = np.empty((len(rows), len(names)))
+        for i, (no, f) in enumerate(rows):
+            for k, (n, j, lim) in enumerate(zip(names, idx, limits, strict=True)):
+                out[i, k] = parse_number(f[j], self.path, no, n, at_most=lim, unit_hint=unit_hint)
+        return out
+
+
+def _head_lines(text: str) -> Iterator[str]:
+    """The lines of ``text`` with their line breaks, one at a time (str.splitlines() semantics;
+    the header is near the top of a file whose rows may be millions)."""
+    if _odd_breaks(text):
+        yield from text.splitlines(keepends=True)
+        return
+    start = 0
+    while start < len(text):
+        end = text.find("\n", start)
+        end = len(text) if end < 0 else end + 1
+        yield text[start:end]
+        start = end
 
 
 def read_table(
@@ -196,22 +334,23 @@ def read_table(
 
     ``what`` says what the header should look like, for the empty-file message. ``# key: value``
     lines above the header whose key is in ``settings`` are collected (a key given twice is an
-    error); other comments are free text.
+    error); other comments are free text. The rows are checked when they are read
+    (:attr:`Table.rows`, :meth:`Table.numbers`).
     """
     if text is None:
         text = read_text(path)
-    header: list[str] | None = None
-    header_line = 0
-    rows: list[tuple[int, list[str]]] = []
     found: dict[str, tuple[str, int]] = {}
-    for no, line in enumerate(text.splitlines(), start=1):
+    offset = 0  # characters before the current line
+    for no, line in enumerate(_head_lines(text), start=1):
+        offset += len(line)
+        line = line.rstrip("\r\n\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029")
         if len(line) > MAX_LINE_CHARS:
             raise InputError(f"over-long line ({len(line)} characters)", path, no)
         stripped = line.strip()
         if not stripped:
             continue
         if stripped.startswith("#"):
-            if settings and header is None and ":" in stripped:
+            if settings and ":" in stripped:
                 key, value = (s.strip() for s in stripped[1:].split(":", 1))
                 if key not in settings:
                     continue
@@ -225,32 +364,23 @@ def read_table(
             fields = _split(line)
         except csv.Error as exc:
             raise InputError(f"not valid CSV: {exc}", path, no) from None
-        if header is None:
-            header, header_line = fields, no
-            for k, h in enumerate(fields):
-                if h == "":
-                    raise InputError(
-                        f"the header row has an empty column name (column {k + 1})", path, no
-                    )
-                if len(h) > MAX_FIELD_CHARS:
-                    raise InputError(f"over-long column name ({len(h)} characters)", path, no)
-                if fields.index(h) != k:
-                    raise InputError(
-                        f"column '{h}' appears twice in the header (columns "
-                        f"{fields.index(h) + 1} and {k + 1})",
-                        path,
-                        no,
-                        h,
-                    )
-            continue
-        if len(fields) != len(header):
-            raise InputError(
-                f"expected {len(header)} fields as in the header, got {len(fields)}", path, no
-            )
-        rows.append((no, fields))
-    if header is None:
-        raise InputError(f"empty file, expected {what}", path)
-    return Table(str(path), tuple(header), header_line, rows, found)
+        for k, h in enumerate(fields):
+            if h == "":
+                raise InputError(
+                    f"the header row has an empty column name (column {k + 1})", path, no
+                )
+            if len(h) > MAX_FIELD_CHARS:
+                raise InputError(f"over-long column name ({len(h)} characters)", path, no)
+            if fields.index(h) != k:
+                raise InputError(
+                    f"column '{h}' appears twice in the header (columns "
+                    f"{fields.index(h) + 1} and {k + 1})",
+                    path,
+                    no,
+                    h,
+                )
+        return Table(str(path), tuple(fields), no, found, text, offset)
+    raise InputError(f"empty file, expected {what}", path)
 
 
 @dataclass(frozen=True)
