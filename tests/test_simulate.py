@@ -13,7 +13,7 @@ from odocal.core.model import (
     WheelGeometry,
 )
 from odocal.core.pose import compose
-from odocal.core.simulate import drive, measure, odometric_pose, simulate
+from odocal.core.simulate import drive, final_headings, measure, odometric_pose, simulate
 from odocal.core.tracks import Track, arc, polygon, spot_turn, straight, straight_line
 
 NOMINAL = WheelGeometry.symmetric(0.15, 0.385)
@@ -115,6 +115,15 @@ GOLDEN_SEED_11 = [
     [-0.08307388795263983, -0.16925818976893267, -6.127119535521176],
     [-0.08166476179231197, -0.15330005053865126, -6.131861519279268],
 ]
+
+
+def test_final_headings_are_those_of_drive_with_the_same_draws():
+    robot = Robot(NOMINAL, SystematicError(1.03, 0.998), NonSystematicError(1e-6, 2e-6))
+    track = polygon(4, np.array([1.0, 2.0, 3.0] * 100), "cw")  # one side length per run
+    args = (track, robot.true_geometry, robot.believed_geometry, robot.nonsystematic, 300)
+    for opts in ({"steps_per_segment": 1, "integration": "exact"}, {"max_step_m": 0.05}):
+        full = drive(*args, np.random.default_rng(8), **opts).true_final[:, 2]
+        np.testing.assert_array_equal(final_headings(*args, np.random.default_rng(8), **opts), full)
 
 
 def test_poses_recorded_at_chosen_increments_are_those_of_the_whole_trajectory():

@@ -177,9 +177,9 @@ def ttest_from_stats(
     diff = mean_a - mean_b
     if se > 0:
         t = diff / se
-        p_less = student_t_sf(-t, df)
-        p_greater = student_t_sf(t, df)
-        p_two = min(1.0, 2.0 * student_t_sf(abs(t), df))
+        tail = student_t_sf(abs(t), df)  # the small tail, computed directly
+        p_less, p_greater = (1.0 - tail, tail) if t >= 0 else (tail, 1.0 - tail)
+        p_two = min(1.0, 2.0 * tail)
     elif diff == 0:
         t = p_less = p_greater = p_two = math.nan
     else:

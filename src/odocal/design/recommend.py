@@ -94,10 +94,24 @@ def _usable(c) -> bool:
     )
 
 
+def _rule(candidates, other: int, reference: int, tolerance: float) -> TTest:
+    """The rule's test: is ``other`` better than ``reference`` by more than the tolerance?"""
+    o, r = candidates[other], candidates[reference]
+    scale = 1.0 - tolerance
+    return ttest_from_stats(
+        o.post_error_mean_m,
+        o.post_error_std_m,
+        o.trials,
+        scale * r.post_error_mean_m,
+        scale * r.post_error_std_m,
+        r.trials,
+        equal_var=False,
+    )
+
+
 def compare(candidates, other: int, reference: int, alpha: float, tolerance: float) -> Comparison:
     """The plain Welch test and the rule's tolerance test of ``other`` against ``reference``."""
     o, r = candidates[other], candidates[reference]
-    scale = 1.0 - tolerance
     test = ttest_from_stats(
         o.post_error_mean_m,
         o.post_error_std_m,
@@ -107,17 +121,8 @@ def compare(candidates, other: int, reference: int, alpha: float, tolerance: flo
         r.trials,
         equal_var=False,
     )
-    rule = ttest_from_stats(
-        o.post_error_mean_m,
-        o.post_error_std_m,
-        o.trials,
-        scale * r.post_error_mean_m,
-        scale * r.post_error_std_m,
-        r.trials,
-        equal_var=False,
-    )
-    significant = bool(rule.p_less < alpha)
-    return Comparison(other, reference, test, rule, significant)
+    rule = _rule(candidates, other, reference, tolerance)
+    return Comparison(other, reference, test, rule, bool(rule.p_less < alpha))
 
 
 def _larger(a, b) -> bool:
@@ -138,7 +143,7 @@ def _pick(candidates, indices, alpha, tolerance):
     for i in order:
         rivals = [j for j in order if j != i and _larger(candidates[i], candidates[j])]
         winner = next(
-            (j for j in rivals if compare(candidates, j, i, alpha, tolerance).significant), None
+            (j for j in rivals if _rule(candidates, j, i, tolerance).p_less < alpha), None
         )
         if winner is None:
             return i, beaten
@@ -180,9 +185,13 @@ def recommend(
     index, beaten = _pick(candidates, usable, alpha, tolerance)
 
     per_shape = {}
-    for sides in sorted({candidates[i].sides for i in usable}):
+    shapes = sorted({candidates[i].sides for i in usable})
+    for sides in shapes:
         same = [i for i in usable if candidates[i].sides == sides]
-        per_shape[sides] = _pick(candidates, same, alpha, tolerance)[0]
+        # one shape: the same pick as above
+        per_shape[sides] = (
+            index if len(shapes) == 1 else _pick(candidates, same, alpha, tolerance)[0]
+        )
 
     rec = candidates[index]
     same = sorted(

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from ..core.model import MeasurementNoise, Robot
-from ..core.stats import ttest_samples
+from ..core.stats import ttest_from_stats
 from ..presets import PRESETS
 from .metrics import LegHeadingCurve, leg_heading_curve
 from .recommend import recommend
@@ -220,8 +220,12 @@ def residual_recommendation(result: DesignResult) -> int:
 def _experiment_tests(err: np.ndarray, paper: dict) -> tuple[ExperimentTTest, ...]:
     """err: shape (3, trials, runs) errors for the 2, 4, 6 m calibrations."""
     out = []
+    mean, std, n = err.mean(axis=2), err.std(axis=2, ddof=1), err.shape[2]
     for label, i in (("2 vs 4", 0), ("6 vs 4", 2)):
-        tests = [ttest_samples(err[i, m], err[1, m], equal_var=True) for m in range(err.shape[1])]
+        tests = [
+            ttest_from_stats(mean[i, m], std[i, m], n, mean[1, m], std[1, m], n, equal_var=True)
+            for m in range(err.shape[1])
+        ]
         t = np.array([x.t for x in tests])
         p = np.array([x.p_two_sided for x in tests])
         diff = np.array([x.mean_difference for x in tests])
