@@ -4,11 +4,12 @@ from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
+from ..calibration.censi import SensorOdometryFit, fit_censi
 from ..calibration.gyro import GyroResult, gyro_calibration, integrate_rate
 from ..calibration.linear import fit_linear
 from ..calibration.result import GeometryFit
@@ -17,6 +18,7 @@ from ..calibration.trajectory import fit_trajectory
 from ..core.model import WheelGeometry
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
+from ..io.bag_slam import load_slam_bag
 from ..io.bags import (
     BASE_FRAMES,
     IMU,
@@ -24,6 +26,7 @@ from ..io.bags import (
     ODOMETRY,
     check_bag_path,
     imu_series,
+    is_bag,
     joint_series,
     list_topics,
     pick_topic,
@@ -35,6 +38,7 @@ from ..io.outputs import OutputPlan
 from ..io.recordings import load_recordings, require_ground_truth
 from ..io.robot_file import load_robot, params_yaml
 from ..io.ros2_export import ros2_params_yaml
+from ..io.tuples import read_tuples
 
 __all__ = [
     "METHODS",
@@ -47,7 +51,7 @@ __all__ = [
     "nominal_geometry",
 ]
 
-METHODS = ("trajectory", "linear", "umbmark", "heading", "gyro")
+METHODS = ("trajectory", "linear", "umbmark", "heading", "gyro", "relative")
 
 
 def nominal_geometry(robot_spec, recordings: Sequence[Recording]) -> WheelGeometry | None:
@@ -105,11 +109,12 @@ class FitResult:
     """A fit from recorded runs, the nominal geometry it is compared with, the loaders'
     warnings and the files written."""
 
-    fit: GeometryFit
+    fit: GeometryFit | SensorOdometryFit
     nominal: WheelGeometry | None
     recordings: int
     load_warnings: tuple[str, ...] = ()
     written: tuple[Path, ...] = ()
+    extra: dict = field(default_factory=dict)
 
     @property
     def warnings(self) -> tuple[str, ...]:
@@ -119,6 +124,7 @@ class FitResult:
         """The JSON of ``odocal fit --json``."""
         out = self.fit.as_dict()
         out["nominal"] = None if self.nominal is None else self.nominal.as_dict()
+        out.update(self.extra)
         return out
 
 
@@ -129,14 +135,16 @@ def _outputs(plan: OutputPlan, out, ros2) -> None:
         plan.file(ros2, "--ros2")
 
 
-def _write(plan, geometry, nominal, method, out, ros2, controller_name) -> tuple[Path, ...]:
+def _write(
+    plan, geometry, nominal, method, out, ros2, controller_name, **record
+) -> tuple[Path, ...]:
     contents: dict[Path, str] = {}
     if ros2 is not None:
         if nominal is None:
             raise InputError("--ros2 needs the nominal geometry: give --robot ROBOT.yaml")
         contents[Path(ros2)] = ros2_params_yaml(geometry, nominal, controller_name, method=method)
     if out is not None:
-        contents[Path(out)] = params_yaml(geometry, method=method)
+        contents[Path(out)] = params_yaml(geometry, method=method, **record)
     return tuple(plan.commit(contents)) if contents else ()
 
 
@@ -146,9 +154,13 @@ def _load_warnings(recordings) -> tuple[str, ...]:
     )
 
 
+def _is_tuple_file(path) -> bool:
+    return Path(path).suffix.lower() == ".tuple"
+
+
 def fit(
     paths: Sequence[str | Path],
-    method: str = "trajectory",
+    method: str | None = None,
     *,
     robot=None,
     out: str | Path | None = None,
@@ -156,25 +168,132 @@ def fit(
     controller_name: str = "diff_drive_controller",
     ticks_per_rev: float | None = None,
     bag_options: dict | None = None,
+    truth_frames: tuple[str, str] | None = None,
+    slam_stamp_offset_s: float = 0.0,
     **options,
 ) -> FitResult:
     """Load the runs in ``paths`` and calibrate with ``method`` (not 'gyro': see
     :func:`fit_gyro`); write PARAMS.yaml to ``out`` and a ros2_control file to ``ros2``.
 
     ``robot``: ROBOT.yaml (nominal geometry; for runs without metadata, the parameters they ran
-    with: its 'believed', else nominal). ``options`` go to :func:`fit_recordings`."""
+    with: its 'believed', else nominal). ``options`` go to :func:`fit_recordings`.
+
+    Relative motions (``method='relative'``, the default for them): ``.tuple`` files (wheel
+    rotations and sensor displacements per interval; the sensor's mounting is estimated too), or
+    bags whose ground truth is a SLAM pose on /tf between ``truth_frames`` (e.g. ('map',
+    'base_link'); only the relative motions between the SLAM's update instants are used, see
+    docs/slam-truth.md)."""
     if isinstance(paths, (str, Path)):
         paths = [paths]
     plan = OutputPlan(
         [*map(Path, paths), *([Path(robot)] if robot and Path(robot).exists() else [])]
     )
     _outputs(plan, out, ros2)
+    tuples = [p for p in paths if _is_tuple_file(p)]
+    if tuples or truth_frames is not None or method == "relative":
+        if method not in (None, "relative"):
+            what = "--truth-frames (a SLAM pose)" if truth_frames else ".tuple files"
+            raise InputError(
+                f"{what} give relative motions only: use --method relative, not --method {method}"
+            )
+        return _fit_relative(
+            paths,
+            tuples,
+            plan,
+            robot=robot,
+            out=out,
+            ros2=ros2,
+            controller_name=controller_name,
+            ticks_per_rev=ticks_per_rev,
+            bag_options=bag_options or {},
+            truth_frames=truth_frames,
+            slam_stamp_offset_s=slam_stamp_offset_s,
+        )
+    method = method or "trajectory"
     recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, **(bag_options or {}))
     nominal = nominal_geometry(robot, recordings)
     ran_with = load_robot(robot).believed_geometry if robot else None
     result = fit_recordings(recordings, method, nominal=nominal, ran_with=ran_with, **options)
     written = _write(plan, result.geometry, nominal, result.method, out, ros2, controller_name)
     return FitResult(result, nominal, len(recordings), _load_warnings(recordings), written)
+
+
+def _fit_relative(
+    paths,
+    tuples,
+    plan: OutputPlan,
+    *,
+    robot,
+    out,
+    ros2,
+    controller_name,
+    ticks_per_rev,
+    bag_options: dict,
+    truth_frames,
+    slam_stamp_offset_s: float,
+) -> FitResult:
+    """Relative-motion calibration (Censi et al. 2013) from tuple files or SLAM bags."""
+    nominal = load_robot(robot).nominal if robot else None
+    extra: dict = {}
+    if tuples:
+        if len(tuples) != len(paths):
+            raise InputError(".tuple files cannot be mixed with other run files in one fit")
+        if truth_frames is not None:
+            raise InputError("--truth-frames is for bags; .tuple files hold relative motions")
+        data = [read_tuples(p) for p in tuples]
+        phi_r = np.concatenate([d.phi_right_rad for d in data])
+        phi_l = np.concatenate([d.phi_left_rad for d in data])
+        motion = np.concatenate([d.sensor_motion for d in data])
+        result = fit_censi(phi_r, phi_l, motion, nominal=nominal)
+        extra["inputs"] = [{"path": str(d.path), "tuples": len(d.phi_right_rad)} for d in data]
+    else:
+        if truth_frames is None:
+            raise InputError("--method relative needs .tuple files or bags with --truth-frames")
+        bags = []
+        for p in paths:
+            if not is_bag(p):
+                raise InputError("--truth-frames needs ROS bags", p)
+            bags.append(
+                load_slam_bag(
+                    p,
+                    truth_frames,
+                    joint_topic=bag_options.get("joint_topic"),
+                    right_joint=bag_options.get("right_joint"),
+                    left_joint=bag_options.get("left_joint"),
+                    ticks_per_rev=ticks_per_rev,
+                    stamp_offset_s=slam_stamp_offset_s,
+                )
+            )
+        m = [b.motions for b in bags]
+        result = fit_censi(
+            np.concatenate([x.phi_right_rad for x in m]),
+            np.concatenate([x.phi_left_rad for x in m]),
+            np.concatenate([x.sensor_motion for x in m]),
+            sensor_pose=(0.0, 0.0, 0.0),  # the truth frame is the base itself
+            nominal=nominal,
+        )
+        extra["slam"] = [
+            {
+                "bag": b.path,
+                "chain": b.chain,
+                "correction_edge": b.correction,
+                **asdict(b.motions.counts),
+                "dropped": b.motions.counts.dropped,
+                "segments": b.motions.segments,
+                "summary": b.motions.summary(),
+                "warnings": list(b.motions.warnings),
+            }
+            for b in bags
+        ]
+    record = {
+        "sensor_x_m": result.sensor_x_m,
+        "sensor_y_m": result.sensor_y_m,
+        "sensor_yaw_rad": result.sensor_yaw_rad,
+    }
+    written = _write(
+        plan, result.geometry, nominal, "relative", out, ros2, controller_name, **record
+    )
+    return FitResult(result, nominal, len(paths), (), written, extra)
 
 
 @dataclass(frozen=True)

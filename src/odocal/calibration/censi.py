@@ -145,7 +145,7 @@ class SensorOdometryFit:
     sensor_pose_fixed: bool
     warnings: tuple[str, ...] = field(default_factory=tuple)
 
-    method = "censi"
+    method = "relative"  # relative-motion calibration (Censi et al. 2013)
 
     @property
     def parameters(self) -> np.ndarray:
