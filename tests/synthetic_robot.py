@@ -187,7 +187,7 @@ def _inverse(pose: np.ndarray) -> np.ndarray:
 
 
 def default_track() -> Track:
-    """Straights (one backwards), spot turns and arcs turning both ways, about 8.5 m in all, that
+    """Straights (one backwards), spot turns and arcs turning both ways, about 8.3 m in all, that
     keep at least 0.8 m from the walls and boxes of :meth:`Room.default` when started at
     (3, 2.5, 0) with a geometry a few per cent off."""
     return Track(
