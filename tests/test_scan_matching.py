@@ -15,7 +15,6 @@ import math
 import numpy as np
 import pytest
 
-from odocal.calibration.result import CalibrationError
 from odocal.calibration.scan_matching import (
     MIN_POINTS,
     ScanMatch,
@@ -25,7 +24,7 @@ from odocal.calibration.scan_matching import (
     scan_points,
 )
 from odocal.core.room import Room, box_segments, ray_cast
-from odocal.errors import ModelError
+from odocal.errors import CalibrationError, ModelError
 
 ROOM = Room.default()
 N_RAYS = 720

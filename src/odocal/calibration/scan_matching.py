@@ -30,8 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..errors import ModelError
-from .result import CalibrationError
+from ..errors import CalibrationError, ModelError
 
 __all__ = [
     "ScanMatch",
