@@ -230,11 +230,21 @@ def test_fit_json_warnings_also_on_stderr(cli, realdata):
 
 
 def test_absurd_calibration_result_is_warned(cli, tmp_path):
-    circles = write(tmp_path / "c.csv", "direction,radius_m\ncw,1e5\nccw,1e-5\n")
+    # radii 1.6 times the commanded 1 m: plausible for a circle run, absurd for a calibration
+    circles = write(tmp_path / "c.csv", "direction,radius_m\ncw,1.6\nccw,1.6\ncw,1.6\nccw,1.6\n")
     status, out, err = cli("calibrate", circles, "--method", "bcpt", "--radius", 1, "--json")
     assert status == 0, err
-    assert json.loads(out)["wheelbase_m"] < 1e-4
-    assert err.startswith("odocal: warning: wheelbase_m") and "from nominal" in err
+    assert json.loads(out)["wheelbase_m"] > 1.25 * 0.385
+    assert "odocal: warning: wheelbase_m" in err and "from nominal" in err
+
+
+def test_circle_radius_far_from_the_commanded_one_is_refused(cli, tmp_path):
+    # 160 (cm typed into radius_m) for a 1.6 m circle, or 1e-5: no circle run ends like that
+    for bad in ("160", "1e-5"):
+        circles = write(tmp_path / "c.csv", f"direction,radius_m\ncw,1.6\nccw,{bad}\n")
+        cli("calibrate", circles, "--method", "bcpt", "--radius", 1.6).expect_error(
+            "c.csv", "line 3", "radius_m", "commanded"
+        )
 
 
 def test_plan_undefined_prediction_is_null_with_a_warning(cli, tmp_path):

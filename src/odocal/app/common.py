@@ -6,10 +6,20 @@ from pathlib import Path
 from typing import Any
 
 from ..core.model import Robot, WheelGeometry
-from ..io.robot_file import load_params, load_robot
+from ..errors import InputError
+from ..io.outputs import OutputPlan
+from ..io.robot_file import load_params, load_robot, params_yaml
+from ..io.ros2_export import DEFAULT_CONTROLLER, ros2_params_yaml
 from ..presets import DEFAULT_ROBOT, PRESETS
 
-__all__ = ["RobotSpec", "resolve_robot", "robot_label", "input_paths"]
+__all__ = [
+    "RobotSpec",
+    "resolve_robot",
+    "robot_label",
+    "input_paths",
+    "register_exports",
+    "write_exports",
+]
 
 #: A robot as a command takes it: a Robot, a built-in name, a ROBOT.yaml path, or None (default).
 RobotSpec = Robot | str | Path | None
@@ -53,3 +63,35 @@ def input_paths(*specs: Any) -> list[Path]:
         if isinstance(s, (str, Path)):
             out.append(Path(s))
     return out
+
+
+def register_exports(plan: OutputPlan, out=None, ros2=None) -> None:
+    """Register the PARAMS.yaml (``out``) and ros2_control (``ros2``) files a calibration writes,
+    before the work (checked against the inputs)."""
+    if out is not None:
+        plan.file(out, "--out")
+    if ros2 is not None:
+        plan.file(ros2, "--ros2")
+
+
+def write_exports(
+    plan: OutputPlan,
+    geometry: WheelGeometry,
+    nominal: WheelGeometry | None,
+    out=None,
+    ros2=None,
+    controller_name: str = DEFAULT_CONTROLLER,
+    **record: Any,
+) -> tuple[Path, ...]:
+    """The one export path of every calibration: PARAMS.yaml (``out``) and the ros2_control
+    ``diff_drive_controller`` file (``ros2``; nominal base values, the calibration in the
+    multipliers), written all or none. ``record`` (method, E_b, ...) goes beside the values."""
+    contents: dict[Path, str] = {}
+    if ros2 is not None:
+        if nominal is None:
+            raise InputError("--ros2 needs the nominal geometry: give --robot ROBOT.yaml")
+        text = {k: v for k, v in record.items() if isinstance(v, str)}
+        contents[Path(ros2)] = ros2_params_yaml(geometry, nominal, controller_name, **text)
+    if out is not None:
+        contents[Path(out)] = params_yaml(geometry, **record)
+    return tuple(plan.commit(contents)) if contents else ()

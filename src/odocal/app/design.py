@@ -7,11 +7,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.plausibility import track_size_problem
 from ..design.analytic import analytic_design_result
 from ..design.result import DesignSpec
+from ..design.robust import RangeDesign, range_design, unknown_errors
 from ..design.sweep import DesignResult, Progress, SimulationSettings, design_json, run_design
 from ..errors import InputError
 from ..io.outputs import OutputPlan
+from ..presets import PRESETS
 from .common import RobotSpec, input_paths, resolve_robot, robot_label
 
 __all__ = ["ENGINES", "MAX_SIMULATED_RUNS", "DesignRun", "design"]
@@ -25,17 +28,35 @@ MAX_SIMULATED_RUNS = 20_000_000
 
 @dataclass(frozen=True)
 class DesignRun:
-    """A design and how it was made (engine, seed, robot), plus the figures written."""
+    """A design and how it was made (engine, seed, robot), plus the figures written.
 
-    result: DesignResult
+    ``result`` is a :class:`~odocal.design.sweep.DesignResult`, or a
+    :class:`~odocal.design.robust.RangeDesign` when the robot's errors were not given (a design
+    over plausible errors); both have ``recommended`` and ``warnings``. ``spec`` is the design
+    spec as run (sizes scaled to the robot where they were left open); ``notes`` say what was
+    assumed (e.g. a perfect instrument).
+    """
+
+    result: DesignResult | RangeDesign
     engine: str
     seed: int | None
     robot: str
     written: tuple[Path, ...] = ()
+    spec: DesignSpec | None = None
+    scaled: bool = False
+    notes: tuple[str, ...] = ()
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        return tuple(self.result.warnings)
 
     def as_dict(self) -> dict:
         """The JSON of ``odocal design --json``."""
-        return design_json(self.result, seed=self.seed, robot=self.robot, engine=self.engine)
+        extra = {"seed": self.seed, "robot": self.robot, "engine": self.engine}
+        extra |= {"sizes_scaled_to_robot": self.scaled, "notes": list(self.notes)}
+        if isinstance(self.result, RangeDesign):
+            return self.result.as_dict() | extra
+        return design_json(self.result, **extra)
 
 
 def design(
@@ -51,10 +72,16 @@ def design(
     reference_sim: bool = False,
     plot: str | Path | None = None,
     progress: Progress | None = None,
+    error_range: bool | None = None,
 ) -> DesignRun:
     """Run the design procedure for ``robot`` (default: the paper's Fig. 5 conditions) over the
-    candidates of ``spec``, by Monte Carlo (seeded by ``seed``) or first-order propagation
-    (``engine='analytic'``); write the figures into the folder ``plot``."""
+    candidates of ``spec``, by Monte Carlo with common random numbers (seeded by ``seed``) or
+    first-order propagation (``engine='analytic'``); write the figures into the folder ``plot``.
+
+    Sizes ``spec`` leaves open (None) are scaled to the robot's wheelbase
+    (:func:`odocal.design.result.scaled_sizes`). ``error_range`` (default: when the robot gives
+    no systematic or no non-systematic errors) designs over the typical ranges of the unknown
+    errors instead (:mod:`odocal.design.robust`; analytic engine)."""
     spec = spec or DesignSpec()
     if engine not in ENGINES:
         raise InputError(f"engine must be one of {', '.join(ENGINES)}, got {engine!r}")
@@ -70,11 +97,52 @@ def design(
         require_matplotlib()
         plan.folder(plot, "--plot")
     r = resolve_robot(robot, params)
+    scaled = spec.side_lengths_m is None or spec.validation is None
+    spec = spec.for_wheelbase(float(r.nominal.wheelbase_m))
+    assert spec.side_lengths_m is not None and spec.validation is not None
+    b = float(r.believed_geometry.wheelbase_m)
+    # the whole sweep (or the validation track) smaller than the robot: a unit slip
+    for what, side in (("largest candidate", max(spec.side_lengths_m)), ("validation", None)):
+        problem = track_size_problem(b, spec.validation.side_m if side is None else side, what)
+        if problem:
+            raise InputError(problem)
+    notes = []
+    if r.measurement.is_zero and not (robot is None or str(robot) in PRESETS):
+        notes.append(
+            "no instrument noise in ROBOT.yaml: the design assumes end poses measured "
+            "perfectly; a tape measure and a protractor are about 1 cm and 1 deg "
+            "(measurement: {sigma_xy_m: 0.01, sigma_theta_deg: 1}), which moves the answer "
+            "to larger tracks"
+        )
+    unknown = unknown_errors(r)
+    if error_range is None:
+        error_range = bool(unknown)
+    written: tuple[Path, ...] = ()
+    if error_range:
+        result: DesignResult | RangeDesign = range_design(
+            r,
+            sides=spec.sides,
+            side_lengths_m=spec.side_lengths_m,
+            runs_per_direction=spec.runs_per_direction,
+            method=spec.method,
+            validation=spec.validation,
+            tolerance=tolerance,
+            unknown=unknown or ("systematic", "nonsystematic"),
+            progress=progress,
+        )
+        engine = "analytic"
+        if plot is not None:
+            from ..plot.design import range_figures
+
+            figs = range_figures(result)
+            written = tuple(plan.commit({Path(plot) / name: fig for name, fig in figs.items()}))
+        return DesignRun(
+            result, engine, None, robot_label(robot, params), written, spec, scaled, tuple(notes)
+        )
     common = dict(
         sides=spec.sides,
         side_lengths_m=np.asarray(spec.side_lengths_m, dtype=float),
         runs_per_direction=spec.runs_per_direction,
-        trials=spec.trials,
         method=spec.method,
         validation=spec.validation,
         alpha=alpha,
@@ -86,9 +154,13 @@ def design(
     else:
         settings = SimulationSettings.reference() if reference_sim else SimulationSettings()
         result = run_design(
-            r, np.random.default_rng(seed), settings=settings, progress=progress, **common
+            r,
+            np.random.default_rng(seed),
+            trials=spec.trials,
+            settings=settings,
+            progress=progress,
+            **common,
         )
-    written: tuple[Path, ...] = ()
     if plot is not None:
         from ..plot.design import design_figures
 
@@ -97,7 +169,10 @@ def design(
     return DesignRun(
         result,
         engine,
-        seed,
+        seed if engine == "monte-carlo" else None,
         robot_label(robot, params),
         written,
+        spec,
+        scaled,
+        tuple(notes),
     )

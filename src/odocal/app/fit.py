@@ -36,9 +36,9 @@ from ..io.bags import (
 )
 from ..io.outputs import OutputPlan
 from ..io.recordings import load_recordings, require_ground_truth
-from ..io.robot_file import load_robot, params_yaml
-from ..io.ros2_export import ros2_params_yaml
+from ..io.robot_file import load_robot
 from ..io.tuples import read_tuples
+from .common import register_exports, write_exports
 
 __all__ = [
     "METHODS",
@@ -128,26 +128,6 @@ class FitResult:
         return out
 
 
-def _outputs(plan: OutputPlan, out, ros2) -> None:
-    if out is not None:
-        plan.file(out, "--out")
-    if ros2 is not None:
-        plan.file(ros2, "--ros2")
-
-
-def _write(
-    plan, geometry, nominal, method, out, ros2, controller_name, **record
-) -> tuple[Path, ...]:
-    contents: dict[Path, str] = {}
-    if ros2 is not None:
-        if nominal is None:
-            raise InputError("--ros2 needs the nominal geometry: give --robot ROBOT.yaml")
-        contents[Path(ros2)] = ros2_params_yaml(geometry, nominal, controller_name, method=method)
-    if out is not None:
-        contents[Path(out)] = params_yaml(geometry, method=method, **record)
-    return tuple(plan.commit(contents)) if contents else ()
-
-
 def _load_warnings(recordings) -> tuple[str, ...]:
     return tuple(
         f"{r.name}: {w}" for r in recordings for w in (r.meta.get("warnings", ()) if r.meta else ())
@@ -188,7 +168,7 @@ def fit(
     plan = OutputPlan(
         [*map(Path, paths), *([Path(robot)] if robot and Path(robot).exists() else [])]
     )
-    _outputs(plan, out, ros2)
+    register_exports(plan, out, ros2)
     tuples = [p for p in paths if _is_tuple_file(p)]
     if tuples or truth_frames is not None or method == "relative":
         if method not in (None, "relative"):
@@ -214,7 +194,9 @@ def fit(
     nominal = nominal_geometry(robot, recordings)
     ran_with = load_robot(robot).believed_geometry if robot else None
     result = fit_recordings(recordings, method, nominal=nominal, ran_with=ran_with, **options)
-    written = _write(plan, result.geometry, nominal, result.method, out, ros2, controller_name)
+    written = write_exports(
+        plan, result.geometry, nominal, out, ros2, controller_name, method=result.method
+    )
     return FitResult(result, nominal, len(recordings), _load_warnings(recordings), written)
 
 
@@ -290,8 +272,8 @@ def _fit_relative(
         "sensor_y_m": result.sensor_y_m,
         "sensor_yaw_rad": result.sensor_yaw_rad,
     }
-    written = _write(
-        plan, result.geometry, nominal, "relative", out, ros2, controller_name, **record
+    written = write_exports(
+        plan, result.geometry, nominal, out, ros2, controller_name, method="relative", **record
     )
     return FitResult(result, nominal, len(paths), (), written, extra)
 
@@ -331,7 +313,7 @@ def fit_gyro(
 ) -> GyroFitResult:
     """``odocal fit BAG --method gyro``: the gyro's rotation against the wheel odometry's."""
     plan = OutputPlan([Path(bag), *([Path(robot)] if robot and Path(robot).exists() else [])])
-    _outputs(plan, out, ros2)
+    register_exports(plan, out, ros2)
     nominal = load_robot(robot).nominal if robot else None
     opts = {
         "odom_topic": odom_topic,
@@ -351,7 +333,7 @@ def fit_gyro(
             nominal.diameter_left_m,
             nominal.wheelbase_m * result.wheelbase_multiplier,
         )
-        written = _write(plan, geometry, nominal, "gyro", out, ros2, controller_name)
+        written = write_exports(plan, geometry, nominal, out, ros2, controller_name, method="gyro")
     return GyroFitResult(result, nominal, geometry, written)
 
 

@@ -25,6 +25,7 @@ __all__ = [
     "noise_track",
     "add_robot_args",
     "add_track_args",
+    "add_export_args",
     "add_recording_args",
     "add_bag_args",
     "add_slam_args",
@@ -161,6 +162,23 @@ def add_track_args(p: argparse.ArgumentParser, default_sides=4, default_side=4.0
         default=default_side,
         metavar="L",
         help=f"side length in m (default {default_side:g})",
+    )
+
+
+def add_export_args(p: argparse.ArgumentParser, out_help: str) -> None:
+    """Where a calibration goes: PARAMS.yaml and the ros2_control file (fit and calibrate)."""
+    p.add_argument("--out", metavar="PARAMS.yaml", help=out_help)
+    p.add_argument(
+        "--ros2",
+        metavar="FILE.yaml",
+        help="write a ros2_control diff_drive_controller parameter file (nominal base values "
+        "from --robot, the calibration in the multipliers)",
+    )
+    p.add_argument(
+        "--controller-name",
+        default="diff_drive_controller",
+        metavar="NAME",
+        help="controller name in the --ros2 file (default diff_drive_controller)",
     )
 
 

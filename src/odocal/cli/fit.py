@@ -7,6 +7,7 @@ from pathlib import Path
 
 from ..errors import InputError
 from .common import (
+    add_export_args,
     add_recording_args,
     add_slam_args,
     bag_options,
@@ -46,16 +47,7 @@ def add_parser(sub) -> None:
         "relative (Censi et al. 2013: relative motions with the sensor's mounting; the default "
         "for .tuple files and --truth-frames)",
     )
-    p.add_argument("--out", metavar="PARAMS.yaml", help="write the calibrated parameters")
-    p.add_argument(
-        "--ros2", metavar="FILE.yaml", help="write a ros2_control diff_drive_controller file"
-    )
-    p.add_argument(
-        "--controller-name",
-        default="diff_drive_controller",
-        metavar="NAME",
-        help="controller name in the --ros2 file (default diff_drive_controller)",
-    )
+    add_export_args(p, "write the calibrated parameters")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     t = p.add_argument_group("trajectory method")
     t.add_argument(

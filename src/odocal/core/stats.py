@@ -10,6 +10,9 @@ unbiased standard deviations s_a, s_b (ddof = 1) and sizes n_a, n_b:
 
 p-values: two-sided 2 sf(|t|), one-sided ``p_less`` (H1: mean_a < mean_b) = cdf(t) and
 ``p_greater`` (H1: mean_a > mean_b) = sf(t). They agree with ``scipy.stats.ttest_ind``.
+
+Paired (two samples of the same n units, e.g. candidates simulated with common random numbers):
+d_i = a_i - b_i, t = mean(d) / (s_d / sqrt(n)), df = n - 1 (``scipy.stats.ttest_rel``).
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from scipy.special import stdtr
 
 from ..errors import ModelError
 
-__all__ = ["TTest", "ttest_from_stats", "ttest_samples"]
+__all__ = ["TTest", "ttest_from_stats", "ttest_samples", "ttest_paired"]
 
 
 @dataclass(frozen=True)
@@ -158,6 +161,50 @@ def ttest_samples(a, b, equal_var: bool = False) -> TTest:
         float(b.std(ddof=1)),
         b.size,
         equal_var=equal_var,
+    )
+
+
+def ttest_paired(a, b) -> TTest:
+    """Paired t-test of ``a`` against ``b`` (1-D arrays of equal length; pairs with a non-finite
+    member are left out). ``std_a``/``std_b`` are the groups' own spreads; the test uses the
+    spread of the differences."""
+    a = np.asarray(a, dtype=float).ravel()
+    b = np.asarray(b, dtype=float).ravel()
+    if a.shape != b.shape:
+        raise ModelError(
+            f"a paired t-test needs samples of equal length, got {a.size} and {b.size}"
+        )
+    ok = np.isfinite(a) & np.isfinite(b)
+    a, b = a[ok], b[ok]
+    n = int(a.size)
+    if n < 2:
+        raise ModelError(f"a paired t-test needs at least 2 finite pairs, got {n}")
+    d = a - b
+    diff, sd = float(d.mean()), float(d.std(ddof=1))
+    df = float(n - 1)
+    if sd > 0:
+        t = diff / (sd / math.sqrt(n))
+        p_less, p_greater = float(stdtr(df, t)), float(stdtr(df, -t))
+        p_two = float(min(1.0, 2.0 * stdtr(df, -abs(t))))
+    elif diff == 0:
+        t = p_less = p_greater = p_two = math.nan
+    else:
+        t = math.copysign(math.inf, diff)
+        p_less, p_greater = (0.0, 1.0) if diff < 0 else (1.0, 0.0)
+        p_two = 0.0
+    return TTest(
+        "paired",
+        float(t),
+        df,
+        p_two,
+        p_less,
+        p_greater,
+        float(a.mean()),
+        float(b.mean()),
+        float(a.std(ddof=1)),
+        float(b.std(ddof=1)),
+        n,
+        n,
     )
 
 

@@ -40,6 +40,8 @@ class FloorPlan:
         For polygons: the analytic design's prediction of the heading-error calibration from
         these runs and of the error on the paper's 4 m CCW validation square (with the true
         parameters: the floor; uncalibrated).
+    track : (int, float) or None
+        For polygons: (sides, side_m), written into the run sheet as data.
     """
 
     kind: str
@@ -50,15 +52,23 @@ class FloorPlan:
     next_command: str
     calibration: Candidate | None = None
     reference: AnalyticReference | None = None
+    track: tuple[int, float] | None = None
 
     def template_csv(self) -> str:
-        """Blank RUNS.csv: comment lines, header, one row per run with the direction filled in."""
-        lines = [
-            f"# odocal run sheet: {self.title}",
-            "# Fill in x_m, y_m, theta_deg of every run: the final pose ERROR (actual - odometric)",
-            "# in the start frame: +x start heading, +y left, theta CCW positive, unwrapped.",
-            "# Keep the rows in driving order. Lines starting with '#' are ignored.",
-            "# Every field must hold a number: an empty one stops odocal with 'not a number'.",
+        """Blank RUNS.csv: the track as ``# sides:``/``# side_m:`` settings (read by ``odocal
+        calibrate``), comment lines, header, one row per run with the direction filled in."""
+        lines = []
+        if self.track is not None:
+            lines += [f"# sides: {self.track[0]}", f"# side_m: {self.track[1]:.12g}"]
+        lines += [
+            f"# odocal run sheet - {self.title}",
+            "# Fill in every run: x_m, y_m (m) and theta_deg (deg), the final pose ERROR (actual -",
+            "# odometric) in the start frame: +x start heading, +y left, theta CCW positive, the",
+            "# small deviation from the commanded turn. The heading-error method needs only",
+            "# theta_deg (leave x_m, y_m empty if you cannot measure them); UMBmark needs",
+            "# x_m, y_m.",
+            "# Keep the rows in driving order and the 'sides'/'side_m' lines above: they tell",
+            "# odocal calibrate which track the runs drove.",
             "direction,x_m,y_m,theta_deg,run",
         ]
         lines += [f"{d},,,,{i}" for i, d in enumerate(self.order, start=1)]
@@ -192,10 +202,7 @@ def build_plan(
             "a protractor, leave x_m and y_m empty), UMBmark (--method umbmark) uses x_m and "
             "y_m.",
         )
-        next_cmd = (
-            f"odocal calibrate {runs_path} --robot {robot_arg} --sides {sides} "
-            f"--side-length {side_m:g}"
-        )
+        next_cmd = f"odocal calibrate {runs_path} --robot {robot_arg}"
         kind = "polygon"
     else:
         kind, d = noise_track
@@ -237,4 +244,7 @@ def build_plan(
         validate = polygon(4, 4.0, "ccw")
         calibration = analytic_design(robot, sides, [side_m], n, "heading", validate)[0]
         reference = analytic_reference(robot, validate)
-    return FloorPlan(kind, title, order, predictions, steps, next_cmd, calibration, reference)
+    track = (int(sides), float(side_m)) if kind == "polygon" and sides and side_m else None
+    return FloorPlan(
+        kind, title, order, predictions, steps, next_cmd, calibration, reference, track
+    )

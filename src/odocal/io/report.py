@@ -49,7 +49,11 @@ def claim_checks(result, paper_side_m: float) -> dict:
     i = _index_of_side(result, paper_side_m)
     if i is not None:
         larger = [j for j, c in enumerate(cands) if c.travel_m > cands[i].travel_m]
-        beaten = [j for j in larger if compare(cands, j, i, rec.alpha, rec.tolerance).significant]
+        beaten = [
+            j
+            for j in larger
+            if compare(cands, j, i, rec.alpha, rec.tolerance, result.paired).significant
+        ]
         out["paper_accepted"] = not beaten
         out["beaten_by"] = cands[beaten[0]] if beaten else None
         beyond = means[[i, *larger]]
@@ -104,8 +108,8 @@ def _precision_section(rep, img) -> list[str]:
         "pose measurement. The recommended square for Fig. 5's robot, from motion capture "
         "(1 mm, 0.1 deg) to a tape measure and protractor (1 cm, 1 deg) and worse, computed "
         "with the analytic design (`odocal design --analytic`: first-order propagation, "
-        "deterministic, so the curve shows the trend without Monte-Carlo scatter; the rule's "
-        f"t-tests as for {rep.trials} trials):",
+        "expected values, so the curve shows the trend without Monte-Carlo scatter; the rule "
+        "compares the expected errors directly):",
         "",
         *rows,
         "",

@@ -23,6 +23,7 @@ the record and ignored).
 from __future__ import annotations
 
 from ..core.model import MeasurementNoise, NonSystematicError, Robot, SystematicError, WheelGeometry
+from ..core.plausibility import proportions_problem
 from ..errors import InputError, ModelError
 from ..presets import DEFAULT_ROBOT, PRESETS
 from .yamlfile import YamlDoc, load_yaml
@@ -57,7 +58,16 @@ def _geometry(doc: YamlDoc, mapping: dict, prefix: str) -> WheelGeometry:
         if key not in mapping:
             raise InputError(f"missing required key '{prefix}{key}'", doc.path)
         vals[key] = doc.number(f"{prefix}{key}", mapping[key], positive=True, **_LENGTH)
-    return WheelGeometry(*(vals[k] for k in _GEOMETRY))
+    g = WheelGeometry(*(vals[k] for k in _GEOMETRY))
+    _check_proportions(doc, g, prefix)
+    return g
+
+
+def _check_proportions(doc: YamlDoc, g: WheelGeometry, prefix: str = "") -> None:
+    """Diameter against wheelbase (a unit slip in one of them cannot pass)."""
+    problem = proportions_problem(g.diameter_right_m, g.diameter_left_m, g.wheelbase_m)
+    if problem:
+        raise InputError(problem, doc.path, None, f"{prefix}wheelbase_m")
 
 
 def robot_from_doc(doc: YamlDoc) -> Robot:
@@ -78,6 +88,7 @@ def robot_from_doc(doc: YamlDoc) -> Robot:
             "wheel_diameter_left_m", d["wheel_diameter_left_m"], positive=True, **_LENGTH
         )
     nominal = WheelGeometry(d_r, d_l, wheelbase)
+    _check_proportions(doc, nominal)
 
     s = doc.section("systematic", ("E_b", "E_d", "E_s"))
     systematic = SystematicError(
