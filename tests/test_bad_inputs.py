@@ -247,14 +247,13 @@ def test_circle_radius_far_from_the_commanded_one_is_refused(cli, tmp_path):
         )
 
 
-def test_plan_undefined_prediction_is_null_with_a_warning(cli, tmp_path):
+def test_plan_for_a_track_smaller_than_the_robot_is_refused(cli, tmp_path):
+    # a 1e-9 m side (once a prediction left undefined) cannot be driven by a 0.385 m robot
     out_csv = tmp_path / "plan.csv"
-    status, out, err = cli("plan", "--side-length", "1e-9", "--out", out_csv, "--json")
-    assert status == 0, err
-    pred = json.loads(out)["calibration_prediction"]
-    assert pred["post_error_mean_m"] is None and pred["E_d_std"] is None
-    assert err.startswith("odocal: warning: no calibration prediction")
-    assert out_csv.is_file()
+    cli("plan", "--side-length", "1e-9", "--out", out_csv, "--json").expect_error(
+        "wheelbase 0.385 m", "millimetres"
+    )
+    assert not out_csv.exists()
 
 
 def test_print_json_prints_all_or_nothing(capsys):

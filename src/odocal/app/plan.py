@@ -6,7 +6,12 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..core.model import Robot
+from ..core.plausibility import track_size_problem
+from ..design.analytic import analytic_design_result
 from ..design.plan import FloorPlan, build_plan
+from ..design.result import scaled_sizes
+from ..design.robust import range_design, unknown_errors
 from ..errors import InputError
 from ..io.outputs import OutputPlan
 from ..io.table import read_table
@@ -27,9 +32,10 @@ class PlanResult:
     floor_plan: FloorPlan
     sheet: Path
     warnings: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
 
     def as_dict(self) -> dict:
-        return self.floor_plan.as_dict() | {"template": str(self.sheet)}
+        return self.floor_plan.as_dict() | {"template": str(self.sheet), "notes": list(self.notes)}
 
 
 def _holds_measurements(path: Path) -> bool:
@@ -50,13 +56,18 @@ def plan(
     *,
     params=None,
     sides: int = 4,
-    side_m: float = 4.0,
+    side_m: float | None = None,
     runs_per_direction: int | None = None,
     noise_track: tuple[str, float] | None = None,
     out: str | Path = DEFAULT_TEMPLATE,
     force: bool = False,
+    progress=None,
 ) -> PlanResult:
     """Build the floor protocol and write the blank run sheet ``out``.
+
+    Without ``side_m`` the polygon's side is what ``odocal design --analytic`` recommends for this
+    robot (over the typical ranges of its errors when ROBOT.yaml does not give them); the run
+    sheet records the track either way.
 
     A blank run sheet (e.g. from an earlier ``plan``) is replaced; one that already holds a
     measured value, or a file that is not a run sheet, is not, unless ``force``."""
@@ -70,6 +81,14 @@ def plan(
             out,
         )
     r = resolve_robot(robot, params)
+    notes = []
+    if side_m is None and noise_track is None:
+        side_m, note = suggested_side(r, sides, progress)
+        notes.append(note)
+    b = float(r.believed_geometry.wheelbase_m)
+    problem = track_size_problem(b, noise_track[1] if noise_track else side_m)
+    if problem:
+        raise InputError(problem)
     n = runs_per_direction or (DEFAULT_NOISE_RUNS if noise_track else 5)
     fp = build_plan(
         r,
@@ -88,4 +107,31 @@ def plan(
             f"{side_m:g} m side (too short to resolve E_d)"
         )
     outputs.commit({out: fp.template_csv()})
-    return PlanResult(fp, out, tuple(warnings))
+    return PlanResult(fp, out, tuple(warnings), tuple(notes))
+
+
+def suggested_side(robot: Robot, sides: int = 4, progress=None) -> tuple[float, str]:
+    """The side (m) the analytic design recommends for ``robot`` (over plausible errors when it
+    gives none), and a note saying so."""
+    lengths, validation = scaled_sizes(float(robot.nominal.wheelbase_m))
+    unknown = unknown_errors(robot)
+    if unknown:
+        d = range_design(
+            robot,
+            sides=(sides,),
+            side_lengths_m=lengths,
+            validation=validation,
+            progress=progress,
+        )
+        return d.recommended.side_m, (
+            f"side {d.recommended.side_m:g} m: the design's recommendation over the typical "
+            f"ranges of the robot's {' and '.join(unknown)} errors (within "
+            f"{100 * d.within:.1f} % of the best size; 'odocal design --robot ...' shows it)"
+        )
+    res = analytic_design_result(
+        robot, sides=(sides,), side_lengths_m=lengths, validation=validation
+    )
+    return res.recommended.side_m, (
+        f"side {res.recommended.side_m:g} m: what 'odocal design --analytic' recommends for "
+        "this robot (give --side-length to choose another)"
+    )

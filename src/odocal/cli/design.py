@@ -206,7 +206,7 @@ def run(args) -> int:
         method=args.method,
         validation=args.validate,
     )
-    bar = ProgressBar("odocal design", enabled=not (args.quiet or args.json or args.analytic))
+    bar = ProgressBar("odocal design", enabled=not (args.quiet or args.json))
     try:
         res = design(
             args.robot,

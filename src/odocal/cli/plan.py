@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from .common import (
+    ProgressBar,
     add_robot_args,
     length_m,
     noise_track,
@@ -35,9 +36,9 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--side-length",
         type=length_m,
-        default=4.0,
+        default=None,
         metavar="L",
-        help="side length in m (default 4)",
+        help="side length in m (default: what 'odocal design --analytic' recommends for the robot)",
     )
     p.add_argument(
         "--runs-per-direction",
@@ -67,27 +68,39 @@ def add_parser(sub) -> None:
         "sheet)",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress bar (also off with --json or when stderr is not a terminal)",
+    )
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
     from ..app.plan import plan as make_plan
 
-    res = make_plan(
-        args.robot,
-        params=args.params,
-        sides=args.sides,
-        side_m=args.side_length,
-        runs_per_direction=args.runs_per_direction,
-        noise_track=args.track,
-        out=args.out,
-        force=args.force,
-    )
+    bar = ProgressBar("odocal plan: choosing the side", enabled=not (args.quiet or args.json))
+    try:
+        res = make_plan(
+            args.robot,
+            params=args.params,
+            sides=args.sides,
+            side_m=args.side_length,
+            runs_per_direction=args.runs_per_direction,
+            noise_track=args.track,
+            out=args.out,
+            force=args.force,
+            progress=bar,
+        )
+    finally:
+        bar.close()
     plan = res.floor_plan
     print_warnings(res.warnings)
     if args.json:
         print_json(res.as_dict())
         return 0
+    for note in res.notes:
+        print(f"Note: {note}")
     print(f"Floor protocol: {plan.title}")
     for i, step in enumerate(plan.steps, start=1):
         print(f"{i}. {step}")
@@ -115,7 +128,7 @@ def run(args) -> int:
         print(
             f"  Calibration from these runs (heading-error method, first-order prediction): "
             f"E_b {c.E_b_mean:.4f} ± {c.E_b_std:.4f}, E_d {c.E_d_mean:.5f} ± {c.E_d_std:.5f}; "
-            f"then a 4 m x 4 m CCW square should end {c.post_error_mean_m:.3f} m from its start "
+            f"then a {plan.validation.label} should end {c.post_error_mean_m:.3f} m from its start "
             f"(95 %: {lo:.3f} .. {hi:.3f} m), against {r.uncalibrated_m:.3f} m uncalibrated and "
             f"{r.floor_m:.3f} m with perfect parameters. 'odocal design' compares track sizes."
         )

@@ -24,7 +24,11 @@ def add_parser(sub) -> None:
         help="Monte-Carlo trials per candidate (default 800, the paper's)",
     )
     p.add_argument("--seed", type=seed_int, default=0, metavar="S", help="random seed (default 0)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress bar (also off when stderr is not a terminal)",
+    )
     p.set_defaults(run=run)
 
 

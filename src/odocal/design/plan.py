@@ -14,7 +14,7 @@ from ..core.model import Robot
 from ..core.tracks import Track, out_and_back, polygon, straight_line
 from ..errors import ModelError
 from .analytic import AnalyticReference, analytic_design, analytic_reference
-from .result import Candidate
+from .result import Candidate, ValidationTrack, scaled_sizes
 
 __all__ = ["FloorPlan", "build_plan"]
 
@@ -42,6 +42,9 @@ class FloorPlan:
         parameters: the floor; uncalibrated).
     track : (int, float) or None
         For polygons: (sides, side_m), written into the run sheet as data.
+    validation : ValidationTrack or None
+        The validation track of the prediction (a square scaled to the robot, as in
+        ``odocal design``).
     """
 
     kind: str
@@ -53,6 +56,7 @@ class FloorPlan:
     calibration: Candidate | None = None
     reference: AnalyticReference | None = None
     track: tuple[int, float] | None = None
+    validation: ValidationTrack | None = None
 
     def template_csv(self) -> str:
         """Blank RUNS.csv: the track as ``# sides:``/``# side_m:`` settings (read by ``odocal
@@ -91,7 +95,7 @@ class FloorPlan:
                 "E_b_std": num(c.E_b_std),
                 "E_d_mean": num(c.E_d_mean),
                 "E_d_std": num(c.E_d_std),
-                "validation": "4-gon 4 m ccw",
+                "validation": self.validation.as_dict() if self.validation else None,
                 "post_error_mean_m": num(c.post_error_mean_m),
                 "post_error_ci95_m": [num(v) for v in c.post_error_ci95_m],
                 "floor_m": r.floor_m,
@@ -238,13 +242,14 @@ def build_plan(
         )
         next_cmd = f"odocal noise {runs_path} --robot {robot_arg} --track {kind}:{d:g}"
     predictions = {lab: predict(t, robot, max_step_m=0.02) for lab, t in tracks.items()}
-    calibration = reference = None
+    calibration = reference = validation = None
     if kind == "polygon":
         assert sides is not None and side_m is not None
-        validate = polygon(4, 4.0, "ccw")
+        validation = scaled_sizes(float(robot.nominal.wheelbase_m))[1]
+        validate = validation.track()
         calibration = analytic_design(robot, sides, [side_m], n, "heading", validate)[0]
         reference = analytic_reference(robot, validate)
     track = (int(sides), float(side_m)) if kind == "polygon" and sides and side_m else None
     return FloorPlan(
-        kind, title, order, predictions, steps, next_cmd, calibration, reference, track
+        kind, title, order, predictions, steps, next_cmd, calibration, reference, track, validation
     )

@@ -199,7 +199,7 @@ def _order(candidates, indices):
 
 def _pick(candidates, indices, beats: Callable[[int, int], bool]):
     """The rule on ``indices``: the first candidate (by travel) no competitor beats."""
-    beaten = {}
+    beaten: dict[int, int] = {}
     order = _order(candidates, indices)
     for i in order:
         rivals = [j for j in order if j != i and _larger(candidates[i], candidates[j])]

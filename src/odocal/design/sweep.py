@@ -464,7 +464,7 @@ def run_design(
             progress(done, total, label)
 
     seeds = tuple(int(v) for v in rng.integers(0, 2**63 - 1, size=3))
-    common = seeds[:2] if common_random_numbers else None
+    common = (seeds[0], seeds[1]) if common_random_numbers else None
 
     def val_rng() -> np.random.Generator:
         return np.random.default_rng(seeds[1]) if common_random_numbers else rng

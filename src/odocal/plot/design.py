@@ -256,8 +256,8 @@ def design_figures(result) -> dict:
     written = {}
     fig = post_error_figure(
         _series(result, label),
-        f"Post-calibration error\n{result.method} method, {result.runs_per_direction} runs per "
-        f"direction, {_how(result)}",
+        f"Post-calibration error, {result.method} method, {result.runs_per_direction} runs "
+        f"per direction\n{_how(result)}",
         x=x,
         floor_m=result.floor.mean_m,
         uncalibrated_m=result.uncalibrated.mean_m,
@@ -267,7 +267,7 @@ def design_figures(result) -> dict:
     written["design_error.png"] = fig
     fig = calibration_figure(
         cands,
-        f"Calibrated factors against the test-track size\n({_how(result)})",
+        f"Calibrated factors against the test-track size\n{_how(result)}",
         truth=result.truth_factors,
         x=x,
     )
@@ -402,7 +402,7 @@ def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
         "fig5_square_post_error.png",
         post_error_figure(
             [("square", f5.candidates, f5.recommended, shape_colour(4), "-")],
-            f"Fig. 5: square test tracks\n{cond('paper-fig5')}, {_how(f5)}",
+            f"Fig. 5: square test tracks\n{cond('paper-fig5')}\n{_how(f5)}",
             x="side",
             floor_m=f5.floor.mean_m,
             uncalibrated_m=f5.uncalibrated.mean_m,
@@ -418,7 +418,7 @@ def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
                 ("square (Fig. 5)", f5.candidates, f5.recommended, shape_colour(4), "-"),
                 ("octagon", f6.candidates, f6.recommended, shape_colour(8), "-"),
             ],
-            f"Fig. 6: octagon vs square at equal travel\n{cond('paper-fig5')}, {_how(f6)}",
+            f"Fig. 6: octagon vs square at equal travel\n{cond('paper-fig5')}\n{_how(f6)}",
             x="travel",
             floor_m=f6.floor.mean_m,
             uncalibrated_m=f6.uncalibrated.mean_m,
@@ -439,7 +439,7 @@ def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
         "fig9_experiment_post_error.png",
         post_error_figure(
             [("square", f9.candidates, f9.recommended, shape_colour(4), "-")],
-            f"Fig. 9: experimental robot\n{cond('paper-experiment')}, {_how(f9)}",
+            f"Fig. 9: experimental robot\n{cond('paper-experiment')}\n{_how(f9)}",
             x="side",
             floor_m=f9.floor.mean_m,
             uncalibrated_m=f9.uncalibrated.mean_m,
@@ -467,7 +467,7 @@ def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
                     "--",
                 ),
             ],
-            f"Fig. 5 with a noisy heading instrument\n{cond('paper-fig5')}, {_how(fi)}",
+            f"Fig. 5 with a noisy heading instrument\n{cond('paper-fig5')}\n{_how(fi)}",
             x="side",
             floor_m=f5.floor.mean_m,
             uncalibrated_m=f5.uncalibrated.mean_m,
