@@ -19,6 +19,7 @@ __all__ = [
     "input_paths",
     "register_exports",
     "write_exports",
+    "make_robot",
 ]
 
 #: A robot as a command takes it: a Robot, a built-in name, a ROBOT.yaml path, or None (default).
@@ -34,6 +35,36 @@ def resolve_robot(
     if params is not None:
         r = r.with_believed(params if isinstance(params, WheelGeometry) else load_params(params))
     return r
+
+
+def make_robot(
+    wheel_diameter_m: float,
+    wheelbase_m: float,
+    *,
+    E_b: float = 1.0,
+    E_d: float = 1.0,
+    E_s: float = 1.0,
+    k_r_m: float = 0.0,
+    k_l_m: float | None = None,
+    sigma_xy_m: float = 0.0,
+    sigma_theta_deg: float = 0.0,
+) -> Robot:
+    """A Robot from the values of a ROBOT.yaml, in its units (m, deg; k in m): nominal wheel
+    diameter and wheelbase, systematic errors E_b, E_d, E_s, wheel noise k_r_m, k_l_m (default
+    k_r_m) and the instrument's sigma_xy_m and sigma_theta_deg. The same checks as the file
+    (diameter against wheelbase: a unit slip cannot pass)."""
+    from ..core.model import MeasurementNoise, NonSystematicError, SystematicError
+    from ..core.plausibility import proportions_problem
+
+    problem = proportions_problem(wheel_diameter_m, wheel_diameter_m, wheelbase_m)
+    if problem:
+        raise InputError(problem, field="wheelbase_m")
+    return Robot(
+        WheelGeometry.symmetric(wheel_diameter_m, wheelbase_m),
+        SystematicError(E_b, E_d, E_s),
+        NonSystematicError(k_r_m, k_r_m if k_l_m is None else k_l_m),
+        MeasurementNoise.from_degrees(sigma_xy_m, sigma_theta_deg),
+    )
 
 
 def robot_label(robot: RobotSpec, params: Any = None) -> str:

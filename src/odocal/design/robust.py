@@ -61,12 +61,16 @@ def unknown_errors(robot: Robot) -> tuple[str, ...]:
     return tuple(out)
 
 
-def plausible_robots(robot: Robot, unknown: Sequence[str]) -> list[tuple[dict, Robot]]:
+def plausible_robots(
+    robot: Robot, unknown: Sequence[str], levels: dict | None = None
+) -> list[tuple[dict, Robot]]:
     """The grid of plausible robots: ``robot`` with each unknown error class set to every
-    combination of its typical levels. Returns (levels, robot) pairs."""
-    eb = TYPICAL_E_B if "systematic" in unknown else (robot.systematic.E_b,)
-    ed = TYPICAL_E_D if "systematic" in unknown else (robot.systematic.E_d,)
-    ks = TYPICAL_K_M if "nonsystematic" in unknown else (None,)
+    combination of its typical levels (``levels`` {'E_b', 'E_d', 'k_m': sequences} replaces
+    them). Returns (levels, robot) pairs."""
+    lv = {"E_b": TYPICAL_E_B, "E_d": TYPICAL_E_D, "k_m": TYPICAL_K_M} | (levels or {})
+    eb = lv["E_b"] if "systematic" in unknown else (robot.systematic.E_b,)
+    ed = lv["E_d"] if "systematic" in unknown else (robot.systematic.E_d,)
+    ks = lv["k_m"] if "nonsystematic" in unknown else (None,)
     out = []
     for b in eb:
         for d in ed:
@@ -225,12 +229,14 @@ def range_design(
     tolerance: float = 0.05,
     unknown: Sequence[str] | None = None,
     progress: Callable[[int, int, str], None] | None = None,
+    levels: dict | None = None,
 ) -> RangeDesign:
-    """The design over plausible robots (module docstring), by the analytic engine."""
+    """The design over plausible robots (module docstring), by the analytic engine.
+    ``levels`` replaces the typical levels (see :func:`plausible_robots`)."""
     from .sweep import equal_travel_side_lengths
 
     unknown = tuple(unknown_errors(robot) if unknown is None else unknown)
-    grid = plausible_robots(robot, unknown)
+    grid = plausible_robots(robot, unknown, levels)
     track = validation.track()
     shapes = equal_travel_side_lengths(np.asarray(side_lengths_m, float), [int(s) for s in sides])
     errors, uncal, floor = [], [], []
