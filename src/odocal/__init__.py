@@ -64,7 +64,40 @@ _API: dict[str, tuple[str, str | None]] = {
     "CalibrationError": ("odocal.errors", "CalibrationError"),
 }
 
-__all__ = ["__version__", *_API]
+__all__ = [
+    "__version__",
+    "simulate",
+    "calibrate",
+    "fit",
+    "design",
+    "validate",
+    "export",
+    "plan",
+    "noise",
+    "compare",
+    "reproduce",
+    "ttest",
+    "make_robot",
+    "Robot",
+    "WheelGeometry",
+    "SystematicError",
+    "NonSystematicError",
+    "MeasurementNoise",
+    "DesignSpec",
+    "ValidationTrack",
+    "CalibrateResult",
+    "FitResult",
+    "DesignRun",
+    "SimulateResult",
+    "Validation",
+    "load_robot",
+    "load_params",
+    "PRESETS",
+    "OdocalError",
+    "InputError",
+    "ModelError",
+    "CalibrationError",
+]
 
 
 def __getattr__(name: str) -> Any:
