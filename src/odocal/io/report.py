@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 
+from ..design.sweep import stability
+
 __all__ = ["reproduce_markdown", "claim_checks"]
 
 
@@ -132,6 +134,8 @@ def reproduce_markdown(rep, figures: dict) -> str:
     c9 = claim_checks(f9, PAPER["chosen_side_m"])
     fi = rep.instrument
     ci = claim_checks(fi, PAPER["chosen_side_m"])
+    for c, res in ((c5, f5), (c6, f6), (c9, f9), (ci, fi)):
+        c["stability"] = stability(res)
     s4 = rep.fig3.share_at(4.0)
     s8 = rep.fig8.share_at(4.0)
     exp = rep.experiment
@@ -146,8 +150,16 @@ def reproduce_markdown(rep, figures: dict) -> str:
         rr = c["residual_recommended"]
         acc = c["paper_accepted"]
         beaten = "" if acc else f" (by the {c['beaten_by'].side_m:g} m side)"
+        st = c.get("stability")
+        spread = ""
+        if st is not None and st["range_m"][0] != st["range_m"][1]:
+            spread = (
+                f", indistinguishable from {st['range_m'][0]:g}-{st['range_m'][1]:g} m at "
+                f"{rep.trials} trials (bootstrap)"
+            )
         return (
-            f"rule picks side {r.side_m:g} m ({r.travel_m:g} m travel); on the residual alone "
+            f"rule picks side {r.side_m:g} m ({r.travel_m:g} m travel{spread}); on the "
+            f"residual alone "
             f"{rr.side_m:g} m ({rr.travel_m:g} m); no larger track beats the paper's choice by "
             f"> {100 * tol:g} %: {'yes' if acc else 'no' + beaten}; means from it on spread by "
             f"{_pct(c['spread_beyond'])}"
