@@ -144,7 +144,7 @@ BAD_RUNS = {
     "header only": ("direction,x_m,y_m,theta_deg\n", ["no runs"]),
     # a heading error no run of a square can have (radians multiplied out, ...): refused
     "implausible heading": (
-        "direction,x_m,y_m,theta_deg\ncw,0,0,100\nccw,0,0,-4\n",
+        "direction,x_m,y_m,theta_deg\ncw,0,0,150\nccw,0,0,-4\n",
         ["line 2", "theta_deg", "deviation"],
     ),
     # an end 12 m from the start after 16 m of travel: centimetres in a metre column

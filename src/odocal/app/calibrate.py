@@ -12,8 +12,10 @@ from ..calibration.bcpt import calibrate_bcpt
 from ..calibration.heading import calibrate_heading
 from ..calibration.result import CalibrationResult, check_physical
 from ..calibration.umbmark import calibrate_umbmark
+from ..core.model import Robot
 from ..core.plausibility import (
     end_distance_problem,
+    end_error_bounds,
     heading_error_problem,
     track_size_problem,
     wrap_heading_error,
@@ -112,14 +114,23 @@ def resolve_track(
     return int(n), float(side), source
 
 
-def _checked_runs(sheet: RunSheet, sides: int, side_m: float) -> tuple[EndPoseRuns, list[str]]:
+def _checked_runs(
+    sheet: RunSheet, sides: int, side_m: float, robot: Robot
+) -> tuple[EndPoseRuns, list[str]]:
     """The runs with their heading errors wrapped into [-180, 180) deg, each row alike (a warning
-    names the rows), and refused when an end error cannot belong to this track (a unit slip)."""
+    names the rows), where this robot cannot deviate by half a turn on this track; and refused
+    when an end error cannot belong to this robot on this track (a unit slip)."""
     runs, warnings = sheet.runs, []
+    m = robot.measurement
+    bounds = end_error_bounds(
+        sides, side_m, robot.believed_geometry, m.sigma_theta_rad, m.sigma_xy_m
+    )
     err = runs.errors.copy()
     theta = err[:, 2]
     finite = np.isfinite(theta)
-    wrapped = np.where(finite, wrap_heading_error(np.where(finite, theta, 0.0)), theta)
+    wrapped = theta
+    if bounds.unambiguous:
+        wrapped = np.where(finite, wrap_heading_error(np.where(finite, theta, 0.0)), theta)
     moved = finite & ~np.isclose(wrapped, theta, rtol=0.0, atol=1e-12)
     if np.any(moved):
         rows = ", ".join(
@@ -130,15 +141,20 @@ def _checked_runs(sheet: RunSheet, sides: int, side_m: float) -> tuple[EndPoseRu
             f"{sheet.path}: theta_deg read as the deviation from the commanded turn, a full turn "
             f"removed ({rows}); theta_deg is the small final heading ERROR, not the total turn"
         )
+    elif not bounds.unambiguous and np.any(np.abs(theta[finite]) > math.pi):
+        warnings.append(
+            f"{sheet.path}: on this track the robot's heading error may exceed 180 deg, so "
+            "theta_deg is taken as written (unwrapped, e.g. from a gyro); a protractor cannot "
+            "tell such errors apart: drive a shorter track"
+        )
     err[:, 2] = wrapped
-    travel = sides * side_m
     for i, line in enumerate(sheet.lines):
         if finite[i]:
-            problem = heading_error_problem(float(wrapped[i]), sides)
+            problem = heading_error_problem(float(wrapped[i]), bounds)
             if problem:
                 raise InputError(problem, sheet.path, line, "theta_deg")
         if np.isfinite(err[i, 0]) and np.isfinite(err[i, 1]):
-            problem = end_distance_problem(float(err[i, 0]), float(err[i, 1]), travel)
+            problem = end_distance_problem(float(err[i, 0]), float(err[i, 1]), bounds)
             if problem:
                 raise InputError(problem, sheet.path, line, "x_m")
     return EndPoseRuns(runs.directions, err), warnings
@@ -188,7 +204,7 @@ def calibrate(
         problem = track_size_problem(float(ran_with.wheelbase_m), side_m)
         if problem:
             raise InputError(problem, sheet.path, sheet.setting_lines.get("side_m"), "side_m")
-        runs, warnings = _checked_runs(sheet, sides, side_m)
+        runs, warnings = _checked_runs(sheet, sides, side_m, r)
         track = f"{sides}-gon side {side_m:g} m"
         if method == "umbmark":
             if sides != 4:

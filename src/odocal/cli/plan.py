@@ -105,7 +105,16 @@ def run(args) -> int:
     for i, step in enumerate(plan.steps, start=1):
         print(f"{i}. {step}")
     print()
-    print("What to expect (this robot's errors; mean and spread of the measured end errors):")
+    if plan.typical_mean_abs:
+        print(
+            "What to expect: ROBOT.yaml gives no systematic errors (the runs will measure them), "
+            "so the mean below is 0; typical robots (E_b 0.97-1.03, E_d 0.995-1.005) end up to"
+        )
+        for d, (x, y, th) in plan.typical_mean_abs.items():
+            print(f"  {d}: |x| {x:.3f} m, |y| {y:.3f} m, |theta| {math.degrees(th):.2f} deg")
+        print("from the start, plus the spread below:")
+    else:
+        print("What to expect (this robot's errors; mean and spread of the measured end errors):")
     rows = [("direction", "x_m", "y_m", "theta_deg")]
     for d, p in plan.predictions.items():
         m, s = np.round(p.error_mean, 12) + 0.0, p.std(measured=True)  # no "-0.0000"
@@ -122,6 +131,11 @@ def run(args) -> int:
         "  (± one standard deviation of a single run, including the instrument noise in "
         "ROBOT.yaml; values far outside these usually mean a frame or sign mistake)"
     )
+    if "nonsystematic" in plan.unknown:
+        print(
+            "  (ROBOT.yaml gives no wheel noise k: the spread is the instrument's alone; a real "
+            "robot's is larger)"
+        )
     c, r = plan.calibration, plan.reference
     if c is not None and np.isfinite(c.post_error_mean_m):
         lo, hi = c.post_error_ci95_m

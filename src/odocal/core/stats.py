@@ -211,11 +211,12 @@ def ttest_paired(a, b) -> TTest:
 def circular_mean(angles_rad, axis=-1):
     """Circular mean of unwrapped angles that keeps their unwrapped scale.
 
-    The mean direction is taken relative to the first sample, so a set of errors near -2 pi stays
-    near -2 pi (and small errors stay small) instead of being wrapped into (-pi, pi].
+    The mean direction is taken relative to the arithmetic mean, so a set of errors near -2 pi
+    stays near -2 pi (and small errors stay small) instead of being wrapped into (-pi, pi], and
+    the result does not depend on the order of the samples.
     """
     a = np.asarray(angles_rad, dtype=float)
-    ref = np.take(a, [0], axis=axis)
+    ref = np.mean(a, axis=axis, keepdims=True)
     d = a - ref
     return np.squeeze(ref, axis=axis) + np.arctan2(
         np.mean(np.sin(d), axis=axis), np.mean(np.cos(d), axis=axis)

@@ -7,14 +7,18 @@ sheet.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
-from ..core.covariance import PosePrediction, predict
+import numpy as np
+
+from ..core.covariance import PosePrediction, mean_final_pose, predict
 from ..core.model import Robot
+from ..core.simulate import odometric_pose
 from ..core.tracks import Track, out_and_back, polygon, straight_line
 from ..errors import ModelError
 from .analytic import AnalyticReference, analytic_design, analytic_reference
 from .result import Candidate, ValidationTrack, scaled_sizes
+from .robust import plausible_robots, unknown_errors
 
 __all__ = ["FloorPlan", "build_plan"]
 
@@ -45,6 +49,12 @@ class FloorPlan:
     validation : ValidationTrack or None
         The validation track of the prediction (a square scaled to the robot, as in
         ``odocal design``).
+    typical_mean_abs : dict of str to (float, float, float)
+        When ROBOT.yaml gives no systematic errors (the runs are to measure them): per
+        direction, the largest |mean end error| (x_m, y_m, theta_rad) of the plausible robots
+        (typical E_b, E_d; :mod:`odocal.design.robust`); then ``calibration`` is None.
+    unknown : tuple of str
+        The error classes ROBOT.yaml does not give ('systematic', 'nonsystematic').
     """
 
     kind: str
@@ -57,6 +67,8 @@ class FloorPlan:
     reference: AnalyticReference | None = None
     track: tuple[int, float] | None = None
     validation: ValidationTrack | None = None
+    typical_mean_abs: dict = field(default_factory=dict)
+    unknown: tuple[str, ...] = ()
 
     def template_csv(self) -> str:
         """Blank RUNS.csv: the track as ``# sides:``/``# side_m:`` settings (read by ``odocal
@@ -101,7 +113,10 @@ class FloorPlan:
                 "floor_m": r.floor_m,
                 "uncalibrated_m": r.uncalibrated_m,
             }
+        if self.typical_mean_abs:
+            extra["typical_mean_abs"] = {d: pose(v) for d, v in self.typical_mean_abs.items()}
         return extra | {
+            "unknown_errors": list(self.unknown),
             "kind": self.kind,
             "title": self.title,
             "order": list(self.order),
@@ -243,7 +258,18 @@ def build_plan(
         next_cmd = f"odocal noise {runs_path} --robot {robot_arg} --track {kind}:{d:g}"
     predictions = {lab: predict(t, robot, max_step_m=0.02) for lab, t in tracks.items()}
     calibration = reference = validation = None
-    if kind == "polygon":
+    typical: dict[str, tuple[float, float, float]] = {}
+    unknown = unknown_errors(robot)
+    if kind == "polygon" and "systematic" in unknown:
+        # the robot's errors are what the runs will measure: show what typical robots do
+        for lab, t in tracks.items():
+            means = np.array(
+                [mean_final_pose(t, r.true_geometry, r.believed_geometry) - odometric_pose(t)
+                 for _, r in plausible_robots(robot, ("systematic",))]
+            )  # fmt: skip
+            m = np.max(np.abs(means), axis=0)
+            typical[lab] = (float(m[0]), float(m[1]), float(m[2]))
+    elif kind == "polygon":
         assert sides is not None and side_m is not None
         validation = scaled_sizes(float(robot.nominal.wheelbase_m))[1]
         validate = validation.track()
@@ -251,5 +277,16 @@ def build_plan(
         reference = analytic_reference(robot, validate)
     track = (int(sides), float(side_m)) if kind == "polygon" and sides and side_m else None
     return FloorPlan(
-        kind, title, order, predictions, steps, next_cmd, calibration, reference, track, validation
+        kind,
+        title,
+        order,
+        predictions,
+        steps,
+        next_cmd,
+        calibration,
+        reference,
+        track,
+        validation,
+        typical,
+        unknown,
     )

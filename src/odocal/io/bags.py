@@ -66,7 +66,10 @@ POSE_TYPES = (
 )
 BASE_FRAMES = ("base_link", "base_footprint")
 BAG_SUFFIXES = (".bag", ".db3", ".mcap")
-_INSTALL_HINT = "reading ROS bags needs the 'rosbags' package: pip install 'odocal[bags]'"
+_INSTALL_HINT = (
+    "reading ROS bags needs the 'rosbags' package: pip install rosbags (or, in the odocal "
+    "folder, pip install -e '.[bags]')"
+)
 
 
 # --------------------------------------------------------------------------- opening bags

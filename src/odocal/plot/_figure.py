@@ -18,7 +18,10 @@ __all__ = [
     "shape_colour",
 ]
 
-INSTALL_HINT = "plotting needs matplotlib: pip install 'odocal[plot]'"
+INSTALL_HINT = (
+    "plotting needs matplotlib: pip install matplotlib (or, in the odocal folder, "
+    "pip install -e '.[plot]')"
+)
 
 
 def new_figure(width: float = 7.0, height: float = 4.4, dpi: float = 120) -> Any:
