@@ -372,3 +372,24 @@ def test_the_readme_python_example_runs(tmp_path, monkeypatch):
     assert 0.2 <= best.side_m <= 4.0
     with pytest.raises(odocal.InputError, match="different units"):
         odocal.make_robot(66, 0.16)
+
+
+# --- numbers in the docs -----------------------------------------------------------------------
+
+
+def test_the_readme_instrument_table_is_what_the_analytic_design_gives():
+    """README's table of the recommended size against the instrument (written by
+    benchmarks/bench_design_stability.py) agrees with the code: analytic, so deterministic."""
+    from pathlib import Path
+
+    from odocal.design.reproduce import precision_sweep
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    rows = [line for line in readme.splitlines() if line.startswith("| ") and " deg | " in line]
+    sweep = precision_sweep(PRESETS["paper-fig5"])
+    heading = sweep.recommended_side_m[("heading", "error")]
+    umbmark = sweep.recommended_side_m[("umbmark", "error")]
+    assert len(rows) == len(heading) == 6
+    for row, h, u in zip(rows, heading, umbmark, strict=True):
+        cells = [c.strip() for c in row.strip("|").split("|")]
+        assert cells[1:] == [f"{h:g} m", f"{u:g} m"], row

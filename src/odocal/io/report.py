@@ -154,8 +154,8 @@ def reproduce_markdown(rep, figures: dict) -> str:
         spread = ""
         if st is not None and st["range_m"][0] != st["range_m"][1]:
             spread = (
-                f", indistinguishable from {st['range_m'][0]:g}-{st['range_m'][1]:g} m at "
-                f"{rep.trials} trials (bootstrap)"
+                f"; {st['range_m'][0]:g}-{st['range_m'][1]:g} m indistinguishable at "
+                f"{rep.trials} trials, bootstrap"
             )
         return (
             f"rule picks side {r.side_m:g} m ({r.travel_m:g} m travel{spread}); on the "

@@ -173,7 +173,10 @@ def post_error_figure(
             0.99, 0.98, "\n".join(notes), transform=ax.transAxes, ha="right", va="top",
             fontsize=9, color="0.25",
         )  # fmt: skip
-    fig.legend(loc="outside lower center", ncol=2, fontsize=8)
+    # two columns unless a label is too long for half the width (it would be cut off)
+    labels = ax.get_legend_handles_labels()[1]
+    ncol = 2 if max(map(len, labels), default=0) <= 58 else 1
+    fig.legend(loc="outside lower center", ncol=ncol, fontsize=8)
     return fig
 
 
