@@ -166,6 +166,17 @@ def fit_recorded_squares(
         )
         sd = vals.std(axis=0, ddof=1) / math.sqrt(len(per_set))
         stderr = dict(zip(stderr, map(float, sd), strict=True))
+    elif per_set[0][2].uncertainty is not None:
+        # one data set: the run-to-run spread (delta method), kept relative to each value
+        res = per_set[0][2]
+        unc = res.uncertainty.stderr[2:]
+        own = (
+            res.corrected.diameter_right_m,
+            res.corrected.diameter_left_m,
+            res.corrected.wheelbase_m,
+        )
+        got = (geometry.diameter_right_m, geometry.diameter_left_m, geometry.wheelbase_m)
+        stderr = {k: float(u * g / o) for k, u, g, o in zip(stderr, unc, got, own, strict=True)}
     return GeometryFit(
         method=method,
         geometry=geometry,
