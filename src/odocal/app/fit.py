@@ -265,12 +265,20 @@ def _fit_relative(
                 )
             )
         m = [b.motions for b in bags]
+        k = max(b.increments[0].shape[1] for b in bags)
+
+        def padded(i: int) -> np.ndarray:
+            return np.concatenate(
+                [np.pad(b.increments[i], ((0, 0), (0, k - b.increments[i].shape[1]))) for b in bags]
+            )
+
         result = fit_censi(
             np.concatenate([x.phi_right_rad for x in m]),
             np.concatenate([x.phi_left_rad for x in m]),
             np.concatenate([x.sensor_motion for x in m]),
             sensor_pose=(0.0, 0.0, 0.0),  # the truth frame is the base itself
             nominal=nominal,
+            wheel_increments=(padded(0), padded(1)),
         )
         extra["slam"] = [
             {
