@@ -132,7 +132,7 @@ class CheckThresholds:
     only_share: float = 0.95
     min_travel_m: float = 2.0
     min_rotation_rad: float = 2.0 * math.pi
-    min_turn_each_way_rad: float = math.pi
+    min_turn_each_way_rad: float = 0.5 * math.pi
     constant_ratio: float = 0.99
     max_condition: float = 1e4
     max_relative_stderr: float = 5e-3
@@ -426,6 +426,80 @@ def _jacobian(run: _Run, kind: str, params, steps) -> np.ndarray:
     return np.column_stack(cols)
 
 
+def _cumulative_increment_covariance(run: _Run, geometry, noise: NoiseModel, pose, a):
+    """Qc[t] = sum over the increments before sample t of H_i diag(q_i) H_i^T, shape (K, 4, 4),
+    or None without wheel or turn noise (see _noise_covariance)."""
+    k_r, k_l, k_t = noise.wheel.k_r_m, noise.wheel.k_l_m, noise.turn_rad
+    if not (k_r > 0 or k_l > 0 or k_t > 0):
+        return None
+    b = float(geometry.wheelbase_m)
+    ds_r, ds_l = _wheel_travel(run.phi_r, run.phi_l, geometry)
+    ds = 0.5 * (ds_r + ds_l)
+    dth = (ds_r - ds_l) / b
+    mid = pose[:-1, 2] + 0.5 * dth
+    c, s = np.cos(mid), np.sin(mid)
+    h = ds / (2.0 * b)
+    # columns: right wheel, left wheel, extra heading noise of the increment
+    B = np.empty((len(ds), 3, 3))
+    B[:, 0, 0], B[:, 0, 1] = 0.5 * c - h * s, 0.5 * c + h * s
+    B[:, 1, 0], B[:, 1, 1] = 0.5 * s + h * c, 0.5 * s - h * c
+    B[:, 2, 0], B[:, 2, 1] = 1.0 / b, -1.0 / b
+    B[:, 0, 2], B[:, 1, 2], B[:, 2, 2] = -0.5 * ds * s, 0.5 * ds * c, 1.0
+    H = np.empty((len(ds), 4, 3))
+    H[:, :3, :] = B - a[1:, :, None] * B[:, 2:3, :]
+    H[:, 3, :] = B[:, 2, :]
+    q = np.stack([k_r * np.abs(ds_r), k_l * np.abs(ds_l), k_t * np.abs(dth)], axis=-1)
+    Hq = H * np.sqrt(q)[:, None, :]
+    Q = Hq @ np.swapaxes(Hq, 1, 2)
+    return np.concatenate([np.zeros((1, 4, 4)), np.cumsum(Q, axis=0)])
+
+
+def _pose_forms(run: _Run, geometry, noise: NoiseModel, X, V):
+    """Pose residuals without dense matrices: (X^T Sigma^-1 X, V^T Sigma V) for X, V of shape
+    (3 B, k). The rows are a linear Gaussian state-space model: block j is C_j Z_j + v_j with
+    C_j = [I | a_j], Z_j = Z_j-1 + w_j (the wheel and turn noise of the increments up to sample
+    j, plus the start pose's instrument noise in Z_0) and v_j the sample's instrument noise, so
+    Sigma^-1 forms come from the innovations of a Kalman filter and Sigma forms from cumulative
+    sums, in O(B) (the same numbers as the dense covariance, tested)."""
+    pose = dead_reckon(run.phi_r, run.phi_l, geometry)
+    s1 = np.asarray(run.idx)
+    nb = len(s1)
+    a = np.column_stack([-pose[:, 1], pose[:, 0], np.zeros(len(pose))])
+    C = np.concatenate([np.broadcast_to(np.eye(3), (nb, 3, 3)), a[s1][:, :, None]], axis=2)
+    Qc = _cumulative_increment_covariance(run, geometry, noise, pose, a)
+    W = np.zeros((nb, 4, 4)) if Qc is None else np.diff(Qc[np.r_[0, s1]], axis=0)
+    m = noise.measurement
+    d = np.array([m.sigma_xy_m**2, m.sigma_xy_m**2, m.sigma_theta_rad**2])
+    D = np.diag(d)
+    G = np.zeros((4, 4))  # the start pose's noise (d0, dtheta0) enters every block as C_j g
+    G[:3, :3] = D
+    G[:3, 3] = G[3, :3] = D[:, 2]
+    G[3, 3] = d[2]
+    Xb = np.asarray(X, dtype=float).reshape(nb, 3, -1)
+    Vb = np.asarray(V, dtype=float).reshape(nb, 3, -1)
+    # V^T Sigma V = U_1^T G U_1 + sum_q U_q^T W_q U_q + sum_j V_j^T D V_j,
+    # U_q = sum_{j >= q} C_j^T V_j
+    U = np.cumsum((np.swapaxes(C, 1, 2) @ Vb)[::-1], axis=0)[::-1]
+    vsv = U[0].T @ G @ U[0] + np.sum(np.swapaxes(U, 1, 2) @ W @ U, axis=0)
+    vsv += np.sum(np.swapaxes(Vb, 1, 2) @ (Vb * d[None, :, None]), axis=0)
+    P = G.copy()
+    xh = np.zeros((4, Xb.shape[2]))
+    acc = np.zeros((Xb.shape[2], Xb.shape[2]))
+    for j in range(nb):
+        P = P + W[j]
+        Cj = C[j]
+        PCt = P @ Cj.T
+        S = Cj @ PCt + D
+        Si = np.linalg.pinv(S, hermitian=True, rcond=1e-12) if d.min() <= 0 else np.linalg.inv(S)
+        nu = Xb[j] - Cj @ xh
+        acc += nu.T @ Si @ nu
+        K = PCt @ Si
+        xh = xh + K @ nu
+        P = P - K @ PCt.T
+        P = 0.5 * (P + P.T)
+    return 0.5 * (acc + acc.T), 0.5 * (vsv + vsv.T)
+
+
 def _noise_covariance(run: _Run, kind: str, geometry: WheelGeometry, noise: NoiseModel):
     """Covariance of the residual rows of ``run`` under ``noise``, shape (3 B, 3 B).
 
@@ -443,7 +517,6 @@ def _noise_covariance(run: _Run, kind: str, geometry: WheelGeometry, noise: Nois
             f"check: {run.name} has {nb} residual blocks (at most {MAX_BLOCKS_PER_RUN}: the "
             "noise covariance is dense); use a longer segment_m or fewer samples_per_run"
         )
-    b = float(geometry.wheelbase_m)
     # block rotation into the frame of its start pose (identity for pose residuals)
     rot = np.zeros((nb, 3, 3))
     c0, sn0 = np.cos(pose[s0, 2]), np.sin(pose[s0, 2])
@@ -452,27 +525,8 @@ def _noise_covariance(run: _Run, kind: str, geometry: WheelGeometry, noise: Nois
     a = np.column_stack([-pose[:, 1], pose[:, 0], np.zeros(len(pose))])  # a after each sample
     cov = np.zeros((3 * nb, 3 * nb))
 
-    k_r, k_l, k_t = noise.wheel.k_r_m, noise.wheel.k_l_m, noise.turn_rad
-    if k_r > 0 or k_l > 0 or k_t > 0:
-        ds_r, ds_l = _wheel_travel(run.phi_r, run.phi_l, geometry)
-        ds = 0.5 * (ds_r + ds_l)
-        dth = (ds_r - ds_l) / b
-        mid = pose[:-1, 2] + 0.5 * dth
-        c, s = np.cos(mid), np.sin(mid)
-        h = ds / (2.0 * b)
-        # columns: right wheel, left wheel, extra heading noise of the increment
-        B = np.empty((len(ds), 3, 3))
-        B[:, 0, 0], B[:, 0, 1] = 0.5 * c - h * s, 0.5 * c + h * s
-        B[:, 1, 0], B[:, 1, 1] = 0.5 * s + h * c, 0.5 * s - h * c
-        B[:, 2, 0], B[:, 2, 1] = 1.0 / b, -1.0 / b
-        B[:, 0, 2], B[:, 1, 2], B[:, 2, 2] = -0.5 * ds * s, 0.5 * ds * c, 1.0
-        H = np.empty((len(ds), 4, 3))
-        H[:, :3, :] = B - a[1:, :, None] * B[:, 2:3, :]
-        H[:, 3, :] = B[:, 2, :]
-        q = np.stack([k_r * np.abs(ds_r), k_l * np.abs(ds_l), k_t * np.abs(dth)], axis=-1)
-        Hq = H * np.sqrt(q)[:, None, :]
-        Q = Hq @ np.swapaxes(Hq, 1, 2)
-        Qc = np.concatenate([np.zeros((1, 4, 4)), np.cumsum(Q, axis=0)])  # Qc[t]: increments < t
+    Qc = _cumulative_increment_covariance(run, geometry, noise, pose, a)
+    if Qc is not None:
         lo = np.maximum.outer(s0, s0)
         hi = np.minimum.outer(s1, s1)
         P = np.where((hi > lo)[..., None, None], Qc[hi] - Qc[np.minimum(lo, hi)], 0.0)
@@ -483,18 +537,20 @@ def _noise_covariance(run: _Run, kind: str, geometry: WheelGeometry, noise: Nois
 
     m = noise.measurement
     if not m.is_zero:
-        marks, inv = np.unique(np.concatenate([s0, s1]), return_inverse=True)
-        i0, i1 = inv[:nb], inv[nb:]
-        L = np.zeros((nb, 3, len(marks), 3))
-        rows = np.arange(nb)
-        L[rows, :, i1, :] += rot
-        # minus the start pose's noise, transported to the block end: [I | a_s1 - a_s0]
+        # block a = rot_a (d_s1 - T_a d_s0), T_a = [I | a_s1 - a_s0]: two 3x3 blocks per row of
+        # the map from the instrument noise d at every sample; blocks meet where samples agree
+        d = np.array([m.sigma_xy_m**2, m.sigma_xy_m**2, m.sigma_theta_rad**2])
         T = np.broadcast_to(np.eye(3), (nb, 3, 3)).copy()
         T[:, :, 2] += a[s1] - a[s0]
-        L[rows, :, i0, :] -= rot @ T
-        L = L.reshape(3 * nb, 3 * len(marks))
-        d = np.tile([m.sigma_xy_m**2, m.sigma_xy_m**2, m.sigma_theta_rad**2], len(marks))
-        cov += (L * d) @ L.T
+        maps = ((s1, rot, 1.0), (s0, rot @ T, -1.0))
+        total = np.zeros((nb, nb, 3, 3))
+        for ia, Ma, sa in maps:
+            for ib, Mb, sb in maps:
+                hit = np.equal.outer(ia, ib)
+                if hit.any():
+                    r, c = np.nonzero(hit)
+                    total[r, c] += sa * sb * (Ma[r] * d) @ np.swapaxes(Mb[c], 1, 2)
+        cov += total.transpose(0, 2, 1, 3).reshape(3 * nb, 3 * nb)
     return 0.5 * (cov + cov.T)
 
 
@@ -839,19 +895,24 @@ def check_recordings(
             run_weight,
         )
         J = _jacobian(run, residual, params, steps)
-        S = _noise_covariance(run, residual, geometry, noise)
-        SiJ = _solve_psd(S, J)
-        F += J.T @ SiJ
         w = np.tile([1.0, 1.0, heading_weight_m], len(J) // 3) * run.weight
         AJ = J * (w**2)[:, None]
         Hw += J.T @ AJ
-        Mw += AJ.T @ S @ AJ
+        r = np.zeros(len(J))
         if residual_scale == "empirical":
             r = np.asarray(
                 run.gt[run.idx] if residual == "pose" else run.gt_rel, dtype=float
             ).ravel() - _predict(run, residual, params)
-            chi2 += float(r @ _solve_psd(S, r))
             rows += len(r)
+        Jr = np.column_stack([J, r])
+        if residual == "pose":
+            inv_form, Mrun = _pose_forms(run, geometry, noise, Jr, AJ)
+        else:
+            S = _noise_covariance(run, residual, geometry, noise)
+            inv_form, Mrun = Jr.T @ _solve_psd(S, Jr), AJ.T @ S @ AJ
+        F += inv_form[:n, :n]
+        Mw += Mrun
+        chi2 += float(inv_form[n, n])
 
     scale = 1.0
     if residual_scale == "empirical":
