@@ -133,6 +133,7 @@ class CheckThresholds:
     min_travel_m: float = 2.0
     min_rotation_rad: float = 2.0 * math.pi
     min_turn_each_way_rad: float = 0.5 * math.pi
+    min_turn_balance: float = 0.25
     constant_ratio: float = 0.99
     max_condition: float = 1e4
     max_relative_stderr: float = 5e-3
@@ -146,7 +147,8 @@ class MotionSummary:
     (m; spot turns count). rotation_rad : total absolute heading change (rad); rotation_left_rad
     and rotation_right_rad: CCW and CW turning in spot and arc windows. share_* : share of wheel
     travel in straight / spot / arc windows (0..1). turning : 'both', 'left', 'right' or 'none'
-    (a direction counts from ``min_turn_each_way_rad``). ratio_concentration : 1 when the wheels
+    (a direction counts from ``min_turn_each_way_rad`` and from ``min_turn_balance`` times the
+    other direction's turning). ratio_concentration : 1 when the wheels
     keep one speed ratio all the time (a line, a spot turn or a circle: only two of D_R, D_L, b
     visible), lower with more different ratios (0 for equal straight and spot-turn travel).
     """
@@ -334,7 +336,13 @@ def _summary(name, label, s_r, s_l, travel, path_m, b, th: CheckThresholds) -> M
     turning_windows = ~straight
     left = float(dth[turning_windows & (dth > 0)].sum())
     right = float(-dth[turning_windows & (dth < 0)].sum())
-    directions = [n for n, v in (("left", left), ("right", right)) if v >= th.min_turn_each_way_rad]
+    # a direction counts from min_turn_each_way_rad and from min_turn_balance of the other one
+    # (the wiggles of a controller on straight legs turn both ways a little)
+    need = {
+        "left": max(th.min_turn_each_way_rad, th.min_turn_balance * right),
+        "right": max(th.min_turn_each_way_rad, th.min_turn_balance * left),
+    }
+    directions = [n for n, v in (("left", left), ("right", right)) if v >= need[n]]
     turning = "both" if len(directions) == 2 else (directions[0] if directions else "none")
     if total > 0:
         # axis of the wheel-travel vector (s_R, s_L), taken modulo pi (forward and backward are the
@@ -713,13 +721,18 @@ def _degeneracies(motion: MotionSummary, cond, blind, stderr, values, b, th: Che
         )
     if motion.rotation_rad >= th.min_rotation_rad and motion.turning in ("left", "right"):
         other = "right (CW)" if motion.turning == "left" else "left (CCW)"
+        main, turned = motion.rotation_left_rad, motion.rotation_right_rad
+        if motion.turning == "right":
+            main, turned = turned, main
         out.append(
             Degeneracy(
                 "one-turning-direction",
                 "weak",
                 "direction-dependent effects against b and D_R/D_L",
-                f"turns only {motion.turning} (less than "
-                f"{math.degrees(th.min_turn_each_way_rad):.0f} deg to the {other.split()[0]})",
+                f"turns only {motion.turning}: {math.degrees(turned):.0f} deg to the "
+                f"{other.split()[0]} against {math.degrees(main):.0f} deg (less than "
+                f"{math.degrees(th.min_turn_each_way_rad):.0f} deg or "
+                f"{100 * th.min_turn_balance:.0f} %)",
             )
         )
         tips.append(
