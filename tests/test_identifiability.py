@@ -18,13 +18,13 @@ from odocal.calibration.identifiability import (
     describe_direction,
     summarize_motion,
 )
-from odocal.calibration.result import CalibrationError
-from odocal.calibration.trajectory import _relative, _Run, fit_trajectory
+from odocal.calibration.trajectory import RunResiduals, fit_trajectory, relative_poses
 from odocal.core import tracks as T
 from odocal.core.covariance import propagate
 from odocal.core.model import MeasurementNoise, NonSystematicError, WheelGeometry
 from odocal.core.recording import Recording
 from odocal.core.simulate import drive
+from odocal.errors import CalibrationError
 
 # A small robot like OptiOdom's, with true wheels that differ from what it believes.
 NOMINAL = WheelGeometry(0.084, 0.084, 0.200)
@@ -198,7 +198,7 @@ def test_wheel_noise_covariance_is_the_core_propagation():
     track = T.polygon(4, 1.0, "ccw")
     rec = simulated(track)
     noise = NonSystematicError(2e-6, 1e-6)
-    run = _Run(rec, "pose", 10**6, 1.0, TRUE)
+    run = RunResiduals(rec, "pose", 10**6, 1.0, TRUE)
     cov = _noise_covariance(run, "pose", TRUE, NoiseModel(noise, MeasurementNoise()))
     ref = propagate(track, TRUE, NOMINAL, noise, steps_per_segment=STEPS).covariance
     np.testing.assert_allclose(cov[-3:, -3:], ref, rtol=1e-9, atol=1e-15)
@@ -209,7 +209,7 @@ def test_pose_forms_without_dense_matrices_equal_the_dense_ones():
     rng = np.random.default_rng(5)
     rec = simulated(T.polygon(4, 1.0, "cw"), steps=30)
     noise = NoiseModel(NonSystematicError(2e-6, 1e-6), MeasurementNoise(1e-3, 0.005), turn_rad=3e-5)
-    run = _Run(rec, "pose", 50, 1.0, TRUE)
+    run = RunResiduals(rec, "pose", 50, 1.0, TRUE)
     S = _noise_covariance(run, "pose", TRUE, noise)
     X, V = rng.standard_normal((len(S), 4)), rng.standard_normal((len(S), 3))
     inv_form, form = _pose_forms(run, TRUE, noise, X, V)
@@ -245,7 +245,7 @@ def test_noise_covariance_against_monte_carlo():
     ms = noise.measurement
     poses += rng.standard_normal(poses.shape) * [ms.sigma_xy_m, ms.sigma_xy_m, ms.sigma_theta_rad]
     for kind in ("pose", "segment"):
-        run = _Run(rec, kind, 12, 0.7, TRUE)
+        run = RunResiduals(rec, kind, 12, 0.7, TRUE)
         cov = _noise_covariance(run, kind, TRUE, noise)
         rows = []
         for p in poses:
@@ -256,7 +256,7 @@ def test_noise_covariance_against_monte_carlo():
                 [c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1], p[:, 2] - p[0, 2]]
             )
             rows.append(
-                q[run.idx].ravel() if kind == "pose" else _relative(q, run.i0, run.i1).ravel()
+                q[run.idx].ravel() if kind == "pose" else relative_poses(q, run.i0, run.i1).ravel()
             )
         mc = np.cov(np.array(rows).T)
         scale = np.max(np.diag(cov))

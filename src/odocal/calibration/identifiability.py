@@ -40,13 +40,13 @@ from scipy.linalg import cho_factor, cho_solve
 
 from ..core.model import MeasurementNoise, NonSystematicError, WheelGeometry
 from ..core.odometry import dead_reckon
-from .result import CalibrationError
+from ..errors import CalibrationError
 
 # The fit's residual layout (sample indices, segment marks, run weights), its relative-pose
 # helper and its unchecked geometry are private to trajectory.py; they are imported, not copied,
 # so that this check always describes exactly the residuals the fit uses (docs/check.md, "Open
 # points": they should become public).
-from .trajectory import RESIDUALS, RUN_WEIGHTS, _Geo, _relative, _Run
+from .trajectory import RESIDUALS, RUN_WEIGHTS, RunResiduals, relative_poses
 
 __all__ = [
     "NoiseModel",
@@ -380,7 +380,7 @@ def summarize_motion(
         ds_r, ds_l = _wheel_travel(rec.wheel_angle_right_rad, rec.wheel_angle_left_rad, geometry)
         win = _windows(ds_r, ds_l, b, th.window_m)
         path = float(np.abs(0.5 * (ds_r + ds_l)).sum())
-        per.append(_summary(rec.name, rec.label, *win, path, b, th))
+        per.append(_summary(rec.name, rec.label, win[0], win[1], win[2], path, b, th))
         parts.append((win, path))
     s_r = np.concatenate([w[0] for w, _ in parts])
     s_l = np.concatenate([w[1] for w, _ in parts])
@@ -406,24 +406,24 @@ def _mounted(poses, mount):
     return np.column_stack([ca * px + sa * py, -sa * px + ca * py, th])
 
 
-def _blocks(run: _Run, kind: str):
+def _blocks(run: RunResiduals, kind: str):
     """(start, end) sample index of every residual block of ``run``."""
     if kind == "pose":
         return np.zeros(len(run.idx), dtype=int), np.asarray(run.idx)
     return np.asarray(run.i0), np.asarray(run.i1)
 
 
-def _predict(run: _Run, kind: str, params) -> np.ndarray:
+def _predict(run: RunResiduals, kind: str, params) -> np.ndarray:
     """Residual rows (x, y, theta per block, unweighted) predicted by ``params``."""
-    odo = dead_reckon(run.phi_r, run.phi_l, _Geo(*params[:3]))
+    odo = dead_reckon(run.phi_r, run.phi_l, WheelGeometry.unchecked(*params[:3]))
     if len(params) > 3:
         odo = _mounted(odo, params[3:])
     if kind == "pose":
         return odo[run.idx].ravel()
-    return _relative(odo, run.i0, run.i1).ravel()
+    return relative_poses(odo, run.i0, run.i1).ravel()
 
 
-def _jacobian(run: _Run, kind: str, params, steps) -> np.ndarray:
+def _jacobian(run: RunResiduals, kind: str, params, steps) -> np.ndarray:
     """d(predicted rows)/d(params) by central differences, shape (3 blocks, n)."""
     cols = []
     for i, h in enumerate(steps):
@@ -434,7 +434,7 @@ def _jacobian(run: _Run, kind: str, params, steps) -> np.ndarray:
     return np.column_stack(cols)
 
 
-def _cumulative_increment_covariance(run: _Run, geometry, noise: NoiseModel, pose, a):
+def _cumulative_increment_covariance(run: RunResiduals, geometry, noise: NoiseModel, pose, a):
     """Qc[t] = sum over the increments before sample t of H_i diag(q_i) H_i^T, shape (K, 4, 4),
     or None without wheel or turn noise (see _noise_covariance)."""
     k_r, k_l, k_t = noise.wheel.k_r_m, noise.wheel.k_l_m, noise.turn_rad
@@ -462,7 +462,7 @@ def _cumulative_increment_covariance(run: _Run, geometry, noise: NoiseModel, pos
     return np.concatenate([np.zeros((1, 4, 4)), np.cumsum(Q, axis=0)])
 
 
-def _pose_forms(run: _Run, geometry, noise: NoiseModel, X, V):
+def _pose_forms(run: RunResiduals, geometry, noise: NoiseModel, X, V):
     """Pose residuals without dense matrices: (X^T Sigma^-1 X, V^T Sigma V) for X, V of shape
     (3 B, k). The rows are a linear Gaussian state-space model: block j is C_j Z_j + v_j with
     C_j = [I | a_j], Z_j = Z_j-1 + w_j (the wheel and turn noise of the increments up to sample
@@ -508,7 +508,7 @@ def _pose_forms(run: _Run, geometry, noise: NoiseModel, X, V):
     return 0.5 * (acc + acc.T), 0.5 * (vsv + vsv.T)
 
 
-def _noise_covariance(run: _Run, kind: str, geometry: WheelGeometry, noise: NoiseModel):
+def _noise_covariance(run: RunResiduals, kind: str, geometry: WheelGeometry, noise: NoiseModel):
     """Covariance of the residual rows of ``run`` under ``noise``, shape (3 B, 3 B).
 
     Wheel part: the error of the pose at the end of block (s0, s1] from the increments inside
@@ -642,7 +642,8 @@ def _describe_subspace(N) -> list[str]:
         return []
     if k == 1:
         return [describe_direction(N[:, 0])]
-    out, found = [], []
+    out: list[str] = []
+    found: list[np.ndarray] = []
     for name, u in _named_directions(N.shape[0]):
         p = N @ (N.T @ u)
         for f in found:
@@ -899,7 +900,7 @@ def check_recordings(
     for rec in recordings:
         odo = dead_reckon(rec.wheel_angle_right_rad, rec.wheel_angle_left_rad, geometry)
         gt = odo if rec.ground_truth is None else rec.ground_truth
-        run = _Run(
+        run = RunResiduals(
             replace(rec, ground_truth=gt),
             residual,
             samples_per_run,
