@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections import Counter
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -43,6 +42,8 @@ from ..io.recordings import load_recordings, require_ground_truth
 from ..io.robot_file import load_robot, params_yaml
 from ..io.ros2_export import ros2_params_yaml
 from ..io.tuples import read_tuples
+from .check import CheckResult, check_loaded
+from .common import nominal_geometry
 
 __all__ = [
     "METHODS",
@@ -52,18 +53,9 @@ __all__ = [
     "fit_recordings",
     "fit_gyro",
     "fit_gyro_bag",
-    "nominal_geometry",
 ]
 
 METHODS = ("trajectory", "linear", "umbmark", "heading", "gyro", "relative", "scan")
-
-
-def nominal_geometry(robot_spec, recordings: Sequence[Recording]) -> WheelGeometry | None:
-    """Nominal geometry: ROBOT.yaml's if given, else the most common ``ran_with`` (or None)."""
-    if robot_spec:
-        return load_robot(robot_spec).nominal
-    counts = Counter(r.ran_with for r in recordings if r.ran_with is not None)
-    return counts.most_common(1)[0][0] if counts else None
 
 
 def fit_recordings(
@@ -127,6 +119,7 @@ class FitResult:
     load_warnings: tuple[str, ...] = ()
     written: tuple[Path, ...] = ()
     extra: dict = field(default_factory=dict)
+    log_check: CheckResult | None = None
 
     @property
     def warnings(self) -> tuple[str, ...]:
@@ -137,6 +130,8 @@ class FitResult:
         out = self.fit.as_dict()
         out["nominal"] = None if self.nominal is None else self.nominal.as_dict()
         out.update(self.extra)
+        if self.log_check is not None:
+            out["log_check"] = self.log_check.as_dict()
         return out
 
 
@@ -245,8 +240,24 @@ def fit(
     nominal = nominal_geometry(robot, recordings)
     ran_with = load_robot(robot).believed_geometry if robot else None
     result = fit_recordings(recordings, method, nominal=nominal, ran_with=ran_with, **options)
+    log_check = None
+    if method == "trajectory":
+        # is this log enough? what the recorded motion let this fit see (docs/check.md)
+        used = set(result.runs)
+        log_check = check_loaded(
+            [r for r in recordings if r.name in used],
+            result.geometry,
+            robot,
+            **{k: options[k] for k in _CHECK_SETTINGS if k in options},
+        )
     written = _write(plan, result.geometry, nominal, result.method, out, ros2, controller_name)
-    return FitResult(result, nominal, len(recordings), _load_warnings(recordings), written)
+    return FitResult(
+        result, nominal, len(recordings), _load_warnings(recordings), written, {}, log_check
+    )
+
+
+# fit_recordings' options that the log check shares (the trajectory fit's residual settings)
+_CHECK_SETTINGS = ("residual", "segment_m", "heading_weight_m", "run_weight")
 
 
 def _stack_increments(parts) -> tuple[np.ndarray, np.ndarray]:

@@ -254,6 +254,11 @@ def run(args) -> int:
         print("excluded: " + ", ".join(Path(n).name for n in result.excluded))
     if "residual_rms" in result.extras:
         print(f"residual RMS {result.extras['residual_rms']:.3g} ({result.extras['residual']})")
+    if res.log_check is not None:
+        from .check import print_check
+
+        print("Is this log enough? (odocal check)")
+        print_check(res.log_check, indent="  ")
     for f in res.written:
         print(f"wrote {f}")
     return 0
