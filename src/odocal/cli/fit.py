@@ -187,9 +187,10 @@ def _run_gyro(args) -> int:
 def run(args) -> int:
     if args.list_topics:
         from ..app.bag_info import bag_info
+        from ..io.bags import is_bag
 
         for path in args.paths:
-            if not is_bag_path(path):
+            if not is_bag(path):
                 raise InputError("--list-topics needs a ROS bag (.bag, .db3, .mcap)", path)
         for path in args.paths:
             if len(args.paths) > 1:
@@ -305,11 +306,3 @@ def _print_relative(res) -> None:
         )
     for f in res.written:
         print(f"wrote {f}")
-
-
-def is_bag_path(path) -> bool:
-    """A ROS 1/2 bag file or a ROS 2 bag folder (as odocal.io.bags.is_bag, without importing it)."""
-    p = Path(path)
-    if p.is_dir():
-        return (p / "metadata.yaml").is_file()
-    return p.suffix.lower() in (".bag", ".db3", ".mcap")
