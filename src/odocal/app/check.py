@@ -7,12 +7,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..calibration.identifiability import LogCheck, NoiseModel, check_recordings
+from ..core.model import Robot
 from ..core.recording import Recording
 from ..errors import InputError
 from ..io.bag_slam import load_slam_bag
 from ..io.recordings import load_recordings
-from ..io.robot_file import load_robot
-from .common import nominal_geometry
+from .common import nominal_geometry, optional_robot
 
 __all__ = ["CheckResult", "check", "check_loaded", "noise_model"]
 
@@ -29,13 +29,12 @@ class CheckResult:
         return self.check.as_dict() | {"noise_source": self.noise_source}
 
 
-def noise_model(robot) -> tuple[NoiseModel, str]:
-    """The stated noise: ROBOT.yaml's ``nonsystematic`` and ``measurement`` where given (a part
+def noise_model(r: Robot | None) -> tuple[NoiseModel, str]:
+    """The stated noise: the robot's ``nonsystematic`` and ``measurement`` where given (a part
     left at zero keeps the default), else the defaults of :class:`NoiseModel`."""
     default = NoiseModel()
-    if not robot:
+    if r is None:
         return default, "default (k 1e-6 m per wheel, tracker 1 mm and 0.2 deg): give --robot"
-    r = load_robot(robot)
     wheel = r.nonsystematic if not r.nonsystematic.is_zero else default.wheel
     meas = r.measurement if not r.measurement.is_zero else default.measurement
     parts = [
@@ -46,9 +45,14 @@ def noise_model(robot) -> tuple[NoiseModel, str]:
 
 
 def check_loaded(
-    recordings: Sequence[Recording], geometry, robot=None, *, mounting: bool = False, **settings
+    recordings: Sequence[Recording],
+    geometry,
+    robot: Robot | None = None,
+    *,
+    mounting: bool = False,
+    **settings,
 ) -> CheckResult:
-    """The check of loaded recordings, linearised at ``geometry``."""
+    """The check of loaded recordings, linearised at ``geometry``, with ``robot``'s noise."""
     noise, source = noise_model(robot)
     chk = check_recordings(list(recordings), geometry, noise=noise, mounting=mounting, **settings)
     return CheckResult(chk, source, len(recordings))
@@ -84,10 +88,11 @@ def check(
         ]
     else:
         recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, **opts)
-    geometry = nominal_geometry(robot, recordings)
+    r = optional_robot(robot)
+    geometry = nominal_geometry(r, recordings)
     if geometry is None:
         raise InputError(
             "the check needs the robot's nominal geometry: give --robot ROBOT.yaml (the "
             "recordings carry no firmware parameters)"
         )
-    return check_loaded(recordings, geometry, robot, mounting=mounting, **settings)
+    return check_loaded(recordings, geometry, r, mounting=mounting, **settings)

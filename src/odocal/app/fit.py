@@ -43,7 +43,7 @@ from ..io.robot_file import load_robot, params_yaml
 from ..io.ros2_export import ros2_params_yaml
 from ..io.tuples import read_tuples
 from .check import CheckResult, check_loaded
-from .common import nominal_geometry
+from .common import nominal_geometry, optional_robot
 
 __all__ = [
     "METHODS",
@@ -237,8 +237,9 @@ def fit(
     method = method or "trajectory"
     opts = {k: v for k, v in (bag_options or {}).items() if k != "scan_topic"}
     recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, **opts)
-    nominal = nominal_geometry(robot, recordings)
-    ran_with = load_robot(robot).believed_geometry if robot else None
+    r = optional_robot(robot)
+    nominal = nominal_geometry(r, recordings)
+    ran_with = None if r is None else r.believed_geometry
     result = fit_recordings(recordings, method, nominal=nominal, ran_with=ran_with, **options)
     log_check = None
     if method == "trajectory":
@@ -248,7 +249,7 @@ def fit(
             log_check = check_loaded(
                 [r for r in recordings if r.name in used],
                 result.geometry,
-                robot,
+                r,
                 max_blocks_per_run=_CHECK_MAX_BLOCKS,
                 **{k: options[k] for k in _CHECK_SETTINGS if k in options},
             )
