@@ -340,13 +340,16 @@ def write_ros2_bag(
     map_odom_every: int | None = None,
     imu: bool = True,
     scan_time_s: float = 0.1,
+    slam_noise: tuple[float, float] | None = None,
+    rng: np.random.Generator | None = None,
 ) -> dict[str, int]:
     """Write ``run`` into a ROS 2 bag folder ``path`` (must not exist); returns the message
     count per topic.
 
     ``joint_names`` are (right, left), written in that order. ``map_odom_every``: publish
     ``map`` -> ``odom`` on ``/tf`` every that many increments (None: never). ``imu``: write
-    ``/imu`` when the run has a gyro.
+    ``/imu`` when the run has a gyro. ``slam_noise`` = (sigma_xy_m, sigma_theta_rad): the SLAM
+    pose at each update is the true one plus independent Gaussian noise (drawn from ``rng``).
     """
     w = _Ros2Writer(Path(path))
     w.w.open()
@@ -364,6 +367,12 @@ def write_ros2_bag(
         )
         joint_state = w.T("sensor_msgs/msg/JointState")
         map_odom = run.map_to_odom() if map_odom_every else None
+        if map_odom is not None and slam_noise is not None:
+            if rng is None:
+                raise ModelError("a numpy.random.Generator is needed for SLAM noise")
+            sigma = np.array([slam_noise[0], slam_noise[0], slam_noise[1]])
+            noisy_truth = run.true_pose + rng.standard_normal(map_odom.shape) * sigma
+            map_odom = compose(noisy_truth, _inverse(run.odom_pose))
         # merge the streams in time order: joints + odom tf at every increment, scans, imu
         events: list[tuple[int, int, int]] = []  # (t_ns, kind, index); kind orders ties
         events += [(int(t), 0, k) for k, t in enumerate(run.time_ns)]

@@ -202,6 +202,7 @@ def add_bag_args(p: argparse.ArgumentParser) -> None:
     g.add_argument("--imu-topic", metavar="T", help="sensor_msgs/Imu topic")
     g.add_argument("--right-joint", metavar="NAME", help="right wheel joint name")
     g.add_argument("--left-joint", metavar="NAME", help="left wheel joint name")
+    g.add_argument("--scan-topic", metavar="T", help="sensor_msgs/LaserScan topic (--method scan)")
 
 
 def add_slam_args(p: argparse.ArgumentParser) -> None:
@@ -228,6 +229,7 @@ def bag_options(args: argparse.Namespace) -> dict:
     return {
         k: getattr(args, k, None)
         for k in ("joint_topic", "truth_topic", "imu_topic", "right_joint", "left_joint")
+        if getattr(args, k, None) is not None
     }
 
 

@@ -14,12 +14,14 @@ from .common import (
     format_topics,
     length_m,
     nonnegative_float,
+    number,
     print_json,
     print_table,
     print_warnings,
+    sides_int,
 )
 
-METHODS = ("trajectory", "linear", "umbmark", "heading", "gyro", "relative")  # as app.fit
+METHODS = ("trajectory", "linear", "umbmark", "heading", "gyro", "relative", "scan")  # as app.fit
 
 
 def add_parser(sub) -> None:
@@ -45,7 +47,8 @@ def add_parser(sub) -> None:
         help="trajectory (nonlinear least squares, default), linear (Antonelli et al. 2005), "
         "umbmark / heading (recorded CW and CCW squares), gyro (IMU vs wheel rotation, bags), "
         "relative (Censi et al. 2013: relative motions with the sensor's mounting; the default "
-        "for .tuple files and --truth-frames)",
+        "for .tuple files and --truth-frames), scan (bags with a 2D laser: scan matching, then "
+        "relative; the laser's mounting too)",
     )
     add_export_args(p, "write the calibrated parameters")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -100,7 +103,30 @@ def add_parser(sub) -> None:
         default="mean",
         help="UMBmark equations from x, y or their mean (default mean)",
     )
+    s.add_argument(
+        "--sides",
+        type=sides_int,
+        default=4,
+        metavar="N",
+        help="heading method: the runs are regular N-gons (default 4, squares)",
+    )
+    s.add_argument(
+        "--heading-source",
+        choices=("truth", "gyro"),
+        default="truth",
+        help="heading method: each run's final heading error from the ground truth (default) or "
+        "from the integrated gyro (an IMU topic in the bag, or a gyro_yaw_rad column): no "
+        "position ground truth needed",
+    )
     add_slam_args(p)
+    sc = p.add_argument_group("scan method (bags with a 2D laser)")
+    sc.add_argument(
+        "--scan-interval",
+        type=number(float, above=0, at_most=60, hint=" s"),
+        default=0.5,
+        metavar="S",
+        help="time between the two scans matched for one interval (default 0.5 s)",
+    )
     g = p.add_argument_group("gyro method (bags)")
     g.add_argument("--odom-topic", metavar="T", help="nav_msgs/Odometry wheel odometry")
     g.add_argument("--imu-axis", metavar="A", help="IMU axis carrying the yaw rate (e.g. y, -z)")
@@ -153,9 +179,10 @@ def _run_gyro(args) -> int:
 def run(args) -> int:
     if args.list_topics:
         from ..app.bag_info import bag_info
+        from ..io.bags import is_bag
 
         for path in args.paths:
-            if not is_bag_path(path):
+            if not is_bag(path):
                 raise InputError("--list-topics needs a ROS bag (.bag, .db3, .mcap)", path)
         for path in args.paths:
             if len(args.paths) > 1:
@@ -176,12 +203,13 @@ def run(args) -> int:
         args.method,
         truth_frames=truth_frames,
         slam_stamp_offset_s=args.slam_stamp_offset,
+        scan_interval_s=args.scan_interval,
         robot=args.robot,
         out=args.out,
         ros2=args.ros2,
         controller_name=args.controller_name,
         ticks_per_rev=args.ticks_per_rev,
-        bag_options=bag_options(args),
+        bag_options={**bag_options(args), "scan_topic": args.scan_topic},
         residual=args.residual,
         segment_m=args.segment_length,
         heading_weight_m=args.heading_weight,
@@ -190,6 +218,8 @@ def run(args) -> int:
         run_weight=args.run_weight,
         side_m=args.side_length,
         umbmark_form=args.umbmark_form,
+        heading_source=args.heading_source,
+        sides=args.sides,
     )
     print_warnings(res.load_warnings)
     result, nominal = res.fit, res.nominal
@@ -217,6 +247,11 @@ def run(args) -> int:
         print("excluded: " + ", ".join(Path(n).name for n in result.excluded))
     if "residual_rms" in result.extras:
         print(f"residual RMS {result.extras['residual_rms']:.3g} ({result.extras['residual']})")
+    if res.log_check is not None:
+        from .check import print_check
+
+        print("Is this log enough? (odocal check)")
+        print_check(res.log_check, indent="  ")
     for f in res.written:
         print(f"wrote {f}")
     return 0
@@ -253,13 +288,13 @@ def _print_relative(res) -> None:
     print_table(rows)
     for s in res.extra.get("slam", ()):
         print(f"  {s['bag']}: {s['chain']}: {s['summary']}")
+    for s in res.extra.get("scan", ()):
+        g = s["mount_guess"]
+        print(
+            f"  {s['bag']}: {s['matched']} of {s['intervals']} scan intervals matched "
+            f"({s['scans']} scans on {s['scan_topic']}, {s['interval_scans']} apart); laser "
+            f"mounting from {s['mount_source']}: x {g['x_m']:.4f} m, y {g['y_m']:.4f} m, "
+            f"yaw {g['yaw_rad']:.4f} rad"
+        )
     for f in res.written:
         print(f"wrote {f}")
-
-
-def is_bag_path(path) -> bool:
-    """A ROS 1/2 bag file or a ROS 2 bag folder (as odocal.io.bags.is_bag, without importing it)."""
-    p = Path(path)
-    if p.is_dir():
-        return (p / "metadata.yaml").is_file()
-    return p.suffix.lower() in (".bag", ".db3", ".mcap")

@@ -186,6 +186,8 @@ def ray_cast(
         out[lo : lo + chunk] = np.min(np.where(hit, t, np.inf), axis=2)
     out[out > max_range_m] = np.inf
     if sigma_m > 0:
+        if rng is None:
+            raise ModelError("a numpy.random.Generator is needed for range noise")
         finite = np.isfinite(out)
         noisy = out + sigma_m * rng.standard_normal(out.shape)
         out = np.where(finite, np.clip(noisy, 0.0, max_range_m), np.inf)

@@ -46,8 +46,10 @@ def parse_truth_frames(text: str) -> tuple[str, str]:
 
 @dataclass(frozen=True)
 class SlamBag:
-    """What one bag gives: the relative motions between SLAM updates, and a recording at the
-    wheel rate whose ground truth is valid only at the update instants (for validation).
+    """What one bag gives: the relative motions between SLAM updates, the wheel increments
+    within each interval (right, left; shape (n, K), zero padded: the odometry is integrated
+    over them, not assumed to be one arc), and a recording at the wheel rate whose ground truth
+    is valid only at the update instants (for validation).
 
     ``chain`` describes the lookup (e.g. 'map -> odom -> base_link'); ``correction`` the edge
     whose messages are the update instants, or None in direct mode."""
@@ -57,6 +59,7 @@ class SlamBag:
     recording: Recording
     chain: str
     correction: str | None
+    increments: tuple[np.ndarray, np.ndarray]
     meta: dict = field(default_factory=dict)
 
 
@@ -191,7 +194,25 @@ def load_slam_bag(
         truth_pose,
         meta | joints.meta,
     )
-    return SlamBag(str(p), motions, recording, chain_text, correction, meta)
+    increments = wheel_increments(t_j, right, left, motions.start_s, motions.end_s)
+    return SlamBag(str(p), motions, recording, chain_text, correction, increments, meta)
+
+
+def wheel_increments(t, right, left, start_s, end_s) -> tuple[np.ndarray, np.ndarray]:
+    """The wheel rotations of each interval [start_s, end_s] as sampled: the differences of the
+    wheel angles at the interval's ends and at every wheel sample between them. Two arrays of
+    shape (n, K), rows zero padded; each row sums to the interval's rotation."""
+    rows_r, rows_l = [], []
+    for a, b in zip(start_s, end_s, strict=True):
+        inside = t[(t > a) & (t < b)]
+        tt = np.r_[a, inside, b]
+        rows_r.append(np.diff(np.interp(tt, t, right)))
+        rows_l.append(np.diff(np.interp(tt, t, left)))
+    k = max((len(x) for x in rows_r), default=1)
+    out_r, out_l = np.zeros((len(rows_r), k)), np.zeros((len(rows_r), k))
+    for i, (x, y) in enumerate(zip(rows_r, rows_l, strict=True)):
+        out_r[i, : len(x)], out_l[i, : len(y)] = x, y
+    return out_r, out_l
 
 
 def _recording(p: Path, jt, t, right, left, stamps, motions, corr, odo, truth, meta) -> Recording:

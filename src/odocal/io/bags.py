@@ -49,6 +49,9 @@ __all__ = [
     "EdgeMessages",
     "tf_messages",
     "transform_buffer",
+    "ScanSeries",
+    "scan_series",
+    "LASER_SCAN",
     "JOINT_STATE",
     "IMU",
     "ODOMETRY",
@@ -564,3 +567,52 @@ def transform_buffer(bag: BagContents):
                 (q.x, q.y, q.z, q.w),
             )
     return buf
+
+
+# --------------------------------------------------------------------------- laser scans
+
+LASER_SCAN = "sensor_msgs/msg/LaserScan"
+
+
+@dataclass(frozen=True)
+class ScanSeries:
+    """The scans of one ``sensor_msgs/LaserScan`` topic as points in the sensor frame.
+
+    ``time_s`` (N,) header stamps relative to the bag start (s); ``points_m`` N arrays of shape
+    (n_i, 2) (invalid ranges dropped, REP-117); ``frame_id`` the sensor frame."""
+
+    topic: str
+    time_s: np.ndarray
+    points_m: tuple[np.ndarray, ...]
+    frame_id: str
+
+
+def scan_series(bag: BagContents, topic: str) -> ScanSeries:
+    """Every scan of ``topic`` (InputError for absurd scan parameters or no valid range)."""
+    from ..calibration.scan_matching import scan_points
+
+    msgs = bag.messages[topic]
+    _need(msgs, bag.path, topic)
+    points = []
+    for i, (_, m) in enumerate(msgs):
+        params = (m.angle_min, m.angle_increment, m.range_min, m.range_max)
+        if not all(math.isfinite(v) for v in params) or not 0 <= m.range_min < m.range_max:
+            raise InputError(
+                f"message {i}: scan parameters are not usable (angle_min {m.angle_min}, "
+                f"angle_increment {m.angle_increment}, range_min {m.range_min}, range_max "
+                f"{m.range_max})",
+                bag.path,
+                None,
+                topic,
+            )
+        points.append(scan_points(np.asarray(m.ranges, dtype=float), *params))
+    if not any(len(p) for p in points):
+        raise InputError(
+            f"no scan has a valid range (all NaN, inf or outside [range_min, range_max]) in "
+            f"{len(points)} scans",
+            bag.path,
+            None,
+            topic,
+        )
+    t = _times(msgs, bag.path, topic, bag.start_ns)
+    return ScanSeries(topic, t, tuple(points), msgs[0][1].header.frame_id.lstrip("/"))
