@@ -229,10 +229,15 @@ def test_fit_json_warnings_also_on_stderr(cli, realdata):
         assert f"odocal: warning: {w}" in err
 
 
-def test_absurd_calibration_result_is_warned(cli, tmp_path):
+def test_absurd_calibration_result_is_refused_unless_forced(cli, tmp_path):
     circles = write(tmp_path / "c.csv", "direction,radius_m\ncw,1e5\nccw,1e-5\n")
-    status, out, err = cli("calibrate", circles, "--method", "bcpt", "--radius", 1, "--json")
+    params = tmp_path / "p.yaml"
+    argv = ["calibrate", circles, "--method", "bcpt", "--radius", 1, "--json", "--out", params]
+    assert_error(cli(*argv), "wheelbase_m", "from nominal", "--force")
+    assert not params.exists()
+    status, out, err = cli(*argv, "--force")
     assert status == 0, err
+    assert params.is_file()
     assert json.loads(out)["wheelbase_m"] < 1e-4
     assert err.startswith("odocal: warning: wheelbase_m") and "from nominal" in err
 

@@ -5,11 +5,13 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from ..calibration.result import far_from_nominal
 from ..core.model import Robot, WheelGeometry
+from ..errors import CalibrationError
 from ..io.robot_file import load_params, load_robot
 from ..presets import DEFAULT_ROBOT, PRESETS
 
-__all__ = ["RobotSpec", "resolve_robot", "robot_label", "input_paths"]
+__all__ = ["RobotSpec", "resolve_robot", "robot_label", "input_paths", "refuse_absurd"]
 
 #: A robot as a command takes it: a Robot, a built-in name, a ROBOT.yaml path, or None (default).
 RobotSpec = Robot | str | Path | None
@@ -53,3 +55,16 @@ def input_paths(*specs: Any) -> list[Path]:
         if isinstance(s, (str, Path)):
             out.append(Path(s))
     return out
+
+
+def refuse_absurd(geometry: WheelGeometry, nominal: WheelGeometry | None, force: bool) -> list[str]:
+    """A calibration far (> 25 %) from ``nominal`` is refused (CalibrationError, nothing
+    written) unless ``force``; then its messages are returned as warnings."""
+    values = (geometry.diameter_right_m, geometry.diameter_left_m, geometry.wheelbase_m)
+    problems = far_from_nominal(values, nominal)
+    if problems and not force:
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        raise CalibrationError(
+            f"{problems[0]}{more}; nothing written (--force accepts the result anyway)"
+        )
+    return problems

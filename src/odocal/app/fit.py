@@ -11,10 +11,10 @@ import numpy as np
 
 from ..calibration.gyro import GyroResult, gyro_calibration, integrate_rate
 from ..calibration.linear import fit_linear
-from ..calibration.result import GeometryFit
+from ..calibration.result import ABSURD_FRACTION, GeometryFit
 from ..calibration.squares import fit_recorded_squares
 from ..calibration.trajectory import fit_trajectory
-from ..core.model import WheelGeometry
+from ..core.model import Robot, WheelGeometry
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
 from ..io.bags import (
@@ -35,6 +35,7 @@ from ..io.outputs import OutputPlan
 from ..io.recordings import load_recordings, require_ground_truth
 from ..io.robot_file import load_robot, params_yaml
 from ..io.ros2_export import ros2_params_yaml
+from .common import input_paths, refuse_absurd
 
 __all__ = [
     "METHODS",
@@ -51,7 +52,10 @@ METHODS = ("trajectory", "linear", "umbmark", "heading", "gyro")
 
 
 def nominal_geometry(robot_spec, recordings: Sequence[Recording]) -> WheelGeometry | None:
-    """Nominal geometry: ROBOT.yaml's if given, else the most common ``ran_with`` (or None)."""
+    """Nominal geometry: ROBOT.yaml's (a path, built-in name or Robot) if given, else the most
+    common ``ran_with`` (or None)."""
+    if isinstance(robot_spec, Robot):
+        return robot_spec.nominal
     if robot_spec:
         return load_robot(robot_spec).nominal
     counts = Counter(r.ran_with for r in recordings if r.ran_with is not None)
@@ -110,14 +114,18 @@ class FitResult:
     recordings: int
     load_warnings: tuple[str, ...] = ()
     written: tuple[Path, ...] = ()
+    forced: tuple[str, ...] = ()
 
     @property
     def warnings(self) -> tuple[str, ...]:
-        return tuple(self.fit.warnings)
+        """The fit's warnings, and the absurd-result messages accepted with ``force``."""
+        own = tuple(self.fit.warnings)
+        return own + tuple(w for w in self.forced if w not in own)
 
     def as_dict(self) -> dict:
         """The JSON of ``odocal fit --json``."""
         out = self.fit.as_dict()
+        out["warnings"] = list(self.load_warnings) + list(self.warnings)
         out["nominal"] = None if self.nominal is None else self.nominal.as_dict()
         return out
 
@@ -156,25 +164,38 @@ def fit(
     controller_name: str = "diff_drive_controller",
     ticks_per_rev: float | None = None,
     bag_options: dict | None = None,
+    force: bool = False,
     **options,
 ) -> FitResult:
     """Load the runs in ``paths`` and calibrate with ``method`` (not 'gyro': see
     :func:`fit_gyro`); write PARAMS.yaml to ``out`` and a ros2_control file to ``ros2``.
 
     ``robot``: ROBOT.yaml (nominal geometry; for runs without metadata, the parameters they ran
-    with: its 'believed', else nominal). ``options`` go to :func:`fit_recordings`."""
+    with: its 'believed', else nominal). A result more than 25 % from nominal is absurd for a
+    calibration: CalibrationError (nothing written) unless ``force``. ``options`` go to
+    :func:`fit_recordings`."""
     if isinstance(paths, (str, Path)):
         paths = [paths]
-    plan = OutputPlan(
-        [*map(Path, paths), *([Path(robot)] if robot and Path(robot).exists() else [])]
-    )
+    plan = OutputPlan(input_paths(list(paths), robot))
     _outputs(plan, out, ros2)
-    recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, **(bag_options or {}))
-    nominal = nominal_geometry(robot, recordings)
-    ran_with = load_robot(robot).believed_geometry if robot else None
+    notes: list[str] = []
+    recordings = load_recordings(
+        paths, ticks_per_rev=ticks_per_rev, warnings=notes, **(bag_options or {})
+    )
+    robot_obj = load_robot(robot) if robot else None  # read once: it may be a pipe
+    nominal = nominal_geometry(robot_obj, recordings)
+    ran_with = robot_obj.believed_geometry if robot_obj else None
     result = fit_recordings(recordings, method, nominal=nominal, ran_with=ran_with, **options)
+    forced = refuse_absurd(result.geometry, nominal, force)
     written = _write(plan, result.geometry, nominal, result.method, out, ros2, controller_name)
-    return FitResult(result, nominal, len(recordings), _load_warnings(recordings), written)
+    return FitResult(
+        result,
+        nominal,
+        len(recordings),
+        tuple(notes) + _load_warnings(recordings),
+        written,
+        tuple(forced),
+    )
 
 
 @dataclass(frozen=True)
@@ -209,8 +230,12 @@ def fit_gyro(
     imu_topic: str | None = None,
     joint_topic: str | None = None,
     imu_axis: str | None = None,
+    force: bool = False,
 ) -> GyroFitResult:
-    """``odocal fit BAG --method gyro``: the gyro's rotation against the wheel odometry's."""
+    """``odocal fit BAG --method gyro``: the gyro's rotation against the wheel odometry's.
+
+    A wheelbase multiplier more than 25 % from 1 is absurd for a calibration: CalibrationError
+    (nothing written) unless ``force``."""
     plan = OutputPlan([Path(bag), *([Path(robot)] if robot and Path(robot).exists() else [])])
     _outputs(plan, out, ros2)
     nominal = load_robot(robot).nominal if robot else None
@@ -224,6 +249,13 @@ def fit_gyro(
     result = fit_gyro_bag(bag, **{k: v for k, v in opts.items() if v})
     if (out or ros2) and nominal is None:
         raise InputError("--out/--ros2 with --method gyro need the nominal geometry: --robot")
+    m = float(result.wheelbase_multiplier)
+    if abs(m - 1) > ABSURD_FRACTION and not force:
+        raise CalibrationError(
+            f"wheelbase_multiplier = {m:.6g} is {100 * (m - 1):+.0f} % from 1: absurd for a "
+            "calibration; check the IMU axis and the wheel joints; nothing written (--force "
+            "accepts the result anyway)"
+        )
     geometry = None
     written: tuple[Path, ...] = ()
     if nominal is not None:

@@ -52,6 +52,12 @@ def add_parser(sub) -> None:
         metavar="NAME",
         help="controller name in the --ros2 file (default diff_drive_controller)",
     )
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="accept a result more than 25 %% from nominal (absurd for a calibration: by "
+        "default an error, and nothing is written)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     t = p.add_argument_group("trajectory method")
     t.add_argument(
@@ -128,6 +134,7 @@ def _run_gyro(args) -> int:
         imu_topic=args.imu_topic,
         joint_topic=args.joint_topic,
         imu_axis=args.imu_axis,
+        force=args.force,
     )
     out = res.as_dict()
     print_warnings(res.warnings)
@@ -186,10 +193,11 @@ def run(args) -> int:
         run_weight=args.run_weight,
         side_m=args.side_length,
         umbmark_form=args.umbmark_form,
+        force=args.force,
     )
     print_warnings(res.load_warnings)
     result, nominal = res.fit, res.nominal
-    print_warnings(result.warnings)
+    print_warnings(res.warnings)
     if args.json:
         print_json(res.as_dict())
         return 0

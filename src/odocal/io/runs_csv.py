@@ -31,6 +31,7 @@ import numpy as np
 
 from ..core.runs import CircleRuns, EndPoseRuns
 from ..errors import InputError
+from .limits import MEASURED_MAX
 from .table import parse_number, read_table
 from .textfile import atomic_write
 
@@ -44,8 +45,8 @@ __all__ = [
 ]
 
 REQUIRED_COLUMNS = ("direction", "x_m", "y_m", "theta_deg")
-# Largest magnitude of a measured value (m or deg): 1000 km, or 2778 turns.
-MAX_MAGNITUDE = 1e6
+# Largest magnitude of a measured value (m or deg; odocal.io.limits): 1000 km, or 2778 turns.
+MAX_MAGNITUDE = MEASURED_MAX
 CIRCLE_COLUMNS = ("direction", "radius_m")
 
 

@@ -9,15 +9,23 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from ..errors import InputError
+from .limits import MAX_TEXT_BYTES
 
 __all__ = ["read_text", "atomic_write", "atomic_path"]
 
 
-def read_text(path) -> str:
-    """The whole file as UTF-8 text (a leading BOM is dropped); InputError if unreadable."""
+def read_text(path, *, max_bytes: int = MAX_TEXT_BYTES) -> str:
+    """The whole file as UTF-8 text (a leading BOM is dropped); InputError if unreadable or
+    larger than ``max_bytes``. Read once, sequentially: a pipe or ``<(...)`` works."""
     path = Path(path)
     try:
-        raw = path.read_bytes()
+        with open(path, "rb") as fh:
+            raw = fh.read(max_bytes + 1)
+        if len(raw) > max_bytes:
+            raise InputError(
+                f"larger than {max_bytes} bytes: not the expected kind of file?",
+                path,
+            )
     except FileNotFoundError:
         raise InputError("no such file", path) from None
     except IsADirectoryError:
