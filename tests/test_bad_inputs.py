@@ -144,7 +144,7 @@ def test_undefined_equations_fail_cleanly(cli, realdata):
     # straight runs of 1 nm cannot tell the wheel diameters apart (a singular system)
     assert_error(cli("compare", "--ivanjko-straight", "1e-9", "--trials", 2), "ivanjko")
     # the trajectory fit's heading weight overflows the squares far before 1e300 m/rad
-    assert_error(cli("fit", realdata / SQUARE, "--heading-weight", "1e300"), "heading_weight_m")
+    assert_error(cli("fit", realdata / SQUARE, "--heading-weight", "1e300"), "--heading-weight")
 
 
 def test_non_physical_ivanjko_result_is_named(cli, tmp_path):

@@ -10,8 +10,8 @@ from .common import (
     add_recording_args,
     bag_options,
     format_topics,
+    heading_weight,
     length_m,
-    nonnegative_float,
     print_json,
     print_table,
     print_warnings,
@@ -76,7 +76,7 @@ def add_parser(sub) -> None:
     )
     t.add_argument(
         "--heading-weight",
-        type=nonnegative_float,
+        type=heading_weight,
         default=0.1,
         metavar="M_PER_RAD",
         help="metres of residual per radian of heading error (default 0.1)",

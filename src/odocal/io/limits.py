@@ -43,6 +43,11 @@ ENCODER_COUNTS = (1.0, 1e9)
 #: Counter modulus of a wrapping tick counter (generic CSV '# ticks_wrap').
 TICKS_WRAP = (2.0, 2.0**64)
 
+# --- method options ---------------------------------------------------------------------------
+
+#: The trajectory fit's heading weight (m per rad); as calibration.trajectory.MAX_HEADING_WEIGHT_M.
+HEADING_WEIGHT_MAX_M = 1e3
+
 # --- recorded values --------------------------------------------------------------------------
 
 #: Time stamps (s): 1e12 s is 30 000 years.
