@@ -4,37 +4,45 @@ from __future__ import annotations
 
 from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
+from ..calibration.censi import SensorOdometryFit, fit_censi, predict_sensor_motion
 from ..calibration.gyro import GyroResult, gyro_calibration, integrate_rate
 from ..calibration.linear import fit_linear
 from ..calibration.result import ABSURD_FRACTION, GeometryFit
+from ..calibration.scan_matching import match_intervals
 from ..calibration.squares import fit_recorded_squares
 from ..calibration.trajectory import fit_trajectory
 from ..core.model import Robot, WheelGeometry
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
+from ..io.bag_slam import load_slam_bag, wheel_increments
 from ..io.bags import (
     BASE_FRAMES,
     IMU,
     JOINT_STATE,
+    LASER_SCAN,
     ODOMETRY,
     check_bag_path,
     imu_series,
+    is_bag,
     joint_series,
     list_topics,
     pick_topic,
     pose_series,
     read_bag,
+    scan_series,
     static_rotation,
+    transform_buffer,
 )
 from ..io.outputs import OutputPlan
 from ..io.recordings import load_recordings, require_ground_truth
 from ..io.robot_file import load_robot, params_yaml
 from ..io.ros2_export import ros2_params_yaml
+from ..io.tuples import read_tuples
 from .common import input_paths, refuse_absurd
 
 __all__ = [
@@ -48,7 +56,7 @@ __all__ = [
     "nominal_geometry",
 ]
 
-METHODS = ("trajectory", "linear", "umbmark", "heading", "gyro")
+METHODS = ("trajectory", "linear", "umbmark", "heading", "gyro", "relative", "scan")
 
 
 def nominal_geometry(robot_spec, recordings: Sequence[Recording]) -> WheelGeometry | None:
@@ -76,9 +84,15 @@ def fit_recordings(
     run_weight: str = "travel",
     side_m: float | None = None,
     umbmark_form: str = "mean",
+    heading_source: str = "truth",
+    sides: int = 4,
 ) -> GeometryFit:
-    """Calibrate from loaded recordings (with ground truth); returns a ``GeometryFit``."""
-    require_ground_truth(list(recordings), f"--method {method}")
+    """Calibrate from loaded recordings (with ground truth, or for the heading method a gyro
+    heading: ``heading_source='gyro'``); returns a ``GeometryFit``."""
+    if heading_source == "gyro" and method != "heading":
+        raise InputError(f"--heading-source gyro is for --method heading, not {method}")
+    if heading_source != "gyro":
+        require_ground_truth(list(recordings), f"--method {method}")
     if method == "linear":
         return fit_linear(recordings, nominal)
     if method == "trajectory":
@@ -100,6 +114,8 @@ def fit_recordings(
             ran_with=ran_with,
             nominal=nominal,
             umbmark_form=umbmark_form,
+            heading_source=heading_source,
+            sides=sides,
         )
     raise InputError(f"unknown method {method!r}", field="method")
 
@@ -109,11 +125,12 @@ class FitResult:
     """A fit from recorded runs, the nominal geometry it is compared with, the loaders'
     warnings and the files written."""
 
-    fit: GeometryFit
+    fit: GeometryFit | SensorOdometryFit
     nominal: WheelGeometry | None
     recordings: int
     load_warnings: tuple[str, ...] = ()
     written: tuple[Path, ...] = ()
+    extra: dict = field(default_factory=dict)
     forced: tuple[str, ...] = ()
 
     @property
@@ -127,6 +144,7 @@ class FitResult:
         out = self.fit.as_dict()
         out["warnings"] = list(self.load_warnings) + list(self.warnings)
         out["nominal"] = None if self.nominal is None else self.nominal.as_dict()
+        out.update(self.extra)
         return out
 
 
@@ -137,14 +155,16 @@ def _outputs(plan: OutputPlan, out, ros2) -> None:
         plan.file(ros2, "--ros2")
 
 
-def _write(plan, geometry, nominal, method, out, ros2, controller_name) -> tuple[Path, ...]:
+def _write(
+    plan, geometry, nominal, method, out, ros2, controller_name, **record
+) -> tuple[Path, ...]:
     contents: dict[Path, str] = {}
     if ros2 is not None:
         if nominal is None:
             raise InputError("--ros2 needs the nominal geometry: give --robot ROBOT.yaml")
         contents[Path(ros2)] = ros2_params_yaml(geometry, nominal, controller_name, method=method)
     if out is not None:
-        contents[Path(out)] = params_yaml(geometry, method=method)
+        contents[Path(out)] = params_yaml(geometry, method=method, **record)
     return tuple(plan.commit(contents)) if contents else ()
 
 
@@ -154,9 +174,13 @@ def _load_warnings(recordings) -> tuple[str, ...]:
     )
 
 
+def _is_tuple_file(path) -> bool:
+    return Path(path).suffix.lower() == ".tuple"
+
+
 def fit(
     paths: Sequence[str | Path],
-    method: str = "trajectory",
+    method: str | None = None,
     *,
     robot=None,
     out: str | Path | None = None,
@@ -165,6 +189,9 @@ def fit(
     ticks_per_rev: float | None = None,
     bag_options: dict | None = None,
     force: bool = False,
+    truth_frames: tuple[str, str] | None = None,
+    slam_stamp_offset_s: float = 0.0,
+    scan_interval_s: float = 0.5,
     **options,
 ) -> FitResult:
     """Load the runs in ``paths`` and calibrate with ``method`` (not 'gyro': see
@@ -173,15 +200,60 @@ def fit(
     ``robot``: ROBOT.yaml (nominal geometry; for runs without metadata, the parameters they ran
     with: its 'believed', else nominal). A result more than 25 % from nominal is absurd for a
     calibration: CalibrationError (nothing written) unless ``force``. ``options`` go to
-    :func:`fit_recordings`."""
+    :func:`fit_recordings`.
+
+    Relative motions (``method='relative'``, the default for them): ``.tuple`` files (wheel
+    rotations and sensor displacements per interval; the sensor's mounting is estimated too), or
+    bags whose ground truth is a SLAM pose on /tf between ``truth_frames`` (e.g. ('map',
+    'base_link'); only the relative motions between the SLAM's update instants are used, see
+    docs/slam-truth.md).
+
+    Laser scans (``method='scan'``): bags with wheel joints and ``sensor_msgs/LaserScan``; the
+    laser's own motion between scans ``scan_interval_s`` apart comes from scan matching
+    (:mod:`odocal.calibration.scan_matching`), then the same relative-motion calibration, the
+    laser's mounting included. Needs the nominal geometry (``robot``) for the matcher's start."""
     if isinstance(paths, (str, Path)):
         paths = [paths]
     plan = OutputPlan(input_paths(list(paths), robot))
     _outputs(plan, out, ros2)
+    if method == "scan":
+        return _fit_scan(
+            paths,
+            plan,
+            robot=robot,
+            out=out,
+            ros2=ros2,
+            controller_name=controller_name,
+            ticks_per_rev=ticks_per_rev,
+            bag_options=bag_options or {},
+            scan_interval_s=scan_interval_s,
+            force=force,
+        )
+    tuples = [p for p in paths if _is_tuple_file(p)]
+    if tuples or truth_frames is not None or method == "relative":
+        if method not in (None, "relative"):
+            what = "--truth-frames (a SLAM pose)" if truth_frames else ".tuple files"
+            raise InputError(
+                f"{what} give relative motions only: use --method relative, not --method {method}"
+            )
+        return _fit_relative(
+            paths,
+            tuples,
+            plan,
+            robot=robot,
+            out=out,
+            ros2=ros2,
+            controller_name=controller_name,
+            ticks_per_rev=ticks_per_rev,
+            bag_options=bag_options or {},
+            truth_frames=truth_frames,
+            slam_stamp_offset_s=slam_stamp_offset_s,
+            force=force,
+        )
+    method = method or "trajectory"
+    opts = {k: v for k, v in (bag_options or {}).items() if k != "scan_topic"}
     notes: list[str] = []
-    recordings = load_recordings(
-        paths, ticks_per_rev=ticks_per_rev, warnings=notes, **(bag_options or {})
-    )
+    recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, warnings=notes, **opts)
     robot_obj = load_robot(robot) if robot else None  # read once: it may be a pipe
     nominal = nominal_geometry(robot_obj, recordings)
     ran_with = robot_obj.believed_geometry if robot_obj else None
@@ -194,8 +266,230 @@ def fit(
         len(recordings),
         tuple(notes) + _load_warnings(recordings),
         written,
-        tuple(forced),
+        forced=tuple(forced),
     )
+
+
+def _stack_increments(parts) -> tuple[np.ndarray, np.ndarray]:
+    """Per-interval wheel increments of several bags, (right, left), rows zero padded to one
+    width."""
+    k = max(r.shape[1] for r, _ in parts)
+
+    def pad(a: np.ndarray) -> np.ndarray:
+        return np.pad(a, ((0, 0), (0, k - a.shape[1])))
+
+    return (
+        np.concatenate([pad(r) for r, _ in parts]),
+        np.concatenate([pad(lft) for _, lft in parts]),
+    )
+
+
+def _fit_relative(
+    paths,
+    tuples,
+    plan: OutputPlan,
+    *,
+    robot,
+    out,
+    ros2,
+    controller_name,
+    ticks_per_rev,
+    bag_options: dict,
+    truth_frames,
+    slam_stamp_offset_s: float,
+    force: bool = False,
+) -> FitResult:
+    """Relative-motion calibration (Censi et al. 2013) from tuple files or SLAM bags."""
+    nominal = load_robot(robot).nominal if robot else None
+    extra: dict = {}
+    if tuples:
+        if len(tuples) != len(paths):
+            raise InputError(".tuple files cannot be mixed with other run files in one fit")
+        if truth_frames is not None:
+            raise InputError("--truth-frames is for bags; .tuple files hold relative motions")
+        data = [read_tuples(p) for p in tuples]
+        phi_r = np.concatenate([d.phi_right_rad for d in data])
+        phi_l = np.concatenate([d.phi_left_rad for d in data])
+        motion = np.concatenate([d.sensor_motion for d in data])
+        result = fit_censi(phi_r, phi_l, motion, nominal=nominal)
+        extra["inputs"] = [{"path": str(d.path), "tuples": len(d.phi_right_rad)} for d in data]
+    else:
+        if truth_frames is None:
+            raise InputError("--method relative needs .tuple files or bags with --truth-frames")
+        bags = []
+        for p in paths:
+            if not is_bag(p):
+                raise InputError("--truth-frames needs ROS bags", p)
+            bags.append(
+                load_slam_bag(
+                    p,
+                    truth_frames,
+                    joint_topic=bag_options.get("joint_topic"),
+                    right_joint=bag_options.get("right_joint"),
+                    left_joint=bag_options.get("left_joint"),
+                    ticks_per_rev=ticks_per_rev,
+                    stamp_offset_s=slam_stamp_offset_s,
+                )
+            )
+        m = [b.motions for b in bags]
+        result = fit_censi(
+            np.concatenate([x.phi_right_rad for x in m]),
+            np.concatenate([x.phi_left_rad for x in m]),
+            np.concatenate([x.sensor_motion for x in m]),
+            sensor_pose=(0.0, 0.0, 0.0),  # the truth frame is the base itself
+            nominal=nominal,
+            wheel_increments=_stack_increments([b.increments for b in bags]),
+        )
+        extra["slam"] = [
+            {
+                "bag": b.path,
+                "chain": b.chain,
+                "correction_edge": b.correction,
+                **asdict(b.motions.counts),
+                "dropped": b.motions.counts.dropped,
+                "segments": b.motions.segments,
+                "summary": b.motions.summary(),
+                "warnings": list(b.motions.warnings),
+            }
+            for b in bags
+        ]
+    record = {
+        "sensor_x_m": result.sensor_x_m,
+        "sensor_y_m": result.sensor_y_m,
+        "sensor_yaw_rad": result.sensor_yaw_rad,
+    }
+    forced = refuse_absurd(result.geometry, nominal, force)
+    written = _write(
+        plan, result.geometry, nominal, "relative", out, ros2, controller_name, **record
+    )
+    return FitResult(result, nominal, len(paths), (), written, extra, tuple(forced))
+
+
+def _fit_scan(
+    paths,
+    plan: OutputPlan,
+    *,
+    robot,
+    out,
+    ros2,
+    controller_name,
+    ticks_per_rev,
+    bag_options: dict,
+    scan_interval_s: float,
+    force: bool = False,
+) -> FitResult:
+    """``fit BAG --method scan``: scan matching, then the relative-motion calibration."""
+    if not robot:
+        raise InputError(
+            "--method scan needs the nominal geometry (--robot ROBOT.yaml): the scan matcher "
+            "starts from the odometry's motion"
+        )
+    nominal = load_robot(robot).nominal
+    parts = []
+    for p in paths:
+        if not is_bag(p):
+            raise InputError("--method scan needs ROS bags with laser scans", p)
+        parts.append(_scan_intervals(p, nominal, ticks_per_rev, bag_options, scan_interval_s))
+
+    def stack(key: str) -> np.ndarray:
+        return np.concatenate([x[key] for x in parts])
+
+    result = fit_censi(
+        stack("phi_right_rad"),
+        stack("phi_left_rad"),
+        stack("motion"),
+        nominal=nominal,
+        wheel_increments=_stack_increments([x["increments"] for x in parts]),
+    )
+    record = {
+        "sensor_x_m": result.sensor_x_m,
+        "sensor_y_m": result.sensor_y_m,
+        "sensor_yaw_rad": result.sensor_yaw_rad,
+    }
+    forced = refuse_absurd(result.geometry, nominal, force)
+    written = _write(plan, result.geometry, nominal, "scan", out, ros2, controller_name, **record)
+    extra = {"method": "scan", "scan": [x["summary"] for x in parts]}
+    return FitResult(result, nominal, len(paths), (), written, extra, tuple(forced))
+
+
+def _scan_intervals(path, nominal, ticks_per_rev, bag_options: dict, interval_s: float) -> dict:
+    """Wheel rotations and scan-matched laser motions over intervals of one bag."""
+    p = check_bag_path(path)
+    info = list_topics(p)
+    jt = pick_topic(
+        info, bag_options.get("joint_topic"), (JOINT_STATE,), "wheel joints", p, "--joint-topic"
+    )
+    st = pick_topic(
+        info, bag_options.get("scan_topic"), (LASER_SCAN,), "laser scans", p, "--scan-topic"
+    )
+    names = {t.name for t in info}
+    bag = read_bag(p, [jt, st] + [t for t in ("/tf", "/tf_static") if t in names])
+    joints = joint_series(
+        bag, jt, bag_options.get("right_joint"), bag_options.get("left_joint"), ticks_per_rev
+    )
+    scans = scan_series(bag, st)
+    warnings = []
+    mount = np.zeros(3)
+    mount_source = "none (assumed at the base origin)"
+    buf = transform_buffer(bag)
+    base = next((f for f in BASE_FRAMES if f in buf.frames), None)
+    if base is not None and scans.frame_id in buf.frames:
+        mount = buf.lookup(base, scans.frame_id, scans.time_s[:1], max_extrapolation_s=1e9)
+        mount = mount.planar()[0]
+        mount_source = f"tf ({base} -> {scans.frame_id})"
+    else:
+        warnings.append(
+            f"no transform from the base to the laser frame '{scans.frame_id}': the matcher "
+            "starts as if the laser sat at the base origin"
+        )
+    t_j, right, left = joints.time_s, joints.values["right"], joints.values["left"]
+    inside = np.flatnonzero((scans.time_s >= t_j[0]) & (scans.time_s <= t_j[-1]))
+    if len(inside) < 2:
+        raise InputError("the laser scans and the wheel joints hardly overlap in time", p, None, st)
+    t_s = scans.time_s[inside]
+    stride = max(1, int(round(interval_s / float(np.median(np.diff(t_s))))))
+    starts = np.arange(0, len(inside) - stride, stride)
+    iv = np.column_stack([inside[starts], inside[starts + stride]])
+    wr, wl = np.interp(scans.time_s, t_j, right), np.interp(scans.time_s, t_j, left)
+    phi_r, phi_l = wr[iv[:, 1]] - wr[iv[:, 0]], wl[iv[:, 1]] - wl[iv[:, 0]]
+    moving = np.maximum(np.abs(phi_r), np.abs(phi_l)) > 1e-3
+    iv, phi_r, phi_l = iv[moving], phi_r[moving], phi_l[moving]
+    guesses = predict_sensor_motion(nominal, mount, phi_r, phi_l)
+    try:
+        matches = match_intervals(scans.time_s, scans.points_m, iv, guesses)
+    except CalibrationError as exc:
+        raise InputError(str(exc), p, None, st) from None
+    ok = matches.usable
+    if ok.sum() < 10:
+        raise InputError(
+            f"only {int(ok.sum())} of {len(ok)} scan intervals matched; record a longer drive "
+            "in a room with walls the laser sees",
+            p,
+            None,
+            st,
+        )
+    inc = wheel_increments(t_j, right, left, matches.start_time_s[ok], matches.end_time_s[ok])
+    summary = {
+        "bag": str(p),
+        "scan_topic": st,
+        "joint_topic": jt,
+        "scans": int(len(scans.time_s)),
+        "interval_scans": int(stride),
+        "intervals": int(len(ok)),
+        "matched": int(ok.sum()),
+        "not_converged": int((~matches.converged).sum()),
+        "degenerate": int(matches.degenerate.sum()),
+        "mount_guess": {"x_m": float(mount[0]), "y_m": float(mount[1]), "yaw_rad": float(mount[2])},
+        "mount_source": mount_source,
+        "warnings": warnings,
+    }
+    return {
+        "phi_right_rad": phi_r[ok],
+        "phi_left_rad": phi_l[ok],
+        "motion": matches.motion[ok],
+        "increments": inc,
+        "summary": summary,
+    }
 
 
 @dataclass(frozen=True)

@@ -13,8 +13,9 @@ from ..core.model import WheelGeometry
 from ..core.odometry import dead_reckon, evaluate
 from ..core.recording import Recording
 from ..errors import InputError
+from ..io.bag_slam import load_slam_bag
 from ..io.outputs import OutputPlan
-from ..io.recordings import load_recordings, require_ground_truth
+from ..io.recordings import load_recordings, refuse_repeated, require_ground_truth
 from ..io.robot_file import load_params, load_robot
 
 __all__ = ["NOMINAL_SOURCES", "Validation", "validate", "validate_recordings"]
@@ -119,6 +120,8 @@ def validate(
     plot: str | Path | None = None,
     ticks_per_rev: float | None = None,
     bag_options: dict | None = None,
+    truth_frames: tuple[str, str] | None = None,
+    slam_stamp_offset_s: float = 0.0,
 ) -> Validation:
     """Dead-reckon the runs in ``paths`` with ``params`` (PARAMS.yaml or a geometry) and with the
     nominal geometry; with ``plot``, one PNG per run in that folder.
@@ -127,7 +130,8 @@ def validate(
     ``robot``), 'firmware' (each run's own ran-with parameters, e.g. an OptiOdom data set's
     firmware values; every run must carry them), or None: 'robot' when ``robot`` is given, else
     each run's firmware values where it has them (the result's ``nominal_source`` says which:
-    'robot', 'firmware' or 'unknown')."""
+    'robot', 'firmware' or 'unknown'). With ``truth_frames`` (bags whose truth is a SLAM pose on
+    /tf), the errors are measured at the SLAM's update instants only (docs/slam-truth.md)."""
     if isinstance(paths, (str, Path)):
         paths = [paths]
     chosen = nominal is not None
@@ -157,9 +161,24 @@ def validate(
         plan.folder(plot, "--plot")
     geometry = params if isinstance(params, WheelGeometry) else load_params(params)
     notes: list[str] = []
-    recordings = load_recordings(
-        paths, ticks_per_rev=ticks_per_rev, warnings=notes, **(bag_options or {})
-    )
+    if truth_frames is not None:
+        opts = bag_options or {}
+        recordings = [
+            load_slam_bag(
+                p,
+                truth_frames,
+                joint_topic=opts.get("joint_topic"),
+                right_joint=opts.get("right_joint"),
+                left_joint=opts.get("left_joint"),
+                ticks_per_rev=ticks_per_rev,
+                stamp_offset_s=slam_stamp_offset_s,
+            ).recording
+            for p in refuse_repeated(paths)
+        ]
+    else:
+        recordings = load_recordings(
+            paths, ticks_per_rev=ticks_per_rev, warnings=notes, **(bag_options or {})
+        )
     nominal_geometry = load_robot(robot).nominal if nominal == "robot" else None
     require_ground_truth(recordings, "validate")
     if nominal == "firmware" and chosen:
@@ -187,6 +206,9 @@ def validate(
                 r.wheel_angle_right_rad, r.wheel_angle_left_rad, geometry
             )
             title = Path(r.name).name + (f" ({r.label})" if r.label else "")
+            valid = r.meta.get("truth_samples") if r.meta else None
+            if valid is not None:  # truth only at these samples (a SLAM pose at its updates)
+                return run_figure(title, r.ground_truth[valid], trajs, truth_marker="o")
             return run_figure(title, r.ground_truth, trajs)
 
         figures = {

@@ -32,7 +32,7 @@ from ..errors import InputError
 from .bags import BAG_SUFFIXES, is_bag
 from .textfile import read_text
 
-__all__ = ["load_recordings", "require_ground_truth", "MAX_WALK_DEPTH"]
+__all__ = ["load_recordings", "refuse_repeated", "require_ground_truth", "MAX_WALK_DEPTH"]
 
 _OPTI_RUN = re.compile(r"^(?P<id>.+)_run-(?P<n>\d+)\.csv$")
 
@@ -220,6 +220,25 @@ def load_recordings(
             )
     if warnings is not None:
         warnings += notes
+    return out
+
+
+def refuse_repeated(paths) -> list[Path]:
+    """``paths`` as Paths; InputError if two of them are the same file or folder (also through
+    a link): the runs would count twice."""
+    seen: dict = {}
+    out = []
+    for p in paths:
+        path = Path(p)
+        key = _identity(path)
+        if key is not None and key in seen:
+            raise InputError(
+                f"given as {seen[key]} and as {p}: the runs would count twice; give each once",
+                path,
+            )
+        if key is not None:
+            seen[key] = p
+        out.append(path)
     return out
 
 
