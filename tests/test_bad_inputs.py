@@ -254,9 +254,11 @@ def test_plan_undefined_prediction_is_null_with_a_warning(cli, tmp_path):
 
 def test_print_json_prints_all_or_nothing(capsys):
     from odocal.cli.common import print_json
+    from odocal.errors import OdocalError
 
-    with pytest.raises(ValueError):  # NaN is a programming error: must become null upstream
-        print_json({"ok": 1.0, "bad": math.nan})
+    # NaN must become null upstream; if one slips through, it is named, and nothing printed
+    with pytest.raises(OdocalError, match=r"'runs\[1\]\.bad' is not a finite number"):
+        print_json({"ok": 1.0, "runs": [{"bad": 0.0}, {"bad": math.nan}]})
     assert capsys.readouterr().out == ""
 
 

@@ -56,17 +56,20 @@ def calibrate(
         plan.file(out, "--out")
     r = resolve_robot(robot, params)
     ran_with = r.believed_geometry
+    notes: list[str] = []
     if radius_m is not None and method != "bcpt":
         raise InputError(f"--radius is only used with --method bcpt (got --method {method})")
     if method == "bcpt":
         if radius_m is None:
             raise InputError("--method bcpt needs --radius R (the commanded circle radius, m)")
-        result = calibrate_bcpt(read_circle_runs(runs_csv), radius_m, ran_with)
+        result = calibrate_bcpt(read_circle_runs(runs_csv, notes), radius_m, ran_with)
         track = f"circles of commanded radius {radius_m:g} m"
     else:
         # each method reads only what it uses: heading the final headings, UMBmark the positions
         runs = read_runs(
-            runs_csv, required=("theta_deg",) if method == "heading" else ("x_m", "y_m")
+            runs_csv,
+            required=("theta_deg",) if method == "heading" else ("x_m", "y_m"),
+            warnings=notes,
         )
         track = f"{sides}-gon side {side_m:g} m"
         if method == "umbmark":
@@ -81,7 +84,7 @@ def calibrate(
             raise InputError(f"unknown method {method!r}", field="method")
     c = result.corrected
     check_physical((c.diameter_right_m, c.diameter_left_m, c.wheelbase_m), None, result.method)
-    warnings = refuse_absurd(c, result.ran_with, force)
+    warnings = notes + refuse_absurd(c, result.ran_with, force)
     written: tuple[Path, ...] = ()
     if out is not None:
         text = params_yaml(result.corrected, method=result.method, E_b=result.E_b, E_d=result.E_d)

@@ -237,7 +237,34 @@ def print_warnings(warnings: Iterable[str], prefix: str = "") -> None:
         print(f"odocal: warning: {prefix}{w}", file=sys.stderr)
 
 
+def _non_finite(obj: Any, where: str = "") -> str | None:
+    """The key path of the first non-finite number in ``obj`` (None if there is none)."""
+    if isinstance(obj, float):
+        return None if math.isfinite(obj) else (where or "the result")
+    if isinstance(obj, dict):
+        items: Iterable = ((f"{where}.{k}" if where else str(k), v) for k, v in obj.items())
+    elif isinstance(obj, (list, tuple)):
+        items = ((f"{where}[{i}]", v) for i, v in enumerate(obj))
+    else:
+        return None
+    for key, value in items:
+        found = _non_finite(value, key)
+        if found is not None:
+            return found
+    return None
+
+
 def print_json(obj: Any) -> None:
+    """``obj`` as one JSON object on stdout, all or nothing. A non-finite number (JSON has none;
+    undefined values are null) is never printed: OdocalError naming its key instead."""
+    bad = _non_finite(obj)
+    if bad is not None:
+        from ..errors import OdocalError
+
+        raise OdocalError(
+            f"the result '{bad}' is not a finite number; nothing printed (please report this "
+            "with the input that caused it)"
+        )
     text = json.dumps(obj, indent=2, allow_nan=False)  # all or nothing: no half-printed object
     sys.stdout.write(text + "\n")
 

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.model import WheelGeometry
+from ..core.pose import start_frame
 from ..core.recording import Recording
 from ..errors import InputError
 from .generic_csv import check_wheel_steps
@@ -160,11 +161,23 @@ def _read_run(path: Path) -> tuple[np.ndarray, list[int]]:
     data = table.numbers(_RUN_COLUMNS, at_most=_RUN_MAX)
     lines = [no for no, _ in table.rows]
     t = data[:, 0]
-    bad = np.nonzero(np.diff(t) <= 0)[0]
+    dt = np.diff(t)
+    bad = np.nonzero(dt <= 0)[0]
     if len(bad):
         i = int(bad[0]) + 1
         raise InputError(
             f"time is not strictly increasing ({t[i - 1]:g} s then {t[i]:g} s)",
+            path,
+            lines[i],
+            "time_s",
+        )
+    # the ticks are increments per sample: a missing sample loses its increments silently
+    gap = np.nonzero(dt > 1.5 * np.median(dt))[0]
+    if len(gap):
+        i = int(gap[0]) + 1
+        raise InputError(
+            f"a sample is missing: {dt[i - 1]:g} s after the previous one in a run sampled "
+            f"every {np.median(dt):g} s; its tick increments would be lost",
             path,
             lines[i],
             "time_s",
@@ -241,8 +254,9 @@ def load_optiodom_dataset(folder) -> list[Recording]:
     out = []
     for (num, path), label in zip(runs, labels, strict=True):
         data, lines = _read_run(path)
-        right = np.cumsum(data[:, 4]) * scale
-        left = np.cumsum(data[:, 5]) * scale
+        # the first row's increments lie before the first pose: angles start at 0 there
+        right = (np.cumsum(data[:, 4]) - data[0, 4]) * scale
+        left = (np.cumsum(data[:, 5]) - data[0, 5]) * scale
         check_wheel_steps(right, left, lines, path, ("ticks_R", "ticks_L"))
         out.append(
             Recording(
@@ -250,7 +264,7 @@ def load_optiodom_dataset(folder) -> list[Recording]:
                 time_s=data[:, 0],
                 wheel_angle_right_rad=right,
                 wheel_angle_left_rad=left,
-                ground_truth=data[:, 1:4],
+                ground_truth=start_frame(data[:, 1], data[:, 2], data[:, 3]),
                 ran_with=ran_with,
                 label=label,
                 meta={

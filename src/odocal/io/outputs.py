@@ -79,17 +79,33 @@ class _Output:
 
 @contextmanager
 def _signals_held():
-    """Hold SIGINT and SIGTERM back (they are delivered when the block ends)."""
-    held = {signal.SIGINT, signal.SIGTERM}
+    """Hold SIGINT and SIGTERM back: their Python handlers run when the block ends.
+
+    Done with Python-level handlers, not a thread signal mask: a process-directed signal may be
+    delivered to any thread (numpy's BLAS starts some) and Python then runs the handler in the
+    main thread anyway, so a mask on the main thread alone would not hold it."""
+    pending: list[int] = []
+
+    def note(signum, frame):  # noqa: ARG001 - the signal module's API
+        pending.append(signum)
+
+    held = (signal.SIGINT, signal.SIGTERM)
     try:
-        old = signal.pthread_sigmask(signal.SIG_BLOCK, held)
-    except (AttributeError, ValueError, OSError):  # pragma: no cover - not on this platform
+        old = {s: signal.signal(s, note) for s in held}
+    except ValueError:  # not the main thread: signals cannot be handled here anyway
         yield
         return
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        for s, handler in old.items():
+            signal.signal(s, handler)
+        if pending:
+            s, handler = pending[0], old[pending[0]]
+            if callable(handler):
+                handler(s, None)  # e.g. raises KeyboardInterrupt
+            elif handler == signal.SIG_DFL:
+                os.kill(os.getpid(), s)
 
 
 class OutputPlan:
@@ -131,6 +147,7 @@ class OutputPlan:
         return self._files_in_inputs
 
     def _check_against_inputs(self, path: Path, flag: str, is_folder: bool) -> None:
+        self._check_against_input_paths(path, flag, is_folder)
         if path.is_file():
             st = path.stat()
             inside = self._input_file_ids().get((st.st_dev, st.st_ino))
@@ -140,6 +157,8 @@ class OutputPlan:
                     "file through a link); choose another output name",
                     path,
                 )
+
+    def _check_against_input_paths(self, path: Path, flag: str, is_folder: bool) -> None:
         for src in self._inputs:
             if not src.exists():
                 continue

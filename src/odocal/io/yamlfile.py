@@ -134,9 +134,18 @@ class YamlDoc:
         """``value`` (found at dotted ``key``) as a finite float, with the given sign and within
         the plausible range [``at_least``, ``at_most``] when given (``at_most`` alone bounds the
         magnitude)."""
+        if value is None:
+            raise self.error(key, "no value (expected a number)")
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             shown = repr(value) if len(repr(value)) <= 40 else repr(value)[:36] + "..."
-            raise self.error(key, f"expected a number, got {shown}")
+            hint = ""
+            if isinstance(value, str) and value.strip().lower().lstrip("+-") in (
+                "nan",
+                "inf",
+                "infinity",
+            ):
+                hint = " (text; and a value must be finite)"
+            raise self.error(key, f"expected a number, got {shown}{hint}")
         try:
             v = float(value)
         except OverflowError:  # an integer beyond the float range
