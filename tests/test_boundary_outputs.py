@@ -112,17 +112,15 @@ def test_compare_plot_into_the_real_data_folder_is_refused(cli, tmp_path):
     write_optiodom(data)
     before = tree(data)
     for plot in (data, data / "square", data / "figures"):
-        cli(
-            "compare", "--realdata", data, "--trials", 2, "--plot", plot
-        ).expect_error("--plot", "input folder")
+        cli("compare", "--realdata", data, "--trials", 2, "--plot", plot).expect_error(
+            "--plot", "input folder"
+        )
     assert tree(data) == before
 
 
 def test_design_plot_and_reproduce_out_that_are_files(cli, tmp_path):
     f = write(tmp_path / "notes.txt", "mine\n")
-    cli("design", "--analytic", "--side-lengths", "1:2:1", "--plot", f).expect_error(
-        "not a folder"
-    )
+    cli("design", "--analytic", "--side-lengths", "1:2:1", "--plot", f).expect_error("not a folder")
     cli("reproduce", "--out", f, "--trials", 5).expect_error("not a folder")
     assert f.read_text() == "mine\n"
 
@@ -228,9 +226,7 @@ def test_sigterm_while_staging_unwinds_like_ctrl_c(cli, tmp_path, runs_dir, monk
     assert signal.getsignal(signal.SIGTERM) is not None  # main() restored the handler
 
 
-def test_a_signal_during_the_renames_waits_until_all_are_done(
-    cli, tmp_path, runs_dir, monkeypatch
-):
+def test_a_signal_during_the_renames_waits_until_all_are_done(cli, tmp_path, runs_dir, monkeypatch):
     argv, _ = _fit_with_two_outputs(tmp_path, runs_dir)
     out, ros2 = tmp_path / "params.yaml", tmp_path / "ros2.yaml"
     real_replace, calls = os.replace, []
@@ -308,7 +304,9 @@ def test_design_plot_is_byte_identical(cli, tmp_path):
 
 
 def test_simulate_out_is_byte_identical(cli, tmp_path):
-    _run_twice(cli, tmp_path, lambda f: ["simulate", "--runs", 4, "--seed", 7, "--out", f / "r.csv"])
+    _run_twice(
+        cli, tmp_path, lambda f: ["simulate", "--runs", 4, "--seed", 7, "--out", f / "r.csv"]
+    )
 
 
 def test_validate_plot_is_byte_identical(cli, tmp_path, runs_dir):

@@ -299,7 +299,15 @@ def _setup_robot(tmp, data):
 
 def _setup_params(tmp, data):
     (tmp / "params.yaml").write_bytes(data)
-    return ["simulate", "--params", tmp / "params.yaml", "--runs", 2, "--out", tmp / "out" / "r.csv"]
+    return [
+        "simulate",
+        "--params",
+        tmp / "params.yaml",
+        "--runs",
+        2,
+        "--out",
+        tmp / "out" / "r.csv",
+    ]
 
 
 def _setup_track(tmp, data):
