@@ -229,7 +229,12 @@ def fit(
             scan_interval_s=scan_interval_s,
             force=force,
         )
-    tuples = [p for p in paths if _is_tuple_file(p)]
+    # a pipe or <(...) has no name to tell a tuple file by: --method relative says it is one
+    tuples = [
+        p
+        for p in paths
+        if _is_tuple_file(p) or (method == "relative" and truth_frames is None and not is_bag(p))
+    ]
     if tuples or truth_frames is not None or method == "relative":
         if method not in (None, "relative"):
             what = "--truth-frames (a SLAM pose)" if truth_frames else ".tuple files"

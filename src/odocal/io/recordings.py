@@ -66,7 +66,8 @@ def _load_file(path: Path, ticks_per_rev) -> list[Recording]:
     if path.suffix.lower() != ".csv" and not generic:
         raise InputError(
             "unknown run file type: expected a generic run CSV (header starting with time_s), "
-            f"an OptiOdom *_run-NN.csv, or a bag ({', '.join(BAG_SUFFIXES)})",
+            f"an OptiOdom *_run-NN.csv, a bag ({', '.join(BAG_SUFFIXES)}) or a .tuple file (a "
+            "pipe of tuples needs --method relative)",
             path,
         )
     return [load_generic_csv(path, ticks_per_rev=ticks_per_rev, text=text)]
