@@ -94,6 +94,13 @@ def test_every_reader_reads_a_pipe_once(cli, files, monkeypatch):
         assert status == 0, (plain, err)
         plain_docs.append(json.loads(out))
         piped_script.append(f"odocal {piped}; echo @@@")
+    # and standard input, as a pipe and as a redirected file
+    piped_script.append("cat runs.csv | odocal calibrate /dev/stdin --robot robot.yaml --json")
+    piped_script.append("echo @@@; odocal simulate --robot /dev/stdin --runs 2 --json < robot.yaml")
+    piped_script.append("echo @@@")
+    commands += [commands[0], "simulate --robot robot.yaml --runs 2 --json"]
+    status, out, err = cli(*commands[-1].split())
+    plain_docs += [plain_docs[0], json.loads(out)]
     r = odocal_sh("; ".join(piped_script), files)
     assert r.returncode == 0 and "odocal: error" not in r.stderr, r.stderr
     piped_docs = [json.loads(t) for t in r.stdout.split("@@@")[:-1]]
@@ -112,16 +119,10 @@ def _numbers(doc):
     return "" if isinstance(doc, str) else doc
 
 
-@pytest.mark.skipif(BASH is None, reason="needs bash")
-def test_dev_stdin_and_a_pipe_of_a_yaml_file(files):
-    r = odocal_sh("cat runs.csv | odocal calibrate /dev/stdin --json", files)
-    assert r.returncode == 0, r.stderr
-    assert json.loads(r.stdout)["E_b"] > 1
-    r = odocal_sh("odocal simulate --robot /dev/stdin --runs 2 < robot.yaml", files)
-    assert r.returncode == 0, r.stderr
-    r = odocal_sh("printf 'wheelbase_m: 1\\nwheelbase_m: 2\\n' | odocal simulate --robot -", files)
-    # '-' is not a special name: it is a file that does not exist, said in one line
-    assert r.returncode == 2 and r.stderr.startswith("odocal: error: ")
+def test_a_dash_is_not_standard_input(cli, files, monkeypatch):
+    # '-' is not a special name (use /dev/stdin): a file that does not exist, said in one line
+    monkeypatch.chdir(files)
+    cli("simulate", "--robot", "-").expect_error("-: no such file")
 
 
 @pytest.mark.parametrize(

@@ -496,6 +496,10 @@ def test_the_same_run_twice_is_refused(cli, tmp_path):
         cli("fit", *paths, "--method", "linear").expect_error("given", "count twice")
     params = write(tmp_path / "p.yaml", PARAMS_YAML)
     cli("validate", a, a, "--params", params).expect_error("given twice")
+    from _boundary_files import tuples_text
+
+    t = write(tmp_path / "m.tuple", tuples_text())
+    cli("fit", t, tmp_path / "." / "m.tuple").expect_error("count twice")
 
 
 def test_identical_copies_are_warned_about(cli, tmp_path):

@@ -39,7 +39,7 @@ from ..io.bags import (
     transform_buffer,
 )
 from ..io.outputs import OutputPlan
-from ..io.recordings import load_recordings, require_ground_truth
+from ..io.recordings import load_recordings, refuse_repeated, require_ground_truth
 from ..io.robot_file import load_robot, params_yaml
 from ..io.ros2_export import ros2_params_yaml
 from ..io.tuples import read_tuples
@@ -216,6 +216,7 @@ def fit(
         paths = [paths]
     plan = OutputPlan(input_paths(list(paths), robot))
     _outputs(plan, out, ros2)
+    refuse_repeated(paths)  # the same file twice would count twice, whatever it holds
     if method == "scan":
         return _fit_scan(
             paths,
