@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from collections import Counter
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -16,7 +15,7 @@ from ..calibration.result import ABSURD_FRACTION, GeometryFit
 from ..calibration.scan_matching import match_intervals
 from ..calibration.squares import fit_recorded_squares
 from ..calibration.trajectory import fit_trajectory
-from ..core.model import Robot, WheelGeometry
+from ..core.model import WheelGeometry
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
 from ..io.bag_slam import load_slam_bag, wheel_increments
@@ -43,7 +42,8 @@ from ..io.recordings import load_recordings, refuse_repeated, require_ground_tru
 from ..io.robot_file import load_robot, params_yaml
 from ..io.ros2_export import ros2_params_yaml
 from ..io.tuples import read_tuples
-from .common import input_paths, refuse_absurd
+from .check import CheckResult, check_loaded
+from .common import input_paths, nominal_geometry, optional_robot, refuse_absurd
 
 __all__ = [
     "METHODS",
@@ -53,21 +53,9 @@ __all__ = [
     "fit_recordings",
     "fit_gyro",
     "fit_gyro_bag",
-    "nominal_geometry",
 ]
 
 METHODS = ("trajectory", "linear", "umbmark", "heading", "gyro", "relative", "scan")
-
-
-def nominal_geometry(robot_spec, recordings: Sequence[Recording]) -> WheelGeometry | None:
-    """Nominal geometry: ROBOT.yaml's (a path, built-in name or Robot) if given, else the most
-    common ``ran_with`` (or None)."""
-    if isinstance(robot_spec, Robot):
-        return robot_spec.nominal
-    if robot_spec:
-        return load_robot(robot_spec).nominal
-    counts = Counter(r.ran_with for r in recordings if r.ran_with is not None)
-    return counts.most_common(1)[0][0] if counts else None
 
 
 def fit_recordings(
@@ -131,6 +119,7 @@ class FitResult:
     load_warnings: tuple[str, ...] = ()
     written: tuple[Path, ...] = ()
     extra: dict = field(default_factory=dict)
+    log_check: CheckResult | None = None
     forced: tuple[str, ...] = ()
 
     @property
@@ -145,6 +134,8 @@ class FitResult:
         out["warnings"] = list(self.load_warnings) + list(self.warnings)
         out["nominal"] = None if self.nominal is None else self.nominal.as_dict()
         out.update(self.extra)
+        if self.log_check is not None:
+            out["log_check"] = self.log_check.as_dict()
         return out
 
 
@@ -260,10 +251,24 @@ def fit(
     opts = {k: v for k, v in (bag_options or {}).items() if k != "scan_topic"}
     notes: list[str] = []
     recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, warnings=notes, **opts)
-    robot_obj = load_robot(robot) if robot else None  # read once: it may be a pipe
-    nominal = nominal_geometry(robot_obj, recordings)
-    ran_with = robot_obj.believed_geometry if robot_obj else None
+    r = optional_robot(robot)  # read once: it may be a pipe
+    nominal = nominal_geometry(r, recordings)
+    ran_with = None if r is None else r.believed_geometry
     result = fit_recordings(recordings, method, nominal=nominal, ran_with=ran_with, **options)
+    log_check = None
+    if method == "trajectory":
+        # is this log enough? what the recorded motion let this fit see (docs/check.md)
+        used = set(result.runs)
+        try:
+            log_check = check_loaded(
+                [r for r in recordings if r.name in used],
+                result.geometry,
+                r,
+                max_blocks_per_run=_CHECK_MAX_BLOCKS,
+                **{k: options[k] for k in _CHECK_SETTINGS if k in options},
+            )
+        except CalibrationError as exc:  # a very fine segment layout: the check would be slow
+            result = replace(result, warnings=[*result.warnings, f"log check skipped: {exc}"])
     forced = refuse_absurd(result.geometry, nominal, force)
     written = _write(plan, result.geometry, nominal, result.method, out, ros2, controller_name)
     return FitResult(
@@ -272,8 +277,16 @@ def fit(
         len(recordings),
         tuple(notes) + _load_warnings(recordings),
         written,
-        forced=tuple(forced),
+        {},
+        log_check,
+        tuple(forced),
     )
+
+
+# fit_recordings' options that the log check shares (the trajectory fit's residual settings), and
+# the finest segment layout it follows within fit (its dense covariance grows as blocks^2)
+_CHECK_SETTINGS = ("residual", "segment_m", "heading_weight_m", "run_weight")
+_CHECK_MAX_BLOCKS = 300
 
 
 def _stack_increments(parts) -> tuple[np.ndarray, np.ndarray]:
@@ -368,7 +381,7 @@ def _fit_relative(
     written = _write(
         plan, result.geometry, nominal, "relative", out, ros2, controller_name, **record
     )
-    return FitResult(result, nominal, len(paths), (), written, extra, tuple(forced))
+    return FitResult(result, nominal, len(paths), (), written, extra, forced=tuple(forced))
 
 
 def _fit_scan(
@@ -415,7 +428,7 @@ def _fit_scan(
     forced = refuse_absurd(result.geometry, nominal, force)
     written = _write(plan, result.geometry, nominal, "scan", out, ros2, controller_name, **record)
     extra = {"method": "scan", "scan": [x["summary"] for x in parts]}
-    return FitResult(result, nominal, len(paths), (), written, extra, tuple(forced))
+    return FitResult(result, nominal, len(paths), (), written, extra, forced=tuple(forced))
 
 
 def _scan_intervals(path, nominal, ticks_per_rev, bag_options: dict, interval_s: float) -> dict:

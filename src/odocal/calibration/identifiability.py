@@ -508,7 +508,13 @@ def _pose_forms(run: RunResiduals, geometry, noise: NoiseModel, X, V):
     return 0.5 * (acc + acc.T), 0.5 * (vsv + vsv.T)
 
 
-def _noise_covariance(run: RunResiduals, kind: str, geometry: WheelGeometry, noise: NoiseModel):
+def _noise_covariance(
+    run: RunResiduals,
+    kind: str,
+    geometry: WheelGeometry,
+    noise: NoiseModel,
+    max_blocks: int = MAX_BLOCKS_PER_RUN,
+):
     """Covariance of the residual rows of ``run`` under ``noise``, shape (3 B, 3 B).
 
     Wheel part: the error of the pose at the end of block (s0, s1] from the increments inside
@@ -520,9 +526,9 @@ def _noise_covariance(run: RunResiduals, kind: str, geometry: WheelGeometry, noi
     pose = dead_reckon(run.phi_r, run.phi_l, geometry)
     s0, s1 = _blocks(run, kind)
     nb = len(s0)
-    if nb > MAX_BLOCKS_PER_RUN:
+    if nb > max_blocks:
         raise CalibrationError(
-            f"check: {run.name} has {nb} residual blocks (at most {MAX_BLOCKS_PER_RUN}: the "
+            f"check: {run.name} has {nb} residual blocks (at most {max_blocks}: the "
             "noise covariance is dense); use a longer segment_m or fewer samples_per_run"
         )
     # block rotation into the frame of its start pose (identity for pose residuals)
@@ -834,6 +840,7 @@ def check_recordings(
     mounting: bool = False,
     residual_scale: str = "stated",
     thresholds: CheckThresholds | None = None,
+    max_blocks_per_run: int = MAX_BLOCKS_PER_RUN,
 ) -> LogCheck:
     """Is this log enough to fit ``geometry``'s D_R, D_L, b? (module docstring)
 
@@ -922,7 +929,7 @@ def check_recordings(
         if residual == "pose":
             inv_form, Mrun = _pose_forms(run, geometry, noise, Jr, AJ)
         else:
-            S = _noise_covariance(run, residual, geometry, noise)
+            S = _noise_covariance(run, residual, geometry, noise, max_blocks_per_run)
             inv_form, Mrun = Jr.T @ _solve_psd(S, Jr), AJ.T @ S @ AJ
         F += inv_form[:n, :n]
         Mw += Mrun

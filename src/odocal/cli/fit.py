@@ -194,9 +194,10 @@ def _run_gyro(args) -> int:
 def run(args) -> int:
     if args.list_topics:
         from ..app.bag_info import bag_info
+        from ..io.bags import is_bag
 
         for path in args.paths:
-            if not is_bag_path(path):
+            if not is_bag(path):
                 raise InputError("--list-topics needs a ROS bag (.bag, .db3, .mcap)", path)
         for path in args.paths:
             if len(args.paths) > 1:
@@ -262,6 +263,11 @@ def run(args) -> int:
         print("excluded: " + ", ".join(Path(n).name for n in result.excluded))
     if "residual_rms" in result.extras:
         print(f"residual RMS {result.extras['residual_rms']:.3g} ({result.extras['residual']})")
+    if res.log_check is not None:
+        from .check import print_check
+
+        print("Is this log enough? (odocal check)")
+        print_check(res.log_check, indent="  ")
     for f in res.written:
         print(f"wrote {f}")
     return 0
@@ -308,11 +314,3 @@ def _print_relative(res) -> None:
         )
     for f in res.written:
         print(f"wrote {f}")
-
-
-def is_bag_path(path) -> bool:
-    """A ROS 1/2 bag file or a ROS 2 bag folder (as odocal.io.bags.is_bag, without importing it)."""
-    p = Path(path)
-    if p.is_dir():
-        return (p / "metadata.yaml").is_file()
-    return p.suffix.lower() in (".bag", ".db3", ".mcap")

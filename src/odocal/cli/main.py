@@ -14,6 +14,7 @@ from ..errors import OdocalError
 from . import (
     bag_info,
     calibrate,
+    check,
     compare,
     design,
     fit,
@@ -33,6 +34,7 @@ COMMANDS = [
     noise,
     fit,
     validate,
+    check,
     compare,
     reproduce,
     ttest,
