@@ -1,10 +1,11 @@
 """Fuzz: seeded random mutations of valid files, thrown at every reader through the command line.
 
 Every reader (RUNS.csv, generic run CSVs, OptiOdom metadata and run files, ROBOT.yaml,
-PARAMS.yaml, track files, relative-motion tuples, t-test CSVs) gets every kind of damage people
-and disks do (truncation, flipped bytes, binary junk, huge numbers, NaN and inf, duplicated
-headers, keys and settings, deep YAML nesting, alias bombs, over-long lines, an empty file, a
-BOM, CRLF or CR line ends, UTF-16, Latin-1) and a few random combinations of two. The contract,
+PARAMS.yaml, track files, relative-motion tuples, t-test CSVs; ROS 1 and ROS 2 bags) gets every
+kind of damage people and disks do (truncation, flipped bytes, binary junk, huge numbers, NaN and
+inf, duplicated headers, keys and settings, deep YAML nesting, alias bombs, over-long lines, an
+empty file, a BOM, CRLF or CR line ends, UTF-16, Latin-1; for bags, a length field gone wrong)
+and a few random combinations of two. The contract,
 whatever the input: exit 0, or exit 2 with exactly one line ``odocal: error: ...`` (warnings
 aside), never a traceback, nothing on stdout on error, no output file and no temporary file left
 behind on error, and on success a JSON document without NaN or infinity.
@@ -395,3 +396,41 @@ def test_one_line_contract(cli, tmp_path, reader, kinds, seed):
         assert list((tmp_path / "out").iterdir()) == []  # no output, no temporary file
     leftovers = [p for p in tmp_path.rglob("*.tmp")]
     assert leftovers == [], leftovers
+
+
+# --- ROS bags: damaged bytes of a ROS 1 bag and a ROS 2 MCAP file -------------------------------
+
+
+@pytest.fixture(scope="module")
+def bags(tmp_path_factory):
+    from test_bags import TRACK, make_run, write_bag
+
+    folder = tmp_path_factory.mktemp("bags")
+    run = make_run(TRACK)
+    ros1 = write_bag(folder / "run.bag", "ros1", run, imu=False)
+    mcap = next(write_bag(folder / "run2", "mcap", run, imu=False).glob("*.mcap"))
+    return {"ros1": ros1.read_bytes(), "mcap": mcap.read_bytes()}
+
+
+def overwrite_length(data, rng):
+    """A length field gone wrong: four bytes set to 2^31 - 1."""
+    i = int(rng.integers(len(data) - 4))
+    return data[:i] + b"\xff\xff\xff\x7f" + data[i + 4 :]
+
+
+BAG_DAMAGE = [truncate, flip, junk, overwrite_length]
+
+
+@pytest.mark.parametrize("kind", ["ros1", "mcap"])
+@pytest.mark.parametrize("damage", BAG_DAMAGE, ids=[f.__name__ for f in BAG_DAMAGE])
+def test_damaged_bags_keep_the_contract(cli, tmp_path, bags, kind, damage):
+    rng = np.random.default_rng([len(READERS), BAG_DAMAGE.index(damage), kind == "mcap"])
+    bag = tmp_path / ("run.bag" if kind == "ros1" else "run.mcap")
+    bag.write_bytes(damage(bags[kind], rng))
+    (tmp_path / "out").mkdir()
+    status, out, err = cli("fit", bag, "--method", "linear", "--out", tmp_path / "out" / "p.yaml")
+    assert "Traceback" not in err
+    assert status == 2 and out == "", (status, err)  # one run: a linear fit cannot succeed
+    assert err.splitlines()[-1].startswith("odocal: error: ")
+    assert sum(ln.startswith("odocal: error: ") for ln in err.splitlines()) == 1
+    assert list((tmp_path / "out").iterdir()) == []
