@@ -323,3 +323,30 @@ def test_compare_plot_and_json_are_byte_identical(cli, tmp_path):
     )
     first, second = (cli("compare", "--trials", 3, "--seed", 5, "--json")[1] for _ in range(2))
     assert first == second and json.loads(first)["seed"] == 5
+
+
+def test_sigterm_in_library_use_cleans_up_then_terminates(tmp_path):
+    """From Python (no command-line handler): SIGTERM while staging removes what was staged and
+    the folder the plan created, then the process terminates as asked."""
+    script = f"""
+import os, signal
+from odocal.io import outputs
+from odocal.app.design import design
+from odocal.design.result import DesignSpec
+real, calls = outputs._stage, []
+def stage(path, content):
+    calls.append(path)
+    if len(calls) == 2:
+        os.kill(os.getpid(), signal.SIGTERM)
+    return real(path, content)
+outputs._stage = stage
+spec = DesignSpec(side_lengths_m=(1.0, 2.0))
+design(spec=spec, engine="analytic", plot={str(tmp_path / "f" / "g")!r})
+print("not reached")
+"""
+    proc = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
+    )
+    assert proc.returncode == -signal.SIGTERM, (proc.returncode, proc.stderr)
+    assert "not reached" not in proc.stdout
+    assert list(tmp_path.iterdir()) == []

@@ -108,6 +108,37 @@ def _signals_held():
                 os.kill(os.getpid(), s)
 
 
+class _SigTerm(KeyboardInterrupt):
+    pass
+
+
+def _raise_sigterm(signum, frame):  # noqa: ARG001 - the signal module's API
+    raise _SigTerm
+
+
+@contextmanager
+def _sigterm_unwinds():
+    """While writing, a SIGTERM whose action is the default (a library caller; the command line
+    installs its own handler) unwinds like Ctrl-C, so that no temporary file or created folder
+    is left behind; the process then terminates as it was asked to."""
+    try:
+        if signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+            yield
+            return
+        signal.signal(signal.SIGTERM, _raise_sigterm)
+    except ValueError:  # not the main thread
+        yield
+        return
+    try:
+        yield
+    except _SigTerm:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        os.kill(os.getpid(), signal.SIGTERM)
+        raise
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+
+
 class OutputPlan:
     """The outputs of one command (see the module docstring).
 
@@ -253,6 +284,10 @@ class OutputPlan:
         missing = [o.path for o in self._outputs if not o.is_folder and o.path not in contents]
         if missing:
             raise RuntimeError(f"no content for the planned output(s) {missing}")
+        with _sigterm_unwinds():
+            return self._write(contents)
+
+    def _write(self, contents: Mapping[Path, Content]) -> list[Path]:
         created: list[Path] = []
         staged: list[tuple[Path, Path]] = []
         try:
