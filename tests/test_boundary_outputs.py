@@ -318,11 +318,16 @@ def test_validate_plot_is_byte_identical(cli, tmp_path, runs_dir):
 
 
 def test_compare_plot_and_json_are_byte_identical(cli, tmp_path):
-    _run_twice(
-        cli, tmp_path, lambda f: ["compare", "--trials", 3, "--seed", 5, "--plot", f / "figs"]
-    )
-    first, second = (cli("compare", "--trials", 3, "--seed", 5, "--json")[1] for _ in range(2))
-    assert first == second and json.loads(first)["seed"] == 5
+    docs = []
+    for name in ("first", "second"):
+        plot = tmp_path / name
+        status, out, err = cli("compare", "--trials", 3, "--seed", 5, "--plot", plot, "--json")
+        assert status == 0, err
+        doc = json.loads(out)
+        assert doc.pop("plot") == str(plot / "compare.png")  # the only difference: where
+        docs.append((doc, tree(plot)))
+    assert docs[0] == docs[1] and docs[0][0]["seed"] == 5
+    assert list(docs[0][1]) == ["compare.png"]
 
 
 def test_sigterm_in_library_use_cleans_up_then_terminates(tmp_path):

@@ -45,9 +45,7 @@ __all__ = [
     "load_optiodom_split",
     "read_published",
     "load_optiodom_dataset",
-    "load_optiodom_category",
     "is_optiodom_dataset",
-    "is_optiodom_category",
     "read_metadata",
 ]
 
@@ -57,24 +55,6 @@ _RUN = re.compile(r"^(?P<id>.+)_run-(?P<n>\d+)\.csv$")
 def is_optiodom_dataset(folder) -> bool:
     folder = Path(folder)
     return folder.is_dir() and any(folder.glob("*_metadata.csv"))
-
-
-def is_optiodom_category(folder) -> bool:
-    """True for a category folder (e.g. ``square/``) whose sub-folders are OptiOdom data sets."""
-    folder = Path(folder)
-    return folder.is_dir() and any(is_optiodom_dataset(d) for d in folder.iterdir())
-
-
-def load_optiodom_category(folder) -> list[Recording]:
-    """All runs of every data set in a category folder (e.g. ``square/``), data sets sorted."""
-    folder = Path(folder)
-    sets = sorted(d for d in folder.iterdir() if is_optiodom_dataset(d))
-    if not sets:
-        raise InputError("no OptiOdom data set folders (with *_metadata.csv) inside", folder)
-    out: list[Recording] = []
-    for d in sets:
-        out += load_optiodom_dataset(d)
-    return out
 
 
 # Metadata keys odocal reads, with their plausible ranges (odocal.io.limits) and how many values

@@ -127,7 +127,8 @@ def _load_folder(path: Path, ticks_per_rev, skipped: list[str], depth: int = 0):
                 path,
             )
         return [load_generic_csv(p, ticks_per_rev=ticks_per_rev) for p in csvs]
-    # a collection: run CSVs here, then the folders below that hold runs; the rest is skipped
+    # a collection: its run CSVs and the folders below that hold runs, in path order; the rest
+    # is skipped (and said)
     out: list[Recording] = []
     for p in entries:
         if p in below:
