@@ -25,7 +25,14 @@ from ..errors import InputError
 from ..io.outputs import OutputPlan
 from ..io.ros2_export import DEFAULT_CONTROLLER
 from ..io.runs_csv import RunSheet, read_circle_runs, read_run_sheet
-from .common import RobotSpec, input_paths, register_exports, resolve_robot, write_exports
+from .common import (
+    RobotSpec,
+    input_paths,
+    refuse_absurd,
+    register_exports,
+    resolve_robot,
+    write_exports,
+)
 
 __all__ = ["CalibrateResult", "calibrate", "resolve_track"]
 
@@ -173,6 +180,7 @@ def calibrate(
     out: str | Path | None = None,
     ros2: str | Path | None = None,
     controller_name: str = DEFAULT_CONTROLLER,
+    force: bool = False,
 ) -> CalibrateResult:
     """Read RUNS.csv (or the BCPT runs file) and calibrate with ``method`` ('heading', 'umbmark'
     or 'bcpt'), relative to the parameters the robot ran with (``params``, else ROBOT.yaml's
@@ -181,30 +189,35 @@ def calibrate(
     The polygon (``sides``, ``side_m`` in m) comes from the arguments or the run sheet's
     ``# sides:``/``# side_m:`` lines (they must agree; there is no default side length). Headings
     are in degrees in the sheet, as on the command line. Writes PARAMS.yaml to ``out`` and the
-    ros2_control ``diff_drive_controller`` file to ``ros2`` (the export of ``odocal fit``)."""
+    ros2_control ``diff_drive_controller`` file to ``ros2`` (the export of ``odocal fit``). A
+    result more than 25 % from what the robot ran with is absurd for a calibration:
+    CalibrationError (nothing written) unless ``force``."""
     plan = OutputPlan(input_paths(runs_csv, robot, params))
     register_exports(plan, out, ros2)
     r = resolve_robot(robot, params)
     ran_with = r.believed_geometry
-    warnings: list[str] = []
+    notes: list[str] = []
     source = "arguments"
     if radius_m is not None and method != "bcpt":
         raise InputError(f"--radius is only used with --method bcpt (got --method {method})")
     if method == "bcpt":
         if radius_m is None:
             raise InputError("--method bcpt needs --radius R (the commanded circle radius, m)")
-        result = calibrate_bcpt(read_circle_runs(runs_csv, radius_m), radius_m, ran_with)
+        result = calibrate_bcpt(read_circle_runs(runs_csv, notes, radius_m), radius_m, ran_with)
         track = f"circles of commanded radius {radius_m:g} m"
     elif method in ("heading", "umbmark"):
         # each method reads only what it uses: heading the final headings, UMBmark the positions
         sheet = read_run_sheet(
-            runs_csv, required=("theta_deg",) if method == "heading" else ("x_m", "y_m")
+            runs_csv,
+            required=("theta_deg",) if method == "heading" else ("x_m", "y_m"),
+            warnings=notes,
         )
         sides, side_m, source = resolve_track(sheet, sides, side_m)
         problem = track_size_problem(float(ran_with.wheelbase_m), side_m)
         if problem:
             raise InputError(problem, sheet.path, sheet.setting_lines.get("side_m"), "side_m")
-        runs, warnings = _checked_runs(sheet, sides, side_m, r)
+        runs, wrapped = _checked_runs(sheet, sides, side_m, r)
+        notes += wrapped
         track = f"{sides}-gon side {side_m:g} m"
         if method == "umbmark":
             if sides != 4:
@@ -217,14 +230,13 @@ def calibrate(
     else:
         raise InputError(f"unknown method {method!r}", field="method")
     if result.uncertainty is None:
-        warnings.append(
+        notes.append(
             "fewer than 2 runs in a direction: no run-to-run spread, so no standard errors; "
             "drive at least 2 (better 5) runs per direction"
         )
     c = result.corrected
-    warnings += check_physical(
-        (c.diameter_right_m, c.diameter_left_m, c.wheelbase_m), result.ran_with, result.method
-    )
+    check_physical((c.diameter_right_m, c.diameter_left_m, c.wheelbase_m), None, result.method)
+    notes += refuse_absurd(c, result.ran_with, force)
     written = write_exports(
         plan,
         result.corrected,
@@ -236,4 +248,4 @@ def calibrate(
         E_b=result.E_b,
         E_d=result.E_d,
     )
-    return CalibrateResult(result, track, tuple(warnings), written, source, r.nominal)
+    return CalibrateResult(result, track, tuple(notes), written, source, r.nominal)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -137,6 +138,14 @@ def compare(
         require_matplotlib()
         plan.folder(plot, "--plot")
     r = resolve_robot(robot, params)
+    if travel_m is not None:
+        turns_m = math.pi * float(np.mean(r.believed_geometry.wheelbase_m))
+        if travel_m / runs <= turns_m:
+            raise InputError(
+                f"--travel {travel_m:g} m is too little for {runs} runs: each run's turns alone "
+                f"(a square's four 90 deg turns) take {turns_m:.3g} m of wheel travel",
+                field="travel",
+            )
     # one progress scale: the simulated methods, then loading and calibrating the real runs
     n_sim = len(METHOD_REGISTRY)
     n_real = (1 + sum(e.real is not None for e in METHOD_REGISTRY)) if realdata else 0

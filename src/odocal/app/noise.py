@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from ..calibration.noise import NoiseEstimate, estimate_k
@@ -26,9 +27,10 @@ def noise(
     the systematic curvature of the forward path comes from ROBOT.yaml's systematic errors.
     ``force``: estimate even when the runs look dominated by a systematic part (a warning)."""
     r = resolve_robot(robot, params)
-    runs = read_runs(runs_csv, directions=("fwd",))
+    notes: list[str] = []
+    runs = read_runs(runs_csv, directions=("fwd",), warnings=notes)
     curvature = float(leg_heading_systematic_rad(r, 1.0))  # rad per metre of believed travel
-    return estimate_k(
+    est = estimate_k(
         runs,
         track,
         distance_m,
@@ -37,3 +39,4 @@ def noise(
         curvature_rad_per_m=curvature,
         strict=not force,
     )
+    return replace(est, warnings=(*notes, *est.warnings)) if notes else est

@@ -71,6 +71,12 @@ def add_parser(sub) -> None:
         help="UMBmark equations from x, y or their mean (default mean)",
     )
     add_export_args(p, "write the corrected parameters")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="accept a result more than 25 %% from what the robot ran with (absurd for a "
+        "calibration: by default an error, and nothing is written)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=run)
 
@@ -90,6 +96,7 @@ def run(args) -> int:
         out=args.out,
         ros2=args.ros2,
         controller_name=args.controller_name,
+        force=args.force,
     )
     print_warnings(res.warnings)
     if args.json:

@@ -70,14 +70,10 @@ class FloorPlan:
     typical_mean_abs: dict = field(default_factory=dict)
     unknown: tuple[str, ...] = ()
 
-    def template_csv(self) -> str:
-        """Blank RUNS.csv: the track as ``# sides:``/``# side_m:`` settings (read by ``odocal
-        calibrate``), comment lines, header, one row per run with the direction filled in."""
-        lines = []
-        if self.track is not None:
-            lines += [f"# sides: {self.track[0]}", f"# side_m: {self.track[1]:.12g}"]
-        lines += [
-            f"# odocal run sheet - {self.title}",
+    @staticmethod
+    def template_comments() -> tuple[str, ...]:
+        """The fixed comment lines of every blank run sheet (after its title line)."""
+        return (
             "# Fill in every run: x_m, y_m (m) and theta_deg (deg), the final pose ERROR (actual -",
             "# odometric) in the start frame: +x start heading, +y left, theta CCW positive, the",
             "# small deviation from the commanded turn. The heading-error method needs only",
@@ -85,6 +81,17 @@ class FloorPlan:
             "# x_m, y_m.",
             "# Keep the rows in driving order and the 'sides'/'side_m' lines above: they tell",
             "# odocal calibrate which track the runs drove.",
+        )
+
+    def template_csv(self) -> str:
+        """Blank RUNS.csv: the track as ``# sides:``/``# side_m:`` settings (read by ``odocal
+        calibrate``), comment lines, header, one row per run with the direction filled in."""
+        lines = []
+        if self.track is not None:
+            lines += [f"# sides: {self.track[0]}", f"# side_m: {self.track[1]:.12g}"]
+        lines += [
+            f"# odocal run sheet: {self.title}",
+            *self.template_comments(),
             "direction,x_m,y_m,theta_deg,run",
         ]
         lines += [f"{d},,,,{i}" for i, d in enumerate(self.order, start=1)]

@@ -38,6 +38,7 @@ from ..core.plausibility import circle_radius_problem
 from ..core.runs import CircleRuns, EndPoseRuns
 from ..core.tracks import MAX_POLYGON_SIDES
 from ..errors import InputError
+from .limits import MEASURED_MAX, TRACK_LENGTH_MAX_M
 from .table import parse_number, read_table
 from .textfile import atomic_write
 
@@ -53,11 +54,11 @@ __all__ = [
 ]
 
 REQUIRED_COLUMNS = ("direction", "x_m", "y_m", "theta_deg")
-# Largest magnitude of a measured value (m or deg): 1000 km, or 2778 turns.
-MAX_MAGNITUDE = 1e6
+# Largest magnitude of a measured value (m or deg; odocal.io.limits): 1000 km, or 2778 turns.
+MAX_MAGNITUDE = MEASURED_MAX
 CIRCLE_COLUMNS = ("direction", "radius_m")
-# Longest side a sheet may name (m), as the command-line flags (cli.common.MAX_LENGTH_M).
-MAX_LENGTH_M = 1e5
+# Longest side a sheet may name (m), as the command-line flags (odocal.io.limits).
+MAX_LENGTH_M = TRACK_LENGTH_MAX_M
 #: ``# key: value`` settings of a run sheet: the polygon the runs drove.
 TRACK_SETTINGS = ("sides", "side_m")
 
@@ -102,12 +103,15 @@ def _track_settings(table) -> tuple[int | None, float | None, dict]:
     return sides, side, where
 
 
-def _read_runs_table(path, columns: tuple[str, ...], directions, required, positive=False):
+def _read_runs_table(
+    path, columns: tuple[str, ...], directions, required, positive=False, warnings=None
+):
     """Rows of a runs table: ``columns[0]`` is the direction, the rest are numbers.
 
     Returns (table, directions, values of shape (n, len(columns) - 1), line numbers); an empty
     value not in ``required`` is NaN. Every problem raises InputError naming the file, line and
-    field.
+    field; two rows with the same direction and values (the same run entered twice?) are
+    appended to ``warnings``.
     """
     table = read_table(path, what=f"a header row '{','.join(columns)}'", settings=TRACK_SETTINGS)
     table.require(columns)
@@ -115,6 +119,7 @@ def _read_runs_table(path, columns: tuple[str, ...], directions, required, posit
     dirs: list[str] = []
     values: list[list[float]] = []
     lines: list[int] = []
+    seen: dict[tuple, int] = {}
     for line_no, fields in table.rows:
         raw_dir = fields[col[columns[0]]]
         d = raw_dir.lower()
@@ -138,6 +143,13 @@ def _read_runs_table(path, columns: tuple[str, ...], directions, required, posit
         dirs.append(d)
         values.append(row)
         lines.append(line_no)
+        key = (d, *(fields[col[c]] for c in columns[1:]))
+        if warnings is not None and key in seen and any(fields[col[c]] for c in columns[1:]):
+            warnings.append(
+                f"{path}: line {line_no} repeats line {seen[key]} exactly: the same run entered "
+                "twice? Each row counts as a run"
+            )
+        seen.setdefault(key, line_no)
     if not values:
         raise InputError("no runs: the file has a header but no data rows", path)
     return table, tuple(dirs), np.array(values), tuple(lines)
@@ -147,9 +159,12 @@ def read_run_sheet(
     path,
     directions: tuple[str, ...] = ("cw", "ccw"),
     required: tuple[str, ...] = ("x_m", "y_m", "theta_deg"),
+    warnings: list[str] | None = None,
 ) -> RunSheet:
     """Parse RUNS.csv with its line numbers and track settings (see :func:`read_runs`)."""
-    table, dirs, err, lines = _read_runs_table(path, REQUIRED_COLUMNS, directions, required)
+    table, dirs, err, lines = _read_runs_table(
+        path, REQUIRED_COLUMNS, directions, required, warnings=warnings
+    )
     err[:, 2] = np.radians(err[:, 2])
     sides, side, where = _track_settings(table)
     return RunSheet(EndPoseRuns(dirs, err), lines, sides, side, where, str(path))
@@ -159,22 +174,26 @@ def read_runs(
     path,
     directions: tuple[str, ...] = ("cw", "ccw"),
     required: tuple[str, ...] = ("x_m", "y_m", "theta_deg"),
+    warnings: list[str] | None = None,
 ) -> EndPoseRuns:
     """Parse RUNS.csv; every problem raises InputError naming the file, line and field.
 
     All four columns must be present. A value column not in ``required`` may be left empty in a
     row (the method does not use it, e.g. x_m and y_m for the heading-error method): it is read
-    as NaN. An empty required value is reported as not filled in.
+    as NaN. An empty required value is reported as not filled in. ``warnings`` receives a note
+    for every row that repeats an earlier one exactly.
     """
-    return read_run_sheet(path, directions, required).runs
+    return read_run_sheet(path, directions, required, warnings).runs
 
 
-def read_circle_runs(path, commanded_radius_m: float | None = None) -> CircleRuns:
+def read_circle_runs(
+    path, warnings: list[str] | None = None, commanded_radius_m: float | None = None
+) -> CircleRuns:
     """Parse a BCPT runs file (``direction,radius_m``); every problem raises InputError naming
-    the file, line and field. With ``commanded_radius_m`` (m), a radius no run of that circle can
-    have (a unit slip) is refused too."""
+    the file, line and field (``warnings`` as in :func:`read_runs`). With ``commanded_radius_m``
+    (m), a radius no run of that circle can have (a unit slip) is refused too."""
     _, dirs, radii, lines = _read_runs_table(
-        path, CIRCLE_COLUMNS, ("cw", "ccw"), ("radius_m",), positive=True
+        path, CIRCLE_COLUMNS, ("cw", "ccw"), ("radius_m",), positive=True, warnings=warnings
     )
     if commanded_radius_m is not None:
         for line, r in zip(lines, radii[:, 0], strict=True):
