@@ -9,11 +9,18 @@ from pathlib import Path
 
 import numpy as np
 
+from ..calibration.banded import fit_banded
 from ..calibration.gyro import GyroResult, gyro_calibration, integrate_rate
 from ..calibration.linear import fit_linear
 from ..calibration.result import GeometryFit
 from ..calibration.squares import fit_recorded_squares
 from ..calibration.trajectory import fit_trajectory
+from ..calibration.turning import (
+    BANDS,
+    effective_wheelbase,
+    nearest_estimated_band,
+    wheelbase_for_mix,
+)
 from ..core.model import WheelGeometry
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
@@ -48,6 +55,7 @@ __all__ = [
 ]
 
 METHODS = ("trajectory", "linear", "umbmark", "heading", "gyro")
+WHEELBASE_MODELS = ("constant", "banded")
 
 
 def nominal_geometry(robot_spec, recordings: Sequence[Recording]) -> WheelGeometry | None:
@@ -72,13 +80,34 @@ def fit_recordings(
     run_weight: str = "travel",
     side_m: float | None = None,
     umbmark_form: str = "mean",
+    wheelbase_model: str = "constant",
+    motion_mix: dict[str, float] | None = None,
 ) -> GeometryFit:
-    """Calibrate from loaded recordings (with ground truth); returns a ``GeometryFit``."""
+    """Calibrate from loaded recordings (with ground truth); returns a ``GeometryFit``.
+
+    Trajectory fits also report the effective wheelbase per band of motion
+    (``extras['effective_wheelbase']``, :mod:`odocal.calibration.turning`). ``wheelbase_model``
+    'banded' fits one wheelbase per excited band (:func:`fit_banded`; refused with the reason
+    when the runs excite fewer than two bands). ``motion_mix`` (band -> share of the rotation)
+    makes the result's wheelbase the single value that is best for that mix, with what it costs
+    (``extras['motion_mix']``)."""
     require_ground_truth(list(recordings), f"--method {method}")
+    if wheelbase_model not in WHEELBASE_MODELS:
+        raise InputError(
+            f"wheelbase model must be one of {', '.join(WHEELBASE_MODELS)}, got "
+            f"{wheelbase_model!r}",
+            field="wheelbase-model",
+        )
+    if method != "trajectory" and (wheelbase_model != "constant" or motion_mix):
+        raise InputError(
+            "--wheelbase-model banded and --motion-mix need the trajectory method "
+            "(--method trajectory)",
+            field="method",
+        )
     if method == "linear":
         return fit_linear(recordings, nominal)
     if method == "trajectory":
-        return fit_trajectory(
+        fit = fit_trajectory(
             recordings,
             nominal=nominal,
             residual=residual,
@@ -88,6 +117,24 @@ def fit_recordings(
             drop_outliers=drop_outliers,
             run_weight=run_weight,
         )
+        used = [r for r in recordings if r.name in set(fit.runs)]
+        if wheelbase_model == "banded":
+            banded = fit_banded(
+                used,
+                fit.geometry,
+                nominal=nominal,
+                mix=motion_mix,
+                heading_weight_m=heading_weight_m,
+            )
+            return replace(
+                banded,
+                excluded=fit.excluded,
+                outliers=fit.outliers,
+                per_run=fit.per_run,
+                warnings=list(fit.warnings) + list(banded.warnings),
+                extras={**banded.extras, "constant_fit": fit.geometry.as_dict()},
+            )
+        return _with_bands(fit, used, motion_mix)
     if method in ("umbmark", "heading"):
         return fit_recorded_squares(
             recordings,
@@ -98,6 +145,51 @@ def fit_recordings(
             umbmark_form=umbmark_form,
         )
     raise InputError(f"unknown method {method!r}", field="method")
+
+
+def _with_bands(fit: GeometryFit, runs, motion_mix) -> GeometryFit:
+    """The constant-wheelbase fit with its effective wheelbase per band of motion, a warning
+    when excited bands disagree, and (with ``motion_mix``) the single wheelbase for the mix
+    from the band estimates."""
+    table = effective_wheelbase(runs, fit.geometry)
+    extras = {**fit.extras, "wheelbase_model": "constant", "effective_wheelbase": table.as_dict()}
+    warnings = list(fit.warnings)
+    excited = [b for b in table.bands if b.excited and b.ci95_m is not None]
+    for i, x in enumerate(excited):
+        for y in excited[i + 1 :]:
+            if x.ci95_m[1] < y.ci95_m[0] or y.ci95_m[1] < x.ci95_m[0]:
+                warnings.append(
+                    f"the robot turns differently in band '{x.band}' (effective wheelbase "
+                    f"{x.wheelbase_m:.5g} m) and band '{y.band}' ({y.wheelbase_m:.5g} m; 95 % "
+                    "intervals apart): one wheelbase is a compromise; see --wheelbase-model "
+                    "banded and --motion-mix"
+                )
+    geometry = fit.geometry
+    if motion_mix:
+        known = {b.band: b.wheelbase_m for b in table.bands if b.excited}
+        if not known:
+            raise InputError(
+                "--motion-mix: no band of motion is excited by these runs, so no band has an "
+                "effective wheelbase to mix",
+                field="motion-mix",
+            )
+        idx = [BANDS.index(k) for k in known]
+        nearest = nearest_estimated_band(idx)
+        per_band = {n: known[BANDS[nearest[i]]] for i, n in enumerate(BANDS)}
+        for name, share in motion_mix.items():
+            if share > 0 and name not in known:
+                warnings.append(
+                    f"the motion mix turns {100 * share:.0f} % in band '{name}', which these "
+                    f"runs do not excite: its wheelbase is taken from band "
+                    f"'{BANDS[nearest[BANDS.index(name)]]}'"
+                )
+        choice = wheelbase_for_mix(per_band, motion_mix)
+        geometry = WheelGeometry(
+            geometry.diameter_right_m, geometry.diameter_left_m, choice.wheelbase_m
+        )
+        extras["motion_mix"] = choice.as_dict()
+        extras["constant_fit"] = fit.geometry.as_dict()
+    return replace(fit, geometry=geometry, warnings=warnings, extras=extras)
 
 
 @dataclass(frozen=True)
@@ -122,15 +214,22 @@ class FitResult:
         return out
 
 
-def _outputs(plan: OutputPlan, out, ros2) -> None:
+def _outputs(plan: OutputPlan, out, ros2, plot=None) -> None:
     if out is not None:
         plan.file(out, "--out")
     if ros2 is not None:
         plan.file(ros2, "--ros2")
+    if plot is not None:
+        from ..plot._figure import require_matplotlib
+
+        require_matplotlib()
+        plan.folder(plot, "--plot")
 
 
-def _write(plan, geometry, nominal, method, out, ros2, controller_name) -> tuple[Path, ...]:
-    contents: dict[Path, str] = {}
+def _write(
+    plan, geometry, nominal, method, out, ros2, controller_name, figures=None
+) -> tuple[Path, ...]:
+    contents: dict = dict(figures or {})
     if ros2 is not None:
         if nominal is None:
             raise InputError("--ros2 needs the nominal geometry: give --robot ROBOT.yaml")
@@ -156,10 +255,12 @@ def fit(
     controller_name: str = "diff_drive_controller",
     ticks_per_rev: float | None = None,
     bag_options: dict | None = None,
+    plot: str | Path | None = None,
     **options,
 ) -> FitResult:
     """Load the runs in ``paths`` and calibrate with ``method`` (not 'gyro': see
-    :func:`fit_gyro`); write PARAMS.yaml to ``out`` and a ros2_control file to ``ros2``.
+    :func:`fit_gyro`); write PARAMS.yaml to ``out``, a ros2_control file to ``ros2`` and the
+    effective-wheelbase figure (trajectory fits) into the folder ``plot``.
 
     ``robot``: ROBOT.yaml (nominal geometry; for runs without metadata, the parameters they ran
     with: its 'believed', else nominal). ``options`` go to :func:`fit_recordings`."""
@@ -168,12 +269,36 @@ def fit(
     plan = OutputPlan(
         [*map(Path, paths), *([Path(robot)] if robot and Path(robot).exists() else [])]
     )
-    _outputs(plan, out, ros2)
+    if plot is not None and method != "trajectory":
+        raise InputError("--plot draws the effective wheelbase of a trajectory fit", field="plot")
+    _outputs(plan, out, ros2, plot)
     recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, **(bag_options or {}))
     nominal = nominal_geometry(robot, recordings)
     ran_with = load_robot(robot).believed_geometry if robot else None
     result = fit_recordings(recordings, method, nominal=nominal, ran_with=ran_with, **options)
-    written = _write(plan, result.geometry, nominal, result.method, out, ros2, controller_name)
+    figures = {}
+    if plot is not None:
+        from ..plot.real_experiment import wheelbase_bands_figure
+
+        used = [r for r in recordings if r.name in set(result.runs)]
+        lines = {"one wheelbase (this fit)": float(result.geometry.wheelbase_m)}
+        reference = result.geometry
+        if "constant_fit" in result.extras:
+            c = result.extras["constant_fit"]
+            reference = WheelGeometry(
+                c["wheel_diameter_right_m"], c["wheel_diameter_left_m"], c["wheelbase_m"]
+            )
+            lines = {
+                "constant fit": c["wheelbase_m"],
+                "single value for the motion mix": float(result.geometry.wheelbase_m),
+            }
+        table = effective_wheelbase(used, reference)
+        figures[Path(plot) / "effective_wheelbase.png"] = wheelbase_bands_figure(
+            {"segment estimate": table}, "Effective wheelbase per band of motion", lines
+        )
+    written = _write(
+        plan, result.geometry, nominal, result.method, out, ros2, controller_name, figures
+    )
     return FitResult(result, nominal, len(recordings), _load_warnings(recordings), written)
 
 

@@ -12,6 +12,7 @@ from .common import (
     ProgressBar,
     add_robot_args,
     fraction,
+    nonnegative_float,
     positive_int,
     print_json,
     print_table,
@@ -172,6 +173,26 @@ def add_parser(sub) -> None:
         help="first-order propagation instead of Monte Carlo: the same report in milliseconds "
         "(docs/nonsystematic-errors.md says when first order holds)",
     )
+    p.add_argument(
+        "--robot-from",
+        nargs="+",
+        metavar="RUN_OR_DIR",
+        help="measure the robot from tracked runs instead (systematic errors from a trajectory "
+        "fit, k from the spread of repeated runs, the instrument from the tracker's jitter "
+        "unless given); --robot then only gives the nominal geometry",
+    )
+    p.add_argument(
+        "--sigma-xy-m",
+        type=nonnegative_float,
+        metavar="S",
+        help="the instrument's position noise per measured final pose, m (replaces the robot's)",
+    )
+    p.add_argument(
+        "--sigma-theta-deg",
+        type=nonnegative_float,
+        metavar="S",
+        help="the instrument's heading noise per measured final pose, deg (replaces the robot's)",
+    )
     p.add_argument("--plot", metavar="DIR", help="write PNG figures into DIR")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -204,16 +225,35 @@ def run(args) -> int:
             reference_sim=args.reference_sim,
             plot=args.plot,
             progress=bar,
+            robot_from=args.robot_from,
+            measurement=_instrument(args),
         )
     finally:
         bar.close()
     if args.json:
         print_json(res.as_dict())
         return 0
+    if res.measured is not None:
+        m = res.measured.robot
+        print(
+            f"Robot measured from {len(res.measured.fit.runs)} run(s): E_b {m.systematic.E_b:.6f}, "
+            f"E_d {m.systematic.E_d:.6f} (relative to nominal), k_r + k_l "
+            f"{m.nonsystematic.k_sum_m:.3g} m, instrument {m.measurement.sigma_xy_m * 1000:.3g} mm "
+            f"/ {math.degrees(m.measurement.sigma_theta_rad):.3g} deg "
+            f"({res.measured.measurement_source})"
+        )
     print_design(res.result, res.robot, None if args.analytic else args.seed)
     for path in res.written:
         print(f"wrote {path}")
     return 0
+
+
+def _instrument(args):
+    if args.sigma_xy_m is None and args.sigma_theta_deg is None:
+        return None
+    from ..core.model import MeasurementNoise
+
+    return MeasurementNoise.from_degrees(args.sigma_xy_m or 0.0, args.sigma_theta_deg or 0.0)
 
 
 def _f(v, fmt: str) -> str:

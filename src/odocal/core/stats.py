@@ -22,7 +22,7 @@ from scipy.special import stdtr
 
 from ..errors import ModelError
 
-__all__ = ["TTest", "ttest_from_stats", "ttest_samples"]
+__all__ = ["TTest", "ttest_from_stats", "ttest_samples", "ttest_paired"]
 
 
 @dataclass(frozen=True)
@@ -158,6 +158,49 @@ def ttest_samples(a, b, equal_var: bool = False) -> TTest:
         float(b.std(ddof=1)),
         b.size,
         equal_var=equal_var,
+    )
+
+
+def ttest_paired(a, b) -> TTest:
+    """Paired t-test of ``a`` against ``b`` (the same units measured twice, e.g. the same runs
+    dead-reckoned with two parameter sets): t = mean(d) / (std(d) / sqrt(n)), d = a - b,
+    df = n - 1 (kind 'paired'; ``std_a``, ``std_b`` are the groups' own deviations)."""
+    a = np.asarray(a, dtype=float).ravel()
+    b = np.asarray(b, dtype=float).ravel()
+    if a.size != b.size:
+        raise ModelError(f"a paired t-test needs pairs: {a.size} values against {b.size}")
+    if a.size < 2:
+        raise ModelError(f"a paired t-test needs at least 2 pairs, got {a.size}")
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        raise ModelError("a paired t-test needs finite values")
+    d = a - b
+    n = d.size
+    sd = float(d.std(ddof=1))
+    diff = float(d.mean())
+    df = float(n - 1)
+    if sd > 0:
+        t = diff / (sd / math.sqrt(n))
+        p_less, p_greater = float(stdtr(df, t)), float(stdtr(df, -t))
+        p_two = float(min(1.0, 2.0 * stdtr(df, -abs(t))))
+    elif diff == 0:
+        t = p_less = p_greater = p_two = math.nan
+    else:
+        t = math.copysign(math.inf, diff)
+        p_less, p_greater = (0.0, 1.0) if diff < 0 else (1.0, 0.0)
+        p_two = 0.0
+    return TTest(
+        "paired",
+        float(t),
+        df,
+        p_two,
+        p_less,
+        p_greater,
+        float(a.mean()),
+        float(b.mean()),
+        float(a.std(ddof=1)),
+        float(b.std(ddof=1)),
+        n,
+        n,
     )
 
 
