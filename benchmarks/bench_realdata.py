@@ -9,7 +9,7 @@ calibrated parameters against the motion-capture ground truth (``odocal.core.odo
 
 UMBmark and the heading method use the square runs only (they need CW/CCW squares); each data set
 is calibrated with the firmware parameters it ran with and the results are pooled
-(``calibration/recorded.py``). ``linear`` and ``trajectory`` use squares and Ivanjko runs.
+(``calibration/squares.py``). ``linear`` and ``trajectory`` use squares and Ivanjko runs.
 
 Published row: ``reference_results_diff.csv``, method Sousa, ALL_DATASETS_COMBINED (171 runs, all
 categories INCLUDING the held-out circles and free paths, so it is not a held-out result).

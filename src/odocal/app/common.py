@@ -2,14 +2,24 @@
 
 from __future__ import annotations
 
+from collections import Counter
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from ..core.model import Robot, WheelGeometry
+from ..core.recording import Recording
 from ..io.robot_file import load_params, load_robot
 from ..presets import DEFAULT_ROBOT, PRESETS
 
-__all__ = ["RobotSpec", "resolve_robot", "robot_label", "input_paths"]
+__all__ = [
+    "RobotSpec",
+    "resolve_robot",
+    "optional_robot",
+    "robot_label",
+    "input_paths",
+    "nominal_geometry",
+]
 
 #: A robot as a command takes it: a Robot, a built-in name, a ROBOT.yaml path, or None (default).
 RobotSpec = Robot | str | Path | None
@@ -24,6 +34,14 @@ def resolve_robot(
     if params is not None:
         r = r.with_believed(params if isinstance(params, WheelGeometry) else load_params(params))
     return r
+
+
+def optional_robot(robot: RobotSpec) -> Robot | None:
+    """The Robot of ``robot``, or None when none is given (no default robot: recorded runs carry
+    their own parameters)."""
+    if robot is None or isinstance(robot, Robot):
+        return robot
+    return load_robot(robot)
 
 
 def robot_label(robot: RobotSpec, params: Any = None) -> str:
@@ -53,3 +71,11 @@ def input_paths(*specs: Any) -> list[Path]:
         if isinstance(s, (str, Path)):
             out.append(Path(s))
     return out
+
+
+def nominal_geometry(robot: Robot | None, recordings: Sequence[Recording]) -> WheelGeometry | None:
+    """Nominal geometry: the robot's if given, else the most common ``ran_with`` (or None)."""
+    if robot is not None:
+        return robot.nominal
+    counts = Counter(r.ran_with for r in recordings if r.ran_with is not None)
+    return counts.most_common(1)[0][0] if counts else None

@@ -2,17 +2,18 @@
 
 from __future__ import annotations
 
-from collections import Counter
 from collections.abc import Sequence
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from ..calibration.banded import fit_banded
+from ..calibration.censi import SensorOdometryFit, fit_censi, predict_sensor_motion
 from ..calibration.gyro import GyroResult, gyro_calibration, integrate_rate
 from ..calibration.linear import fit_linear
 from ..calibration.result import GeometryFit
+from ..calibration.scan_matching import match_intervals
 from ..calibration.squares import fit_recorded_squares
 from ..calibration.trajectory import fit_trajectory
 from ..calibration.turning import (
@@ -24,24 +25,32 @@ from ..calibration.turning import (
 from ..core.model import WheelGeometry
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
+from ..io.bag_slam import load_slam_bag, wheel_increments
 from ..io.bags import (
     BASE_FRAMES,
     IMU,
     JOINT_STATE,
+    LASER_SCAN,
     ODOMETRY,
     check_bag_path,
     imu_series,
+    is_bag,
     joint_series,
     list_topics,
     pick_topic,
     pose_series,
     read_bag,
+    scan_series,
     static_rotation,
+    transform_buffer,
 )
 from ..io.outputs import OutputPlan
 from ..io.recordings import load_recordings, require_ground_truth
 from ..io.robot_file import load_robot, params_yaml
 from ..io.ros2_export import ros2_params_yaml
+from ..io.tuples import read_tuples
+from .check import CheckResult, check_loaded
+from .common import nominal_geometry, optional_robot
 
 __all__ = [
     "METHODS",
@@ -51,19 +60,10 @@ __all__ = [
     "fit_recordings",
     "fit_gyro",
     "fit_gyro_bag",
-    "nominal_geometry",
 ]
 
-METHODS = ("trajectory", "linear", "umbmark", "heading", "gyro")
+METHODS = ("trajectory", "linear", "umbmark", "heading", "gyro", "relative", "scan")
 WHEELBASE_MODELS = ("constant", "banded")
-
-
-def nominal_geometry(robot_spec, recordings: Sequence[Recording]) -> WheelGeometry | None:
-    """Nominal geometry: ROBOT.yaml's if given, else the most common ``ran_with`` (or None)."""
-    if robot_spec:
-        return load_robot(robot_spec).nominal
-    counts = Counter(r.ran_with for r in recordings if r.ran_with is not None)
-    return counts.most_common(1)[0][0] if counts else None
 
 
 def fit_recordings(
@@ -80,10 +80,13 @@ def fit_recordings(
     run_weight: str = "travel",
     side_m: float | None = None,
     umbmark_form: str = "mean",
+    heading_source: str = "truth",
+    sides: int = 4,
     wheelbase_model: str = "constant",
     motion_mix: dict[str, float] | None = None,
 ) -> GeometryFit:
-    """Calibrate from loaded recordings (with ground truth); returns a ``GeometryFit``.
+    """Calibrate from loaded recordings (with ground truth, or for the heading method a gyro
+    heading: ``heading_source='gyro'``); returns a ``GeometryFit``.
 
     Trajectory fits also report the effective wheelbase per band of motion
     (``extras['effective_wheelbase']``, :mod:`odocal.calibration.turning`). ``wheelbase_model``
@@ -91,7 +94,6 @@ def fit_recordings(
     when the runs excite fewer than two bands). ``motion_mix`` (band -> share of the rotation)
     makes the result's wheelbase the single value that is best for that mix, with what it costs
     (``extras['motion_mix']``)."""
-    require_ground_truth(list(recordings), f"--method {method}")
     if wheelbase_model not in WHEELBASE_MODELS:
         raise InputError(
             f"wheelbase model must be one of {', '.join(WHEELBASE_MODELS)}, got "
@@ -104,6 +106,10 @@ def fit_recordings(
             "(--method trajectory)",
             field="method",
         )
+    if heading_source == "gyro" and method != "heading":
+        raise InputError(f"--heading-source gyro is for --method heading, not {method}")
+    if heading_source != "gyro":
+        require_ground_truth(list(recordings), f"--method {method}")
     if method == "linear":
         return fit_linear(recordings, nominal)
     if method == "trajectory":
@@ -143,6 +149,8 @@ def fit_recordings(
             ran_with=ran_with,
             nominal=nominal,
             umbmark_form=umbmark_form,
+            heading_source=heading_source,
+            sides=sides,
         )
     raise InputError(f"unknown method {method!r}", field="method")
 
@@ -197,11 +205,13 @@ class FitResult:
     """A fit from recorded runs, the nominal geometry it is compared with, the loaders'
     warnings and the files written."""
 
-    fit: GeometryFit
+    fit: GeometryFit | SensorOdometryFit
     nominal: WheelGeometry | None
     recordings: int
     load_warnings: tuple[str, ...] = ()
     written: tuple[Path, ...] = ()
+    extra: dict = field(default_factory=dict)
+    log_check: CheckResult | None = None
 
     @property
     def warnings(self) -> tuple[str, ...]:
@@ -211,6 +221,9 @@ class FitResult:
         """The JSON of ``odocal fit --json``."""
         out = self.fit.as_dict()
         out["nominal"] = None if self.nominal is None else self.nominal.as_dict()
+        out.update(self.extra)
+        if self.log_check is not None:
+            out["log_check"] = self.log_check.as_dict()
         return out
 
 
@@ -227,7 +240,7 @@ def _outputs(plan: OutputPlan, out, ros2, plot=None) -> None:
 
 
 def _write(
-    plan, geometry, nominal, method, out, ros2, controller_name, figures=None
+    plan, geometry, nominal, method, out, ros2, controller_name, figures=None, **record
 ) -> tuple[Path, ...]:
     contents: dict = dict(figures or {})
     if ros2 is not None:
@@ -235,7 +248,7 @@ def _write(
             raise InputError("--ros2 needs the nominal geometry: give --robot ROBOT.yaml")
         contents[Path(ros2)] = ros2_params_yaml(geometry, nominal, controller_name, method=method)
     if out is not None:
-        contents[Path(out)] = params_yaml(geometry, method=method)
+        contents[Path(out)] = params_yaml(geometry, method=method, **record)
     return tuple(plan.commit(contents)) if contents else ()
 
 
@@ -245,9 +258,13 @@ def _load_warnings(recordings) -> tuple[str, ...]:
     )
 
 
+def _is_tuple_file(path) -> bool:
+    return Path(path).suffix.lower() == ".tuple"
+
+
 def fit(
     paths: Sequence[str | Path],
-    method: str = "trajectory",
+    method: str | None = None,
     *,
     robot=None,
     out: str | Path | None = None,
@@ -255,6 +272,9 @@ def fit(
     controller_name: str = "diff_drive_controller",
     ticks_per_rev: float | None = None,
     bag_options: dict | None = None,
+    truth_frames: tuple[str, str] | None = None,
+    slam_stamp_offset_s: float = 0.0,
+    scan_interval_s: float = 0.5,
     plot: str | Path | None = None,
     **options,
 ) -> FitResult:
@@ -263,19 +283,79 @@ def fit(
     effective-wheelbase figure (trajectory fits) into the folder ``plot``.
 
     ``robot``: ROBOT.yaml (nominal geometry; for runs without metadata, the parameters they ran
-    with: its 'believed', else nominal). ``options`` go to :func:`fit_recordings`."""
+    with: its 'believed', else nominal). ``options`` go to :func:`fit_recordings`.
+
+    Relative motions (``method='relative'``, the default for them): ``.tuple`` files (wheel
+    rotations and sensor displacements per interval; the sensor's mounting is estimated too), or
+    bags whose ground truth is a SLAM pose on /tf between ``truth_frames`` (e.g. ('map',
+    'base_link'); only the relative motions between the SLAM's update instants are used, see
+    docs/slam-truth.md).
+
+    Laser scans (``method='scan'``): bags with wheel joints and ``sensor_msgs/LaserScan``; the
+    laser's own motion between scans ``scan_interval_s`` apart comes from scan matching
+    (:mod:`odocal.calibration.scan_matching`), then the same relative-motion calibration, the
+    laser's mounting included. Needs the nominal geometry (``robot``) for the matcher's start."""
     if isinstance(paths, (str, Path)):
         paths = [paths]
     plan = OutputPlan(
         [*map(Path, paths), *([Path(robot)] if robot and Path(robot).exists() else [])]
     )
-    if plot is not None and method != "trajectory":
+    if plot is not None and method not in (None, "trajectory"):
         raise InputError("--plot draws the effective wheelbase of a trajectory fit", field="plot")
     _outputs(plan, out, ros2, plot)
-    recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, **(bag_options or {}))
-    nominal = nominal_geometry(robot, recordings)
-    ran_with = load_robot(robot).believed_geometry if robot else None
+    if method == "scan":
+        return _fit_scan(
+            paths,
+            plan,
+            robot=robot,
+            out=out,
+            ros2=ros2,
+            controller_name=controller_name,
+            ticks_per_rev=ticks_per_rev,
+            bag_options=bag_options or {},
+            scan_interval_s=scan_interval_s,
+        )
+    tuples = [p for p in paths if _is_tuple_file(p)]
+    if tuples or truth_frames is not None or method == "relative":
+        if method not in (None, "relative"):
+            what = "--truth-frames (a SLAM pose)" if truth_frames else ".tuple files"
+            raise InputError(
+                f"{what} give relative motions only: use --method relative, not --method {method}"
+            )
+        return _fit_relative(
+            paths,
+            tuples,
+            plan,
+            robot=robot,
+            out=out,
+            ros2=ros2,
+            controller_name=controller_name,
+            ticks_per_rev=ticks_per_rev,
+            bag_options=bag_options or {},
+            truth_frames=truth_frames,
+            slam_stamp_offset_s=slam_stamp_offset_s,
+        )
+    method = method or "trajectory"
+    opts = {k: v for k, v in (bag_options or {}).items() if k != "scan_topic"}
+    recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, **opts)
+    r = optional_robot(robot)
+    nominal = nominal_geometry(r, recordings)
+    ran_with = None if r is None else r.believed_geometry
     result = fit_recordings(recordings, method, nominal=nominal, ran_with=ran_with, **options)
+    log_check = None
+    if method == "trajectory":
+        # is this log enough? what the recorded motion let this fit see (docs/check.md)
+        used = set(result.runs)
+        try:
+            log_check = check_loaded(
+                [r for r in recordings if r.name in used],
+                result.geometry,
+                r,
+                max_blocks_per_run=_CHECK_MAX_BLOCKS,
+                **{k: options[k] for k in _CHECK_SETTINGS if k in options},
+            )
+        except CalibrationError as exc:  # a very fine segment layout: the check would be slow
+            result = replace(result, warnings=[*result.warnings, f"log check skipped: {exc}"])
     figures = {}
     if plot is not None:
         from ..plot.real_experiment import wheelbase_bands_figure
@@ -299,7 +379,233 @@ def fit(
     written = _write(
         plan, result.geometry, nominal, result.method, out, ros2, controller_name, figures
     )
-    return FitResult(result, nominal, len(recordings), _load_warnings(recordings), written)
+    return FitResult(
+        result, nominal, len(recordings), _load_warnings(recordings), written, {}, log_check
+    )
+
+
+# fit_recordings' options that the log check shares (the trajectory fit's residual settings), and
+# the finest segment layout it follows within fit (its dense covariance grows as blocks^2)
+_CHECK_SETTINGS = ("residual", "segment_m", "heading_weight_m", "run_weight")
+_CHECK_MAX_BLOCKS = 300
+
+
+def _stack_increments(parts) -> tuple[np.ndarray, np.ndarray]:
+    """Per-interval wheel increments of several bags, (right, left), rows zero padded to one
+    width."""
+    k = max(r.shape[1] for r, _ in parts)
+
+    def pad(a: np.ndarray) -> np.ndarray:
+        return np.pad(a, ((0, 0), (0, k - a.shape[1])))
+
+    return (
+        np.concatenate([pad(r) for r, _ in parts]),
+        np.concatenate([pad(lft) for _, lft in parts]),
+    )
+
+
+def _fit_relative(
+    paths,
+    tuples,
+    plan: OutputPlan,
+    *,
+    robot,
+    out,
+    ros2,
+    controller_name,
+    ticks_per_rev,
+    bag_options: dict,
+    truth_frames,
+    slam_stamp_offset_s: float,
+) -> FitResult:
+    """Relative-motion calibration (Censi et al. 2013) from tuple files or SLAM bags."""
+    nominal = load_robot(robot).nominal if robot else None
+    extra: dict = {}
+    if tuples:
+        if len(tuples) != len(paths):
+            raise InputError(".tuple files cannot be mixed with other run files in one fit")
+        if truth_frames is not None:
+            raise InputError("--truth-frames is for bags; .tuple files hold relative motions")
+        data = [read_tuples(p) for p in tuples]
+        phi_r = np.concatenate([d.phi_right_rad for d in data])
+        phi_l = np.concatenate([d.phi_left_rad for d in data])
+        motion = np.concatenate([d.sensor_motion for d in data])
+        result = fit_censi(phi_r, phi_l, motion, nominal=nominal)
+        extra["inputs"] = [{"path": str(d.path), "tuples": len(d.phi_right_rad)} for d in data]
+    else:
+        if truth_frames is None:
+            raise InputError("--method relative needs .tuple files or bags with --truth-frames")
+        bags = []
+        for p in paths:
+            if not is_bag(p):
+                raise InputError("--truth-frames needs ROS bags", p)
+            bags.append(
+                load_slam_bag(
+                    p,
+                    truth_frames,
+                    joint_topic=bag_options.get("joint_topic"),
+                    right_joint=bag_options.get("right_joint"),
+                    left_joint=bag_options.get("left_joint"),
+                    ticks_per_rev=ticks_per_rev,
+                    stamp_offset_s=slam_stamp_offset_s,
+                )
+            )
+        m = [b.motions for b in bags]
+        result = fit_censi(
+            np.concatenate([x.phi_right_rad for x in m]),
+            np.concatenate([x.phi_left_rad for x in m]),
+            np.concatenate([x.sensor_motion for x in m]),
+            sensor_pose=(0.0, 0.0, 0.0),  # the truth frame is the base itself
+            nominal=nominal,
+            wheel_increments=_stack_increments([b.increments for b in bags]),
+        )
+        extra["slam"] = [
+            {
+                "bag": b.path,
+                "chain": b.chain,
+                "correction_edge": b.correction,
+                **asdict(b.motions.counts),
+                "dropped": b.motions.counts.dropped,
+                "segments": b.motions.segments,
+                "summary": b.motions.summary(),
+                "warnings": list(b.motions.warnings),
+            }
+            for b in bags
+        ]
+    record = {
+        "sensor_x_m": result.sensor_x_m,
+        "sensor_y_m": result.sensor_y_m,
+        "sensor_yaw_rad": result.sensor_yaw_rad,
+    }
+    written = _write(
+        plan, result.geometry, nominal, "relative", out, ros2, controller_name, **record
+    )
+    return FitResult(result, nominal, len(paths), (), written, extra)
+
+
+def _fit_scan(
+    paths,
+    plan: OutputPlan,
+    *,
+    robot,
+    out,
+    ros2,
+    controller_name,
+    ticks_per_rev,
+    bag_options: dict,
+    scan_interval_s: float,
+) -> FitResult:
+    """``fit BAG --method scan``: scan matching, then the relative-motion calibration."""
+    if not robot:
+        raise InputError(
+            "--method scan needs the nominal geometry (--robot ROBOT.yaml): the scan matcher "
+            "starts from the odometry's motion"
+        )
+    nominal = load_robot(robot).nominal
+    parts = []
+    for p in paths:
+        if not is_bag(p):
+            raise InputError("--method scan needs ROS bags with laser scans", p)
+        parts.append(_scan_intervals(p, nominal, ticks_per_rev, bag_options, scan_interval_s))
+
+    def stack(key: str) -> np.ndarray:
+        return np.concatenate([x[key] for x in parts])
+
+    result = fit_censi(
+        stack("phi_right_rad"),
+        stack("phi_left_rad"),
+        stack("motion"),
+        nominal=nominal,
+        wheel_increments=_stack_increments([x["increments"] for x in parts]),
+    )
+    record = {
+        "sensor_x_m": result.sensor_x_m,
+        "sensor_y_m": result.sensor_y_m,
+        "sensor_yaw_rad": result.sensor_yaw_rad,
+    }
+    written = _write(plan, result.geometry, nominal, "scan", out, ros2, controller_name, **record)
+    extra = {"method": "scan", "scan": [x["summary"] for x in parts]}
+    return FitResult(result, nominal, len(paths), (), written, extra)
+
+
+def _scan_intervals(path, nominal, ticks_per_rev, bag_options: dict, interval_s: float) -> dict:
+    """Wheel rotations and scan-matched laser motions over intervals of one bag."""
+    p = check_bag_path(path)
+    info = list_topics(p)
+    jt = pick_topic(
+        info, bag_options.get("joint_topic"), (JOINT_STATE,), "wheel joints", p, "--joint-topic"
+    )
+    st = pick_topic(
+        info, bag_options.get("scan_topic"), (LASER_SCAN,), "laser scans", p, "--scan-topic"
+    )
+    names = {t.name for t in info}
+    bag = read_bag(p, [jt, st] + [t for t in ("/tf", "/tf_static") if t in names])
+    joints = joint_series(
+        bag, jt, bag_options.get("right_joint"), bag_options.get("left_joint"), ticks_per_rev
+    )
+    scans = scan_series(bag, st)
+    warnings = []
+    mount = np.zeros(3)
+    mount_source = "none (assumed at the base origin)"
+    buf = transform_buffer(bag)
+    base = next((f for f in BASE_FRAMES if f in buf.frames), None)
+    if base is not None and scans.frame_id in buf.frames:
+        mount = buf.lookup(base, scans.frame_id, scans.time_s[:1], max_extrapolation_s=1e9)
+        mount = mount.planar()[0]
+        mount_source = f"tf ({base} -> {scans.frame_id})"
+    else:
+        warnings.append(
+            f"no transform from the base to the laser frame '{scans.frame_id}': the matcher "
+            "starts as if the laser sat at the base origin"
+        )
+    t_j, right, left = joints.time_s, joints.values["right"], joints.values["left"]
+    inside = np.flatnonzero((scans.time_s >= t_j[0]) & (scans.time_s <= t_j[-1]))
+    if len(inside) < 2:
+        raise InputError("the laser scans and the wheel joints hardly overlap in time", p, None, st)
+    t_s = scans.time_s[inside]
+    stride = max(1, int(round(interval_s / float(np.median(np.diff(t_s))))))
+    starts = np.arange(0, len(inside) - stride, stride)
+    iv = np.column_stack([inside[starts], inside[starts + stride]])
+    wr, wl = np.interp(scans.time_s, t_j, right), np.interp(scans.time_s, t_j, left)
+    phi_r, phi_l = wr[iv[:, 1]] - wr[iv[:, 0]], wl[iv[:, 1]] - wl[iv[:, 0]]
+    moving = np.maximum(np.abs(phi_r), np.abs(phi_l)) > 1e-3
+    iv, phi_r, phi_l = iv[moving], phi_r[moving], phi_l[moving]
+    guesses = predict_sensor_motion(nominal, mount, phi_r, phi_l)
+    try:
+        matches = match_intervals(scans.time_s, scans.points_m, iv, guesses)
+    except CalibrationError as exc:
+        raise InputError(str(exc), p, None, st) from None
+    ok = matches.usable
+    if ok.sum() < 10:
+        raise InputError(
+            f"only {int(ok.sum())} of {len(ok)} scan intervals matched; record a longer drive "
+            "in a room with walls the laser sees",
+            p,
+            None,
+            st,
+        )
+    inc = wheel_increments(t_j, right, left, matches.start_time_s[ok], matches.end_time_s[ok])
+    summary = {
+        "bag": str(p),
+        "scan_topic": st,
+        "joint_topic": jt,
+        "scans": int(len(scans.time_s)),
+        "interval_scans": int(stride),
+        "intervals": int(len(ok)),
+        "matched": int(ok.sum()),
+        "not_converged": int((~matches.converged).sum()),
+        "degenerate": int(matches.degenerate.sum()),
+        "mount_guess": {"x_m": float(mount[0]), "y_m": float(mount[1]), "yaw_rad": float(mount[2])},
+        "mount_source": mount_source,
+        "warnings": warnings,
+    }
+    return {
+        "phi_right_rad": phi_r[ok],
+        "phi_left_rad": phi_l[ok],
+        "motion": matches.motion[ok],
+        "increments": inc,
+        "summary": summary,
+    }
 
 
 @dataclass(frozen=True)

@@ -12,6 +12,7 @@ import numpy as np
 from ..core.model import WheelGeometry
 from ..core.odometry import dead_reckon, evaluate
 from ..core.recording import Recording
+from ..io.bag_slam import load_slam_bag
 from ..io.outputs import OutputPlan
 from ..io.recordings import load_recordings, require_ground_truth
 from ..io.robot_file import load_params, load_robot
@@ -104,10 +105,13 @@ def validate(
     plot: str | Path | None = None,
     ticks_per_rev: float | None = None,
     bag_options: dict | None = None,
+    truth_frames: tuple[str, str] | None = None,
+    slam_stamp_offset_s: float = 0.0,
 ) -> Validation:
     """Dead-reckon the runs in ``paths`` with ``params`` (PARAMS.yaml or a geometry) and with the
     nominal geometry (ROBOT.yaml's, else each run's own ran-with parameters); with ``plot``, one
-    PNG per run in that folder."""
+    PNG per run in that folder. With ``truth_frames`` (bags whose truth is a SLAM pose on /tf),
+    the errors are measured at the SLAM's update instants only (docs/slam-truth.md)."""
     if isinstance(paths, (str, Path)):
         paths = [paths]
     inputs = [*map(Path, paths)]
@@ -121,7 +125,22 @@ def validate(
         require_matplotlib()
         plan.folder(plot, "--plot")
     geometry = params if isinstance(params, WheelGeometry) else load_params(params)
-    recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, **(bag_options or {}))
+    if truth_frames is not None:
+        opts = bag_options or {}
+        recordings = [
+            load_slam_bag(
+                p,
+                truth_frames,
+                joint_topic=opts.get("joint_topic"),
+                right_joint=opts.get("right_joint"),
+                left_joint=opts.get("left_joint"),
+                ticks_per_rev=ticks_per_rev,
+                stamp_offset_s=slam_stamp_offset_s,
+            ).recording
+            for p in paths
+        ]
+    else:
+        recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, **(bag_options or {}))
     nominal = load_robot(robot).nominal if robot else None
     result = validate_recordings(recordings, geometry, nominal)
     warnings = tuple(
@@ -140,6 +159,9 @@ def validate(
                 r.wheel_angle_right_rad, r.wheel_angle_left_rad, geometry
             )
             title = Path(r.name).name + (f" ({r.label})" if r.label else "")
+            valid = r.meta.get("truth_samples") if r.meta else None
+            if valid is not None:  # truth only at these samples (a SLAM pose at its updates)
+                return run_figure(title, r.ground_truth[valid], trajs, truth_marker="o")
             return run_figure(title, r.ground_truth, trajs)
 
         figures = {

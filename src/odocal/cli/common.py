@@ -28,6 +28,7 @@ __all__ = [
     "add_track_args",
     "add_recording_args",
     "add_bag_args",
+    "add_slam_args",
     "bag_options",
     "print_json",
     "print_warnings",
@@ -195,12 +196,34 @@ def add_bag_args(p: argparse.ArgumentParser) -> None:
     g.add_argument("--imu-topic", metavar="T", help="sensor_msgs/Imu topic")
     g.add_argument("--right-joint", metavar="NAME", help="right wheel joint name")
     g.add_argument("--left-joint", metavar="NAME", help="left wheel joint name")
+    g.add_argument("--scan-topic", metavar="T", help="sensor_msgs/LaserScan topic (--method scan)")
+
+
+def add_slam_args(p: argparse.ArgumentParser) -> None:
+    """A SLAM pose on /tf as ground truth (shared by fit and validate)."""
+    s = p.add_argument_group("SLAM pose as ground truth (bags)")
+    s.add_argument(
+        "--truth-frames",
+        metavar="PARENT:CHILD",
+        help="the truth is the pose of CHILD in PARENT on /tf (e.g. map:base_link, composed "
+        "through map -> odom -> base_link); only the relative motions between the SLAM's "
+        "updates are used (docs/slam-truth.md)",
+    )
+    s.add_argument(
+        "--slam-stamp-offset",
+        type=number(float, at_least=0, at_most=10, hint=" s"),
+        default=0.0,
+        metavar="S",
+        help="seconds the SLAM post-dates its correction (slam_toolbox: transform_timeout, 0.2 "
+        "by default; AMCL: transform_tolerance); default 0",
+    )
 
 
 def bag_options(args: argparse.Namespace) -> dict:
     return {
         k: getattr(args, k, None)
         for k in ("joint_topic", "truth_topic", "imu_topic", "right_joint", "left_joint")
+        if getattr(args, k, None) is not None
     }
 
 

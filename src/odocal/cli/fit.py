@@ -8,17 +8,20 @@ from pathlib import Path
 from ..errors import InputError
 from .common import (
     add_recording_args,
+    add_slam_args,
     bag_options,
     format_topics,
     length_m,
     motion_mix,
     nonnegative_float,
+    number,
     print_json,
     print_table,
     print_warnings,
+    sides_int,
 )
 
-METHODS = ("trajectory", "linear", "umbmark", "heading", "gyro")  # as odocal.app.fit.METHODS
+METHODS = ("trajectory", "linear", "umbmark", "heading", "gyro", "relative", "scan")  # as app.fit
 
 
 def add_parser(sub) -> None:
@@ -26,8 +29,9 @@ def add_parser(sub) -> None:
         "fit",
         help="calibrate wheel diameters and wheelbase from recorded runs",
         description="Calibrate D_R, D_L and b from recorded runs: generic run CSVs, OptiOdom "
-        "folders (a data set such as square/230620202042, or a category folder such as square/) "
-        "or ROS bags. Nominal values come from --robot or from the recordings' metadata.",
+        "folders (a data set such as square/230620202042, or a category folder such as square/), "
+        "ROS bags, or relative-motion .tuple files. Nominal values come from --robot or from the "
+        "recordings' metadata.",
     )
     add_recording_args(p)
     p.add_argument(
@@ -39,9 +43,12 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--method",
         choices=METHODS,
-        default="trajectory",
+        default=None,
         help="trajectory (nonlinear least squares, default), linear (Antonelli et al. 2005), "
-        "umbmark / heading (recorded CW and CCW squares), gyro (IMU vs wheel rotation, bags)",
+        "umbmark / heading (recorded CW and CCW squares), gyro (IMU vs wheel rotation, bags), "
+        "relative (Censi et al. 2013: relative motions with the sensor's mounting; the default "
+        "for .tuple files and --truth-frames), scan (bags with a 2D laser: scan matching, then "
+        "relative; the laser's mounting too)",
     )
     p.add_argument("--out", metavar="PARAMS.yaml", help="write the calibrated parameters")
     p.add_argument(
@@ -127,6 +134,30 @@ def add_parser(sub) -> None:
         default="mean",
         help="UMBmark equations from x, y or their mean (default mean)",
     )
+    s.add_argument(
+        "--sides",
+        type=sides_int,
+        default=4,
+        metavar="N",
+        help="heading method: the runs are regular N-gons (default 4, squares)",
+    )
+    s.add_argument(
+        "--heading-source",
+        choices=("truth", "gyro"),
+        default="truth",
+        help="heading method: each run's final heading error from the ground truth (default) or "
+        "from the integrated gyro (an IMU topic in the bag, or a gyro_yaw_rad column): no "
+        "position ground truth needed",
+    )
+    add_slam_args(p)
+    sc = p.add_argument_group("scan method (bags with a 2D laser)")
+    sc.add_argument(
+        "--scan-interval",
+        type=number(float, above=0, at_most=60, hint=" s"),
+        default=0.5,
+        metavar="S",
+        help="time between the two scans matched for one interval (default 0.5 s)",
+    )
     g = p.add_argument_group("gyro method (bags)")
     g.add_argument("--odom-topic", metavar="T", help="nav_msgs/Odometry wheel odometry")
     g.add_argument("--imu-axis", metavar="A", help="IMU axis carrying the yaw rate (e.g. y, -z)")
@@ -179,9 +210,10 @@ def _run_gyro(args) -> int:
 def run(args) -> int:
     if args.list_topics:
         from ..app.bag_info import bag_info
+        from ..io.bags import is_bag
 
         for path in args.paths:
-            if not is_bag_path(path):
+            if not is_bag(path):
                 raise InputError("--list-topics needs a ROS bag (.bag, .db3, .mcap)", path)
         for path in args.paths:
             if len(args.paths) > 1:
@@ -192,15 +224,23 @@ def run(args) -> int:
         return _run_gyro(args)
     from ..app.fit import fit
 
+    truth_frames = None
+    if args.truth_frames:
+        from ..io.bag_slam import parse_truth_frames
+
+        truth_frames = parse_truth_frames(args.truth_frames)
     res = fit(
         args.paths,
         args.method,
+        truth_frames=truth_frames,
+        slam_stamp_offset_s=args.slam_stamp_offset,
+        scan_interval_s=args.scan_interval,
         robot=args.robot,
         out=args.out,
         ros2=args.ros2,
         controller_name=args.controller_name,
         ticks_per_rev=args.ticks_per_rev,
-        bag_options=bag_options(args),
+        bag_options={**bag_options(args), "scan_topic": args.scan_topic},
         residual=args.residual,
         segment_m=args.segment_length,
         heading_weight_m=args.heading_weight,
@@ -209,6 +249,8 @@ def run(args) -> int:
         run_weight=args.run_weight,
         side_m=args.side_length,
         umbmark_form=args.umbmark_form,
+        heading_source=args.heading_source,
+        sides=args.sides,
         wheelbase_model=args.wheelbase_model,
         motion_mix=args.motion_mix,
         plot=args.plot,
@@ -218,6 +260,9 @@ def run(args) -> int:
     print_warnings(result.warnings)
     if args.json:
         print_json(res.as_dict())
+        return 0
+    if result.method == "relative":
+        _print_relative(res)
         return 0
     print(f"{result.method} fit from {len(result.runs)} run(s)")
     g, se = result.geometry, result.stderr
@@ -240,6 +285,11 @@ def run(args) -> int:
             f"({result.extras.get('residual', 'pose')})"
         )
     _print_bands(result.extras)
+    if res.log_check is not None:
+        from .check import print_check
+
+        print("Is this log enough? (odocal check)")
+        print_check(res.log_check, indent="  ")
     for f in res.written:
         print(f"wrote {f}")
     return 0
@@ -296,9 +346,44 @@ def _print_bands(extras: dict) -> None:
         )
 
 
-def is_bag_path(path) -> bool:
-    """A ROS 1/2 bag file or a ROS 2 bag folder (as odocal.io.bags.is_bag, without importing it)."""
-    p = Path(path)
-    if p.is_dir():
-        return (p / "metadata.yaml").is_file()
-    return p.suffix.lower() in (".bag", ".db3", ".mcap")
+def _print_relative(res) -> None:
+    r, nominal = res.fit, res.nominal
+    print(
+        f"relative-motion fit (Censi et al. 2013) from {r.tuples_used} of {r.tuples_total} "
+        f"intervals ({r.tuples_total - r.tuples_used} dropped as outliers)"
+    )
+    d = r.as_dict()
+    rows = [("", "nominal", "calibrated", "std. error")]
+    nom = {} if nominal is None else nominal.as_dict()
+    for key in (
+        "wheel_diameter_right_m",
+        "wheel_diameter_left_m",
+        "wheelbase_m",
+        "sensor_x_m",
+        "sensor_y_m",
+        "sensor_yaw_rad",
+    ):
+        if key.startswith("sensor") and r.sensor_pose_fixed:
+            continue
+        v, se = d[key], d["stderr"].get(key)
+        rows.append(
+            (
+                key,
+                f"{nom[key]:.6f}" if key in nom else "-",
+                "-" if v is None else f"{v:.6f}",
+                "-" if se is None else f"{se:.2e}",
+            )
+        )
+    print_table(rows)
+    for s in res.extra.get("slam", ()):
+        print(f"  {s['bag']}: {s['chain']}: {s['summary']}")
+    for s in res.extra.get("scan", ()):
+        g = s["mount_guess"]
+        print(
+            f"  {s['bag']}: {s['matched']} of {s['intervals']} scan intervals matched "
+            f"({s['scans']} scans on {s['scan_topic']}, {s['interval_scans']} apart); laser "
+            f"mounting from {s['mount_source']}: x {g['x_m']:.4f} m, y {g['y_m']:.4f} m, "
+            f"yaw {g['yaw_rad']:.4f} rad"
+        )
+    for f in res.written:
+        print(f"wrote {f}")

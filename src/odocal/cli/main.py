@@ -13,6 +13,7 @@ from ..errors import OdocalError
 from . import (
     bag_info,
     calibrate,
+    check,
     compare,
     design,
     fit,
@@ -32,6 +33,7 @@ COMMANDS = [
     noise,
     fit,
     validate,
+    check,
     compare,
     reproduce,
     ttest,

@@ -5,7 +5,14 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from .common import add_recording_args, bag_options, print_json, print_table, print_warnings
+from .common import (
+    add_recording_args,
+    add_slam_args,
+    bag_options,
+    print_json,
+    print_table,
+    print_warnings,
+)
 
 
 def add_parser(sub) -> None:
@@ -24,12 +31,18 @@ def add_parser(sub) -> None:
     )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--plot", metavar="DIR", help="write one PNG trajectory plot per run into DIR")
+    add_slam_args(p)
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
     from ..app.validate import validate
 
+    truth_frames = None
+    if args.truth_frames:
+        from ..io.bag_slam import parse_truth_frames
+
+        truth_frames = parse_truth_frames(args.truth_frames)
     result = validate(
         args.paths,
         args.params,
@@ -37,6 +50,8 @@ def run(args) -> int:
         plot=args.plot,
         ticks_per_rev=args.ticks_per_rev,
         bag_options=bag_options(args),
+        truth_frames=truth_frames,
+        slam_stamp_offset_s=args.slam_stamp_offset,
     )
     print_warnings(result.load_warnings)
     d = result.as_dict()

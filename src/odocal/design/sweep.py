@@ -487,12 +487,8 @@ def design_json(result: DesignResult, **extra) -> dict:
                 "E_d_mean": rounded(c.E_d_mean),
                 "E_d_std": rounded(c.E_d_std),
                 "trials": c.trials,
-                "leg_heading_systematic_deg": rounded(
-                    math.degrees(c.leg_heading_systematic_rad)
-                ),
-                "leg_heading_noise_deg": rounded(
-                    math.degrees(c.leg_heading_noise_rad)
-                ),
+                "leg_heading_systematic_deg": rounded(math.degrees(c.leg_heading_systematic_rad)),
+                "leg_heading_noise_deg": rounded(math.degrees(c.leg_heading_noise_rad)),
                 "residual_error_mean_m": rounded(c.residual_error_mean_m),
                 "residual_error_std_m": rounded(c.residual_error_std_m),
                 "failed_trials": c.failed_trials,

@@ -46,6 +46,12 @@ __all__ = [
     "static_rotation",
     "BAG_SUFFIXES",
     "BASE_FRAMES",
+    "EdgeMessages",
+    "tf_messages",
+    "transform_buffer",
+    "ScanSeries",
+    "scan_series",
+    "LASER_SCAN",
     "JOINT_STATE",
     "IMU",
     "ODOMETRY",
@@ -495,3 +501,115 @@ def static_rotation(bag: BagContents, child: str, parents: Sequence[str]):
         rot = r @ rot
         frame = parent
     return rot, frame
+
+
+# --------------------------------------------------------------------------- transforms
+
+
+@dataclass(frozen=True)
+class EdgeMessages:
+    """Every transform of one edge published on ``/tf``, in publishing order, repeats kept.
+
+    ``time_s`` (K,) header stamps relative to the bag start (s); ``translation_m`` (K, 3);
+    ``quaternion_xyzw`` (K, 4)."""
+
+    parent: str
+    child: str
+    time_s: np.ndarray
+    translation_m: np.ndarray
+    quaternion_xyzw: np.ndarray
+
+
+def tf_messages(bag: BagContents, topic: str = "/tf") -> dict[tuple[str, str], EdgeMessages]:
+    """The transforms of ``/tf`` per (parent, child) edge, repeats kept (SLAM packages republish
+    their last correction; which messages bring news is decided later)."""
+    rows: dict[tuple[str, str], list] = {}
+    for i, (t_log, m) in enumerate(bag.messages.get(topic, [])):
+        for tr in m.transforms:
+            key = (tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/"))
+            stamp = _stamp_ns(tr.header) or t_log
+            p, q = tr.transform.translation, tr.transform.rotation
+            rows.setdefault(key, []).append((stamp, p.x, p.y, p.z, q.x, q.y, q.z, q.w, i))
+    out = {}
+    for (parent, child), r in rows.items():
+        a = np.array([row[1:8] for row in r], dtype=float)
+        if not np.all(np.isfinite(a)):
+            k = int(np.nonzero(~np.all(np.isfinite(a), axis=1))[0][0])
+            raise InputError(
+                f"message {r[k][8]}: transform '{parent} -> {child}' is not finite (NaN or inf)",
+                bag.path,
+                None,
+                topic,
+            )
+        t = (np.array([row[0] for row in r], dtype=np.int64) - np.int64(bag.start_ns)) * 1e-9
+        out[(parent, child)] = EdgeMessages(parent, child, t, a[:, :3], a[:, 3:])
+    return out
+
+
+def transform_buffer(bag: BagContents):
+    """A :class:`~odocal.core.transforms.TransformBuffer` of the bag's ``/tf`` and
+    ``/tf_static``."""
+    from ..core.transforms import TransformBuffer
+
+    buf = TransformBuffer()
+    for (parent, child), e in tf_messages(bag).items():
+        buf.add(parent, child, e.time_s, e.translation_m, e.quaternion_xyzw)
+    for _, m in bag.messages.get("/tf_static", []):
+        for tr in m.transforms:
+            p, q = tr.transform.translation, tr.transform.rotation
+            buf.add_static(
+                tr.header.frame_id.lstrip("/"),
+                tr.child_frame_id.lstrip("/"),
+                (p.x, p.y, p.z),
+                (q.x, q.y, q.z, q.w),
+            )
+    return buf
+
+
+# --------------------------------------------------------------------------- laser scans
+
+LASER_SCAN = "sensor_msgs/msg/LaserScan"
+
+
+@dataclass(frozen=True)
+class ScanSeries:
+    """The scans of one ``sensor_msgs/LaserScan`` topic as points in the sensor frame.
+
+    ``time_s`` (N,) header stamps relative to the bag start (s); ``points_m`` N arrays of shape
+    (n_i, 2) (invalid ranges dropped, REP-117); ``frame_id`` the sensor frame."""
+
+    topic: str
+    time_s: np.ndarray
+    points_m: tuple[np.ndarray, ...]
+    frame_id: str
+
+
+def scan_series(bag: BagContents, topic: str) -> ScanSeries:
+    """Every scan of ``topic`` (InputError for absurd scan parameters or no valid range)."""
+    from ..calibration.scan_matching import scan_points
+
+    msgs = bag.messages[topic]
+    _need(msgs, bag.path, topic)
+    points = []
+    for i, (_, m) in enumerate(msgs):
+        params = (m.angle_min, m.angle_increment, m.range_min, m.range_max)
+        if not all(math.isfinite(v) for v in params) or not 0 <= m.range_min < m.range_max:
+            raise InputError(
+                f"message {i}: scan parameters are not usable (angle_min {m.angle_min}, "
+                f"angle_increment {m.angle_increment}, range_min {m.range_min}, range_max "
+                f"{m.range_max})",
+                bag.path,
+                None,
+                topic,
+            )
+        points.append(scan_points(np.asarray(m.ranges, dtype=float), *params))
+    if not any(len(p) for p in points):
+        raise InputError(
+            f"no scan has a valid range (all NaN, inf or outside [range_min, range_max]) in "
+            f"{len(points)} scans",
+            bag.path,
+            None,
+            topic,
+        )
+    t = _times(msgs, bag.path, topic, bag.start_ns)
+    return ScanSeries(topic, t, tuple(points), msgs[0][1].header.frame_id.lstrip("/"))
