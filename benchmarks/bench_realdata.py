@@ -117,6 +117,15 @@ def main(argv=None) -> int:
     for method in ("umbmark", "heading"):
         fit = fit_recordings(squares, method, nominal=nominal)
         add(method, "square", fit.geometry, "per data set, pooled")
+        for side in (0.75, 1.7):
+            runs = [r for r in squares if r.meta.get("side_m") == side]
+            fit = fit_recordings(runs, method, nominal=nominal)
+            add(
+                f"{method}, {side:g} m squares only",
+                f"square {side:g} m",
+                fit.geometry,
+                "per data set, pooled",
+            )
     fit = fit_recordings(train, "linear", nominal=nominal)
     add("linear (Antonelli)", "square + ivanjko", fit.geometry)
     variants = [
@@ -172,14 +181,15 @@ def main(argv=None) -> int:
         f"{len(squares)} square + {len(ivanjko)} ivanjko.\n"
     )
     print(
-        "| method | calibrated on | D_R (m) | D_L (m) | b (m) | held-out mean final error (mm) "
-        "| mean max error (mm) | circular / free (mm) | note |"
+        "| method | calibrated on | D_R (m) | D_L (m) | b (m) | gain mean(D)/b | held-out mean "
+        "final error (mm) | mean max error (mm) | circular / free (mm) | note |"
     )
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
+        gain = 0.5 * (r["wheel_diameter_right_m"] + r["wheel_diameter_left_m"]) / r["wheelbase_m"]
         print(
             f"| {r['method']} | {r['calibrated_on']} | {r['wheel_diameter_right_m']:.6f} | "
-            f"{r['wheel_diameter_left_m']:.6f} | {r['wheelbase_m']:.6f} | "
+            f"{r['wheel_diameter_left_m']:.6f} | {r['wheelbase_m']:.6f} | {gain:.5f} | "
             f"{1000 * r['held_out_mean_final_error_m']:.1f} | "
             f"{1000 * r['held_out_mean_max_error_m']:.1f} | "
             f"{1000 * r['circular_mean_final_error_m']:.1f} / "

@@ -36,18 +36,26 @@ def chunk_rotations(angle_right_rad, angle_left_rad, max_chunk_rad: float) -> np
     )
     d = np.diff(a, axis=0)
     keep = [0]
-    sign = np.zeros(2)
+    sign = np.sign(d)
+    last = np.zeros(2)  # the last non-zero direction of each wheel within the current chunk
     acc = np.zeros(2)
-    for i, inc in enumerate(d):
-        s = np.sign(inc)
-        flip = np.any((s != 0) & (sign != 0) & (s != sign))
-        if flip or np.any(acc + np.abs(inc) > max_chunk_rad):
+    for i in range(len(d)):
+        s = sign[i]
+        if (
+            (s[0] * last[0] < 0)
+            or (s[1] * last[1] < 0)
+            or acc[0] + abs(d[i, 0]) > max_chunk_rad
+            or acc[1] + abs(d[i, 1]) > max_chunk_rad
+        ):
             if keep[-1] != i:
                 keep.append(i)
             acc[:] = 0.0
-            sign[:] = 0.0
-        acc += np.abs(inc)
-        sign = np.where(s != 0, s, sign)
+            last[:] = 0.0
+        acc += np.abs(d[i])
+        if s[0]:
+            last[0] = s[0]
+        if s[1]:
+            last[1] = s[1]
     if keep[-1] != len(a) - 1:
         keep.append(len(a) - 1)
     return a[keep]
