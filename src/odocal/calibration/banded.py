@@ -131,7 +131,7 @@ def fit_banded(
     for b in sol.x[2:]:
         warnings += check_physical([sol.x[0], sol.x[1], b], nominal, "banded wheelbase")
     m = len(sol.fun)
-    stderr = [None] * len(sol.x)
+    stderr: list[float | None] = [None] * len(sol.x)
     if m > len(sol.x):
         s2 = 2.0 * sol.cost / (m - len(sol.x))
         try:

@@ -510,7 +510,7 @@ def estimate_k_from_recordings(
     ss = 0.0
     dof = 0
     denom = 0.0
-    group_rows = []
+    group_rows: list[dict] = []
     warnings: list[str] = []
     severe: list[str] = []
     for key, rows in used:
@@ -634,8 +634,8 @@ def _k_diff_recorded(used, k_sum: float):
         return None, None, "k_r - k_l: these runs give no position-heading coupling to split k"
     if len(parts) < 3:
         return k_diff, None, "k_r - k_l: too few groups for a standard error"
-    jack = [solve(parts[:i] + parts[i + 1 :]) for i in range(len(parts))]
-    jack = np.array([v for v in jack if v is not None])
+    values = [solve(parts[:i] + parts[i + 1 :]) for i in range(len(parts))]
+    jack = np.array([v for v in values if v is not None])
     g = len(jack)
     se = math.sqrt((g - 1) / g * float(np.sum((jack - jack.mean()) ** 2))) if g >= 3 else None
     return k_diff, se, ""

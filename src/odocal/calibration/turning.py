@@ -331,17 +331,17 @@ def effective_wheelbase(
         rot = float(sum(abs(x) for _, x, _ in rows))
         b_eff = ci = gain = None
         if rows:
-            x = np.array([x for _, x, _ in rows])
-            y = np.array([y for _, _, y in rows])
-            sxx = float(x @ x)
-            g = float(x @ y) / sxx
+            xs = np.array([x for _, x, _ in rows])
+            ys = np.array([y for _, _, y in rows])
+            sxx = float(xs @ xs)
+            g = float(xs @ ys) / sxx
             if g > 0:
                 b_eff = b_ref / g
                 gain = d_ref / b_eff
                 if len(runs) >= 2:
-                    e = y - g * x
+                    e = ys - g * xs
                     run_of = np.array([k for k, _, _ in rows])
-                    scores = np.array([float(x[run_of == k] @ e[run_of == k]) for k in runs])
+                    scores = np.array([float(xs[run_of == k] @ e[run_of == k]) for k in runs])
                     n = len(runs)
                     var = n / (n - 1) * float(scores @ scores) / sxx**2
                     half = float(stats.t.ppf(0.975, n - 1)) * math.sqrt(var)

@@ -703,7 +703,7 @@ def run_real_experiment(
             f"the real experiment compares two square sizes, got {len(squares_by_side)}"
         )
     streams = rng.spawn(2)
-    sides = tuple(sorted(squares_by_side))
+    sides: tuple[float, float] = tuple(sorted(squares_by_side))  # type: ignore[assignment]
     cals = calibrate_squares(squares_by_side, heldout, reference, streams[0], n_boot)
     by = {(c.side_m, c.method): c for c in cals if c.scope == "pooled"}
     ttests = {m: _ttests(by[(sides[0], m)], by[(sides[1], m)]) for m in ("heading", "umbmark")}
@@ -715,7 +715,7 @@ def run_real_experiment(
         sweep_sides_m = np.unique(np.r_[np.arange(1, 13) * 0.25, list(sides)])
     n = runs_per_direction or min(counts.values())
     pred = predict(robot, heldout, counts, sweep_sides_m, n, trials, streams[1], settings)
-    profiles = {s: motion_profile(squares_by_side[s], reference) for s in sides}
+    profiles: dict = {s: motion_profile(squares_by_side[s], reference) for s in sides}
     profiles["heldout"] = motion_profile(heldout, reference)
     closing = {s: closing_heading_split(squares_by_side[s], reference) for s in sides}
     points = [
