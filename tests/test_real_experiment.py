@@ -141,6 +141,10 @@ def test_the_verdict_says_no(produced):
     assert abs(v["predicted_difference_m"]) < 0.003
     assert v["real_difference_m"] == pytest.approx(0.0209, abs=3e-4)
     assert not v["difference_within_prediction"]
+    # one experiment like the real one: the model expects no significant difference (at any
+    # trial count: only a few % of its simulated experiments are significant), the real one is
+    assert v["predicted_outcome"] == "no significant difference"
+    assert v["real_outcome"] == "1.7 m better" and not v["ordering_predicted"]
     assert v["text"].startswith("No.")
     assert "0.057 m/s" in v["text"] and "1.01 rad/s" in v["text"]
 

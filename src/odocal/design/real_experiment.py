@@ -473,6 +473,8 @@ def predict(
         "median_t": float(np.median(t[fin])),
         "median_p": float(np.median(p[fin])),
         "fraction_significant": float(np.mean(p[fin] < 0.05)),
+        "fraction_first_significantly_better": float(np.mean((p[fin] < 0.05) & (diff[fin] < 0))),
+        "fraction_second_significantly_better": float(np.mean((p[fin] < 0.05) & (diff[fin] > 0))),
         "fraction_first_worse": float(np.mean(diff[fin] > 0)),
         "mean_difference_m": float(np.mean(diff[fin])),
         "difference_ci95_m": [float(v) for v in np.percentile(diff[fin], [2.5, 97.5])],
@@ -784,8 +786,19 @@ def verdict(exp: RealExperiment) -> dict:
     lo, hi = pred.ttest["difference_ci95_m"]
     paired = exp.ttests["heading"]["paired"]
     real_better = a if real_diff < 0 else b
+    # what one experiment like the real one shows: a significant ordering (paired t, 5 %) or none;
+    # the model predicts an ordering when most of its simulated experiments show it
+    real_outcome = real_better if paired.p_two_sided < 0.05 else None
+    t = pred.ttest
+    pred_outcome = (
+        a
+        if t["fraction_first_significantly_better"] > 0.5
+        else b
+        if t["fraction_second_significantly_better"] > 0.5
+        else None
+    )
     pred_better = a if pred_diff < 0 else b
-    ordering_predicted = real_better == pred_better
+    ordering_predicted = real_outcome == pred_outcome
     within = lo <= real_diff <= hi
     preferred = pred.preferred.side_m
     return {
@@ -798,12 +811,15 @@ def verdict(exp: RealExperiment) -> dict:
         "real_paired_t": paired.t,
         "real_paired_p": paired.p_two_sided,
         "predicted_better_side_m": pred_better,
+        "predicted_outcome": (
+            "no significant difference" if pred_outcome is None else f"{pred_outcome:g} m better"
+        ),
         "real_better_side_m": real_better,
+        "real_outcome": (
+            "no significant difference" if real_outcome is None else f"{real_outcome:g} m better"
+        ),
         "ordering_predicted": ordering_predicted,
         "difference_within_prediction": within,
-        "ratio_real_to_predicted_difference": (
-            abs(real_diff) / abs(pred_diff) if pred_diff != 0 else math.inf
-        ),
         "real_below_predicted_floor": min(ca.heldout_error_m, cb.heldout_error_m)
         < pred.floor.mean_m,
     }
@@ -845,6 +861,13 @@ def verdict_text(exp: RealExperiment) -> str:
         vals = [abs(x["spot_rotation_rad"]) for x in c.values()]
         return sum(vals) / len(vals) if vals else math.nan
 
+    differ = any(
+        x is not None and y is not None and abs(x / y - 1) > 0.2
+        for x, y in (
+            (pa_["straight_speed_m_s"], pb_["straight_speed_m_s"]),
+            (pa_["spot_turn_rate_rad_s"], pb_["spot_turn_rate_rad_s"]),
+        )
+    )
     gain_gap = 100 * abs(exp.calibration(a).turning_gain / exp.calibration(b).turning_gain - 1)
     eb_gap = abs(exp.calibration(a).E_b - exp.calibration(b).E_b) / max(pa.E_b_std, pb.E_b_std)
     ta = exp.turning.get(f"{a:g} m squares")
@@ -871,29 +894,27 @@ def verdict_text(exp: RealExperiment) -> str:
         f"{100 * pred.ttest['fraction_significant']:.0f} %). The real calibrations gave "
         f"{v['real_error_m'][f'{a:g}'] * mm:.1f} mm and {v['real_error_m'][f'{b:g}'] * mm:.1f} mm: "
         f"the {better:g} m squares were better by {abs(v['real_difference_m']) * mm:.1f} mm "
-        f"(paired t = {v['real_paired_t']:.2f}, p = {v['real_paired_p']:.2g}), "
+        f"(paired t = {v['real_paired_t']:.2f}, p = {v['real_paired_p']:.2g}). The model "
         + (
-            "the ordering the model predicts, "
+            f"predicts that outcome ({v['predicted_outcome']} in most simulated experiments)"
             if v["ordering_predicted"]
-            else "the opposite of the model's (insignificant) ordering, "
+            else f"predicts {v['predicted_outcome']} for an experiment like this one, the real "
+            f"one shows {v['real_outcome']}"
         )
         + (
-            "and a difference within its range."
+            ", and the real difference lies within its range."
             if v["difference_within_prediction"]
-            else "and a difference far outside its range."
+            else ", and the real difference lies far outside its range."
         ),
-        f"Why: the two sizes were not driven alike. The {a:g} m squares were driven at "
-        f"{_num(pa_['straight_speed_m_s'], '.3f')} m/s with spot turns at "
+        f"Why: the two sizes were {'not ' if differ else ''}driven alike. The {a:g} m squares "
+        f"were driven at {_num(pa_['straight_speed_m_s'], '.3f')} m/s with spot turns at "
         f"{_num(pa_['spot_turn_rate_rad_s'], '.2f')} rad/s, the {b:g} m squares at "
         f"{_num(pb_['straight_speed_m_s'], '.3f')} m/s and "
-        f"{_num(pb_['spot_turn_rate_rad_s'], '.2f')} rad/s (different sessions and controller "
-        f"settings). Each square's closing heading, which the heading method reads, includes how "
-        f"the controller ends a turn: per run the {a:g} m squares turned "
-        f"{spot_rot(ca):.2f} rad on the spot and turned back on the legs, the {b:g} m squares "
-        f"turned {spot_rot(cb):.2f} rad on the spot and finished the turns on arcs (2 pi = 6.28 "
-        "rad). So the two sizes measure different mixtures of spot-turn and arc turning, and the "
-        f"calibrated turning gain mean(D)/b differs by {gain_gap:.2f} % between them, "
-        f"{eb_gap:.0f} "
+        f"{_num(pb_['spot_turn_rate_rad_s'], '.2f')} rad/s. Each square's closing heading, which "
+        "the heading method reads, includes how the controller ends a turn: per run the "
+        f"{a:g} m squares {_turn_ending(spot_rot(ca))}, the {b:g} m squares "
+        f"{_turn_ending(spot_rot(cb))} (2 pi = 6.28 rad). The calibrated turning gain "
+        f"mean(D)/b differs by {gain_gap:.2f} % between the sizes, {eb_gap:.0f} "
         "times the calibration scatter the model predicts.",
     ]
 
@@ -925,6 +946,24 @@ def verdict_text(exp: RealExperiment) -> str:
             "calibration's error follows from its distance to it (figure)."
         )
     return "\n\n".join(text)
+
+
+def _turn_ending(spot_rotation_rad: float) -> str:
+    """How a square's turns end, from its odometric rotation on the spot per run."""
+    if not math.isfinite(spot_rotation_rad):
+        return "(turn endings unknown)"
+    full = 2 * math.pi
+    if spot_rotation_rad > 1.005 * full:
+        return (
+            f"turned {spot_rotation_rad:.2f} rad on the spot, more than a full turn, and turned "
+            "back on the legs"
+        )
+    if spot_rotation_rad < 0.995 * full:
+        return (
+            f"turned {spot_rotation_rad:.2f} rad on the spot and finished the turns on the legs' "
+            "arcs"
+        )
+    return f"turned {spot_rotation_rad:.2f} rad on the spot, about a full turn"
 
 
 def _num(v, fmt):
