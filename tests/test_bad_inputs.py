@@ -144,7 +144,7 @@ def test_undefined_equations_fail_cleanly(cli, realdata):
     # straight runs of 1 nm cannot tell the wheel diameters apart (a singular system)
     assert_error(cli("compare", "--ivanjko-straight", "1e-9", "--trials", 2), "ivanjko")
     # the trajectory fit's heading weight overflows the squares far before 1e300 m/rad
-    assert_error(cli("fit", realdata / SQUARE, "--heading-weight", "1e300"), "heading_weight_m")
+    assert_error(cli("fit", realdata / SQUARE, "--heading-weight", "1e300"), "--heading-weight")
 
 
 def test_non_physical_ivanjko_result_is_named(cli, tmp_path):
@@ -229,10 +229,15 @@ def test_fit_json_warnings_also_on_stderr(cli, realdata):
         assert f"odocal: warning: {w}" in err
 
 
-def test_absurd_calibration_result_is_warned(cli, tmp_path):
+def test_absurd_calibration_result_is_refused_unless_forced(cli, tmp_path):
     circles = write(tmp_path / "c.csv", "direction,radius_m\ncw,1e5\nccw,1e-5\n")
-    status, out, err = cli("calibrate", circles, "--method", "bcpt", "--radius", 1, "--json")
+    params = tmp_path / "p.yaml"
+    argv = ["calibrate", circles, "--method", "bcpt", "--radius", 1, "--json", "--out", params]
+    assert_error(cli(*argv), "wheelbase_m", "from nominal", "--force")
+    assert not params.exists()
+    status, out, err = cli(*argv, "--force")
     assert status == 0, err
+    assert params.is_file()
     assert json.loads(out)["wheelbase_m"] < 1e-4
     assert err.startswith("odocal: warning: wheelbase_m") and "from nominal" in err
 
@@ -249,9 +254,11 @@ def test_plan_undefined_prediction_is_null_with_a_warning(cli, tmp_path):
 
 def test_print_json_prints_all_or_nothing(capsys):
     from odocal.cli.common import print_json
+    from odocal.errors import OdocalError
 
-    with pytest.raises(ValueError):  # NaN is a programming error: must become null upstream
-        print_json({"ok": 1.0, "bad": math.nan})
+    # NaN must become null upstream; if one slips through, it is named, and nothing printed
+    with pytest.raises(OdocalError, match=r"'runs\[1\]\.bad' is not a finite number"):
+        print_json({"ok": 1.0, "runs": [{"bad": 0.0}, {"bad": math.nan}]})
     assert capsys.readouterr().out == ""
 
 

@@ -11,7 +11,7 @@ from ..core.model import Robot
 from ..core.recording import Recording
 from ..errors import InputError
 from ..io.bag_slam import load_slam_bag
-from ..io.recordings import load_recordings
+from ..io.recordings import load_recordings, refuse_repeated
 from .common import nominal_geometry, optional_robot
 
 __all__ = ["CheckResult", "check", "check_loaded", "noise_model"]
@@ -84,7 +84,7 @@ def check(
                 left_joint=opts.get("left_joint"),
                 ticks_per_rev=ticks_per_rev,
             ).recording
-            for p in paths
+            for p in refuse_repeated(paths)
         ]
     else:
         recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, **opts)

@@ -7,8 +7,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from ..calibration.result import far_from_nominal
 from ..core.model import Robot, WheelGeometry
 from ..core.recording import Recording
+from ..errors import CalibrationError
 from ..io.robot_file import load_params, load_robot
 from ..presets import DEFAULT_ROBOT, PRESETS
 
@@ -19,6 +21,7 @@ __all__ = [
     "robot_label",
     "input_paths",
     "nominal_geometry",
+    "refuse_absurd",
 ]
 
 #: A robot as a command takes it: a Robot, a built-in name, a ROBOT.yaml path, or None (default).
@@ -79,3 +82,16 @@ def nominal_geometry(robot: Robot | None, recordings: Sequence[Recording]) -> Wh
         return robot.nominal
     counts = Counter(r.ran_with for r in recordings if r.ran_with is not None)
     return counts.most_common(1)[0][0] if counts else None
+
+
+def refuse_absurd(geometry: WheelGeometry, nominal: WheelGeometry | None, force: bool) -> list[str]:
+    """A calibration far (> 25 %) from ``nominal`` is refused (CalibrationError, nothing
+    written) unless ``force``; then its messages are returned as warnings."""
+    values = (geometry.diameter_right_m, geometry.diameter_left_m, geometry.wheelbase_m)
+    problems = far_from_nominal(values, nominal)
+    if problems and not force:
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        raise CalibrationError(
+            f"{problems[0]}{more}; nothing written (--force accepts the result anyway)"
+        )
+    return problems

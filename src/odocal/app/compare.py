@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -135,6 +136,14 @@ def compare(
         require_matplotlib()
         plan.folder(plot, "--plot")
     r = resolve_robot(robot, params)
+    if travel_m is not None:
+        turns_m = math.pi * float(np.mean(r.believed_geometry.wheelbase_m))
+        if travel_m / runs <= turns_m:
+            raise InputError(
+                f"--travel {travel_m:g} m is too little for {runs} runs: each run's turns alone "
+                f"(a square's four 90 deg turns) take {turns_m:.3g} m of wheel travel",
+                field="travel",
+            )
     sim = compare_simulated(
         r, trials=trials, seed=seed, budget=Budget(runs, travel_m, ivanjko_straight_m)
     )

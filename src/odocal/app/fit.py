@@ -12,7 +12,7 @@ from ..calibration.banded import fit_banded
 from ..calibration.censi import SensorOdometryFit, fit_censi, predict_sensor_motion
 from ..calibration.gyro import GyroResult, gyro_calibration, integrate_rate
 from ..calibration.linear import fit_linear
-from ..calibration.result import GeometryFit
+from ..calibration.result import ABSURD_FRACTION, GeometryFit
 from ..calibration.scan_matching import match_intervals
 from ..calibration.squares import fit_recorded_squares
 from ..calibration.trajectory import fit_trajectory
@@ -45,12 +45,12 @@ from ..io.bags import (
     transform_buffer,
 )
 from ..io.outputs import OutputPlan
-from ..io.recordings import load_recordings, require_ground_truth
+from ..io.recordings import load_recordings, refuse_repeated, require_ground_truth
 from ..io.robot_file import load_robot, params_yaml
 from ..io.ros2_export import ros2_params_yaml
 from ..io.tuples import read_tuples
 from .check import CheckResult, check_loaded
-from .common import nominal_geometry, optional_robot
+from .common import input_paths, nominal_geometry, optional_robot, refuse_absurd
 
 __all__ = [
     "METHODS",
@@ -212,14 +212,18 @@ class FitResult:
     written: tuple[Path, ...] = ()
     extra: dict = field(default_factory=dict)
     log_check: CheckResult | None = None
+    forced: tuple[str, ...] = ()
 
     @property
     def warnings(self) -> tuple[str, ...]:
-        return tuple(self.fit.warnings)
+        """The fit's warnings, and the absurd-result messages accepted with ``force``."""
+        own = tuple(self.fit.warnings)
+        return own + tuple(w for w in self.forced if w not in own)
 
     def as_dict(self) -> dict:
         """The JSON of ``odocal fit --json``."""
         out = self.fit.as_dict()
+        out["warnings"] = list(self.load_warnings) + list(self.warnings)
         out["nominal"] = None if self.nominal is None else self.nominal.as_dict()
         out.update(self.extra)
         if self.log_check is not None:
@@ -272,6 +276,7 @@ def fit(
     controller_name: str = "diff_drive_controller",
     ticks_per_rev: float | None = None,
     bag_options: dict | None = None,
+    force: bool = False,
     truth_frames: tuple[str, str] | None = None,
     slam_stamp_offset_s: float = 0.0,
     scan_interval_s: float = 0.5,
@@ -283,7 +288,9 @@ def fit(
     effective-wheelbase figure (trajectory fits) into the folder ``plot``.
 
     ``robot``: ROBOT.yaml (nominal geometry; for runs without metadata, the parameters they ran
-    with: its 'believed', else nominal). ``options`` go to :func:`fit_recordings`.
+    with: its 'believed', else nominal). A result more than 25 % from nominal is absurd for a
+    calibration: CalibrationError (nothing written) unless ``force``. ``options`` go to
+    :func:`fit_recordings`.
 
     Relative motions (``method='relative'``, the default for them): ``.tuple`` files (wheel
     rotations and sensor displacements per interval; the sensor's mounting is estimated too), or
@@ -297,12 +304,11 @@ def fit(
     laser's mounting included. Needs the nominal geometry (``robot``) for the matcher's start."""
     if isinstance(paths, (str, Path)):
         paths = [paths]
-    plan = OutputPlan(
-        [*map(Path, paths), *([Path(robot)] if robot and Path(robot).exists() else [])]
-    )
+    plan = OutputPlan(input_paths(list(paths), robot))
     if plot is not None and method not in (None, "trajectory"):
         raise InputError("--plot draws the effective wheelbase of a trajectory fit", field="plot")
     _outputs(plan, out, ros2, plot)
+    refuse_repeated(paths)  # the same file twice would count twice, whatever it holds
     if method == "scan":
         return _fit_scan(
             paths,
@@ -314,8 +320,14 @@ def fit(
             ticks_per_rev=ticks_per_rev,
             bag_options=bag_options or {},
             scan_interval_s=scan_interval_s,
+            force=force,
         )
-    tuples = [p for p in paths if _is_tuple_file(p)]
+    # a pipe or <(...) has no name to tell a tuple file by: --method relative says it is one
+    tuples = [
+        p
+        for p in paths
+        if _is_tuple_file(p) or (method == "relative" and truth_frames is None and not is_bag(p))
+    ]
     if tuples or truth_frames is not None or method == "relative":
         if method not in (None, "relative"):
             what = "--truth-frames (a SLAM pose)" if truth_frames else ".tuple files"
@@ -334,11 +346,13 @@ def fit(
             bag_options=bag_options or {},
             truth_frames=truth_frames,
             slam_stamp_offset_s=slam_stamp_offset_s,
+            force=force,
         )
     method = method or "trajectory"
     opts = {k: v for k, v in (bag_options or {}).items() if k != "scan_topic"}
-    recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, **opts)
-    r = optional_robot(robot)
+    notes: list[str] = []
+    recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, warnings=notes, **opts)
+    r = optional_robot(robot)  # read once: it may be a pipe
     nominal = nominal_geometry(r, recordings)
     ran_with = None if r is None else r.believed_geometry
     result = fit_recordings(recordings, method, nominal=nominal, ran_with=ran_with, **options)
@@ -376,11 +390,19 @@ def fit(
         figures[Path(plot) / "effective_wheelbase.png"] = wheelbase_bands_figure(
             {"segment estimate": table}, "Effective wheelbase per band of motion", lines
         )
+    forced = refuse_absurd(result.geometry, nominal, force)
     written = _write(
         plan, result.geometry, nominal, result.method, out, ros2, controller_name, figures
     )
     return FitResult(
-        result, nominal, len(recordings), _load_warnings(recordings), written, {}, log_check
+        result,
+        nominal,
+        len(recordings),
+        tuple(notes) + _load_warnings(recordings),
+        written,
+        {},
+        log_check,
+        tuple(forced),
     )
 
 
@@ -417,6 +439,7 @@ def _fit_relative(
     bag_options: dict,
     truth_frames,
     slam_stamp_offset_s: float,
+    force: bool = False,
 ) -> FitResult:
     """Relative-motion calibration (Censi et al. 2013) from tuple files or SLAM bags."""
     nominal = load_robot(robot).nominal if robot else None
@@ -477,10 +500,11 @@ def _fit_relative(
         "sensor_y_m": result.sensor_y_m,
         "sensor_yaw_rad": result.sensor_yaw_rad,
     }
+    forced = refuse_absurd(result.geometry, nominal, force)
     written = _write(
         plan, result.geometry, nominal, "relative", out, ros2, controller_name, **record
     )
-    return FitResult(result, nominal, len(paths), (), written, extra)
+    return FitResult(result, nominal, len(paths), (), written, extra, forced=tuple(forced))
 
 
 def _fit_scan(
@@ -494,6 +518,7 @@ def _fit_scan(
     ticks_per_rev,
     bag_options: dict,
     scan_interval_s: float,
+    force: bool = False,
 ) -> FitResult:
     """``fit BAG --method scan``: scan matching, then the relative-motion calibration."""
     if not robot:
@@ -523,9 +548,10 @@ def _fit_scan(
         "sensor_y_m": result.sensor_y_m,
         "sensor_yaw_rad": result.sensor_yaw_rad,
     }
+    forced = refuse_absurd(result.geometry, nominal, force)
     written = _write(plan, result.geometry, nominal, "scan", out, ros2, controller_name, **record)
     extra = {"method": "scan", "scan": [x["summary"] for x in parts]}
-    return FitResult(result, nominal, len(paths), (), written, extra)
+    return FitResult(result, nominal, len(paths), (), written, extra, forced=tuple(forced))
 
 
 def _scan_intervals(path, nominal, ticks_per_rev, bag_options: dict, interval_s: float) -> dict:
@@ -640,8 +666,12 @@ def fit_gyro(
     imu_topic: str | None = None,
     joint_topic: str | None = None,
     imu_axis: str | None = None,
+    force: bool = False,
 ) -> GyroFitResult:
-    """``odocal fit BAG --method gyro``: the gyro's rotation against the wheel odometry's."""
+    """``odocal fit BAG --method gyro``: the gyro's rotation against the wheel odometry's.
+
+    A wheelbase multiplier more than 25 % from 1 is absurd for a calibration: CalibrationError
+    (nothing written) unless ``force``."""
     plan = OutputPlan([Path(bag), *([Path(robot)] if robot and Path(robot).exists() else [])])
     _outputs(plan, out, ros2)
     nominal = load_robot(robot).nominal if robot else None
@@ -655,6 +685,13 @@ def fit_gyro(
     result = fit_gyro_bag(bag, **{k: v for k, v in opts.items() if v})
     if (out or ros2) and nominal is None:
         raise InputError("--out/--ros2 with --method gyro need the nominal geometry: --robot")
+    m = float(result.wheelbase_multiplier)
+    if abs(m - 1) > ABSURD_FRACTION and not force:
+        raise CalibrationError(
+            f"wheelbase_multiplier = {m:.6g} is {100 * (m - 1):+.0f} % from 1: absurd for a "
+            "calibration; check the IMU axis and the wheel joints; nothing written (--force "
+            "accepts the result anyway)"
+        )
     geometry = None
     written: tuple[Path, ...] = ()
     if nominal is not None:

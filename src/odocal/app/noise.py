@@ -4,7 +4,7 @@ straight runs typed into RUNS.csv, or from recorded runs of repeated tracks."""
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -40,9 +40,10 @@ def noise(
     the systematic curvature of the forward path comes from ROBOT.yaml's systematic errors.
     ``force``: estimate even when the runs look dominated by a systematic part (a warning)."""
     r = resolve_robot(robot, params)
-    runs = read_runs(runs_csv, directions=("fwd",))
+    notes: list[str] = []
+    runs = read_runs(runs_csv, directions=("fwd",), warnings=notes)
     curvature = float(leg_heading_systematic_rad(r, 1.0))  # rad per metre of believed travel
-    return estimate_k(
+    est = estimate_k(
         runs,
         track,
         distance_m,
@@ -51,6 +52,7 @@ def noise(
         curvature_rad_per_m=curvature,
         strict=not force,
     )
+    return replace(est, warnings=(*notes, *est.warnings)) if notes else est
 
 
 def cruise_speed_m_s(recordings: Sequence[Recording], geometry: WheelGeometry) -> float:

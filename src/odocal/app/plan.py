@@ -32,17 +32,28 @@ class PlanResult:
         return self.floor_plan.as_dict() | {"template": str(self.sheet)}
 
 
+_SHEET_HEADER = ("direction", "x_m", "y_m", "theta_deg", "run")
+
+
 def _holds_measurements(path: Path) -> bool:
-    """True if ``path`` is a run sheet with at least one measured value filled in (or a file
-    that is not a run sheet at all: never overwrite what we do not recognise)."""
+    """False only for a blank run sheet as ``plan`` writes it (its header and comments, no
+    measured value); True for a sheet with a measurement, a note, an extra column, or a file
+    that is not a run sheet at all: never overwrite what we did not write."""
     try:
-        table = read_table(path, text=read_text(path))
+        text = read_text(path)
+        table = read_table(path, text=text)
     except InputError:
         return path.stat().st_size > 0
-    measured = [c for c in ("x_m", "y_m", "theta_deg", "radius_m") if table.has(c)]
-    if not measured:
+    if table.header != _SHEET_HEADER:
         return True
-    return any(f[table.index(c)] != "" for _, f in table.rows for c in measured)
+    blank_comments = set(FloorPlan.template_comments())
+    for line in text.splitlines():
+        line = line.strip()
+        if line.startswith("#") and not (
+            line in blank_comments or line.startswith("# odocal run sheet:")
+        ):
+            return True  # a note of the user's
+    return any(f[table.index(c)] != "" for _, f in table.rows for c in ("x_m", "y_m", "theta_deg"))
 
 
 def plan(
@@ -61,12 +72,14 @@ def plan(
     A blank run sheet (e.g. from an earlier ``plan``) is replaced; one that already holds a
     measured value, or a file that is not a run sheet, is not, unless ``force``."""
     out = Path(out)
+    # the default name is checked like any other, and the message says it was the default
+    flag = "--out" if str(out) != DEFAULT_TEMPLATE else f"--out (default {DEFAULT_TEMPLATE})"
     outputs = OutputPlan(input_paths(robot, params))
-    outputs.file(out, "--out")
+    outputs.file(out, flag)
     if out.is_file() and _holds_measurements(out) and not force:
         raise InputError(
-            "already holds measured runs: plan will not overwrite a filled-in run sheet; choose "
-            "another --out name (or --force to replace it)",
+            f"{flag}: already holds measured runs: plan will not overwrite a filled-in run "
+            "sheet; choose another --out name (or --force to replace it)",
             out,
         )
     r = resolve_robot(robot, params)

@@ -10,7 +10,14 @@ import numpy as np
 from ..core.model import WheelGeometry
 from ..errors import CalibrationError
 
-__all__ = ["CalibrationResult", "GeometryFit", "check_physical", "stderr_dict"]
+__all__ = [
+    "ABSURD_FRACTION",
+    "CalibrationResult",
+    "GeometryFit",
+    "check_physical",
+    "far_from_nominal",
+    "stderr_dict",
+]
 
 
 @dataclass(frozen=True)
@@ -147,22 +154,29 @@ def check_physical(values, nominal: WheelGeometry | None, method: str) -> list[s
             f"{method}: non-physical result D_R={d_r:.6g} m, D_L={d_l:.6g} m, b={b:.6g} m; the "
             "left and right wheels may be swapped (or one wheel's sign reversed) in the input"
         )
-    warnings = []
-    if nominal is not None:
-        for name, v, n in zip(
-            _KEYS,
-            (d_r, d_l, b),
-            (
-                float(nominal.diameter_right_m),
-                float(nominal.diameter_left_m),
-                float(nominal.wheelbase_m),
-            ),
-            strict=True,
-        ):
-            if abs(v / n - 1) > 0.25:
-                warnings.append(
-                    f"{name} = {v:.6g} m is {100 * (v / n - 1):+.0f} % from nominal {n:.6g} m: "
-                    "absurd for a calibration; check that the wheels are not swapped and the "
-                    "ticks per revolution"
-                )
-    return warnings
+    return far_from_nominal((d_r, d_l, b), nominal)
+
+
+#: A calibrated value further than this (relative) from nominal is absurd for a calibration.
+ABSURD_FRACTION = 0.25
+
+
+def far_from_nominal(values, nominal: WheelGeometry | None) -> list[str]:
+    """One message per value of ``values`` (D_R, D_L, b in m) further than
+    :data:`ABSURD_FRACTION` from ``nominal`` (none without a nominal geometry)."""
+    if nominal is None:
+        return []
+    nominal_values = (
+        float(nominal.diameter_right_m),
+        float(nominal.diameter_left_m),
+        float(nominal.wheelbase_m),
+    )
+    out = []
+    for name, v, n in zip(_KEYS, (float(x) for x in values), nominal_values, strict=True):
+        if abs(v / n - 1) > ABSURD_FRACTION:
+            out.append(
+                f"{name} = {v:.6g} m is {100 * (v / n - 1):+.0f} % from nominal {n:.6g} m: "
+                "absurd for a calibration; check that the wheels are not swapped and the "
+                "ticks per revolution"
+            )
+    return out

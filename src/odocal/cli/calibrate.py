@@ -55,6 +55,12 @@ def add_parser(sub) -> None:
         help="UMBmark equations from x, y or their mean (default mean)",
     )
     p.add_argument("--out", metavar="PARAMS.yaml", help="write the corrected parameters")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="accept a result more than 25 %% from what the robot ran with (absurd for a "
+        "calibration: by default an error, and nothing is written)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=run)
 
@@ -72,6 +78,7 @@ def run(args) -> int:
         umbmark_form=args.umbmark_form,
         radius_m=args.radius,
         out=args.out,
+        force=args.force,
     )
     print_warnings(res.warnings)
     if args.json:

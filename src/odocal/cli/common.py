@@ -11,12 +11,16 @@ import time
 from collections.abc import Callable, Iterable
 from typing import Any
 
+from ..io.limits import HEADING_WEIGHT_MAX_M, TICKS_PER_REV, TRACK_LENGTH_MAX_M
+
 __all__ = [
     "MAX_LENGTH_M",
     "number",
     "positive_float",
     "nonnegative_float",
     "length_m",
+    "ticks_per_rev",
+    "heading_weight",
     "positive_int",
     "sides_int",
     "seed_int",
@@ -37,9 +41,9 @@ __all__ = [
     "ProgressBar",
 ]
 
-# Largest length a flag may give (m): beyond 100 km a length is a unit mistake, and the
-# statistics of a track that long overflow.
-MAX_LENGTH_M = 1e5
+# Largest length a flag may give (m; odocal.io.limits): beyond 100 km a length is a unit
+# mistake, and the statistics of a track that long overflow.
+MAX_LENGTH_M = TRACK_LENGTH_MAX_M
 
 
 def number(
@@ -86,6 +90,18 @@ def number(
 positive_float = number(float, above=0)
 nonnegative_float = number(float, at_least=0)
 length_m = number(float, above=0, at_most=MAX_LENGTH_M, hint=" m (check the units)")
+ticks_per_rev = number(
+    float,
+    at_least=TICKS_PER_REV[0],
+    at_most=TICKS_PER_REV[1],
+    hint=" ticks per wheel turn (check the units)",
+)
+heading_weight = number(
+    float,
+    at_least=0,
+    at_most=HEADING_WEIGHT_MAX_M,
+    hint=" m per rad (a heavier weight lets the heading alone decide the fit)",
+)
 positive_int = number(int, at_least=1)
 seed_int = number(int, at_least=0)
 trials_int = number(int, at_least=2, hint=" (a standard deviation is needed)")
@@ -181,7 +197,7 @@ def add_recording_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("paths", nargs="+", metavar="RUN_OR_DIR", help="run file, folder or bag")
     p.add_argument(
         "--ticks-per-rev",
-        type=positive_float,
+        type=ticks_per_rev,
         metavar="N",
         help="encoder ticks per wheel revolution for tick inputs that do not give it",
     )
@@ -233,7 +249,34 @@ def print_warnings(warnings: Iterable[str], prefix: str = "") -> None:
         print(f"odocal: warning: {prefix}{w}", file=sys.stderr)
 
 
+def _non_finite(obj: Any, where: str = "") -> str | None:
+    """The key path of the first non-finite number in ``obj`` (None if there is none)."""
+    if isinstance(obj, float):
+        return None if math.isfinite(obj) else (where or "the result")
+    if isinstance(obj, dict):
+        items: Iterable = ((f"{where}.{k}" if where else str(k), v) for k, v in obj.items())
+    elif isinstance(obj, (list, tuple)):
+        items = ((f"{where}[{i}]", v) for i, v in enumerate(obj))
+    else:
+        return None
+    for key, value in items:
+        found = _non_finite(value, key)
+        if found is not None:
+            return found
+    return None
+
+
 def print_json(obj: Any) -> None:
+    """``obj`` as one JSON object on stdout, all or nothing. A non-finite number (JSON has none;
+    undefined values are null) is never printed: OdocalError naming its key instead."""
+    bad = _non_finite(obj)
+    if bad is not None:
+        from ..errors import OdocalError
+
+        raise OdocalError(
+            f"the result '{bad}' is not a finite number; nothing printed (please report this "
+            "with the input that caused it)"
+        )
     text = json.dumps(obj, indent=2, allow_nan=False)  # all or nothing: no half-printed object
     sys.stdout.write(text + "\n")
 

@@ -11,9 +11,9 @@ from .common import (
     add_slam_args,
     bag_options,
     format_topics,
+    heading_weight,
     length_m,
     motion_mix,
-    nonnegative_float,
     number,
     print_json,
     print_table,
@@ -60,6 +60,12 @@ def add_parser(sub) -> None:
         metavar="NAME",
         help="controller name in the --ros2 file (default diff_drive_controller)",
     )
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="accept a result more than 25 %% from nominal (absurd for a calibration: by "
+        "default an error, and nothing is written)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     t = p.add_argument_group("trajectory method")
     t.add_argument(
@@ -78,7 +84,7 @@ def add_parser(sub) -> None:
     )
     t.add_argument(
         "--heading-weight",
-        type=nonnegative_float,
+        type=heading_weight,
         default=0.1,
         metavar="M_PER_RAD",
         help="metres of residual per radian of heading error (default 0.1)",
@@ -182,6 +188,7 @@ def _run_gyro(args) -> int:
         imu_topic=args.imu_topic,
         joint_topic=args.joint_topic,
         imu_axis=args.imu_axis,
+        force=args.force,
     )
     out = res.as_dict()
     print_warnings(res.warnings)
@@ -251,13 +258,14 @@ def run(args) -> int:
         umbmark_form=args.umbmark_form,
         heading_source=args.heading_source,
         sides=args.sides,
+        force=args.force,
         wheelbase_model=args.wheelbase_model,
         motion_mix=args.motion_mix,
         plot=args.plot,
     )
     print_warnings(res.load_warnings)
     result, nominal = res.fit, res.nominal
-    print_warnings(result.warnings)
+    print_warnings(res.warnings)
     if args.json:
         print_json(res.as_dict())
         return 0

@@ -6,6 +6,7 @@ Each command lives in its own module with ``add_parser(subparsers)`` and ``run(a
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 
 from .. import __version__
@@ -61,18 +62,39 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised like Ctrl-C so that every ``finally`` runs (temporary files removed, no
+    half-written output)."""
+
+
+def _terminate(signum, frame):  # noqa: ARG001 - the signal module's API
+    raise Terminated
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    installed = False
+    try:
+        previous = signal.signal(signal.SIGTERM, _terminate)
+        installed = True
+    except ValueError:  # not the main thread: leave the signal alone
+        pass
     try:
         return int(args.run(args) or 0)
     except OdocalError as exc:
         print(f"odocal: error: {exc}", file=sys.stderr)
         return 2
+    except Terminated:
+        print("odocal: terminated (SIGTERM); nothing half-written", file=sys.stderr)
+        return 128 + signal.SIGTERM
     except KeyboardInterrupt:
-        print("odocal: interrupted", file=sys.stderr)
-        return 130
+        print("odocal: interrupted; nothing half-written", file=sys.stderr)
+        return 128 + signal.SIGINT
     except BrokenPipeError:
         return 0
+    finally:
+        if installed:
+            signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
 
 
 if __name__ == "__main__":

@@ -53,7 +53,7 @@ def run(args) -> int:
         )
     finally:
         bar.close()
-    print(f"odocal: computation took {res.elapsed_s:.1f} s", file=sys.stderr)
+    print(f"odocal: simulation took {res.elapsed_s:.1f} s", file=sys.stderr)
     if args.json:
         print_json(res.as_dict())
         return 0

@@ -79,6 +79,9 @@ def compare_real(
         Validation runs (with ground truth), e.g. OptiOdom free/ plus the other circle set.
     published : WheelGeometry, optional
         A reference geometry to validate the same way (e.g. the published OptiOdom result).
+
+    A method that fails, or finds no data set it can calibrate from, is listed in ``failures``
+    with the reason (never as a row without numbers).
     """
     methods = METHOD_REGISTRY if methods is None else methods
     heldout = list(heldout)
@@ -91,6 +94,14 @@ def compare_real(
             results = entry.real(datasets)
         except CalibrationError as exc:
             failures.append({"method": entry.name, "error": str(exc)})
+            continue
+        if not results:  # said so, instead of a row without numbers
+            failures.append(
+                {
+                    "method": entry.name,
+                    "error": f"no data set it can calibrate from (it needs: {entry.drives})",
+                }
+            )
             continue
         rows = []
         for name, res in results:

@@ -51,14 +51,21 @@ class FloorPlan:
     calibration: Candidate | None = None
     reference: AnalyticReference | None = None
 
-    def template_csv(self) -> str:
-        """Blank RUNS.csv: comment lines, header, one row per run with the direction filled in."""
-        lines = [
-            f"# odocal run sheet: {self.title}",
+    @staticmethod
+    def template_comments() -> tuple[str, ...]:
+        """The fixed comment lines of every blank run sheet (after its title line)."""
+        return (
             "# Fill in x_m, y_m, theta_deg of every run: the final pose ERROR (actual - odometric)",
             "# in the start frame: +x start heading, +y left, theta CCW positive, unwrapped.",
             "# Keep the rows in driving order. Lines starting with '#' are ignored.",
             "# Every field must hold a number: an empty one stops odocal with 'not a number'.",
+        )
+
+    def template_csv(self) -> str:
+        """Blank RUNS.csv: comment lines, header, one row per run with the direction filled in."""
+        lines = [
+            f"# odocal run sheet: {self.title}",
+            *self.template_comments(),
             "direction,x_m,y_m,theta_deg,run",
         ]
         lines += [f"{d},,,,{i}" for i, d in enumerate(self.order, start=1)]

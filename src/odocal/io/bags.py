@@ -30,6 +30,14 @@ import numpy as np
 
 from ..calibration.gyro import rotation_from_quaternion
 from ..errors import InputError, OdocalError
+from .limits import (
+    POSITION_MAX_M,
+    RATE_MAX_RAD_S,
+    SPEED_MAX_M_S,
+    TICKS_MAX,
+    TICKS_PER_REV,
+    WHEEL_ANGLE_MAX_RAD,
+)
 
 __all__ = [
     "TopicInfo",
@@ -311,11 +319,25 @@ def _times(msgs: list, path: Path, topic: str, start_ns: int, has_header=True) -
     return t
 
 
-def _finite(arr: np.ndarray, path: Path, topic: str, what: str) -> None:
-    ok = np.all(np.isfinite(arr.reshape(len(arr), -1)), axis=1)
+def _finite(arr: np.ndarray, path: Path, topic: str, what: str, limit: float | None = None) -> None:
+    """InputError naming the first message whose ``what`` is not finite, or larger than
+    ``limit`` in magnitude (an absurd value; odocal.io.limits)."""
+    flat = arr.reshape(len(arr), -1)
+    ok = np.all(np.isfinite(flat), axis=1)
     if not np.all(ok):
         i = int(np.nonzero(~ok)[0][0])
         raise InputError(f"message {i}: {what} is not finite (NaN or inf)", path, None, topic)
+    if limit is not None and len(flat):
+        big = np.nonzero(np.any(np.abs(flat) > limit, axis=1))[0]
+        if len(big):
+            i = int(big[0])
+            v = flat[i][np.argmax(np.abs(flat[i]))]
+            raise InputError(
+                f"message {i}: {what} is implausibly large ({v:.6g}; at most {limit:g})",
+                path,
+                None,
+                topic,
+            )
 
 
 def _need(msgs: list, path: Path, topic: str, n: int = 2) -> None:
@@ -344,14 +366,16 @@ def pose_series(bag: BagContents, topic: str) -> TopicSeries:
         p, q = _pose_of(m, mt)
         rows.append((p.x, p.y, _yaw(q)))
     xy = np.array(rows, dtype=float)
-    _finite(xy, bag.path, topic, "the pose")
+    _finite(xy[:, :2], bag.path, topic, "the position (m)", POSITION_MAX_M)
+    _finite(xy[:, 2:], bag.path, topic, "the orientation")
     t = _times(msgs, bag.path, topic, bag.start_ns)
     values = {"x": xy[:, 0], "y": xy[:, 1], "yaw": np.unwrap(xy[:, 2])}
     if mt == ODOMETRY:
         tw = np.array(
             [(m.twist.twist.linear.x, m.twist.twist.angular.z) for _, m in msgs], dtype=float
         )
-        _finite(tw, bag.path, topic, "the twist")
+        _finite(tw[:, :1], bag.path, topic, "the twist's linear speed (m/s)", SPEED_MAX_M_S)
+        _finite(tw[:, 1:], bag.path, topic, "the twist's yaw rate (rad/s)", RATE_MAX_RAD_S)
         values["speed"], values["yaw_rate"] = tw[:, 0], tw[:, 1]
     last = msgs[0][1]
     return TopicSeries(
@@ -371,7 +395,7 @@ def imu_series(bag: BagContents, topic: str) -> TopicSeries:
         [(m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z) for _, m in msgs],
         dtype=float,
     )
-    _finite(w, bag.path, topic, "angular_velocity")
+    _finite(w, bag.path, topic, "angular_velocity (rad/s)", RATE_MAX_RAD_S)
     t = _times(msgs, bag.path, topic, bag.start_ns)
     return TopicSeries(topic, t, {"angular_velocity": w}, msgs[0][1].header.frame_id.lstrip("/"))
 
@@ -464,12 +488,17 @@ def joint_series(
             rows.append((pos[ir], pos[il]))
     _need(kept, path, topic)
     phi = np.array(rows, dtype=float)
-    _finite(phi, path, topic, "a wheel position")
-    t = _times(kept, path, topic, bag.start_ns)
     if ticks_per_rev is not None:
-        if not (math.isfinite(ticks_per_rev) and ticks_per_rev > 0):
-            raise InputError(f"ticks per revolution must be > 0, got {ticks_per_rev!r}")
+        lo, hi = TICKS_PER_REV
+        if not (math.isfinite(ticks_per_rev) and lo <= ticks_per_rev <= hi):
+            raise InputError(
+                f"ticks per revolution must be {lo:g} .. {hi:g}, got {ticks_per_rev!r}",
+                field="ticks_per_rev",
+            )
+        _finite(phi, path, topic, "a wheel position (ticks)", TICKS_MAX)
         phi = phi * (2.0 * math.pi / ticks_per_rev)
+    _finite(phi, path, topic, "a wheel position (rad)", WHEEL_ANGLE_MAX_RAD)
+    t = _times(kept, path, topic, bag.start_ns)
     r, wr = _unwrap_wheel(phi[:, 0], 2.0 * math.pi, path, topic, right)
     lft, wl = _unwrap_wheel(phi[:, 1], 2.0 * math.pi, path, topic, left)
     return TopicSeries(

@@ -25,6 +25,7 @@ from __future__ import annotations
 from ..core.model import MeasurementNoise, NonSystematicError, Robot, SystematicError, WheelGeometry
 from ..errors import InputError, ModelError
 from ..presets import DEFAULT_ROBOT, PRESETS
+from .limits import ERROR_FACTOR, K_MAX_M, ROBOT_LENGTH_M, SIGMA_THETA_MAX_DEG, SIGMA_XY_MAX_M
 from .yamlfile import YamlDoc, load_yaml
 
 __all__ = ["load_robot", "load_params", "robot_from_doc", "params_yaml", "robot_yaml"]
@@ -42,13 +43,10 @@ _TOP = (
 )
 _GEOMETRY = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
 
-# Plausible ranges: beyond them a value is a typo or a unit mistake, and the equations overflow
-# or become undefined. Lengths in m; error factors (E_b, E_d, E_s) are near 1 for any real robot.
-_LENGTH = {"at_least": 1e-4, "at_most": 1e3}
-_FACTOR = {"at_least": 0.5, "at_most": 2.0}
-_K_MAX_M = 1.0
-_SIGMA_XY_MAX_M = 1e3
-_SIGMA_THETA_MAX_DEG = 360.0
+# Plausible ranges (odocal.io.limits): beyond them a value is a typo or a unit mistake, and the
+# equations overflow or become undefined.
+_LENGTH = {"at_least": ROBOT_LENGTH_M[0], "at_most": ROBOT_LENGTH_M[1]}
+_FACTOR = {"at_least": ERROR_FACTOR[0], "at_most": ERROR_FACTOR[1]}
 
 
 def _geometry(doc: YamlDoc, mapping: dict, prefix: str) -> WheelGeometry:
@@ -63,6 +61,8 @@ def _geometry(doc: YamlDoc, mapping: dict, prefix: str) -> WheelGeometry:
 def robot_from_doc(doc: YamlDoc) -> Robot:
     d = doc.data
     doc.check_keys(d, _TOP)
+    if "name" in d:
+        doc.text("name", d["name"])
     for key in ("wheel_diameter_m", "wheelbase_m"):
         if key not in d:
             raise InputError(f"missing required key '{key}'", doc.path)
@@ -86,7 +86,7 @@ def robot_from_doc(doc: YamlDoc) -> Robot:
     n = doc.section("nonsystematic", ("k_r_m", "k_l_m"))
     nonsys = NonSystematicError(
         **{
-            k: doc.number(f"nonsystematic.{k}", v, nonnegative=True, at_most=_K_MAX_M)
+            k: doc.number(f"nonsystematic.{k}", v, nonnegative=True, at_most=K_MAX_M)
             for k, v in n.items()
         }
     )
@@ -96,13 +96,13 @@ def robot_from_doc(doc: YamlDoc) -> Robot:
             "measurement.sigma_xy_m",
             m.get("sigma_xy_m", 0.0),
             nonnegative=True,
-            at_most=_SIGMA_XY_MAX_M,
+            at_most=SIGMA_XY_MAX_M,
         ),
         doc.number(
             "measurement.sigma_theta_deg",
             m.get("sigma_theta_deg", 0.0),
             nonnegative=True,
-            at_most=_SIGMA_THETA_MAX_DEG,
+            at_most=SIGMA_THETA_MAX_DEG,
         ),
     )
     believed = None

@@ -31,6 +31,7 @@ import numpy as np
 
 from ..core.runs import CircleRuns, EndPoseRuns
 from ..errors import InputError
+from .limits import MEASURED_MAX
 from .table import parse_number, read_table
 from .textfile import atomic_write
 
@@ -44,22 +45,27 @@ __all__ = [
 ]
 
 REQUIRED_COLUMNS = ("direction", "x_m", "y_m", "theta_deg")
-# Largest magnitude of a measured value (m or deg): 1000 km, or 2778 turns.
-MAX_MAGNITUDE = 1e6
+# Largest magnitude of a measured value (m or deg; odocal.io.limits): 1000 km, or 2778 turns.
+MAX_MAGNITUDE = MEASURED_MAX
 CIRCLE_COLUMNS = ("direction", "radius_m")
 
 
-def _read_runs_table(path, columns: tuple[str, ...], directions, required, positive=False):
+def _read_runs_table(
+    path, columns: tuple[str, ...], directions, required, positive=False, warnings=None
+):
     """Rows of a runs table: ``columns[0]`` is the direction, the rest are numbers.
 
     Returns (directions, values of shape (n, len(columns) - 1)); an empty value not in
-    ``required`` is NaN. Every problem raises InputError naming the file, line and field.
+    ``required`` is NaN. Every problem raises InputError naming the file, line and field; two
+    rows with the same direction and values (the same run entered twice?) are appended to
+    ``warnings``.
     """
     table = read_table(path, what=f"a header row '{','.join(columns)}'")
     table.require(columns)
     col = {c: table.index(c) for c in columns}
     dirs: list[str] = []
     values: list[list[float]] = []
+    seen: dict[tuple, int] = {}
     for line_no, fields in table.rows:
         raw_dir = fields[col[columns[0]]]
         d = raw_dir.lower()
@@ -82,6 +88,13 @@ def _read_runs_table(path, columns: tuple[str, ...], directions, required, posit
             )
         dirs.append(d)
         values.append(row)
+        key = (d, *(fields[col[c]] for c in columns[1:]))
+        if warnings is not None and key in seen and any(fields[col[c]] for c in columns[1:]):
+            warnings.append(
+                f"{path}: line {line_no} repeats line {seen[key]} exactly: the same run entered "
+                "twice? Each row counts as a run"
+            )
+        seen.setdefault(key, line_no)
     if not values:
         raise InputError("no runs: the file has a header but no data rows", path)
     return tuple(dirs), np.array(values)
@@ -91,23 +104,25 @@ def read_runs(
     path,
     directions: tuple[str, ...] = ("cw", "ccw"),
     required: tuple[str, ...] = ("x_m", "y_m", "theta_deg"),
+    warnings: list[str] | None = None,
 ) -> EndPoseRuns:
     """Parse RUNS.csv; every problem raises InputError naming the file, line and field.
 
     All four columns must be present. A value column not in ``required`` may be left empty in a
     row (the method does not use it, e.g. x_m and y_m for the heading-error method): it is read
-    as NaN. An empty required value is reported as not filled in.
+    as NaN. An empty required value is reported as not filled in. ``warnings`` receives a note
+    for every row that repeats an earlier one exactly.
     """
-    dirs, err = _read_runs_table(path, REQUIRED_COLUMNS, directions, required)
+    dirs, err = _read_runs_table(path, REQUIRED_COLUMNS, directions, required, warnings=warnings)
     err[:, 2] = np.radians(err[:, 2])
     return EndPoseRuns(dirs, err)
 
 
-def read_circle_runs(path) -> CircleRuns:
+def read_circle_runs(path, warnings: list[str] | None = None) -> CircleRuns:
     """Parse a BCPT runs file (``direction,radius_m``); every problem raises InputError naming
-    the file, line and field."""
+    the file, line and field (``warnings`` as in :func:`read_runs`)."""
     dirs, radii = _read_runs_table(
-        path, CIRCLE_COLUMNS, ("cw", "ccw"), ("radius_m",), positive=True
+        path, CIRCLE_COLUMNS, ("cw", "ccw"), ("radius_m",), positive=True, warnings=warnings
     )
     return CircleRuns(dirs, radii[:, 0])
 

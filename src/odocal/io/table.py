@@ -191,16 +191,18 @@ def read_table(
     what: str = "a header row",
     text: str | None = None,
     settings: Sequence[str] = (),
+    columns: Sequence[str] | None = None,
 ) -> Table:
     """Read a table from ``path`` (or from ``text`` already read from it; see module docstring).
 
     ``what`` says what the header should look like, for the empty-file message. ``# key: value``
     lines above the header whose key is in ``settings`` are collected (a key given twice is an
-    error); other comments are free text.
+    error); other comments are free text. ``columns``: the column names of a table WITHOUT a
+    header row (every line is a row; e.g. OptiOdom run files).
     """
     if text is None:
         text = read_text(path)
-    header: list[str] | None = None
+    header: list[str] | None = list(columns) if columns is not None else None
     header_line = 0
     rows: list[tuple[int, list[str]]] = []
     found: dict[str, tuple[str, int]] = {}
@@ -248,7 +250,7 @@ def read_table(
                 f"expected {len(header)} fields as in the header, got {len(fields)}", path, no
             )
         rows.append((no, fields))
-    if header is None:
+    if header is None or (columns is not None and not rows):
         raise InputError(f"empty file, expected {what}", path)
     return Table(str(path), tuple(header), header_line, rows, found)
 
