@@ -243,6 +243,16 @@ def _outputs(plan: OutputPlan, out, ros2, plot=None) -> None:
         plan.folder(plot, "--plot")
 
 
+def _at_diameters(result: GeometryFit, reference: WheelGeometry) -> dict | None:
+    """A banded fit's wheelbases rescaled to ``reference``'s mean diameter (the same turning
+    gains), so that they compare with the band table, which is at the reference's diameters."""
+    bands = result.extras.get("band_wheelbase_m")
+    if not bands:
+        return None
+    scale = float(reference.mean_diameter_m / result.geometry.mean_diameter_m)
+    return {k: v * scale for k, v in bands.items()}
+
+
 def _write(
     plan, geometry, nominal, method, out, ros2, controller_name, figures=None, **record
 ) -> tuple[Path, ...]:
@@ -384,11 +394,18 @@ def fit(
             )
             lines = {
                 "constant fit": c["wheelbase_m"],
-                "single value for the motion mix": float(result.geometry.wheelbase_m),
+                "single value for the motion mix": float(
+                    result.geometry.wheelbase_m
+                    * reference.mean_diameter_m
+                    / result.geometry.mean_diameter_m
+                ),
             }
         table = effective_wheelbase(used, reference)
         figures[Path(plot) / "effective_wheelbase.png"] = wheelbase_bands_figure(
-            {"segment estimate": table}, "Effective wheelbase per band of motion", lines
+            {"segment estimate": table},
+            "Effective wheelbase per band of motion",
+            lines,
+            _at_diameters(result, reference),
         )
     forced = refuse_absurd(result.geometry, nominal, force)
     written = _write(

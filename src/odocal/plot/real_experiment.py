@@ -118,10 +118,13 @@ def gain_figure(exp, title: str):
     return fig
 
 
-def wheelbase_bands_figure(tables: dict, title: str, single: dict | None = None):
+def wheelbase_bands_figure(
+    tables: dict, title: str, single: dict | None = None, fitted: dict | None = None
+):
     """Effective wheelbase (mm) per band of motion with 95 % intervals, one series per entry of
     ``tables`` (name -> EffectiveWheelbase); ``single``: name -> a single wheelbase (m) drawn as
-    a horizontal line (e.g. the constant fit, the value for a motion mix)."""
+    a horizontal line (e.g. the constant fit, the value for a motion mix); ``fitted``: band ->
+    wheelbase (m) of a banded model, drawn as crosses."""
     from ..calibration.turning import BANDS
 
     fig = new_figure(7.4, 4.6)
@@ -145,6 +148,17 @@ def wheelbase_bands_figure(tables: dict, title: str, single: dict | None = None)
                 capsize=3,
                 label=name if i == min(j for j, e in enumerate(table.bands) if e.excited) else None,
             )
+    if fitted:
+        idx = [BANDS.index(b) for b in fitted]
+        ax.plot(
+            idx,
+            [v * _MM for v in fitted.values()],
+            "x",
+            color="C3",
+            ms=10,
+            mew=2,
+            label="banded model (its gains, at the same diameters)",
+        )
     for j, (name, value) in enumerate((single or {}).items()):
         ax.axhline(value * _MM, ls=["--", ":", "-."][j % 3], color="0.3", lw=1, label=name)
     labels = []
