@@ -195,3 +195,16 @@ def test_design_robot_from_recordings(cli, realdata):
     assert m["nominal"]["wheelbase_m"] == 0.2
     assert m["systematic"]["E_b"] > 1.0  # the robot turns less than nominal says
     assert d["robot"].startswith("robot measured from")
+
+
+def test_fit_robot_out(cli, realdata, tmp_path):
+    sq = realdata / "optiodom_diff" / "square"
+    out = tmp_path / "robot.yaml"
+    status, _, err = cli("fit", sq, "--method", "heading", "--robot-out", out)
+    assert status == 0, err
+    r = load_robot(out)
+    # the heading method cannot see the scale (E_s 1); k as odocal noise measures it
+    assert r.systematic.E_s == 1.0 and r.systematic.E_b == pytest.approx(1.00889, abs=1e-5)
+    assert r.nonsystematic.k_r_m == pytest.approx(1.22e-6, rel=0.01)
+    one = realdata / "optiodom_diff" / "square" / "231220200045"  # one run per direction
+    cli("fit", one, "--robot-out", tmp_path / "r2.yaml").expect_error("no group of repeated")

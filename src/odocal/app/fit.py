@@ -231,9 +231,11 @@ class FitResult:
         return out
 
 
-def _outputs(plan: OutputPlan, out, ros2, plot=None) -> None:
+def _outputs(plan: OutputPlan, out, ros2, plot=None, robot_out=None) -> None:
     if out is not None:
         plan.file(out, "--out")
+    if robot_out is not None:
+        plan.file(robot_out, "--robot-out")
     if ros2 is not None:
         plan.file(ros2, "--ros2")
     if plot is not None:
@@ -254,9 +256,9 @@ def _at_diameters(result: GeometryFit, reference: WheelGeometry) -> dict | None:
 
 
 def _write(
-    plan, geometry, nominal, method, out, ros2, controller_name, figures=None, **record
+    plan, geometry, nominal, method, out, ros2, controller_name, files=None, **record
 ) -> tuple[Path, ...]:
-    contents: dict = dict(figures or {})
+    contents: dict = dict(files or {})  # figures and other outputs already made
     if ros2 is not None:
         if nominal is None:
             raise InputError("--ros2 needs the nominal geometry: give --robot ROBOT.yaml")
@@ -291,11 +293,14 @@ def fit(
     slam_stamp_offset_s: float = 0.0,
     scan_interval_s: float = 0.5,
     plot: str | Path | None = None,
+    robot_out: str | Path | None = None,
     **options,
 ) -> FitResult:
     """Load the runs in ``paths`` and calibrate with ``method`` (not 'gyro': see
     :func:`fit_gyro`); write PARAMS.yaml to ``out``, a ros2_control file to ``ros2`` and the
-    effective-wheelbase figure (trajectory fits) into the folder ``plot``.
+    effective-wheelbase figure (trajectory fits) into the folder ``plot`` and the measured robot
+    (this calibration's systematic errors, k from the repeated runs among ``paths``, the tracker's
+    jitter) to ``robot_out`` (a ROBOT.yaml for ``odocal design --robot``).
 
     ``robot``: ROBOT.yaml (nominal geometry; for runs without metadata, the parameters they ran
     with: its 'believed', else nominal). A result more than 25 % from nominal is absurd for a
@@ -317,7 +322,9 @@ def fit(
     plan = OutputPlan(input_paths(list(paths), robot))
     if plot is not None and method not in (None, "trajectory"):
         raise InputError("--plot draws the effective wheelbase of a trajectory fit", field="plot")
-    _outputs(plan, out, ros2, plot)
+    if robot_out is not None and method in ("relative", "scan"):
+        raise InputError("--robot-out needs runs with ground truth (not --method relative/scan)")
+    _outputs(plan, out, ros2, plot, robot_out)
     refuse_repeated(paths)  # the same file twice would count twice, whatever it holds
     if method == "scan":
         return _fit_scan(
@@ -380,7 +387,7 @@ def fit(
             )
         except CalibrationError as exc:  # a very fine segment layout: the check would be slow
             result = replace(result, warnings=[*result.warnings, f"log check skipped: {exc}"])
-    figures = {}
+    files = {}
     if plot is not None:
         from ..plot.real_experiment import wheelbase_bands_figure
 
@@ -401,15 +408,24 @@ def fit(
                 ),
             }
         table = effective_wheelbase(used, reference)
-        figures[Path(plot) / "effective_wheelbase.png"] = wheelbase_bands_figure(
+        files[Path(plot) / "effective_wheelbase.png"] = wheelbase_bands_figure(
             {"segment estimate": table},
             "Effective wheelbase per band of motion",
             lines,
             _at_diameters(result, reference),
         )
     forced = refuse_absurd(result.geometry, nominal, force)
+    if robot_out is not None:
+        from ..io.robot_file import robot_yaml
+        from .measured import measure_robot
+
+        if nominal is None:
+            raise InputError("--robot-out needs the nominal geometry: give --robot ROBOT.yaml")
+        used = [r for r in recordings if r.name in set(result.runs)]
+        measured = measure_robot(used, nominal, fit=result, force=force)
+        files[Path(robot_out)] = robot_yaml(measured.robot, measured.describe())
     written = _write(
-        plan, result.geometry, nominal, result.method, out, ros2, controller_name, figures
+        plan, result.geometry, nominal, result.method, out, ros2, controller_name, files
     )
     return FitResult(
         result,

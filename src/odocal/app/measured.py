@@ -55,8 +55,8 @@ class MeasuredRobot:
         lo, hi = self.noise.k_sum_ci95_m
         return (
             f"measured from {len(self.fit.runs)} recorded run(s) by odocal",
-            f"systematic: trajectory fit relative to nominal (E_b {s.E_b:.6f}, E_d {s.E_d:.6f}, "
-            f"E_s {s.E_s:.6f})",
+            f"systematic: {self.fit.method} fit relative to nominal (E_b {s.E_b:.6f}, E_d "
+            f"{s.E_d:.6f}, E_s {s.E_s:.6f})",
             f"nonsystematic: k_r + k_l = {self.noise.k_sum_m:.3g} m (95 % {lo:.3g}-{hi:.3g}) "
             f"from {self.noise.runs} repeated runs ({self.noise.dof} dof); "
             + (
@@ -99,17 +99,20 @@ def measure_robot(
     measurement: MeasurementNoise | None = None,
     noise_recordings: Sequence[Recording] | None = None,
     force: bool = False,
+    fit: GeometryFit | None = None,
 ) -> MeasuredRobot:
     """Measure a robot from tracked runs (steps 2-3 of the paper's procedure).
 
     ``recordings``: runs for the systematic errors (trajectory fit, any motion);
     ``noise_recordings``: the repeated runs for k (default the same runs); ``measurement``:
     the instrument (default: the tracker's jitter, times sqrt(2)); ``force``: estimate k even
-    when a group's heading errors drift with run order (a warning)."""
+    when a group's heading errors drift with run order (a warning); ``fit``: a calibration of
+    the same runs to use instead of the trajectory fit (e.g. ``odocal fit``'s own result)."""
     recs = list(recordings)
     if not recs:
         raise InputError("no recorded runs to measure the robot from")
-    fit = fit_trajectory(recs, nominal=nominal)
+    if fit is None:
+        fit = fit_trajectory(recs, nominal=nominal)
     tracker = tracker_noise(recs)
     if measurement is None:
         measurement = MeasurementNoise(

@@ -122,6 +122,12 @@ def add_parser(sub) -> None:
         "reports what one value costs per band (default with --wheelbase-model banded: the "
         "runs' own mix)",
     )
+    p.add_argument(
+        "--robot-out",
+        metavar="ROBOT.yaml",
+        help="write the measured robot (this fit's systematic errors, k from the repeated runs "
+        "among the inputs, the tracker's jitter) for 'odocal design --robot'",
+    )
     t.add_argument(
         "--plot",
         metavar="DIR",
@@ -262,6 +268,7 @@ def run(args) -> int:
         wheelbase_model=args.wheelbase_model,
         motion_mix=args.motion_mix,
         plot=args.plot,
+        robot_out=args.robot_out,
     )
     print_warnings(res.load_warnings)
     result, nominal = res.fit, res.nominal
