@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from ..calibration.identifiability import LogCheck, NoiseModel, check_recordings
@@ -24,9 +24,13 @@ class CheckResult:
     check: LogCheck
     noise_source: str
     recordings: int
+    load_warnings: tuple[str, ...] = ()
 
     def as_dict(self) -> dict:
-        return self.check.as_dict() | {"noise_source": self.noise_source}
+        return self.check.as_dict() | {
+            "noise_source": self.noise_source,
+            "load_warnings": list(self.load_warnings),
+        }
 
 
 def noise_model(r: Robot | None) -> tuple[NoiseModel, str]:
@@ -73,7 +77,8 @@ def check(
     nominal geometry (``robot``, else the recordings' metadata)."""
     if isinstance(paths, (str, Path)):
         paths = [paths]
-    opts = bag_options or {}
+    opts = {k: v for k, v in (bag_options or {}).items() if k != "scan_topic"}
+    notes: list[str] = []
     if truth_frames is not None:
         recordings = [
             load_slam_bag(
@@ -87,7 +92,7 @@ def check(
             for p in refuse_repeated(paths)
         ]
     else:
-        recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, **opts)
+        recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, warnings=notes, **opts)
     r = optional_robot(robot)
     geometry = nominal_geometry(r, recordings)
     if geometry is None:
@@ -95,4 +100,8 @@ def check(
             "the check needs the robot's nominal geometry: give --robot ROBOT.yaml (the "
             "recordings carry no firmware parameters)"
         )
-    return check_loaded(recordings, geometry, r, mounting=mounting, **settings)
+    res = check_loaded(recordings, geometry, r, mounting=mounting, **settings)
+    loaded = tuple(
+        f"{x.name}: {w}" for x in recordings for w in (x.meta.get("warnings", ()) if x.meta else ())
+    )
+    return replace(res, load_warnings=tuple(notes) + loaded)

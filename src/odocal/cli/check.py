@@ -8,6 +8,7 @@ from .common import (
     bag_options,
     print_json,
     print_table,
+    print_warnings,
 )
 
 
@@ -99,6 +100,7 @@ def run(args) -> int:
         mounting=args.mounting,
         residual=args.residual,
     )
+    print_warnings(res.load_warnings)
     if args.json:
         print_json(res.as_dict())
         return 0
