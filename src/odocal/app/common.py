@@ -148,12 +148,14 @@ def write_exports(
     out=None,
     ros2=None,
     controller_name: str = DEFAULT_CONTROLLER,
+    files: dict | None = None,
     **record: Any,
 ) -> tuple[Path, ...]:
     """The one export path of every calibration: PARAMS.yaml (``out``) and the ros2_control
     ``diff_drive_controller`` file (``ros2``; nominal base values, the calibration in the
-    multipliers), written all or none. ``record`` (method, E_b, ...) goes beside the values."""
-    contents: dict[Path, str] = {}
+    multipliers), written all or none with the command's other ``files`` (path -> content, e.g.
+    figures). ``record`` (method, E_b, ...) goes beside the values."""
+    contents: dict = dict(files or {})
     if ros2 is not None:
         if nominal is None:
             raise InputError("--ros2 needs the nominal geometry: give --robot ROBOT.yaml")

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..calibration.banded import fit_banded
 from ..calibration.censi import SensorOdometryFit, fit_censi, predict_sensor_motion
 from ..calibration.gyro import GyroResult, gyro_calibration, integrate_rate
 from ..calibration.linear import fit_linear
@@ -15,6 +16,12 @@ from ..calibration.result import ABSURD_FRACTION, GeometryFit
 from ..calibration.scan_matching import match_intervals
 from ..calibration.squares import fit_recorded_squares
 from ..calibration.trajectory import fit_trajectory
+from ..calibration.turning import (
+    BANDS,
+    effective_wheelbase,
+    nearest_estimated_band,
+    wheelbase_for_mix,
+)
 from ..core.model import WheelGeometry
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
@@ -62,6 +69,7 @@ __all__ = [
 ]
 
 METHODS = ("trajectory", "linear", "umbmark", "heading", "gyro", "relative", "scan")
+WHEELBASE_MODELS = ("constant", "banded")
 
 
 def fit_recordings(
@@ -80,9 +88,30 @@ def fit_recordings(
     umbmark_form: str = "mean",
     heading_source: str = "truth",
     sides: int = 4,
+    wheelbase_model: str = "constant",
+    motion_mix: dict[str, float] | None = None,
 ) -> GeometryFit:
     """Calibrate from loaded recordings (with ground truth, or for the heading method a gyro
-    heading: ``heading_source='gyro'``); returns a ``GeometryFit``."""
+    heading: ``heading_source='gyro'``); returns a ``GeometryFit``.
+
+    Trajectory fits also report the effective wheelbase per band of motion
+    (``extras['effective_wheelbase']``, :mod:`odocal.calibration.turning`). ``wheelbase_model``
+    'banded' fits one wheelbase per excited band (:func:`fit_banded`; refused with the reason
+    when the runs excite fewer than two bands). ``motion_mix`` (band -> share of the rotation)
+    makes the result's wheelbase the single value that is best for that mix, with what it costs
+    (``extras['motion_mix']``)."""
+    if wheelbase_model not in WHEELBASE_MODELS:
+        raise InputError(
+            f"wheelbase model must be one of {', '.join(WHEELBASE_MODELS)}, got "
+            f"{wheelbase_model!r}",
+            field="wheelbase-model",
+        )
+    if method != "trajectory" and (wheelbase_model != "constant" or motion_mix):
+        raise InputError(
+            "--wheelbase-model banded and --motion-mix need the trajectory method "
+            "(--method trajectory)",
+            field="method",
+        )
     if heading_source == "gyro" and method != "heading":
         raise InputError(f"--heading-source gyro is for --method heading, not {method}")
     if heading_source != "gyro":
@@ -90,7 +119,7 @@ def fit_recordings(
     if method == "linear":
         return fit_linear(recordings, nominal)
     if method == "trajectory":
-        return fit_trajectory(
+        fit = fit_trajectory(
             recordings,
             nominal=nominal,
             residual=residual,
@@ -100,6 +129,24 @@ def fit_recordings(
             drop_outliers=drop_outliers,
             run_weight=run_weight,
         )
+        used = [r for r in recordings if r.name in set(fit.runs)]
+        if wheelbase_model == "banded":
+            banded = fit_banded(
+                used,
+                fit.geometry,
+                nominal=nominal,
+                mix=motion_mix,
+                heading_weight_m=heading_weight_m,
+            )
+            return replace(
+                banded,
+                excluded=fit.excluded,
+                outliers=fit.outliers,
+                per_run=fit.per_run,
+                warnings=list(fit.warnings) + list(banded.warnings),
+                extras={**banded.extras, "constant_fit": fit.geometry.as_dict()},
+            )
+        return _with_bands(fit, used, motion_mix)
     if method in ("umbmark", "heading"):
         return fit_recorded_squares(
             recordings,
@@ -112,6 +159,51 @@ def fit_recordings(
             sides=sides,
         )
     raise InputError(f"unknown method {method!r}", field="method")
+
+
+def _with_bands(fit: GeometryFit, runs, motion_mix) -> GeometryFit:
+    """The constant-wheelbase fit with its effective wheelbase per band of motion, a warning
+    when excited bands disagree, and (with ``motion_mix``) the single wheelbase for the mix
+    from the band estimates."""
+    table = effective_wheelbase(runs, fit.geometry)
+    extras = {**fit.extras, "wheelbase_model": "constant", "effective_wheelbase": table.as_dict()}
+    warnings = list(fit.warnings)
+    excited = [b for b in table.bands if b.excited and b.ci95_m is not None]
+    for i, x in enumerate(excited):
+        for y in excited[i + 1 :]:
+            if x.ci95_m[1] < y.ci95_m[0] or y.ci95_m[1] < x.ci95_m[0]:
+                warnings.append(
+                    f"the robot turns differently in band '{x.band}' (effective wheelbase "
+                    f"{x.wheelbase_m:.5g} m) and band '{y.band}' ({y.wheelbase_m:.5g} m; 95 % "
+                    "intervals apart): one wheelbase is a compromise; see --wheelbase-model "
+                    "banded and --motion-mix"
+                )
+    geometry = fit.geometry
+    if motion_mix:
+        known = {b.band: b.wheelbase_m for b in table.bands if b.excited}
+        if not known:
+            raise InputError(
+                "--motion-mix: no band of motion is excited by these runs, so no band has an "
+                "effective wheelbase to mix",
+                field="motion-mix",
+            )
+        idx = [BANDS.index(k) for k in known]
+        nearest = nearest_estimated_band(idx)
+        per_band = {n: known[BANDS[nearest[i]]] for i, n in enumerate(BANDS)}
+        for name, share in motion_mix.items():
+            if share > 0 and name not in known:
+                warnings.append(
+                    f"the motion mix turns {100 * share:.0f} % in band '{name}', which these "
+                    f"runs do not excite: its wheelbase is taken from band "
+                    f"'{BANDS[nearest[BANDS.index(name)]]}'"
+                )
+        choice = wheelbase_for_mix(per_band, motion_mix)
+        geometry = WheelGeometry(
+            geometry.diameter_right_m, geometry.diameter_left_m, choice.wheelbase_m
+        )
+        extras["motion_mix"] = choice.as_dict()
+        extras["constant_fit"] = fit.geometry.as_dict()
+    return replace(fit, geometry=geometry, warnings=warnings, extras=extras)
 
 
 @dataclass(frozen=True)
@@ -145,6 +237,16 @@ class FitResult:
         return out
 
 
+def _at_diameters(result: GeometryFit, reference: WheelGeometry) -> dict | None:
+    """A banded fit's wheelbases rescaled to ``reference``'s mean diameter (the same turning
+    gains), so that they compare with the band table, which is at the reference's diameters."""
+    bands = result.extras.get("band_wheelbase_m")
+    if not bands:
+        return None
+    scale = float(reference.mean_diameter_m / result.geometry.mean_diameter_m)
+    return {k: v * scale for k, v in bands.items()}
+
+
 def _load_warnings(recordings) -> tuple[str, ...]:
     return tuple(
         f"{r.name}: {w}" for r in recordings for w in (r.meta.get("warnings", ()) if r.meta else ())
@@ -169,10 +271,15 @@ def fit(
     truth_frames: tuple[str, str] | None = None,
     slam_stamp_offset_s: float = 0.0,
     scan_interval_s: float = 0.5,
+    plot: str | Path | None = None,
+    robot_out: str | Path | None = None,
     **options,
 ) -> FitResult:
     """Load the runs in ``paths`` and calibrate with ``method`` (not 'gyro': see
-    :func:`fit_gyro`); write PARAMS.yaml to ``out`` and a ros2_control file to ``ros2``.
+    :func:`fit_gyro`); write PARAMS.yaml to ``out``, a ros2_control file to ``ros2`` and the
+    effective-wheelbase figure (trajectory fits) into the folder ``plot`` and the measured robot
+    (this calibration's systematic errors, k from the repeated runs among ``paths``, the tracker's
+    jitter) to ``robot_out`` (a ROBOT.yaml for ``odocal design --robot``).
 
     ``robot``: ROBOT.yaml (nominal geometry; for runs without metadata, the parameters they ran
     with: its 'believed', else nominal). A result more than 25 % from nominal is absurd for a
@@ -192,7 +299,18 @@ def fit(
     if isinstance(paths, (str, Path)):
         paths = [paths]
     plan = OutputPlan(input_paths(list(paths), robot))
+    if plot is not None and method not in (None, "trajectory"):
+        raise InputError("--plot draws the effective wheelbase of a trajectory fit", field="plot")
+    if robot_out is not None and method in ("relative", "scan"):
+        raise InputError("--robot-out needs runs with ground truth (not --method relative/scan)")
     register_exports(plan, out, ros2)
+    if robot_out is not None:
+        plan.file(robot_out, "--robot-out")
+    if plot is not None:
+        from ..plot._figure import require_matplotlib
+
+        require_matplotlib()
+        plan.folder(plot, "--plot")
     refuse_repeated(paths)  # the same file twice would count twice, whatever it holds
     if method == "scan":
         return _fit_scan(
@@ -255,9 +373,52 @@ def fit(
             )
         except CalibrationError as exc:  # a very fine segment layout: the check would be slow
             result = replace(result, warnings=[*result.warnings, f"log check skipped: {exc}"])
+    files = {}
+    if plot is not None:
+        from ..plot.real_experiment import wheelbase_bands_figure
+
+        used = [r for r in recordings if r.name in set(result.runs)]
+        lines = {"one wheelbase (this fit)": float(result.geometry.wheelbase_m)}
+        reference = result.geometry
+        if "constant_fit" in result.extras:
+            c = result.extras["constant_fit"]
+            reference = WheelGeometry(
+                c["wheel_diameter_right_m"], c["wheel_diameter_left_m"], c["wheelbase_m"]
+            )
+            lines = {
+                "constant fit": c["wheelbase_m"],
+                "single value for the motion mix": float(
+                    result.geometry.wheelbase_m
+                    * reference.mean_diameter_m
+                    / result.geometry.mean_diameter_m
+                ),
+            }
+        table = effective_wheelbase(used, reference)
+        files[Path(plot) / "effective_wheelbase.png"] = wheelbase_bands_figure(
+            {"segment estimate": table},
+            "Effective wheelbase per band of motion",
+            lines,
+            _at_diameters(result, reference),
+        )
     forced = refuse_absurd(result.geometry, nominal, force)
+    if robot_out is not None:
+        from ..io.robot_file import robot_yaml
+        from .measured import measure_robot
+
+        if nominal is None:
+            raise InputError("--robot-out needs the nominal geometry: give --robot ROBOT.yaml")
+        used = [r for r in recordings if r.name in set(result.runs)]
+        measured = measure_robot(used, nominal, fit=result, force=force)
+        files[Path(robot_out)] = robot_yaml(measured.robot, measured.describe())
     written = write_exports(
-        plan, result.geometry, nominal, out, ros2, controller_name, method=result.method
+        plan,
+        result.geometry,
+        nominal,
+        out,
+        ros2,
+        controller_name,
+        files=files,
+        method=result.method,
     )
     return FitResult(
         result,

@@ -27,6 +27,7 @@ __all__ = [
     "trials_int",
     "fraction",
     "noise_track",
+    "motion_mix",
     "add_robot_args",
     "add_track_args",
     "add_export_args",
@@ -152,6 +153,17 @@ def noise_track(text: str) -> tuple[str, float]:
             f"the distance must be at most {MAX_LENGTH_M:g} m (check the units), got {dist!r}"
         )
     return kind, d
+
+
+def motion_mix(text: str) -> dict[str, float]:
+    """'spot=0.2,wide=0.8': shares of the rotation per band of motion (normalised)."""
+    from ..calibration.turning import parse_motion_mix
+    from ..errors import CalibrationError
+
+    try:
+        return parse_motion_mix(text)
+    except CalibrationError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def add_robot_args(p: argparse.ArgumentParser, params_help: str) -> None:

@@ -12,6 +12,7 @@ from .common import (
     ProgressBar,
     add_robot_args,
     fraction,
+    nonnegative_float,
     positive_int,
     print_json,
     print_table,
@@ -181,6 +182,26 @@ def add_parser(sub) -> None:
         help="design for the robot's errors as given even when ROBOT.yaml gives no "
         "'systematic' or 'nonsystematic' section (default: design over their typical ranges)",
     )
+    p.add_argument(
+        "--robot-from",
+        nargs="+",
+        metavar="RUN_OR_DIR",
+        help="measure the robot from tracked runs instead (systematic errors from a trajectory "
+        "fit, k from the spread of repeated runs, the instrument from the tracker's jitter "
+        "unless given); --robot then only gives the nominal geometry",
+    )
+    p.add_argument(
+        "--sigma-xy-m",
+        type=nonnegative_float,
+        metavar="S",
+        help="the instrument's position noise per measured final pose, m (replaces the robot's)",
+    )
+    p.add_argument(
+        "--sigma-theta-deg",
+        type=nonnegative_float,
+        metavar="S",
+        help="the instrument's heading noise per measured final pose, deg (replaces the robot's)",
+    )
     p.add_argument("--plot", metavar="DIR", help="write PNG figures into DIR")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument(
@@ -221,6 +242,8 @@ def run(args) -> int:
             plot=args.plot,
             progress=bar,
             error_range=False if args.known_errors else None,
+            robot_from=args.robot_from,
+            measurement=_instrument(args),
         )
     finally:
         bar.close()
@@ -228,6 +251,15 @@ def run(args) -> int:
     if args.json:
         print_json(res.as_dict())
         return 0
+    if res.measured is not None:
+        m = res.measured.robot
+        print(
+            f"Robot measured from {len(res.measured.fit.runs)} run(s): E_b {m.systematic.E_b:.6f}, "
+            f"E_d {m.systematic.E_d:.6f} (relative to nominal), k_r + k_l "
+            f"{m.nonsystematic.k_sum_m:.3g} m, instrument {m.measurement.sigma_xy_m * 1000:.3g} mm "
+            f"/ {math.degrees(m.measurement.sigma_theta_rad):.3g} deg "
+            f"({res.measured.measurement_source})"
+        )
     for note in res.notes:
         print(f"Note: {note}")
     if isinstance(res.result, RangeDesign):
@@ -237,6 +269,14 @@ def run(args) -> int:
     for path in res.written:
         print(f"wrote {path}")
     return 0
+
+
+def _instrument(args):
+    if args.sigma_xy_m is None and args.sigma_theta_deg is None:
+        return None
+    from ..core.model import MeasurementNoise
+
+    return MeasurementNoise.from_degrees(args.sigma_xy_m or 0.0, args.sigma_theta_deg or 0.0)
 
 
 def _f(v, fmt: str) -> str:

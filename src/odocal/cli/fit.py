@@ -14,6 +14,7 @@ from .common import (
     format_topics,
     heading_weight,
     length_m,
+    motion_mix,
     number,
     print_json,
     print_table,
@@ -95,6 +96,34 @@ def add_parser(sub) -> None:
     )
     t.add_argument(
         "--drop-outliers", action="store_true", help="refit without the runs flagged as outliers"
+    )
+    t.add_argument(
+        "--wheelbase-model",
+        choices=("constant", "banded"),
+        default="constant",
+        help="constant: one wheelbase (default); banded: one per band of motion (spot turns, "
+        "tight arcs, wide arcs, near-straight) where the runs excite at least two bands "
+        "(refused, with the reason, otherwise)",
+    )
+    t.add_argument(
+        "--motion-mix",
+        type=motion_mix,
+        metavar="BAND=SHARE,...",
+        help="export the single wheelbase that is best for this mix of motions (shares of the "
+        "robot's rotation per band: spot, tight, wide, straight), e.g. spot=0.2,wide=0.8; "
+        "reports what one value costs per band (default with --wheelbase-model banded: the "
+        "runs' own mix)",
+    )
+    p.add_argument(
+        "--robot-out",
+        metavar="ROBOT.yaml",
+        help="write the measured robot (this fit's systematic errors, k from the repeated runs "
+        "among the inputs, the tracker's jitter) for 'odocal design --robot'",
+    )
+    t.add_argument(
+        "--plot",
+        metavar="DIR",
+        help="write the effective wheelbase per band of motion (effective_wheelbase.png)",
     )
     s = p.add_argument_group("umbmark / heading methods")
     s.add_argument(
@@ -228,6 +257,10 @@ def run(args) -> int:
         heading_source=args.heading_source,
         sides=args.sides,
         force=args.force,
+        wheelbase_model=args.wheelbase_model,
+        motion_mix=args.motion_mix,
+        plot=args.plot,
+        robot_out=args.robot_out,
     )
     print_warnings(res.load_warnings)
     result, nominal = res.fit, res.nominal
@@ -254,7 +287,11 @@ def run(args) -> int:
     if result.excluded:
         print("excluded: " + ", ".join(Path(n).name for n in result.excluded))
     if "residual_rms" in result.extras:
-        print(f"residual RMS {result.extras['residual_rms']:.3g} ({result.extras['residual']})")
+        print(
+            f"residual RMS {result.extras['residual_rms']:.3g} "
+            f"({result.extras.get('residual', 'pose')})"
+        )
+    _print_bands(result.extras)
     if res.log_check is not None:
         from .check import print_check
 
@@ -263,6 +300,57 @@ def run(args) -> int:
     for f in res.written:
         print(f"wrote {f}")
     return 0
+
+
+def _print_bands(extras: dict) -> None:
+    """The effective wheelbase per band of motion, the banded fit and the motion mix."""
+    table = extras.get("effective_wheelbase")
+    if table:
+        rows = [
+            (
+                "band",
+                "turn radius (m)",
+                "eff. wheelbase (m)",
+                "95 % interval",
+                "segments",
+                "share of rotation",
+            )
+        ]
+        for b in table["bands"]:
+            lo, hi = b["radius_range_m"]
+            radius = (
+                f"< {hi:.3g}"
+                if lo == 0
+                else (f"> {lo:.3g}" if hi is None else f"{lo:.3g}-{hi:.3g}")
+            )
+            est = "not excited"
+            ci = ""
+            if b["excited"]:
+                est = f"{b['wheelbase_m']:.6f}"
+                ci = f"{b['ci95_m'][0]:.6f}-{b['ci95_m'][1]:.6f}"
+            rows.append(
+                (
+                    b["band"],
+                    radius,
+                    est,
+                    ci,
+                    f"{b['segments']} ({b['runs']} runs)",
+                    f"{100 * b['rotation_share']:.0f} %",
+                )
+            )
+        print_table(rows, "effective wheelbase per band of motion (at the fitted diameters):")
+    if extras.get("wheelbase_model") == "banded":
+        fitted = ", ".join(f"{k} {v:.6f} m" for k, v in extras["band_wheelbase_m"].items())
+        print(f"banded model: {fitted}")
+    mix = extras.get("motion_mix")
+    if mix:
+        shares = ", ".join(f"{k} {100 * v:.0f} %" for k, v in mix["mix"].items())
+        errs = ", ".join(f"{k} {v:+.2f}" for k, v in mix["heading_error_deg_per_turn"].items())
+        print(
+            f"single wheelbase for the motion mix ({shares}): {mix['wheelbase_m']:.6f} m; "
+            f"heading error per full turn (deg): {errs}; RMS "
+            f"{mix['rms_heading_error_deg_per_turn']:.2f} deg per turn"
+        )
 
 
 def _print_relative(res) -> None:

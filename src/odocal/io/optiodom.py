@@ -43,6 +43,7 @@ from .textfile import read_text
 __all__ = [
     "CALIBRATION_CIRCLE_SET",
     "load_optiodom_split",
+    "load_optiodom_experiment",
     "read_published",
     "load_optiodom_dataset",
     "is_optiodom_dataset",
@@ -311,6 +312,56 @@ def load_optiodom_split(folder, calibration_circle_set: str | None = None):
     if not heldout:
         raise InputError("no held-out runs (free/ or a second circular/ data set)", folder)
     return datasets, heldout
+
+
+def load_optiodom_experiment(folder):
+    """The runs of the real experiment of ``odocal reproduce --realdata`` from an
+    ``optiodom_diff`` folder.
+
+    Returns ``(squares_by_side, ivanjko, heldout, split)``: the square runs of every data set
+    grouped by side length (m; from the metadata), the Ivanjko runs (straight lines and spins,
+    used only by odocal's default fit and the robot model), the held-out runs (every circular
+    and free data set) and a sentence saying so. This split differs from ``odocal compare``'s
+    (:func:`load_optiodom_split`, which calibrates BCPT on one circle set): here no circle is
+    used for calibration, so all circle and free runs are held out.
+    """
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputError("not a folder (expected an optiodom_diff folder)", folder)
+
+    def sets(kind):
+        base = folder / kind
+        if not base.is_dir():
+            raise InputError(
+                f"no {kind}/ folder (an optiodom_diff folder holds square/, "
+                "ivanjko/, circular/ and free/)",
+                folder,
+            )
+        found = [d for d in sorted(base.iterdir()) if is_optiodom_dataset(d)]
+        if not found:
+            raise InputError("no OptiOdom data sets (with *_metadata.csv) inside", base)
+        return found
+
+    by_side: dict[float, list[Recording]] = {}
+    for d in sets("square"):
+        runs = load_optiodom_dataset(d)
+        side = runs[0].meta.get("side_m")
+        if not side:
+            raise InputError("square data set without a side length (metadata key 'L')", d)
+        by_side.setdefault(float(side), []).extend(runs)
+    ivanjko = [r for d in sets("ivanjko") for r in load_optiodom_dataset(d)]
+    circles = [r for d in sets("circular") for r in load_optiodom_dataset(d)]
+    heldout = circles + [r for d in sets("free") for r in load_optiodom_dataset(d)]
+    n_c = len(circles)
+    split = (
+        f"calibration: square/ ({sum(len(v) for v in by_side.values())} runs: "
+        + ", ".join(f"{len(v)} of {s:g} m" for s, v in sorted(by_side.items()))
+        + f"), plus ivanjko/ ({len(ivanjko)} runs) for odocal's default fit and the robot model; "
+        f"held out: every circular/ ({n_c}) and free/ ({len(heldout) - n_c}) run, "
+        f"{len(heldout)} runs (odocal compare uses another split: one circle set calibrates "
+        "BCPT there)"
+    )
+    return by_side, ivanjko, heldout, split
 
 
 def read_published(folder, method: str = "Sousa", dataset: str = "ALL_DATASETS_COMBINED"):

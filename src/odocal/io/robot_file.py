@@ -29,7 +29,7 @@ from ..presets import DEFAULT_ROBOT, PRESETS
 from .limits import ERROR_FACTOR, K_MAX_M, ROBOT_LENGTH_M, SIGMA_THETA_MAX_DEG, SIGMA_XY_MAX_M
 from .yamlfile import YamlDoc, load_yaml
 
-__all__ = ["load_robot", "load_params", "robot_from_doc", "params_yaml"]
+__all__ = ["load_robot", "load_params", "robot_from_doc", "params_yaml", "robot_yaml"]
 
 _TOP = (
     "name",
@@ -149,4 +149,34 @@ def params_yaml(geometry: WheelGeometry, **record) -> str:
         lines.append(f"{k}: {v:.9g}")
     for k, v in record.items():
         lines.append(f"{k}: {v if isinstance(v, str) else format(v, '.9g')}")
+    return "\n".join(lines) + "\n"
+
+
+def robot_yaml(robot: Robot, comments: tuple[str, ...] = ()) -> str:
+    """ROBOT.yaml text for ``robot`` (read back by :func:`load_robot` to the same values, to 9
+    significant digits), with ``comments`` as header lines (what the numbers came from)."""
+    import math
+
+    n = robot.nominal
+    lines = ["# odocal robot file (metres; k in metres, see docs/conventions.md)"]
+    lines += [f"# {c}" for c in comments]
+    lines += [
+        f"wheel_diameter_m: {float(n.mean_diameter_m):.9g}",
+        f"wheel_diameter_right_m: {float(n.diameter_right_m):.9g}",
+        f"wheel_diameter_left_m: {float(n.diameter_left_m):.9g}",
+        f"wheelbase_m: {float(n.wheelbase_m):.9g}",
+        "systematic:",
+        f"  E_b: {robot.systematic.E_b:.9g}",
+        f"  E_d: {robot.systematic.E_d:.9g}",
+        f"  E_s: {robot.systematic.E_s:.9g}",
+        "nonsystematic:",
+        f"  k_r_m: {robot.nonsystematic.k_r_m:.9g}",
+        f"  k_l_m: {robot.nonsystematic.k_l_m:.9g}",
+        "measurement:",
+        f"  sigma_xy_m: {robot.measurement.sigma_xy_m:.9g}",
+        f"  sigma_theta_deg: {math.degrees(robot.measurement.sigma_theta_rad):.9g}",
+    ]
+    if robot.believed is not None:
+        lines.append("believed:")
+        lines += [f"  {k}: {v:.9g}" for k, v in robot.believed.as_dict().items()]
     return "\n".join(lines) + "\n"
