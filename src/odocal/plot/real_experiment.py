@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._figure import new_figure
+from ._figure import method_style, new_figure
 
 __all__ = ["design_vs_real_figure", "gain_figure", "wheelbase_bands_figure", "real_figures"]
 
@@ -45,7 +45,10 @@ def design_vs_real_figure(exp, title: str):
             capsize=4,
             label="model: the real run counts (mean +- std)" if k == 0 else None,
         )
-    markers = {"heading": ("o", "C3"), "umbmark": ("^", "C2")}
+    markers = {
+        "heading": ("o", method_style("heading")[0]),
+        "umbmark": ("^", method_style("umbmark")[0]),
+    }
     for method, (m, col) in markers.items():
         first = True
         for s in exp.sides_m:
@@ -99,13 +102,19 @@ def gain_figure(exp, title: str):
         lw=1.5,
         label="diameter ratio fixed, gain varied",
     )
-    for i, g in enumerate(exp.gains):
+    for g in exp.gains:
+        # the methods' colours of every figure; the square size by the marker
+        method = next(
+            (k for k in ("heading", "umbmark", "trajectory") if k in g.label.lower()), None
+        )
+        colour = method_style(method)[0] if method else "0.25"
+        marker = "v" if "0.75 m" in g.label else "o" if "1.7 m" in g.label else "D"
         ax.plot(
             [g.turning_gain],
             [g.heldout_error_m * _MM],
-            "o",
+            marker,
             ms=8,
-            color=f"C{i}",
+            color=colour,
             mfc="white" if not g.held_out else None,
             label=g.label + ("" if g.held_out else " (fitted with the held-out runs)"),
         )
