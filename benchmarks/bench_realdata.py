@@ -9,7 +9,7 @@ calibrated parameters against the motion-capture ground truth (``odocal.core.odo
 
 UMBmark and the heading method use the square runs only (they need CW/CCW squares); each data set
 is calibrated with the firmware parameters it ran with and the results are pooled
-(``calibration/recorded.py``). ``linear`` and ``trajectory`` use squares and Ivanjko runs.
+(``calibration/squares.py``). ``linear`` and ``trajectory`` use squares and Ivanjko runs.
 
 Published row: ``reference_results_diff.csv``, method Sousa, ALL_DATASETS_COMBINED (171 runs, all
 categories INCLUDING the held-out circles and free paths, so it is not a held-out result).
@@ -17,6 +17,9 @@ categories INCLUDING the held-out circles and free paths, so it is not a held-ou
 Usage::
 
     python benchmarks/bench_realdata.py [--data ../shared/realdata/optiodom_diff] [--json]
+
+Also: the turning gain each kind of run implies (per recording session), and the trajectory fit's
+settings (residual, run weight, heading weight) on the same runs and on the 1.7 m squares alone.
 """
 
 from __future__ import annotations
@@ -117,6 +120,15 @@ def main(argv=None) -> int:
     for method in ("umbmark", "heading"):
         fit = fit_recordings(squares, method, nominal=nominal)
         add(method, "square", fit.geometry, "per data set, pooled")
+        for side in (0.75, 1.7):
+            runs = [r for r in squares if r.meta.get("side_m") == side]
+            fit = fit_recordings(runs, method, nominal=nominal)
+            add(
+                f"{method}, {side:g} m squares only",
+                f"square {side:g} m",
+                fit.geometry,
+                "per data set, pooled",
+            )
     fit = fit_recordings(train, "linear", nominal=nominal)
     add("linear (Antonelli)", "square + ivanjko", fit.geometry)
     variants = [
@@ -150,20 +162,70 @@ def main(argv=None) -> int:
     )
 
     # diagnostic: the effective turning gain mean(D)/b each kind of motion implies
+    def june(r):
+        return str(r.meta.get("dataset", "")).startswith(("2306", "2506"))
+
+    spins = [r for r in ivanjko if r.label and r.label.startswith("spin")]
     gains = {}
     for name, runs in (
-        ("ivanjko spins", [r for r in ivanjko if r.label and r.label.startswith("spin")]),
+        ("ivanjko spins", spins),
+        ("ivanjko spins, June", [r for r in spins if june(r)]),
+        ("ivanjko spins, December", [r for r in spins if not june(r)]),
         ("squares", squares),
+        ("0.75 m squares (June)", [r for r in squares if june(r)]),
+        ("1.7 m squares (December)", [r for r in squares if not june(r)]),
         ("circles", circular),
+        ("circles R 0.85 m (December)", [r for r in circular if not june(r)]),
+        ("circles R 0.375 m (June)", [r for r in circular if june(r)]),
         ("free paths", free),
     ):
         g = fit_recordings(runs, "trajectory", nominal=nominal).geometry
         gains[name] = float(g.mean_diameter_m / g.wheelbase_m)
+
+    # the default's estimator settings on the same runs, and the December squares alone
+    sweep = []
+    dec_squares = [r for r in squares if not june(r)]
+    settings = [
+        (hw, res, w)
+        for hw in (0.1, 1.0, 10.0)
+        for res in ("pose", "segment")
+        for w in ("travel", "equal")
+    ]
+    for on, runs, grid in (
+        ("square + ivanjko", train, settings),
+        ("1.7 m squares", dec_squares, [(hw, "pose", "travel") for hw in (0.1, 1.0, 10.0)]),
+    ):
+        for hw, residual, weight in grid:
+            g = fit_recordings(
+                runs,
+                "trajectory",
+                nominal=nominal,
+                heading_weight_m=hw,
+                residual=residual,
+                run_weight=weight,
+            ).geometry
+            sweep.append(
+                {
+                    "calibrated_on": on,
+                    "heading_weight_m": hw,
+                    "residual": residual,
+                    "run_weight": weight,
+                    "turning_gain": float(g.mean_diameter_m / g.wheelbase_m),
+                    "held_out_mean_final_error_m": errors(held, g)["final"],
+                }
+            )
     elapsed = time.perf_counter() - t0
 
     if args.json:
         json.dump(
-            {"rows": rows, "turning_gain_D_over_b": gains, "seconds": elapsed}, sys.stdout, indent=2
+            {
+                "rows": rows,
+                "turning_gain_D_over_b": gains,
+                "estimator_sweep": sweep,
+                "seconds": elapsed,
+            },
+            sys.stdout,
+            indent=2,
         )
         print()
         return 0
@@ -172,14 +234,15 @@ def main(argv=None) -> int:
         f"{len(squares)} square + {len(ivanjko)} ivanjko.\n"
     )
     print(
-        "| method | calibrated on | D_R (m) | D_L (m) | b (m) | held-out mean final error (mm) "
-        "| mean max error (mm) | circular / free (mm) | note |"
+        "| method | calibrated on | D_R (m) | D_L (m) | b (m) | gain mean(D)/b | held-out mean "
+        "final error (mm) | mean max error (mm) | circular / free (mm) | note |"
     )
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
+        gain = 0.5 * (r["wheel_diameter_right_m"] + r["wheel_diameter_left_m"]) / r["wheelbase_m"]
         print(
             f"| {r['method']} | {r['calibrated_on']} | {r['wheel_diameter_right_m']:.6f} | "
-            f"{r['wheel_diameter_left_m']:.6f} | {r['wheelbase_m']:.6f} | "
+            f"{r['wheel_diameter_left_m']:.6f} | {r['wheelbase_m']:.6f} | {gain:.5f} | "
             f"{1000 * r['held_out_mean_final_error_m']:.1f} | "
             f"{1000 * r['held_out_mean_max_error_m']:.1f} | "
             f"{1000 * r['circular_mean_final_error_m']:.1f} / "
@@ -188,6 +251,15 @@ def main(argv=None) -> int:
     print("\nEffective turning gain mean(D)/b fitted per kind of motion (trajectory, in-sample):")
     for k, v in gains.items():
         print(f"- {k}: {v:.5f}")
+    print("\nTrajectory-fit settings (held-out mean final error, mm; turning gain):\n")
+    print("| calibrated on | residual | run weight | heading weight (m/rad) | gain | error (mm) |")
+    print("|---|---|---|---:|---:|---:|")
+    for r in sweep:
+        print(
+            f"| {r['calibrated_on']} | {r['residual']} | {r['run_weight']} | "
+            f"{r['heading_weight_m']:g} | {r['turning_gain']:.5f} | "
+            f"{1000 * r['held_out_mean_final_error_m']:.1f} |"
+        )
     print(f"\n({elapsed:.1f} s)")
     return 0
 

@@ -144,7 +144,7 @@ def test_undefined_equations_fail_cleanly(cli, realdata):
     # straight runs of 1 nm cannot tell the wheel diameters apart (a singular system)
     assert_error(cli("compare", "--ivanjko-straight", "1e-9", "--trials", 2), "ivanjko")
     # the trajectory fit's heading weight overflows the squares far before 1e300 m/rad
-    assert_error(cli("fit", realdata / SQUARE, "--heading-weight", "1e300"), "heading_weight_m")
+    assert_error(cli("fit", realdata / SQUARE, "--heading-weight", "1e300"), "--heading-weight")
 
 
 def test_non_physical_ivanjko_result_is_named(cli, tmp_path):
@@ -231,29 +231,46 @@ def test_fit_json_warnings_also_on_stderr(cli, realdata):
         assert f"odocal: warning: {w}" in err
 
 
-def test_absurd_calibration_result_is_warned(cli, tmp_path):
-    circles = write(tmp_path / "c.csv", "direction,radius_m\ncw,1e5\nccw,1e-5\n")
-    status, out, err = cli("calibrate", circles, "--method", "bcpt", "--radius", 1, "--json")
+def test_absurd_calibration_result_is_refused_unless_forced(cli, tmp_path):
+    # radii 1.6 times the commanded 1 m: plausible for a circle run (a factor 2 is allowed),
+    # absurd for a calibration (the wheelbase 60 % off)
+    circles = write(tmp_path / "c.csv", "direction,radius_m\ncw,1.6\nccw,1.6\ncw,1.6\nccw,1.6\n")
+    params = tmp_path / "p.yaml"
+    argv = ["calibrate", circles, "--method", "bcpt", "--radius", 1, "--json", "--out", params]
+    assert_error(cli(*argv), "wheelbase_m", "from nominal", "--force")
+    assert not params.exists()
+    status, out, err = cli(*argv, "--force")
     assert status == 0, err
-    assert json.loads(out)["wheelbase_m"] < 1e-4
-    assert err.startswith("odocal: warning: wheelbase_m") and "from nominal" in err
+    assert params.is_file()
+    assert json.loads(out)["wheelbase_m"] > 1.25 * 0.385
+    assert "odocal: warning: wheelbase_m" in err and "from nominal" in err
 
 
-def test_plan_undefined_prediction_is_null_with_a_warning(cli, tmp_path):
+def test_circle_radius_far_from_the_commanded_one_is_refused(cli, tmp_path):
+    # 160 (cm typed into radius_m) for a 1.6 m circle, or 1e-5: no circle run ends like that
+    for bad in ("160", "1e-5"):
+        circles = write(tmp_path / "c.csv", f"direction,radius_m\ncw,1.6\nccw,{bad}\n")
+        cli("calibrate", circles, "--method", "bcpt", "--radius", 1.6).expect_error(
+            "c.csv", "line 3", "radius_m", "commanded"
+        )
+
+
+def test_plan_for_a_track_smaller_than_the_robot_is_refused(cli, tmp_path):
+    # a 1e-9 m side (once a prediction left undefined) cannot be driven by a 0.385 m robot
     out_csv = tmp_path / "plan.csv"
-    status, out, err = cli("plan", "--side-length", "1e-9", "--out", out_csv, "--json")
-    assert status == 0, err
-    pred = json.loads(out)["calibration_prediction"]
-    assert pred["post_error_mean_m"] is None and pred["E_d_std"] is None
-    assert err.startswith("odocal: warning: no calibration prediction")
-    assert out_csv.is_file()
+    cli("plan", "--side-length", "1e-9", "--out", out_csv, "--json").expect_error(
+        "wheelbase 0.385 m", "millimetres"
+    )
+    assert not out_csv.exists()
 
 
 def test_print_json_prints_all_or_nothing(capsys):
     from odocal.cli.common import print_json
+    from odocal.errors import OdocalError
 
-    with pytest.raises(ValueError):  # NaN is a programming error: must become null upstream
-        print_json({"ok": 1.0, "bad": math.nan})
+    # NaN must become null upstream; if one slips through, it is named, and nothing printed
+    with pytest.raises(OdocalError, match=r"'runs\[1\]\.bad' is not a finite number"):
+        print_json({"ok": 1.0, "runs": [{"bad": 0.0}, {"bad": math.nan}]})
     assert capsys.readouterr().out == ""
 
 

@@ -274,7 +274,8 @@ def test_cli_bcpt_json(cli, tmp_path):
         ("direction,radius_m\ncw,1.0,9\n", ["--radius", "1"], "line 2"),
         ("direction,radius_m\n", ["--radius", "1"], "no runs"),
         ("direction,radius_m\ncw,1.0\ncw,1.1\n", ["--radius", "1"], "no CCW runs"),
-        ("direction,radius_m\ncw,1.0\nccw,1.0\n", ["--radius", "0.1"], "half the wheelbase"),
+        ("direction,radius_m\ncw,0.11\nccw,0.1\n", ["--radius", "0.1"], "half the wheelbase"),
+        ("direction,radius_m\ncw,1.0\nccw,1.0\n", ["--radius", "0.1"], "a diameter for a radius"),
         ("direction,radius_m\ncw,1.0\nccw,1.0\n", ["--radius", "-2"], "--radius"),
     ],
 )

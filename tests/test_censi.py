@@ -206,7 +206,7 @@ def test_json_contract():
     fit = fit_censi(*synthetic(rng, 120, noise=NOISE))
     d = fit.as_dict()
     json.dumps(d, allow_nan=False)  # no NaN/inf as numbers
-    assert d["method"] == "censi"
+    assert d["method"] == "relative"
     for k in PARAMETERS:
         assert isinstance(d[k], float) and isinstance(d["stderr"][k], float)
     assert d["tuples_used"] + d["tuples_dropped"] == d["tuples_total"] == 120

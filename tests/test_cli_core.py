@@ -62,8 +62,10 @@ def test_simulate_then_calibrate_composes(cli, robot, tmp_path):
     runs = tmp_path / "runs.csv"
     status, _, err = cli("simulate", "--robot", robot, "--runs", 20, "--seed", 1, "--out", runs)
     assert status == 0, err
-    header = runs.read_text().splitlines()[0]
-    assert header.startswith("direction,x_m,y_m,theta_deg")
+    # the track is data of the sheet (read back by calibrate), then the header
+    lines = runs.read_text().splitlines()
+    assert lines[:2] == ["# sides: 4", "# side_m: 4"]
+    assert lines[2].startswith("direction,x_m,y_m,theta_deg")
     for method in ("heading", "umbmark"):
         status, out, err = cli(
             "calibrate",
@@ -114,7 +116,8 @@ def test_table_output_and_python_dash_m(robot, tmp_path):
     runs = tmp_path / "r.csv"
     runs.write_text(GOOD_RUNS)
     proc = subprocess.run(
-        [sys.executable, "-m", "odocal", "calibrate", str(runs), "--robot", str(robot)],
+        [sys.executable, "-m", "odocal", "calibrate", str(runs), "--robot", str(robot)]
+        + ["--side-length", "4"],
         capture_output=True,
         text=True,
         check=False,
@@ -139,9 +142,15 @@ BAD_RUNS = {
     "one direction": ("direction,x_m,y_m,theta_deg\ncw,0,0,1\ncw,0,0,2\n", ["CCW"]),
     "empty": ("", ["empty"]),
     "header only": ("direction,x_m,y_m,theta_deg\n", ["no runs"]),
-    "undefined equations": (
-        "direction,x_m,y_m,theta_deg\ncw,0,0,400\nccw,0,0,-400\n",
-        ["undefined"],
+    # a heading error no run of a square can have (radians multiplied out, ...): refused
+    "implausible heading": (
+        "direction,x_m,y_m,theta_deg\ncw,0,0,150\nccw,0,0,-4\n",
+        ["line 2", "theta_deg", "deviation"],
+    ),
+    # an end 12 m from the start after 16 m of travel: centimetres in a metre column
+    "implausible end": (
+        "direction,x_m,y_m,theta_deg\ncw,12,-3,4\nccw,0.1,0.1,-4\n",
+        ["line 2", "x_m", "centimetres"],
     ),
 }
 
@@ -152,11 +161,11 @@ def test_bad_runs_csv(cli, robot, tmp_path, case):
     p = tmp_path / "runs.csv"
     p.write_text(text)
     out_params = tmp_path / "params.yaml"
-    result = cli("calibrate", p, "--robot", robot, "--out", out_params)
+    result = cli("calibrate", p, "--robot", robot, "--side-length", 4, "--out", out_params)
     result.expect_error(*needles)
     assert not out_params.exists()
     err = result[2]
-    if case not in ("one direction", "undefined equations", "empty", "header only"):
+    if case not in ("one direction", "empty", "header only"):
         assert str(p) in err
 
 
@@ -233,6 +242,10 @@ def test_umbmark_needs_a_square(cli, robot, tmp_path):
     p = tmp_path / "r.csv"
     p.write_text(GOOD_RUNS)
     result = cli("calibrate", p, "--robot", robot, "--method", "umbmark", "--sides", 5)
+    result.expect_error("--side-length")
+    result = cli(
+        "calibrate", p, "--robot", robot, "--method", "umbmark", "--sides", 5, "--side-length", 4
+    )
     result.expect_error("squares")
 
 
@@ -286,14 +299,17 @@ def test_outputs_get_the_usual_file_mode(cli, robot, tmp_path):
 def test_heading_method_needs_only_headings_and_blank_cells_say_so(cli, robot, tmp_path):
     p = tmp_path / "runs.csv"
     p.write_text("direction,x_m,y_m,theta_deg\ncw,,,7.5\nccw,,,-12.1\n")
-    status, out, err = cli("calibrate", p, "--robot", robot, "--json")
+    track = ("--side-length", 4)
+    status, out, err = cli("calibrate", p, "--robot", robot, *track, "--json")
     assert status == 0, err
     assert json.loads(out)["E_b"] > 1
     # UMBmark needs the positions: an empty one is reported as not filled in
-    cli("calibrate", p, "--robot", robot, "--method", "umbmark").expect_error(
+    cli("calibrate", p, "--robot", robot, *track, "--method", "umbmark").expect_error(
         "line 2",
         "x_m",
         "not filled in",
     )
     p.write_text("direction,x_m,y_m,theta_deg\ncw,0.1,0.2,\nccw,0,0,1\n")
-    cli("calibrate", p, "--robot", robot).expect_error("line 2", "theta_deg", "not filled in")
+    cli("calibrate", p, "--robot", robot, *track).expect_error(
+        "line 2", "theta_deg", "not filled in"
+    )

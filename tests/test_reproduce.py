@@ -100,11 +100,18 @@ def test_figures_and_report_are_written(produced):
     assert not list(out.glob(".*.tmp"))
 
 
-def test_cli_reproduce(cli, tmp_path):
-    status, out, err = cli("reproduce", "--out", tmp_path / "r", "--trials", "20", "--quiet")
+def test_cli_reproduce_writes_the_same_bytes(cli, tmp_path, produced):
+    args = ("--trials", str(TRIALS), "--seed", "1", "--quiet")
+    status, out, err = cli("reproduce", "--out", tmp_path / "r", *args)
     assert status == 0, err
     assert "recommended side" in out and "REPORT.md" in out
     assert (tmp_path / "r" / "REPORT.md").stat().st_size > 1000
+    # the same command and seed as the library call: byte-identical report and figures (no
+    # wall-clock time or software version inside; the time goes to stderr)
+    first = {p.name: p.read_bytes() for p in sorted(produced[0].iterdir())}
+    again = {p.name: p.read_bytes() for p in sorted((tmp_path / "r").iterdir())}
+    assert first == again and len(first) >= 10
+    assert "simulation took" in err
 
 
 def test_cli_reproduce_bad_inputs(cli, tmp_path):

@@ -1,3 +1,142 @@
-"""odocal: odometry calibration and test-track design for differential-drive robots."""
+"""odocal: odometry calibration and test-track design for differential-drive robots.
+
+The everyday API, with the arguments, units and files of the command line (metres, degrees in
+files and in names that say so, ROBOT.yaml / RUNS.csv / PARAMS.yaml)::
+
+    import odocal
+
+    robot = odocal.make_robot(0.066, 0.160, E_b=1.02, E_d=1.004, k_r_m=1e-6,
+                              sigma_xy_m=0.01, sigma_theta_deg=1.0)
+    odocal.simulate(robot, sides=4, side_m=1.0, runs=5, seed=1, out="runs.csv")
+    cal = odocal.calibrate("runs.csv", robot)          # the track is read from the run sheet
+    odocal.export(cal, ros2="diff_drive.yaml")
+    best = odocal.design(robot).result.recommended
+
+Each function is the command of the same name (``odocal.app.<command>``) and returns a frozen
+result with ``as_dict()`` (the ``--json``). Names are imported on first use, so ``import odocal``
+(and ``odocal --help``) stays fast.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
+
+# name -> (module, attribute): resolved on first access (PEP 562). ``design`` is the subpackage
+# odocal.design itself, which is callable as the command (a function of that name would be
+# replaced by the subpackage the moment anything imports it).
+_API: dict[str, tuple[str, str | None]] = {
+    # commands
+    "simulate": ("odocal.app.simulate", "simulate"),
+    "calibrate": ("odocal.app.calibrate", "calibrate"),
+    "fit": ("odocal.app.fit", "fit"),
+    "design": ("odocal.design", None),  # the package, callable as the command
+    "validate": ("odocal.app.validate", "validate"),
+    "export": ("odocal.app.export", "export"),
+    "plan": ("odocal.app.plan", "plan"),
+    "noise": ("odocal.app.noise", "noise"),
+    "compare": ("odocal.app.compare", "compare"),
+    "reproduce": ("odocal.app.reproduce", "reproduce"),
+    "ttest": ("odocal.app.ttest", "ttest"),
+    "make_robot": ("odocal.app.common", "make_robot"),
+    # types
+    "Robot": ("odocal.core.model", "Robot"),
+    "WheelGeometry": ("odocal.core.model", "WheelGeometry"),
+    "SystematicError": ("odocal.core.model", "SystematicError"),
+    "NonSystematicError": ("odocal.core.model", "NonSystematicError"),
+    "MeasurementNoise": ("odocal.core.model", "MeasurementNoise"),
+    "DesignSpec": ("odocal.design.result", "DesignSpec"),
+    "ValidationTrack": ("odocal.design.result", "ValidationTrack"),
+    "CalibrateResult": ("odocal.app.calibrate", "CalibrateResult"),
+    "FitResult": ("odocal.app.fit", "FitResult"),
+    "DesignRun": ("odocal.app.design", "DesignRun"),
+    "SimulateResult": ("odocal.app.simulate", "SimulateResult"),
+    "Validation": ("odocal.app.validate", "Validation"),
+    "load_robot": ("odocal.io.robot_file", "load_robot"),
+    "load_params": ("odocal.io.robot_file", "load_params"),
+    "PRESETS": ("odocal.presets", "PRESETS"),
+    # errors
+    "OdocalError": ("odocal.errors", "OdocalError"),
+    "InputError": ("odocal.errors", "InputError"),
+    "ModelError": ("odocal.errors", "ModelError"),
+    "CalibrationError": ("odocal.errors", "CalibrationError"),
+}
+
+__all__ = [
+    "__version__",
+    "simulate",
+    "calibrate",
+    "fit",
+    "design",
+    "validate",
+    "export",
+    "plan",
+    "noise",
+    "compare",
+    "reproduce",
+    "ttest",
+    "make_robot",
+    "Robot",
+    "WheelGeometry",
+    "SystematicError",
+    "NonSystematicError",
+    "MeasurementNoise",
+    "DesignSpec",
+    "ValidationTrack",
+    "CalibrateResult",
+    "FitResult",
+    "DesignRun",
+    "SimulateResult",
+    "Validation",
+    "load_robot",
+    "load_params",
+    "PRESETS",
+    "OdocalError",
+    "InputError",
+    "ModelError",
+    "CalibrationError",
+]
+
+
+def __getattr__(name: str) -> Any:
+    try:
+        module, attr = _API[name]
+    except KeyError:
+        raise AttributeError(f"module 'odocal' has no attribute {name!r}") from None
+    value = importlib.import_module(module)
+    if attr is not None:
+        value = getattr(value, attr)
+    globals()[name] = value  # the next access is a plain lookup
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)
+
+
+if TYPE_CHECKING:  # for type checkers and IDEs; never executed
+    from .app.calibrate import CalibrateResult, calibrate
+    from .app.common import make_robot
+    from .app.compare import compare
+    from .app.design import DesignRun
+    from .app.export import export
+    from .app.fit import FitResult, fit
+    from .app.noise import noise
+    from .app.plan import plan
+    from .app.reproduce import reproduce
+    from .app.simulate import SimulateResult, simulate
+    from .app.ttest import ttest
+    from .app.validate import Validation, validate
+    from .core.model import (
+        MeasurementNoise,
+        NonSystematicError,
+        Robot,
+        SystematicError,
+        WheelGeometry,
+    )
+    from .design.result import DesignSpec, ValidationTrack
+    from .errors import CalibrationError, InputError, ModelError, OdocalError
+    from .io.robot_file import load_params, load_robot
+    from .presets import PRESETS

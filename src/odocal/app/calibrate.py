@@ -2,35 +2,169 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
+
+import numpy as np
 
 from ..calibration.bcpt import calibrate_bcpt
 from ..calibration.heading import calibrate_heading
 from ..calibration.result import CalibrationResult, check_physical
 from ..calibration.umbmark import calibrate_umbmark
+from ..core.model import Robot
+from ..core.plausibility import (
+    end_distance_problem,
+    end_error_bounds,
+    heading_error_problem,
+    track_size_problem,
+    wrap_heading_error,
+)
+from ..core.runs import EndPoseRuns
 from ..errors import InputError
 from ..io.outputs import OutputPlan
-from ..io.robot_file import params_yaml
-from ..io.runs_csv import read_circle_runs, read_runs
-from .common import RobotSpec, input_paths, resolve_robot
+from ..io.ros2_export import DEFAULT_CONTROLLER
+from ..io.runs_csv import RunSheet, read_circle_runs, read_run_sheet
+from .common import (
+    RobotSpec,
+    input_paths,
+    refuse_absurd,
+    register_exports,
+    resolve_robot,
+    write_exports,
+)
 
-__all__ = ["CalibrateResult", "calibrate"]
+__all__ = ["CalibrateResult", "calibrate", "resolve_track"]
 
 
 @dataclass(frozen=True)
 class CalibrateResult:
     """A calibration from a run sheet, its warnings (an absurd result is reported, not hidden)
-    and the files written."""
+    and the files written.
+
+    Attributes
+    ----------
+    calibration : CalibrationResult
+        E_b, E_d, the corrected geometry and its uncertainty from the run-to-run spread.
+    track : str
+        The track the runs drove, in words.
+    warnings : tuple of str
+    written : tuple of Path
+    track_source : str
+        Where the track came from: 'run sheet', 'arguments' or 'both' (they agree).
+    nominal : WheelGeometry or None
+        The nominal geometry (the base values of a ros2_control export).
+    """
 
     calibration: CalibrationResult
     track: str
     warnings: tuple[str, ...] = ()
     written: tuple[Path, ...] = ()
+    track_source: str = "arguments"
+    nominal: object = None
 
     def as_dict(self) -> dict:
-        """The JSON of ``odocal calibrate --json``."""
-        return self.calibration.as_dict()
+        """The JSON of ``odocal calibrate --json``: the result, its uncertainty, the inputs it
+        was computed from, the warnings and the files written."""
+        inputs = {k: _jsonable(v) for k, v in self.calibration.inputs.items()}
+        return self.calibration.as_dict() | {
+            "track": self.track,
+            "track_source": self.track_source,
+            "inputs": inputs,
+            "nominal": None if self.nominal is None else self.nominal.as_dict(),
+            "warnings": list(self.warnings),
+            "written": [str(p) for p in self.written],
+        }
+
+
+def _jsonable(v):
+    if isinstance(v, (np.floating, float)):
+        return float(v) if math.isfinite(v) else None
+    if isinstance(v, np.integer):
+        return int(v)
+    if isinstance(v, (list, tuple, np.ndarray)):
+        return [_jsonable(x) for x in v]
+    if isinstance(v, dict):
+        return {k: _jsonable(x) for k, x in v.items()}
+    return v
+
+
+def resolve_track(
+    sheet: RunSheet, sides: int | None, side_m: float | None
+) -> tuple[int, float, str]:
+    """The polygon the runs drove: from the sheet's ``# sides:``/``# side_m:`` lines and/or the
+    arguments, which must agree. No default side length: a wrong one gives a wrong E_d."""
+    path = sheet.path
+    for name, given, on_sheet in (("sides", sides, sheet.sides), ("side_m", side_m, sheet.side_m)):
+        if given is not None and on_sheet is not None and not math.isclose(given, on_sheet):
+            flag = "--sides" if name == "sides" else "--side-length"
+            raise InputError(
+                f"{flag} {given:g} disagrees with the run sheet's '{name}: {on_sheet:g}': which "
+                "track did the runs drive? Correct the sheet or leave the flag out",
+                path,
+                sheet.setting_lines.get(name),
+                name,
+            )
+    side = side_m if side_m is not None else sheet.side_m
+    if side is None:
+        raise InputError(
+            "which track did the runs drive? Give --side-length L (m; and --sides N if not a "
+            "square), or keep the '# sides:' and '# side_m:' lines that 'odocal plan' writes "
+            "into the run sheet",
+            path,
+        )
+    n = sides if sides is not None else (sheet.sides if sheet.sides is not None else 4)
+    on_sheet = sheet.side_m is not None
+    source = (
+        "both" if (side_m is not None and on_sheet) else ("run sheet" if on_sheet else "arguments")
+    )
+    return int(n), float(side), source
+
+
+def _checked_runs(
+    sheet: RunSheet, sides: int, side_m: float, robot: Robot
+) -> tuple[EndPoseRuns, list[str]]:
+    """The runs with their heading errors wrapped into [-180, 180) deg, each row alike (a warning
+    names the rows), where this robot cannot deviate by half a turn on this track; and refused
+    when an end error cannot belong to this robot on this track (a unit slip)."""
+    runs, warnings = sheet.runs, []
+    m = robot.measurement
+    bounds = end_error_bounds(
+        sides, side_m, robot.believed_geometry, m.sigma_theta_rad, m.sigma_xy_m
+    )
+    err = runs.errors.copy()
+    theta = err[:, 2]
+    finite = np.isfinite(theta)
+    wrapped = theta
+    if bounds.unambiguous:
+        wrapped = np.where(finite, wrap_heading_error(np.where(finite, theta, 0.0)), theta)
+    moved = finite & ~np.isclose(wrapped, theta, rtol=0.0, atol=1e-12)
+    if np.any(moved):
+        rows = ", ".join(
+            f"line {sheet.lines[i]}: {math.degrees(theta[i]):g} -> {math.degrees(wrapped[i]):+.4g}"
+            for i in np.flatnonzero(moved)
+        )
+        warnings.append(
+            f"{sheet.path}: theta_deg read as the deviation from the commanded turn, a full turn "
+            f"removed ({rows}); theta_deg is the small final heading ERROR, not the total turn"
+        )
+    elif not bounds.unambiguous and np.any(np.abs(theta[finite]) > math.pi):
+        warnings.append(
+            f"{sheet.path}: on this track the robot's heading error may exceed 180 deg, so "
+            "theta_deg is taken as written (unwrapped, e.g. from a gyro); a protractor cannot "
+            "tell such errors apart: drive a shorter track"
+        )
+    err[:, 2] = wrapped
+    for i, line in enumerate(sheet.lines):
+        if finite[i]:
+            problem = heading_error_problem(float(wrapped[i]), bounds)
+            if problem:
+                raise InputError(problem, sheet.path, line, "theta_deg")
+        if np.isfinite(err[i, 0]) and np.isfinite(err[i, 1]):
+            problem = end_distance_problem(float(err[i, 0]), float(err[i, 1]), bounds)
+            if problem:
+                raise InputError(problem, sheet.path, line, "x_m")
+    return EndPoseRuns(runs.directions, err), warnings
 
 
 def calibrate(
@@ -39,32 +173,51 @@ def calibrate(
     *,
     params=None,
     method: str = "heading",
-    sides: int = 4,
-    side_m: float = 4.0,
+    sides: int | None = None,
+    side_m: float | None = None,
     umbmark_form: str = "mean",
     radius_m: float | None = None,
     out: str | Path | None = None,
+    ros2: str | Path | None = None,
+    controller_name: str = DEFAULT_CONTROLLER,
+    force: bool = False,
 ) -> CalibrateResult:
     """Read RUNS.csv (or the BCPT runs file) and calibrate with ``method`` ('heading', 'umbmark'
     or 'bcpt'), relative to the parameters the robot ran with (``params``, else ROBOT.yaml's
-    'believed', else nominal); write PARAMS.yaml to ``out``."""
+    'believed', else nominal).
+
+    The polygon (``sides``, ``side_m`` in m) comes from the arguments or the run sheet's
+    ``# sides:``/``# side_m:`` lines (they must agree; there is no default side length). Headings
+    are in degrees in the sheet, as on the command line. Writes PARAMS.yaml to ``out`` and the
+    ros2_control ``diff_drive_controller`` file to ``ros2`` (the export of ``odocal fit``). A
+    result more than 25 % from what the robot ran with is absurd for a calibration:
+    CalibrationError (nothing written) unless ``force``."""
     plan = OutputPlan(input_paths(runs_csv, robot, params))
-    if out is not None:
-        plan.file(out, "--out")
+    register_exports(plan, out, ros2)
     r = resolve_robot(robot, params)
     ran_with = r.believed_geometry
+    notes: list[str] = []
+    source = "arguments"
     if radius_m is not None and method != "bcpt":
         raise InputError(f"--radius is only used with --method bcpt (got --method {method})")
     if method == "bcpt":
         if radius_m is None:
             raise InputError("--method bcpt needs --radius R (the commanded circle radius, m)")
-        result = calibrate_bcpt(read_circle_runs(runs_csv), radius_m, ran_with)
+        result = calibrate_bcpt(read_circle_runs(runs_csv, notes, radius_m), radius_m, ran_with)
         track = f"circles of commanded radius {radius_m:g} m"
-    else:
+    elif method in ("heading", "umbmark"):
         # each method reads only what it uses: heading the final headings, UMBmark the positions
-        runs = read_runs(
-            runs_csv, required=("theta_deg",) if method == "heading" else ("x_m", "y_m")
+        sheet = read_run_sheet(
+            runs_csv,
+            required=("theta_deg",) if method == "heading" else ("x_m", "y_m"),
+            warnings=notes,
         )
+        sides, side_m, source = resolve_track(sheet, sides, side_m)
+        problem = track_size_problem(float(ran_with.wheelbase_m), side_m)
+        if problem:
+            raise InputError(problem, sheet.path, sheet.setting_lines.get("side_m"), "side_m")
+        runs, wrapped = _checked_runs(sheet, sides, side_m, r)
+        notes += wrapped
         track = f"{sides}-gon side {side_m:g} m"
         if method == "umbmark":
             if sides != 4:
@@ -72,16 +225,27 @@ def calibrate(
                     f"UMBmark is defined for squares only (--sides 4), got --sides {sides}"
                 )
             result = calibrate_umbmark(runs, side_m, ran_with, umbmark_form)
-        elif method == "heading":
-            result = calibrate_heading(runs, sides, side_m, ran_with)
         else:
-            raise InputError(f"unknown method {method!r}", field="method")
+            result = calibrate_heading(runs, sides, side_m, ran_with)
+    else:
+        raise InputError(f"unknown method {method!r}", field="method")
+    if result.uncertainty is None:
+        notes.append(
+            "fewer than 2 runs in a direction: no run-to-run spread, so no standard errors; "
+            "drive at least 2 (better 5) runs per direction"
+        )
     c = result.corrected
-    warnings = check_physical(
-        (c.diameter_right_m, c.diameter_left_m, c.wheelbase_m), result.ran_with, result.method
+    check_physical((c.diameter_right_m, c.diameter_left_m, c.wheelbase_m), None, result.method)
+    notes += refuse_absurd(c, result.ran_with, force)
+    written = write_exports(
+        plan,
+        result.corrected,
+        r.nominal,
+        out,
+        ros2,
+        controller_name,
+        method=result.method,
+        E_b=result.E_b,
+        E_d=result.E_d,
     )
-    written: tuple[Path, ...] = ()
-    if out is not None:
-        text = params_yaml(result.corrected, method=result.method, E_b=result.E_b, E_d=result.E_d)
-        written = tuple(plan.commit({Path(out): text}))
-    return CalibrateResult(result, track, tuple(warnings), written)
+    return CalibrateResult(result, track, tuple(notes), written, source, r.nominal)

@@ -2,14 +2,32 @@
 
 from __future__ import annotations
 
+from collections import Counter
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from ..calibration.result import far_from_nominal
 from ..core.model import Robot, WheelGeometry
-from ..io.robot_file import load_params, load_robot
+from ..core.recording import Recording
+from ..errors import CalibrationError, InputError
+from ..io.outputs import OutputPlan
+from ..io.robot_file import load_params, load_robot, params_yaml
+from ..io.ros2_export import DEFAULT_CONTROLLER, ros2_params_yaml
 from ..presets import DEFAULT_ROBOT, PRESETS
 
-__all__ = ["RobotSpec", "resolve_robot", "robot_label", "input_paths"]
+__all__ = [
+    "RobotSpec",
+    "resolve_robot",
+    "optional_robot",
+    "robot_label",
+    "input_paths",
+    "nominal_geometry",
+    "register_exports",
+    "write_exports",
+    "make_robot",
+    "refuse_absurd",
+]
 
 #: A robot as a command takes it: a Robot, a built-in name, a ROBOT.yaml path, or None (default).
 RobotSpec = Robot | str | Path | None
@@ -24,6 +42,44 @@ def resolve_robot(
     if params is not None:
         r = r.with_believed(params if isinstance(params, WheelGeometry) else load_params(params))
     return r
+
+
+def optional_robot(robot: RobotSpec) -> Robot | None:
+    """The Robot of ``robot``, or None when none is given (no default robot: recorded runs carry
+    their own parameters)."""
+    if robot is None or isinstance(robot, Robot):
+        return robot
+    return load_robot(robot)
+
+
+def make_robot(
+    wheel_diameter_m: float,
+    wheelbase_m: float,
+    *,
+    E_b: float = 1.0,
+    E_d: float = 1.0,
+    E_s: float = 1.0,
+    k_r_m: float = 0.0,
+    k_l_m: float | None = None,
+    sigma_xy_m: float = 0.0,
+    sigma_theta_deg: float = 0.0,
+) -> Robot:
+    """A Robot from the values of a ROBOT.yaml, in its units (m, deg; k in m): nominal wheel
+    diameter and wheelbase, systematic errors E_b, E_d, E_s, wheel noise k_r_m, k_l_m (default
+    k_r_m) and the instrument's sigma_xy_m and sigma_theta_deg. The same checks as the file
+    (diameter against wheelbase: a unit slip cannot pass)."""
+    from ..core.model import MeasurementNoise, NonSystematicError, SystematicError
+    from ..core.plausibility import proportions_problem
+
+    problem = proportions_problem(wheel_diameter_m, wheel_diameter_m, wheelbase_m)
+    if problem:
+        raise InputError(problem, field="wheelbase_m")
+    return Robot(
+        WheelGeometry.symmetric(wheel_diameter_m, wheelbase_m),
+        SystematicError(E_b, E_d, E_s),
+        NonSystematicError(k_r_m, k_r_m if k_l_m is None else k_l_m),
+        MeasurementNoise.from_degrees(sigma_xy_m, sigma_theta_deg),
+    )
 
 
 def robot_label(robot: RobotSpec, params: Any = None) -> str:
@@ -53,3 +109,58 @@ def input_paths(*specs: Any) -> list[Path]:
         if isinstance(s, (str, Path)):
             out.append(Path(s))
     return out
+
+
+def nominal_geometry(robot: Robot | None, recordings: Sequence[Recording]) -> WheelGeometry | None:
+    """Nominal geometry: the robot's if given, else the most common ``ran_with`` (or None)."""
+    if robot is not None:
+        return robot.nominal
+    counts = Counter(r.ran_with for r in recordings if r.ran_with is not None)
+    return counts.most_common(1)[0][0] if counts else None
+
+
+def refuse_absurd(geometry: WheelGeometry, nominal: WheelGeometry | None, force: bool) -> list[str]:
+    """A calibration far (> 25 %) from ``nominal`` is refused (CalibrationError, nothing
+    written) unless ``force``; then its messages are returned as warnings."""
+    values = (geometry.diameter_right_m, geometry.diameter_left_m, geometry.wheelbase_m)
+    problems = far_from_nominal(values, nominal)
+    if problems and not force:
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        raise CalibrationError(
+            f"{problems[0]}{more}; nothing written (--force accepts the result anyway)"
+        )
+    return problems
+
+
+def register_exports(plan: OutputPlan, out=None, ros2=None) -> None:
+    """Register the PARAMS.yaml (``out``) and ros2_control (``ros2``) files a calibration writes,
+    before the work (checked against the inputs)."""
+    if out is not None:
+        plan.file(out, "--out")
+    if ros2 is not None:
+        plan.file(ros2, "--ros2")
+
+
+def write_exports(
+    plan: OutputPlan,
+    geometry: WheelGeometry,
+    nominal: WheelGeometry | None,
+    out=None,
+    ros2=None,
+    controller_name: str = DEFAULT_CONTROLLER,
+    files: dict | None = None,
+    **record: Any,
+) -> tuple[Path, ...]:
+    """The one export path of every calibration: PARAMS.yaml (``out``) and the ros2_control
+    ``diff_drive_controller`` file (``ros2``; nominal base values, the calibration in the
+    multipliers), written all or none with the command's other ``files`` (path -> content, e.g.
+    figures). ``record`` (method, E_b, ...) goes beside the values."""
+    contents: dict = dict(files or {})
+    if ros2 is not None:
+        if nominal is None:
+            raise InputError("--ros2 needs the nominal geometry: give --robot ROBOT.yaml")
+        text = {k: v for k, v in record.items() if isinstance(v, str)}
+        contents[Path(ros2)] = ros2_params_yaml(geometry, nominal, controller_name, **text)
+    if out is not None:
+        contents[Path(out)] = params_yaml(geometry, **record)
+    return tuple(plan.commit(contents)) if contents else ()

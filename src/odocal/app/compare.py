@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from ..comparison.methods import Budget
+from ..comparison.methods import METHOD_REGISTRY, Budget
 from ..comparison.real import (
     PUBLISHED_SAME_METHOD,
     RealComparison,
@@ -112,6 +114,7 @@ def compare(
     realdata: str | Path | None = None,
     circle_set: str | None = None,
     plot: str | Path | None = None,
+    progress: Callable[[int, int, str], None] | None = None,
 ) -> Comparison:
     """Every method of the registry on ``robot`` over ``trials`` Monte-Carlo trials with the same
     budget (``runs`` runs, ``travel_m`` of wheel travel); with ``realdata`` (an optiodom_diff
@@ -135,13 +138,41 @@ def compare(
         require_matplotlib()
         plan.folder(plot, "--plot")
     r = resolve_robot(robot, params)
+    if travel_m is not None:
+        turns_m = math.pi * float(np.mean(r.believed_geometry.wheelbase_m))
+        if travel_m / runs <= turns_m:
+            raise InputError(
+                f"--travel {travel_m:g} m is too little for {runs} runs: each run's turns alone "
+                f"(a square's four 90 deg turns) take {turns_m:.3g} m of wheel travel",
+                field="travel",
+            )
+    # one progress scale: the simulated methods, then loading and calibrating the real runs
+    n_sim = len(METHOD_REGISTRY)
+    n_real = (1 + sum(e.real is not None for e in METHOD_REGISTRY)) if realdata else 0
+
+    def stage(offset: int, prefix: str):
+        if progress is None:
+            return None
+        return lambda done, total, what: progress(offset + done, n_sim + n_real, f"{prefix}{what}")
+
     sim = compare_simulated(
-        r, trials=trials, seed=seed, budget=Budget(runs, travel_m, ivanjko_straight_m)
+        r,
+        trials=trials,
+        seed=seed,
+        budget=Budget(runs, travel_m, ivanjko_straight_m),
+        progress=stage(0, "simulated: "),
     )
     real, agreement = None, []
     if realdata is not None:
         datasets, heldout = load_optiodom_split(realdata, circle_set)
-        real = compare_real(datasets, heldout, published=read_published(realdata))
+        if progress is not None:
+            progress(n_sim + 1, n_sim + n_real, "real runs loaded")
+        real = compare_real(
+            datasets,
+            heldout,
+            published=read_published(realdata),
+            progress=stage(n_sim + 1, "real: "),
+        )
         published = {
             column: read_published(realdata, column, None) or {}
             for column in PUBLISHED_SAME_METHOD.values()

@@ -6,7 +6,12 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..core.model import Robot
+from ..core.plausibility import track_size_problem
+from ..design.analytic import analytic_design_result
 from ..design.plan import FloorPlan, build_plan
+from ..design.result import scaled_sizes
+from ..design.robust import range_design, unknown_errors
 from ..errors import InputError
 from ..io.outputs import OutputPlan
 from ..io.table import read_table
@@ -27,22 +32,35 @@ class PlanResult:
     floor_plan: FloorPlan
     sheet: Path
     warnings: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
 
     def as_dict(self) -> dict:
-        return self.floor_plan.as_dict() | {"template": str(self.sheet)}
+        return self.floor_plan.as_dict() | {"template": str(self.sheet), "notes": list(self.notes)}
+
+
+_SHEET_HEADER = ("direction", "x_m", "y_m", "theta_deg", "run")
 
 
 def _holds_measurements(path: Path) -> bool:
-    """True if ``path`` is a run sheet with at least one measured value filled in (or a file
-    that is not a run sheet at all: never overwrite what we do not recognise)."""
+    """False only for a blank run sheet as ``plan`` writes it (its header and comments, no
+    measured value); True for a sheet with a measurement, a note, an extra column, or a file
+    that is not a run sheet at all: never overwrite what we did not write."""
     try:
-        table = read_table(path, text=read_text(path))
+        text = read_text(path)
+        table = read_table(path, text=text)
     except InputError:
         return path.stat().st_size > 0
-    measured = [c for c in ("x_m", "y_m", "theta_deg", "radius_m") if table.has(c)]
-    if not measured:
+    if table.header != _SHEET_HEADER:
         return True
-    return any(f[table.index(c)] != "" for _, f in table.rows for c in measured)
+    blank_comments = set(FloorPlan.template_comments())
+    for line in text.splitlines():
+        line = line.strip()
+        if line.startswith("#") and not (
+            line in blank_comments
+            or line.startswith(("# odocal run sheet:", "# sides:", "# side_m:"))
+        ):
+            return True  # a note of the user's
+    return any(f[table.index(c)] != "" for _, f in table.rows for c in ("x_m", "y_m", "theta_deg"))
 
 
 def plan(
@@ -50,26 +68,41 @@ def plan(
     *,
     params=None,
     sides: int = 4,
-    side_m: float = 4.0,
+    side_m: float | None = None,
     runs_per_direction: int | None = None,
     noise_track: tuple[str, float] | None = None,
     out: str | Path = DEFAULT_TEMPLATE,
     force: bool = False,
+    progress=None,
 ) -> PlanResult:
     """Build the floor protocol and write the blank run sheet ``out``.
+
+    Without ``side_m`` the polygon's side is what ``odocal design --analytic`` recommends for this
+    robot (over the typical ranges of its errors when ROBOT.yaml does not give them); the run
+    sheet records the track either way.
 
     A blank run sheet (e.g. from an earlier ``plan``) is replaced; one that already holds a
     measured value, or a file that is not a run sheet, is not, unless ``force``."""
     out = Path(out)
+    # the default name is checked like any other, and the message says it was the default
+    flag = "--out" if str(out) != DEFAULT_TEMPLATE else f"--out (default {DEFAULT_TEMPLATE})"
     outputs = OutputPlan(input_paths(robot, params))
-    outputs.file(out, "--out")
+    outputs.file(out, flag)
     if out.is_file() and _holds_measurements(out) and not force:
         raise InputError(
-            "already holds measured runs: plan will not overwrite a filled-in run sheet; choose "
-            "another --out name (or --force to replace it)",
+            f"{flag}: already holds measured runs: plan will not overwrite a filled-in run "
+            "sheet; choose another --out name (or --force to replace it)",
             out,
         )
     r = resolve_robot(robot, params)
+    notes = []
+    if side_m is None and noise_track is None:
+        side_m, note = suggested_side(r, sides, progress)
+        notes.append(note)
+    b = float(r.believed_geometry.wheelbase_m)
+    problem = track_size_problem(b, noise_track[1] if noise_track else side_m)
+    if problem:
+        raise InputError(problem)
     n = runs_per_direction or (DEFAULT_NOISE_RUNS if noise_track else 5)
     fp = build_plan(
         r,
@@ -88,4 +121,31 @@ def plan(
             f"{side_m:g} m side (too short to resolve E_d)"
         )
     outputs.commit({out: fp.template_csv()})
-    return PlanResult(fp, out, tuple(warnings))
+    return PlanResult(fp, out, tuple(warnings), tuple(notes))
+
+
+def suggested_side(robot: Robot, sides: int = 4, progress=None) -> tuple[float, str]:
+    """The side (m) the analytic design recommends for ``robot`` (over plausible errors when it
+    gives none), and a note saying so."""
+    lengths, validation = scaled_sizes(float(robot.nominal.wheelbase_m))
+    unknown = unknown_errors(robot)
+    if unknown:
+        d = range_design(
+            robot,
+            sides=(sides,),
+            side_lengths_m=lengths,
+            validation=validation,
+            progress=progress,
+        )
+        return d.recommended.side_m, (
+            f"side {d.recommended.side_m:g} m: the design's recommendation over the typical "
+            f"ranges of the robot's {' and '.join(unknown)} errors (within "
+            f"{100 * d.within:.1f} % of the best size; 'odocal design --robot ...' shows it)"
+        )
+    res = analytic_design_result(
+        robot, sides=(sides,), side_lengths_m=lengths, validation=validation
+    )
+    return res.recommended.side_m, (
+        f"side {res.recommended.side_m:g} m: what 'odocal design --analytic' recommends for "
+        "this robot (give --side-length to choose another)"
+    )

@@ -154,6 +154,10 @@ def simulate(
         predicted = {d: predict(track_for(d), r, max_step_m=max_step_m) for d in directions}
     written: tuple[Path, ...] = ()
     if out is not None:
-        text = runs_csv_text(end, {"run": list(range(1, len(end.directions) + 1))})
+        text = runs_csv_text(
+            end,
+            {"run": list(range(1, len(end.directions) + 1))},
+            track=None if track is not None else (sides, side_m),
+        )
         written = tuple(plan.commit({Path(out): text}))
     return SimulateResult(end, name, directions, runs, seed, predicted, written)

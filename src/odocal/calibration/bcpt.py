@@ -38,6 +38,7 @@ from ..core.runs import CircleRuns
 from ..errors import CalibrationError
 from .circle_fit import fit_circle
 from .result import CalibrationResult
+from .uncertainty import spread_uncertainty
 
 __all__ = [
     "bcpt_factors",
@@ -120,11 +121,17 @@ def calibrate_bcpt(
         )
     E_b, E_d = bcpt_factors(r_cw, r_ccw, commanded_radius_m, ran_with.wheelbase_m)
     lin_b, lin_d = bcpt_first_order(r_cw, r_ccw, commanded_radius_m, ran_with.wheelbase_m)
+    unc = spread_uncertainty(
+        lambda z: bcpt_factors(z[0], z[1], commanded_radius_m, ran_with.wheelbase_m),
+        [(d, runs.select(d)[:, None]) for d in ("cw", "ccw")],
+        ran_with,
+    )
     return CalibrationResult.from_factors(
         "bcpt",
         float(E_b),
         float(E_d),
         ran_with,
+        unc,
         commanded_radius_m=float(commanded_radius_m),
         runs_cw=runs.count("cw"),
         runs_ccw=runs.count("ccw"),

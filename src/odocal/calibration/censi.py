@@ -145,7 +145,7 @@ class SensorOdometryFit:
     sensor_pose_fixed: bool
     warnings: tuple[str, ...] = field(default_factory=tuple)
 
-    method = "censi"
+    method = "relative"  # relative-motion calibration (Censi et al. 2013)
 
     @property
     def parameters(self) -> np.ndarray:
@@ -274,7 +274,19 @@ def relative_motion(poses) -> np.ndarray:
 
 
 def _arc(p: np.ndarray, phi_r: np.ndarray, phi_l: np.ndarray) -> np.ndarray:
-    """Robot displacement (n, 3) over each interval on the exact arc; p = (D_R, D_L, b, ...)."""
+    """Robot displacement (n, 3) over each interval; p = (D_R, D_L, b, ...).
+
+    1-D wheel rotations (n,): the exact arc (constant wheel speeds within the interval). 2-D
+    wheel increments (n, K) (zero padded): the midpoint odometry over the increments, as
+    ``core.odometry.dead_reckon`` integrates them (no constant-speed assumption)."""
+    if phi_r.ndim == 2:
+        s_r, s_l = 0.5 * p[0] * phi_r, 0.5 * p[1] * phi_l
+        ds, dth = 0.5 * (s_r + s_l), (s_r - s_l) / p[2]
+        th = np.cumsum(dth, axis=1)
+        mid = th - 0.5 * dth
+        return np.column_stack(
+            [np.sum(ds * np.cos(mid), axis=1), np.sum(ds * np.sin(mid), axis=1), th[:, -1]]
+        )
     s_r = 0.5 * p[0] * phi_r
     s_l = 0.5 * p[1] * phi_l
     d = 0.5 * (s_r + s_l)
@@ -615,6 +627,7 @@ def fit_censi(
     outlier_iterations: int = 4,
     outlier_fraction: float = 0.01,
     nominal: WheelGeometry | None = None,
+    wheel_increments=None,
 ) -> SensorOdometryFit:
     """Calibrate wheel diameters, wheelbase and the sensor pose from relative-motion tuples.
 
@@ -638,6 +651,12 @@ def fit_censi(
         each round (default 0.01 as the authors).
     nominal : WheelGeometry, optional
         Nominal geometry, only to warn about results more than 25 % away from it.
+    wheel_increments : (ndarray, ndarray), each shape (n, K), optional
+        The wheel rotations of each interval as they were sampled (rad; rows zero padded; row
+        sums equal to ``phi_right_rad``, ``phi_left_rad``). With them the refinement, the
+        outlier rule and the covariance integrate the odometry over the samples instead of
+        assuming constant wheel speeds within an interval (the closed form still does): for
+        intervals that mix straights, turns and arcs, e.g. between SLAM updates.
 
     Returns
     -------
@@ -664,6 +683,23 @@ def fit_censi(
     outlier_iterations = int(outlier_iterations)
     outlier_fraction = float(outlier_fraction)
     _check_excitation(r, l_)
+    # the wheel data the odometry is integrated from: rotations, or the sampled increments
+    wr, wl = r, l_
+    if wheel_increments is not None:
+        wr, wl = (np.asarray(a, dtype=float) for a in wheel_increments)
+        if wr.ndim != 2 or wr.shape != wl.shape or len(wr) != len(r):
+            raise ModelError(
+                f"wheel_increments must be two arrays of shape ({len(r)}, K), got "
+                f"{wr.shape} and {wl.shape}"
+            )
+        if not (np.all(np.isfinite(wr)) and np.all(np.isfinite(wl))):
+            raise ModelError("wheel_increments must be finite")
+        scale = max(float(np.max(np.abs(r))), float(np.max(np.abs(l_))), 1e-12)
+        if (
+            np.max(np.abs(wr.sum(axis=1) - r)) > 1e-9 * scale
+            or np.max(np.abs(wl.sum(axis=1) - l_)) > 1e-9 * scale
+        ):
+            raise ModelError("wheel_increments must sum to phi_right_rad and phi_left_rad")
 
     n = len(r)
     keep = np.arange(n)
@@ -672,7 +708,7 @@ def fit_censi(
     p = _closed_form(r, l_, sm, fixed)
     for _ in range(outlier_iterations if outlier_fraction > 0 else 0):
         check_physical(p[:3], None, "censi")
-        mask = _trim(p, r[keep], l_[keep], sm[keep], outlier_fraction)
+        mask = _trim(p, wr[keep], wl[keep], sm[keep], outlier_fraction)
         per_round.append(int(np.count_nonzero(~mask)))
         keep = keep[mask]
         history.append(keep)
@@ -688,21 +724,21 @@ def fit_censi(
     closed[5] = float(_wrap(closed[5]))
 
     free = [0, 1, 2] if fixed is not None else [0, 1, 2, 3, 4, 5]
-    rk, lk, smk = r[keep], l_[keep], sm[keep]
+    rk, lk, smk = wr[keep], wl[keep], sm[keep]
     converged = True
     if refine:
-        p, converged = _refine(p, free, rk, lk, smk, (r, l_, sm))
+        p, converged = _refine(p, free, rk, lk, smk, (wr, wl, sm))
         if not converged:
             warnings = [*warnings, "censi: the nonlinear refinement did not converge"]
     p[5] = float(_wrap(p[5]))
     warnings = [*warnings, *check_physical(p[:3], nominal, "censi")]
 
-    sigma = _noise_std(p, rk, lk, smk, len(free), (r, l_, sm))
+    sigma = _noise_std(p, rk, lk, smk, len(free), (wr, wl, sm))
     cov = _fisher(p, free, rk, lk, smk, sigma)
-    cov_paper = _paper_covariance(p, free, r, l_, sm, history, keep, outlier_fraction)
+    cov_paper = _paper_covariance(p, free, wr, wl, sm, history, keep, outlier_fraction)
 
     se = np.sqrt(np.diag(cov))
-    if refine and np.all(np.isfinite(se[free])):
+    if refine and wheel_increments is None and np.all(np.isfinite(se[free])):
         far = [
             PARAMETERS[j]
             for j in free

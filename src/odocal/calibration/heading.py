@@ -18,8 +18,10 @@ import math
 import numpy as np
 
 from ..core.model import WheelGeometry
+from ..core.plausibility import wrap_heading_error
 from ..core.runs import EndPoseRuns, check_both_directions
 from .result import CalibrationResult
+from .uncertainty import spread_uncertainty
 
 __all__ = ["heading_factors", "calibrate_heading"]
 
@@ -43,16 +45,29 @@ def heading_factors(theta_cw_rad, theta_ccw_rad, sides: int, side_m, wheelbase_m
 def calibrate_heading(
     runs: EndPoseRuns, sides: int, side_m: float, ran_with: WheelGeometry
 ) -> CalibrationResult:
-    """The heading-error method from measured runs (see module docstring)."""
+    """The heading-error method from measured runs (see module docstring), with standard errors
+    from the spread of the runs (:mod:`odocal.calibration.uncertainty`)."""
     check_both_directions(runs)
     th_cw = runs.mean("cw")[2]
     th_ccw = runs.mean("ccw")[2]
     E_b, E_d = heading_factors(th_cw, th_ccw, sides, side_m, ran_with.wheelbase_m)
+    # spread about the circular means (the deviations wrapped, so a full turn is no spread)
+    groups = [
+        (d, (m + wrap_heading_error(runs.select(d)[:, 2] - m))[:, None])
+        for d, m in (("cw", th_cw), ("ccw", th_ccw))
+    ]
+    unc = spread_uncertainty(
+        lambda z: heading_factors(z[0], z[1], sides, side_m, ran_with.wheelbase_m),
+        groups,
+        ran_with,
+        center=np.array([th_cw, th_ccw]),
+    )
     return CalibrationResult.from_factors(
         "heading",
         float(E_b),
         float(E_d),
         ran_with,
+        unc,
         sides=sides,
         side_m=side_m,
         runs_cw=runs.count("cw"),

@@ -34,13 +34,22 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.covariance import propagate
+from ..core.covariance import propagate, propagate_increments
 from ..core.model import MeasurementNoise, NonSystematicError, WheelGeometry
 from ..core.runs import EndPoseRuns
 from ..core.tracks import out_and_back, straight_line
 from ..errors import CalibrationError
 
-__all__ = ["NoiseEstimate", "estimate_k", "NOISE_TRACKS", "MIN_RUNS", "RECOMMENDED_RUNS"]
+__all__ = [
+    "NoiseEstimate",
+    "estimate_k",
+    "RecordedNoise",
+    "estimate_k_from_recordings",
+    "tracker_noise",
+    "NOISE_TRACKS",
+    "MIN_RUNS",
+    "RECOMMENDED_RUNS",
+]
 
 NOISE_TRACKS = ("out-and-back", "straight")
 MIN_RUNS = 3
@@ -309,3 +318,352 @@ def estimate_k(
         measurement_var_theta_rad2=var_m_theta,
         warnings=tuple(warnings),
     )
+
+
+# --------------------------------------------------------------------------- recorded runs
+
+#: Repeated runs of one track: their travel may differ by at most this fraction of the mean,
+#: their total rotation by at most this many radians (else they are not repeats).
+_REPEAT_TRAVEL = 0.1
+_REPEAT_ROTATION_RAD = math.radians(30.0)
+
+
+def _kind_of_run(rec, total_rotation_rad: float) -> str:
+    """What a run is, for grouping repeats: its label, else its direction from the data."""
+    if rec.label:
+        return str(rec.label)
+    if total_rotation_rad > math.pi / 4:
+        return "ccw"
+    if total_rotation_rad < -math.pi / 4:
+        return "cw"
+    return "straight"
+
+
+@dataclass(frozen=True)
+class RecordedNoise:
+    """k_r + k_l (and k_r, k_l where identifiable) from repeated recorded runs.
+
+    The runs are grouped into repeats of one track (same data set or folder, same kind of run:
+    label, else CW/CCW/straight from the data, with similar travel and rotation). Within a group
+    the mean final error is the systematic part; what is left is random. Under the model
+    (docs/conventions.md) the final heading of any run has the variance
+
+        var(theta_N) = (k_r T_R + k_l T_L) / b^2 + 2 sigma_theta^2,
+
+    T_R, T_L the total |wheel travel| of the run and sigma_theta the tracker's heading noise
+    (start and end are both measured), whatever the path. With k_r = k_l the pooled estimate is
+
+        k_r + k_l = b^2 (SS - 2 sigma_theta^2 dof) / sum_g (n_g - 1) T_g,
+
+    SS the sum of squared deviations from the group means, dof = sum_g (n_g - 1), T_g the mean
+    (T_R + T_L) / 2 of group g; the 95 % interval is chi-square with dof degrees of freedom
+    (exact when every group has the same travel, approximate otherwise). k_r - k_l comes from the
+    position-heading covariances, whose coefficients are propagated along each run's recorded
+    path (first order, eqs. (8)-(10)); its standard error is a delete-one-group jackknife, and
+    k_r, k_l are reported only when it is below a quarter of k_r + k_l.
+
+    Attributes
+    ----------
+    k_sum_m : float
+        k_r + k_l (m).
+    k_sum_ci95_m : tuple of float
+    k_r_m, k_l_m : float or None
+    k_diff_m, k_diff_se_m : float or None
+    split_note : str
+    runs, dof : int
+        Runs used and degrees of freedom of the heading spread.
+    wheelbase_m : float
+        b used in the estimator (m).
+    groups : tuple of dict
+        Per group: key, runs, mean travel (m), heading std (deg), its own k_r + k_l and 95 %
+        interval (a check of the model: k should not depend on the track).
+    skipped : tuple of str
+        Runs or groups left out, with the reason.
+    warnings : tuple of str
+    """
+
+    k_sum_m: float
+    k_sum_ci95_m: tuple[float, float]
+    k_r_m: float | None
+    k_l_m: float | None
+    k_diff_m: float | None
+    k_diff_se_m: float | None
+    split_note: str
+    runs: int
+    dof: int
+    wheelbase_m: float
+    measurement_var_theta_rad2: float
+    groups: tuple[dict, ...]
+    skipped: tuple[str, ...] = ()
+    warnings: tuple[str, ...] = ()
+
+    def as_dict(self) -> dict:
+        """The JSON of ``odocal noise RUN_OR_DIR... --json``."""
+        return {
+            "k_sum_m": self.k_sum_m,
+            "k_sum_ci95": list(self.k_sum_ci95_m),
+            "k_r_m": self.k_r_m,
+            "k_l_m": self.k_l_m,
+            "k_diff_m": self.k_diff_m,
+            "k_diff_se_m": self.k_diff_se_m,
+            "k_split_note": self.split_note,
+            "k_each_m": self.k_sum_m / 2,
+            "k_each_chong_kleeman_m05": math.sqrt(max(self.k_sum_m, 0.0) / 2),
+            "runs": self.runs,
+            "dof": self.dof,
+            "wheelbase_m": self.wheelbase_m,
+            "measurement_var_theta_rad2": self.measurement_var_theta_rad2,
+            "groups": [dict(g) for g in self.groups],
+            "skipped": list(self.skipped),
+            "warnings": list(self.warnings),
+        }
+
+
+def _chi2_interval(ss_scaled: float, dof: int) -> tuple[float, float]:
+    from scipy import stats
+
+    lo_q, hi_q = stats.chi2.ppf([0.975, 0.025], dof)
+    return ss_scaled / lo_q, ss_scaled / hi_q
+
+
+def estimate_k_from_recordings(
+    recordings,
+    geometry: WheelGeometry,
+    measurement: MeasurementNoise | None = None,
+    *,
+    strict: bool = True,
+) -> RecordedNoise:
+    """k from the run-to-run spread of repeated recorded runs (see :class:`RecordedNoise`).
+
+    Parameters
+    ----------
+    recordings : sequence of Recording
+        Runs with ground truth; ``meta['dataset']`` (else the folder) and the kind of run group
+        them into repeats.
+    geometry : WheelGeometry
+        Best known geometry (a calibration of the same robot): it turns wheel rotations into
+        travel and its wheelbase is the b of the estimator.
+    measurement : MeasurementNoise, optional
+        The tracker's noise; its heading variance (twice: start and end) is subtracted.
+    strict : bool
+        A group whose heading errors drift with run order (more than 5 standard errors) is an
+        error if True, a warning if False.
+    """
+    from pathlib import Path
+
+    b = float(geometry.wheelbase_m)
+    var_m = (measurement.sigma_theta_rad**2) if measurement else 0.0
+    groups: dict[tuple[str, str], list] = {}
+    skipped: list[str] = []
+    for r in recordings:
+        if r.ground_truth is None:
+            raise CalibrationError(f"{r.name}: estimating k from recorded runs needs ground truth")
+        dr = np.diff(np.asarray(r.wheel_angle_right_rad, dtype=float)) * (
+            0.5 * float(geometry.diameter_right_m)
+        )
+        dl = np.diff(np.asarray(r.wheel_angle_left_rad, dtype=float)) * (
+            0.5 * float(geometry.diameter_left_m)
+        )
+        if len(dr) < 1:
+            skipped.append(f"{Path(r.name).name}: too short")
+            continue
+        mean, coef_r = propagate_increments(dr, dl, b, NonSystematicError(1.0, 0.0))
+        _, coef_l = propagate_increments(dr, dl, b, NonSystematicError(0.0, 1.0))
+        gt = np.asarray(r.ground_truth, dtype=float)
+        err = gt[-1] - mean
+        key = (
+            str(r.meta.get("dataset") or Path(r.name).parent),
+            _kind_of_run(r, float(gt[-1, 2] - gt[0, 2])),
+        )
+        groups.setdefault(key, []).append(
+            {
+                "name": r.name,
+                "err": err,
+                "travel": 0.5 * float(np.abs(dr).sum() + np.abs(dl).sum()),
+                "rotation": float(mean[2]),
+                "coef_r": coef_r,
+                "coef_l": coef_l,
+            }
+        )
+    used: list[tuple[tuple[str, str], list]] = []
+    for key, rows in groups.items():
+        label = f"{key[0]} {key[1]}"
+        if len(rows) < 2:
+            skipped.append(f"{label}: a single run (repeats are needed)")
+            continue
+        travel = np.array([x["travel"] for x in rows])
+        rot = np.array([x["rotation"] for x in rows])
+        if np.ptp(travel) > _REPEAT_TRAVEL * travel.mean() or np.ptp(rot) > _REPEAT_ROTATION_RAD:
+            skipped.append(
+                f"{label}: not repeats of one track (travel {travel.min():.3g}-{travel.max():.3g}"
+                f" m, rotation {math.degrees(rot.min()):+.0f} to {math.degrees(rot.max()):+.0f} "
+                "deg)"
+            )
+            continue
+        used.append((key, rows))
+    if not used:
+        raise CalibrationError(
+            "no group of repeated runs (two or more runs of one track in one data set or "
+            "folder): k needs the spread of repeats"
+            + (f" ({'; '.join(skipped[:3])})" if skipped else "")
+        )
+    ss = 0.0
+    dof = 0
+    denom = 0.0
+    group_rows: list[dict] = []
+    warnings: list[str] = []
+    severe: list[str] = []
+    for key, rows in used:
+        th = np.array([x["err"][2] for x in rows])
+        n = len(th)
+        t_mean = float(np.mean([x["travel"] for x in rows]))
+        ss_g = float(np.sum((th - th.mean()) ** 2))
+        ss += ss_g
+        dof += n - 1
+        denom += (n - 1) * t_mean
+        # the group's own estimate (clipped at 0: its spread may be below the tracker's)
+        k_g = max(b * b * (ss_g / (n - 1) - 2 * var_m) / t_mean, 0.0)
+        lo, hi = _chi2_interval(b * b * ss_g / t_mean, n - 1)
+        tracker = b * b * 2 * var_m / t_mean
+        group_rows.append(
+            {
+                "group": f"{key[0]} {key[1]}",
+                "runs": n,
+                "travel_m": t_mean,
+                "theta_std_deg": math.degrees(math.sqrt(ss_g / (n - 1))),
+                "k_sum_m": k_g,
+                "k_sum_ci95": [max(lo - tracker, 0.0), max(hi - tracker, 0.0)],
+            }
+        )
+        if n >= 5:
+            slope, t, r2 = _trend(th)
+            if abs(t) > _OBVIOUS_SE and r2 > 0.5:
+                severe.append(
+                    f"{key[0]} {key[1]}: the heading errors drift with run order "
+                    f"({math.degrees(slope):+.3g} deg per run): a systematic part changed during "
+                    "the session; the spread overstates k"
+                )
+    k_sum = b * b * (ss - 2 * var_m * dof) / denom
+    if k_sum <= 0:
+        raise CalibrationError(
+            "the heading spread of the repeats is not larger than the tracker's heading noise: "
+            "k cannot be resolved"
+        )
+    # chi-square interval of the pooled heading variance per unit travel, minus the tracker's
+    lo_ss, hi_ss = _chi2_interval(ss, dof)  # interval of the variance: ss / chi2 quantiles
+    scale = b * b * dof / denom
+    ci = (max(scale * (lo_ss - 2 * var_m), 0.0), max(scale * (hi_ss - 2 * var_m), 0.0))
+    if dof < RECOMMENDED_RUNS - 1:
+        warnings.append(
+            f"only {dof} degrees of freedom: the 95 % interval spans a factor "
+            f"{ci[1] / max(ci[0], 1e-300):.3g}; more repeats narrow it"
+        )
+    # does k depend on the track? groups whose own intervals exclude the pooled value
+    off = [g["group"] for g in group_rows if not g["k_sum_ci95"][0] <= k_sum <= g["k_sum_ci95"][1]]
+    if off:
+        warnings.append(
+            f"{len(off)} of {len(group_rows)} groups disagree with the pooled k at 95 % ("
+            + ", ".join(off[:4])
+            + (", ..." if len(off) > 4 else "")
+            + "): the random error does not grow with the travel as the model says (e.g. spot "
+            "turns or a floor that add their own scatter); the pooled k is an average"
+        )
+    # k_r - k_l from the x-theta and y-theta covariances (coefficients along each recorded path)
+    k_diff, k_diff_se, note = _k_diff_recorded(used, k_sum)
+    k_r = k_l = None
+    if k_diff is None:
+        pass
+    elif k_diff_se is None or k_diff_se > 0.25 * k_sum:
+        note = (
+            f"k_r and k_l are not identifiable from these runs: k_r - k_l = {k_diff:.3g} m"
+            + (f" has a standard error of {k_diff_se:.3g} m" if k_diff_se is not None else "")
+            + ", more than a quarter of k_r + k_l; k_r = k_l = (k_r + k_l)/2 is the usual "
+            "assumption"
+        )
+    elif abs(k_diff) > k_sum:
+        note = f"k_r - k_l = {k_diff:.3g} m exceeds k_r + k_l: a negative k is not physical"
+    else:
+        k_r, k_l = 0.5 * (k_sum + k_diff), 0.5 * (k_sum - k_diff)
+        note = f"k_r - k_l = {k_diff:.3g} m (jackknife standard error {k_diff_se:.3g} m)"
+    if severe:
+        if strict:
+            raise CalibrationError("; and ".join(severe) + " (use --force to estimate k anyway)")
+        warnings = severe + warnings
+    return RecordedNoise(
+        k_sum_m=float(k_sum),
+        k_sum_ci95_m=(float(ci[0]), float(ci[1])),
+        k_r_m=None if k_r is None else float(k_r),
+        k_l_m=None if k_l is None else float(k_l),
+        k_diff_m=None if k_diff is None else float(k_diff),
+        k_diff_se_m=None if k_diff_se is None else float(k_diff_se),
+        split_note=note,
+        runs=sum(len(rows) for _, rows in used),
+        dof=int(dof),
+        wheelbase_m=b,
+        measurement_var_theta_rad2=float(var_m),
+        groups=tuple(group_rows),
+        skipped=tuple(skipped),
+        warnings=tuple(warnings),
+    )
+
+
+def _k_diff_recorded(used, k_sum: float):
+    """k_r - k_l by least squares on the x-theta and y-theta sample covariances of every group,
+    given k_sum; jackknife standard error over groups. Returns (k_diff, se, note)."""
+
+    def solve(parts):
+        num = den = 0.0
+        for rows in parts:
+            e = np.array([x["err"] for x in rows])
+            n = len(e)
+            if n < 2:
+                continue
+            c = np.cov(e.T, ddof=1)
+            ar = np.mean([x["coef_r"] for x in rows], axis=0)
+            al = np.mean([x["coef_l"] for x in rows], axis=0)
+            mid, half = 0.5 * (ar + al), 0.5 * (ar - al)
+            for i in (0, 1):
+                resid = c[i, 2] - k_sum * mid[i, 2]
+                num += (n - 1) * resid * half[i, 2]
+                den += (n - 1) * half[i, 2] ** 2
+        return num / den if den > 0 else None
+
+    parts = [rows for _, rows in used]
+    k_diff = solve(parts)
+    if k_diff is None:
+        return None, None, "k_r - k_l: these runs give no position-heading coupling to split k"
+    if len(parts) < 3:
+        return k_diff, None, "k_r - k_l: too few groups for a standard error"
+    values = [solve(parts[:i] + parts[i + 1 :]) for i in range(len(parts))]
+    jack = np.array([v for v in values if v is not None])
+    g = len(jack)
+    se = math.sqrt((g - 1) / g * float(np.sum((jack - jack.mean()) ** 2))) if g >= 3 else None
+    return k_diff, se, ""
+
+
+def tracker_noise(recordings) -> MeasurementNoise:
+    """The tracker's noise per sample, from the jitter of its poses: second differences of the
+    ground truth, x_(i+1) - 2 x_i + x_(i-1), have variance 6 sigma^2 for white noise on a smooth
+    path; sigma = 1.4826 MAD / sqrt(6) over every sample of every run (robust to the robot's
+    own accelerations and to the odd jump). An upper bound: what the robot really does between
+    samples counts as noise. A pose error measured relative to the start pose carries it twice
+    (start and end).
+    """
+    d_xy, d_th = [], []
+    for r in recordings:
+        if r.ground_truth is None or len(r.ground_truth) < 3:
+            continue
+        g = np.asarray(r.ground_truth, dtype=float)
+        d2 = g[2:] - 2 * g[1:-1] + g[:-2]
+        d_xy.append(d2[:, :2].ravel())
+        d_th.append(d2[:, 2])
+    if not d_xy:
+        raise CalibrationError(
+            "the tracker noise needs runs with ground truth of 3 samples or more"
+        )
+
+    def robust_sigma(parts):
+        a = np.concatenate(parts)
+        return float(1.4826 * np.median(np.abs(a - np.median(a))) / math.sqrt(6.0))
+
+    return MeasurementNoise(robust_sigma(d_xy), robust_sigma(d_th))

@@ -9,8 +9,16 @@ import numpy as np
 
 from ..core.model import WheelGeometry
 from ..errors import CalibrationError
+from .uncertainty import CalibrationUncertainty
 
-__all__ = ["CalibrationResult", "GeometryFit", "check_physical", "stderr_dict"]
+__all__ = [
+    "ABSURD_FRACTION",
+    "CalibrationResult",
+    "GeometryFit",
+    "check_physical",
+    "far_from_nominal",
+    "stderr_dict",
+]
 
 
 @dataclass(frozen=True)
@@ -29,6 +37,9 @@ class CalibrationResult:
         ``ran_with.corrected(E_b, E_d)``: what to install in the robot.
     inputs : dict
         What the result was computed from (track, run counts, mean errors, form ...).
+    uncertainty : CalibrationUncertainty or None
+        Standard errors and 95 % intervals of E_b, E_d and ``corrected`` from the run-to-run
+        spread (None with fewer than 2 runs in a direction).
     """
 
     method: str
@@ -37,9 +48,18 @@ class CalibrationResult:
     ran_with: WheelGeometry
     corrected: WheelGeometry
     inputs: dict = field(default_factory=dict)
+    uncertainty: CalibrationUncertainty | None = None
 
     @classmethod
-    def from_factors(cls, method: str, E_b, E_d, ran_with: WheelGeometry, **inputs):
+    def from_factors(
+        cls,
+        method: str,
+        E_b,
+        E_d,
+        ran_with: WheelGeometry,
+        uncertainty: CalibrationUncertainty | None = None,
+        **inputs,
+    ):
         if not (np.all(np.isfinite(E_b)) and np.all(np.isfinite(E_d))):
             raise CalibrationError(f"{method}: the equations are undefined for these errors")
         if not (np.all(np.asarray(E_b) > 0) and np.all(np.asarray(E_d) > 0)):
@@ -47,15 +67,24 @@ class CalibrationResult:
                 f"{method}: the errors give a non-physical result (E_b={E_b}, E_d={E_d}); "
                 "check the direction labels, the signs (error = actual - odometric) and the units"
             )
-        return cls(method, E_b, E_d, ran_with, ran_with.corrected(E_b, E_d), dict(inputs))
+        return cls(
+            method, E_b, E_d, ran_with, ran_with.corrected(E_b, E_d), dict(inputs), uncertainty
+        )
 
     def as_dict(self) -> dict:
-        """The JSON contract of ``odocal calibrate --json``."""
+        """The JSON contract of ``odocal calibrate --json``: the factors, the corrected geometry,
+        their uncertainty (``stderr``, ``ci95``, ``dof``; null without a spread) and the
+        parameters the robot ran with."""
+        unc = self.uncertainty.as_dict() if self.uncertainty is not None else None
         return {
             "method": self.method,
             "E_b": float(self.E_b),
             "E_d": float(self.E_d),
             **self.corrected.as_dict(),
+            "stderr": None if unc is None else unc["stderr"],
+            "ci95": None if unc is None else unc["ci95"],
+            "dof": None if unc is None else unc["dof"],
+            "ran_with": self.ran_with.as_dict(),
         }
 
 
@@ -147,22 +176,29 @@ def check_physical(values, nominal: WheelGeometry | None, method: str) -> list[s
             f"{method}: non-physical result D_R={d_r:.6g} m, D_L={d_l:.6g} m, b={b:.6g} m; the "
             "left and right wheels may be swapped (or one wheel's sign reversed) in the input"
         )
-    warnings = []
-    if nominal is not None:
-        for name, v, n in zip(
-            _KEYS,
-            (d_r, d_l, b),
-            (
-                float(nominal.diameter_right_m),
-                float(nominal.diameter_left_m),
-                float(nominal.wheelbase_m),
-            ),
-            strict=True,
-        ):
-            if abs(v / n - 1) > 0.25:
-                warnings.append(
-                    f"{name} = {v:.6g} m is {100 * (v / n - 1):+.0f} % from nominal {n:.6g} m: "
-                    "absurd for a calibration; check that the wheels are not swapped and the "
-                    "ticks per revolution"
-                )
-    return warnings
+    return far_from_nominal((d_r, d_l, b), nominal)
+
+
+#: A calibrated value further than this (relative) from nominal is absurd for a calibration.
+ABSURD_FRACTION = 0.25
+
+
+def far_from_nominal(values, nominal: WheelGeometry | None) -> list[str]:
+    """One message per value of ``values`` (D_R, D_L, b in m) further than
+    :data:`ABSURD_FRACTION` from ``nominal`` (none without a nominal geometry)."""
+    if nominal is None:
+        return []
+    nominal_values = (
+        float(nominal.diameter_right_m),
+        float(nominal.diameter_left_m),
+        float(nominal.wheelbase_m),
+    )
+    out = []
+    for name, v, n in zip(_KEYS, (float(x) for x in values), nominal_values, strict=True):
+        if abs(v / n - 1) > ABSURD_FRACTION:
+            out.append(
+                f"{name} = {v:.6g} m is {100 * (v / n - 1):+.0f} % from nominal {n:.6g} m: "
+                "absurd for a calibration; check that the wheels are not swapped and the "
+                "ticks per revolution"
+            )
+    return out

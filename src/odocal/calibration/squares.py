@@ -51,8 +51,19 @@ def direction_from_data(total_rotation_rad: float) -> str | None:
     return None
 
 
-def recorded_end_errors(recordings, ran_with: WheelGeometry | None = None):
-    """EndPoseRuns (directions from the data) and warnings, for square runs with ground truth."""
+HEADING_SOURCES = ("truth", "gyro")
+
+
+def recorded_end_errors(
+    recordings, ran_with: WheelGeometry | None = None, heading_source: str = "truth"
+):
+    """EndPoseRuns (directions from the data) and warnings, for closed polygon runs.
+
+    ``heading_source``: 'truth' (the ground truth's final pose) or 'gyro' (the integrated gyro
+    heading, bias and mounting handled by the loader; no position: x and y are NaN), the paper's
+    point that its method needs only a heading sensor."""
+    if heading_source not in HEADING_SOURCES:
+        raise CalibrationError(f"heading source must be truth or gyro, got {heading_source!r}")
     dirs, errs, warnings = [], [], []
     for r in recordings:
         geo = r.ran_with or ran_with
@@ -61,7 +72,16 @@ def recorded_end_errors(recordings, ran_with: WheelGeometry | None = None):
                 f"{r.name}: the parameters the robot ran with are unknown (no metadata): "
                 "give --robot ROBOT.yaml"
             )
-        total = float(r.ground_truth[-1, 2] - r.ground_truth[0, 2])
+        if heading_source == "gyro":
+            if r.gyro_yaw_rad is None:
+                raise CalibrationError(
+                    f"{r.name}: no gyro heading (an IMU topic, or a gyro_yaw_rad column)"
+                )
+            total = float(r.gyro_yaw_rad[-1] - r.gyro_yaw_rad[0])
+        else:
+            if r.ground_truth is None:
+                raise CalibrationError(f"{r.name}: no ground truth (use --heading-source gyro)")
+            total = float(r.ground_truth[-1, 2] - r.ground_truth[0, 2])
         d = direction_from_data(total)
         if d is None:
             raise CalibrationError(
@@ -75,7 +95,11 @@ def recorded_end_errors(recordings, ran_with: WheelGeometry | None = None):
                 f"{d.upper()} ({math.degrees(total):+.0f} deg); using {d.upper()}"
             )
         odo = dead_reckon(r.wheel_angle_right_rad, r.wheel_angle_left_rad, geo)
-        errs.append(r.ground_truth[-1] - odo[-1])
+        if heading_source == "gyro":
+            gyro = r.gyro_yaw_rad
+            errs.append([math.nan, math.nan, (gyro[-1] - gyro[0]) - odo[-1, 2]])
+        else:
+            errs.append(r.ground_truth[-1] - odo[-1])
         dirs.append(d)
     return EndPoseRuns(tuple(dirs), np.array(errs)), warnings
 
@@ -83,7 +107,9 @@ def recorded_end_errors(recordings, ran_with: WheelGeometry | None = None):
 def _group(recordings):
     groups: dict[str, list] = {}
     for r in recordings:
-        key = r.meta.get("dataset") or str(Path(r.name).parent)
+        # a data set: OptiOdom's id, else the folder holding the run file or the bag
+        source = r.meta.get("bag") or r.name
+        key = r.meta.get("dataset") or str(Path(source).parent)
         groups.setdefault(key, []).append(r)
     return groups
 
@@ -96,14 +122,23 @@ def fit_recorded_squares(
     ran_with: WheelGeometry | None = None,
     nominal: WheelGeometry | None = None,
     umbmark_form: str = "mean",
+    heading_source: str = "truth",
+    sides: int = 4,
 ) -> GeometryFit:
-    """UMBmark (``method='umbmark'``) or the heading method (``'heading'``) on recorded squares,
-    per data set, pooled as the module docstring says."""
+    """UMBmark (``method='umbmark'``) or the heading method (``'heading'``) on recorded squares
+    (the heading method: any regular ``sides``-gon), per data set, pooled as the module
+    docstring says. ``heading_source='gyro'``: the final heading errors from the integrated
+    gyro instead of the ground truth (heading method only)."""
     if method not in ("umbmark", "heading"):
         raise CalibrationError(f"method must be umbmark or heading, got {method!r}")
+    if method == "umbmark" and (heading_source != "truth" or sides != 4):
+        raise CalibrationError(
+            "UMBmark needs the final positions of squares measured: use the heading method with "
+            "a gyro, or ground truth"
+        )
     per_set, warnings = [], []
     for key, runs in _group(recordings).items():
-        ends, w = recorded_end_errors(runs, ran_with)
+        ends, w = recorded_end_errors(runs, ran_with, heading_source)
         side = side_m or runs[0].meta.get("side_m")
         if not side:
             raise CalibrationError(
@@ -117,7 +152,7 @@ def fit_recorded_squares(
             if method == "umbmark":
                 res = calibrate_umbmark(ends, side, geo, umbmark_form)
             else:
-                res = calibrate_heading(ends, 4, side, geo)
+                res = calibrate_heading(ends, sides, side, geo)
         except CalibrationError as exc:
             raise CalibrationError(f"data set {key}: {exc}") from None
         per_set.append((key, len(runs), res, ends))
@@ -166,6 +201,17 @@ def fit_recorded_squares(
         )
         sd = vals.std(axis=0, ddof=1) / math.sqrt(len(per_set))
         stderr = dict(zip(stderr, map(float, sd), strict=True))
+    elif (one := per_set[0][2].uncertainty) is not None:
+        # one data set: the run-to-run spread (delta method), kept relative to each value
+        res = per_set[0][2]
+        unc = one.stderr[2:]
+        own = (
+            res.corrected.diameter_right_m,
+            res.corrected.diameter_left_m,
+            res.corrected.wheelbase_m,
+        )
+        got = (geometry.diameter_right_m, geometry.diameter_left_m, geometry.wheelbase_m)
+        stderr = {k: float(u * g / o) for k, u, g, o in zip(stderr, unc, got, own, strict=True)}
     return GeometryFit(
         method=method,
         geometry=geometry,
@@ -178,5 +224,7 @@ def fit_recorded_squares(
             "pooling": "per data set, composed with its own ran-with parameters; pooled by run "
             "count through D_R/D_L and b/D, at the nominal mean diameter (scale not observable)",
             **({"umbmark_form": umbmark_form} if method == "umbmark" else {}),
+            "heading_source": heading_source,
+            "sides": sides,
         },
     )

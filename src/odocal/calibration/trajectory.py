@@ -50,7 +50,15 @@ from ..errors import CalibrationError
 from .linear import fit_linear
 from .result import GeometryFit, check_physical, stderr_dict
 
-__all__ = ["fit_trajectory", "RESIDUALS", "RUN_WEIGHTS", "robust_z", "match_runs"]
+__all__ = [
+    "fit_trajectory",
+    "RESIDUALS",
+    "RUN_WEIGHTS",
+    "RunResiduals",
+    "relative_poses",
+    "robust_z",
+    "match_runs",
+]
 
 RESIDUALS = ("pose", "segment")
 RUN_WEIGHTS = ("travel", "equal")
@@ -99,7 +107,7 @@ def _block_weight(travel_m: float, count: int, run_weight: str) -> float:
     return float(np.sqrt(total / count))
 
 
-class _Run:
+class RunResiduals:
     """Pre-computed arrays of one run for fast residual evaluation."""
 
     def __init__(self, rec, kind, samples, segment_m, start: WheelGeometry, run_weight="travel"):
@@ -124,12 +132,12 @@ class _Run:
             if len(marks) < 2:
                 marks = np.array([0, n - 1])
             self.i0, self.i1 = marks[:-1], marks[1:]
-            self.gt_rel = _relative(self.gt, self.i0, self.i1)
+            self.gt_rel = relative_poses(self.gt, self.i0, self.i1)
             count = len(self.i0)
         self.weight = _block_weight(self.travel_m, count, run_weight)
 
 
-def _relative(P, i0, i1):
+def relative_poses(P, i0, i1):
     d = P[i1, :2] - P[i0, :2]
     c, s = np.cos(P[i0, 2]), np.sin(P[i0, 2])
     return np.column_stack(
@@ -137,12 +145,12 @@ def _relative(P, i0, i1):
     )
 
 
-def _run_residual(run: _Run, p, kind, w_head) -> np.ndarray:
+def _run_residual(run: RunResiduals, p, kind, w_head) -> np.ndarray:
     odo = dead_reckon(run.phi_r, run.phi_l, WheelGeometry.unchecked(*p))
     if kind == "pose":
         e = run.gt[run.idx] - odo[run.idx]
     else:
-        e = run.gt_rel - _relative(odo, run.i0, run.i1)
+        e = run.gt_rel - relative_poses(odo, run.i0, run.i1)
     e = e.copy()
     e[:, 2] *= w_head
     return e.ravel()
@@ -254,7 +262,9 @@ def fit_trajectory(
         best = None
         for g in starts:
             x0 = np.array([g.diameter_right_m, g.diameter_left_m, g.wheelbase_m], float)
-            runs = [_Run(r, residual, samples_per_run, segment_m, gauge, run_weight) for r in rs]
+            runs = [
+                RunResiduals(r, residual, samples_per_run, segment_m, gauge, run_weight) for r in rs
+            ]
             sol = _solve(runs, x0, residual, heading_weight_m)
             if np.all(np.isfinite(sol.x)) and np.all(sol.x > 0):
                 if best is None or sol.cost < best[1].cost:
@@ -266,7 +276,7 @@ def fit_trajectory(
     runs, sol = fit(use)
     # outlier statistic: RMS of the SEGMENT residuals whatever residual the fit used, because
     # segments have the same travel in every run, so short and long runs are comparable
-    seg_runs = [_Run(r, "segment", samples_per_run, segment_m, gauge) for r in use]
+    seg_runs = [RunResiduals(r, "segment", samples_per_run, segment_m, gauge) for r in use]
     rms = np.array(
         [
             np.sqrt(np.mean(_run_residual(r, sol.x, "segment", heading_weight_m) ** 2))

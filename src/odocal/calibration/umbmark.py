@@ -20,6 +20,7 @@ import numpy as np
 from ..core.model import ModelError, WheelGeometry
 from ..core.runs import EndPoseRuns, check_both_directions
 from .result import CalibrationResult
+from .uncertainty import spread_uncertainty
 
 __all__ = ["umbmark_factors", "calibrate_umbmark", "UMBMARK_FORMS"]
 
@@ -70,11 +71,18 @@ def calibrate_umbmark(
     cw = runs.mean("cw")[:2]
     ccw = runs.mean("ccw")[:2]
     E_b, E_d = umbmark_factors(cw, ccw, side_m, ran_with.wheelbase_m, form, ed_wheelbase)
+    b = ran_with.wheelbase_m
+    unc = spread_uncertainty(
+        lambda z: umbmark_factors(z[0:2], z[2:4], side_m, b, form, ed_wheelbase),
+        [(d, runs.select(d)[:, :2]) for d in ("cw", "ccw")],
+        ran_with,
+    )
     return CalibrationResult.from_factors(
         "umbmark",
         float(E_b),
         float(E_d),
         ran_with,
+        unc,
         form=form,
         side_m=side_m,
         runs_cw=runs.count("cw"),

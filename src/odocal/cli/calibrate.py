@@ -5,12 +5,13 @@ from __future__ import annotations
 import math
 
 from .common import (
+    add_export_args,
     add_robot_args,
-    add_track_args,
     length_m,
     print_json,
     print_table,
     print_warnings,
+    sides_int,
 )
 
 
@@ -19,7 +20,9 @@ def add_parser(sub) -> None:
         "calibrate",
         description="Calibrate the wheelbase and wheel-diameter ratio from the measured final "
         "pose errors of CW and CCW runs on a regular N-gon (heading, umbmark), or from the "
-        "measured radii of CW and CCW circles of commanded radius R (bcpt).",
+        "measured radii of CW and CCW circles of commanded radius R (bcpt). The track comes "
+        "from the run sheet ('# sides:' and '# side_m:' lines, written by 'odocal plan') or "
+        "from --sides/--side-length; there is no default side length.",
     )
     p.add_argument(
         "runs_csv",
@@ -32,7 +35,20 @@ def add_parser(sub) -> None:
         "the parameters the robot RAN WITH during the runs (default: ROBOT.yaml's "
         "'believed', else nominal)",
     )
-    add_track_args(p)
+    p.add_argument(
+        "--sides",
+        type=sides_int,
+        default=None,
+        metavar="N",
+        help="regular N-gon the runs drove (default: the run sheet's, else 4, a square)",
+    )
+    p.add_argument(
+        "--side-length",
+        type=length_m,
+        default=None,
+        metavar="L",
+        help="its side length in m (default: the run sheet's 'side_m'; required otherwise)",
+    )
     p.add_argument(
         "--method",
         choices=("heading", "umbmark", "bcpt"),
@@ -53,7 +69,13 @@ def add_parser(sub) -> None:
         default="mean",
         help="UMBmark equations from x, y or their mean (default mean)",
     )
-    p.add_argument("--out", metavar="PARAMS.yaml", help="write the corrected parameters")
+    add_export_args(p, "write the corrected parameters")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="accept a result more than 25 %% from what the robot ran with (absurd for a "
+        "calibration: by default an error, and nothing is written)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=run)
 
@@ -71,6 +93,9 @@ def run(args) -> int:
         umbmark_form=args.umbmark_form,
         radius_m=args.radius,
         out=args.out,
+        ros2=args.ros2,
+        controller_name=args.controller_name,
+        force=args.force,
     )
     print_warnings(res.warnings)
     if args.json:
@@ -79,18 +104,40 @@ def run(args) -> int:
     result = res.calibration
     ins = result.inputs
     label = result.method + (f" ({ins['form']}-form)" if "form" in ins else "")
-    print(f"{label} from {ins['runs_cw']} CW and {ins['runs_ccw']} CCW runs, {res.track}")
-    r, c = result.ran_with, result.corrected
-    print_table(
-        [
-            ("", "ran with", "calibrated"),
-            ("E_b", "", f"{result.E_b:.6f}"),
-            ("E_d", "", f"{result.E_d:.6f}"),
-            ("wheel_diameter_right_m", f"{r.diameter_right_m:.6f}", f"{c.diameter_right_m:.6f}"),
-            ("wheel_diameter_left_m", f"{r.diameter_left_m:.6f}", f"{c.diameter_left_m:.6f}"),
-            ("wheelbase_m", f"{r.wheelbase_m:.6f}", f"{c.wheelbase_m:.6f}"),
-        ]
-    )
+    where = "" if res.track_source == "arguments" else f" (track from the {res.track_source})"
+    if res.track_source == "both":
+        where = " (track from the run sheet and the arguments)"
+    print(f"{label} from {ins['runs_cw']} CW and {ins['runs_ccw']} CCW runs, {res.track}{where}")
+    r, c, unc = result.ran_with, result.corrected, result.uncertainty
+    ci = unc.ci95() if unc is not None else {}
+
+    def cell(name: str, value: float, digits: int) -> tuple[str, str, str]:
+        if unc is None:
+            return f"{value:.{digits}f}", "-", "-"
+        k = ("E_b", "E_d", *_GEOMETRY).index(name)
+        lo, hi = ci[name]
+        return (
+            f"{value:.{digits}f}",
+            f"{unc.stderr[k]:.{digits}f}",
+            f"{lo:.{digits}f} .. {hi:.{digits}f}",
+        )
+
+    rows = [("", "ran with", "calibrated", "std error", "95 % interval")]
+    rows.append(("E_b", "", *cell("E_b", result.E_b, 6)))
+    rows.append(("E_d", "", *cell("E_d", result.E_d, 6)))
+    for name, ran, cal in zip(
+        _GEOMETRY,
+        (r.diameter_right_m, r.diameter_left_m, r.wheelbase_m),
+        (c.diameter_right_m, c.diameter_left_m, c.wheelbase_m),
+        strict=True,
+    ):
+        rows.append((name, f"{ran:.6f}", *cell(name, float(cal), 6)))
+    print_table(rows)
+    if unc is not None:
+        print(
+            "  std error and 95 % interval from the run-to-run spread (delta method; Student t "
+            f"with {min(unc.dof):.1f} or more degrees of freedom)"
+        )
     if "mean_theta_cw_rad" in ins:
         print(
             f"  mean heading error: CW {math.degrees(ins['mean_theta_cw_rad']):+.4f} deg, "
@@ -105,3 +152,6 @@ def run(args) -> int:
     for f in res.written:
         print(f"wrote {f}")
     return 0
+
+
+_GEOMETRY = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")

@@ -11,22 +11,29 @@ import time
 from collections.abc import Callable, Iterable
 from typing import Any
 
+from ..io.limits import HEADING_WEIGHT_MAX_M, TICKS_PER_REV, TRACK_LENGTH_MAX_M
+
 __all__ = [
     "MAX_LENGTH_M",
     "number",
     "positive_float",
     "nonnegative_float",
     "length_m",
+    "ticks_per_rev",
+    "heading_weight",
     "positive_int",
     "sides_int",
     "seed_int",
     "trials_int",
     "fraction",
     "noise_track",
+    "motion_mix",
     "add_robot_args",
     "add_track_args",
+    "add_export_args",
     "add_recording_args",
     "add_bag_args",
+    "add_slam_args",
     "bag_options",
     "print_json",
     "print_warnings",
@@ -35,9 +42,9 @@ __all__ = [
     "ProgressBar",
 ]
 
-# Largest length a flag may give (m): beyond 100 km a length is a unit mistake, and the
-# statistics of a track that long overflow.
-MAX_LENGTH_M = 1e5
+# Largest length a flag may give (m; odocal.io.limits): beyond 100 km a length is a unit
+# mistake, and the statistics of a track that long overflow.
+MAX_LENGTH_M = TRACK_LENGTH_MAX_M
 
 
 def number(
@@ -84,6 +91,18 @@ def number(
 positive_float = number(float, above=0)
 nonnegative_float = number(float, at_least=0)
 length_m = number(float, above=0, at_most=MAX_LENGTH_M, hint=" m (check the units)")
+ticks_per_rev = number(
+    float,
+    at_least=TICKS_PER_REV[0],
+    at_most=TICKS_PER_REV[1],
+    hint=" ticks per wheel turn (check the units)",
+)
+heading_weight = number(
+    float,
+    at_least=0,
+    at_most=HEADING_WEIGHT_MAX_M,
+    hint=" m per rad (a heavier weight lets the heading alone decide the fit)",
+)
 positive_int = number(int, at_least=1)
 seed_int = number(int, at_least=0)
 trials_int = number(int, at_least=2, hint=" (a standard deviation is needed)")
@@ -136,6 +155,17 @@ def noise_track(text: str) -> tuple[str, float]:
     return kind, d
 
 
+def motion_mix(text: str) -> dict[str, float]:
+    """'spot=0.2,wide=0.8': shares of the rotation per band of motion (normalised)."""
+    from ..calibration.turning import parse_motion_mix
+    from ..errors import CalibrationError
+
+    try:
+        return parse_motion_mix(text)
+    except CalibrationError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def add_robot_args(p: argparse.ArgumentParser, params_help: str) -> None:
     from ..presets import DEFAULT_ROBOT, PRESETS
 
@@ -163,12 +193,29 @@ def add_track_args(p: argparse.ArgumentParser, default_sides=4, default_side=4.0
     )
 
 
+def add_export_args(p: argparse.ArgumentParser, out_help: str) -> None:
+    """Where a calibration goes: PARAMS.yaml and the ros2_control file (fit and calibrate)."""
+    p.add_argument("--out", metavar="PARAMS.yaml", help=out_help)
+    p.add_argument(
+        "--ros2",
+        metavar="FILE.yaml",
+        help="write a ros2_control diff_drive_controller parameter file (nominal base values "
+        "from --robot, the calibration in the multipliers)",
+    )
+    p.add_argument(
+        "--controller-name",
+        default="diff_drive_controller",
+        metavar="NAME",
+        help="controller name in the --ros2 file (default diff_drive_controller)",
+    )
+
+
 def add_recording_args(p: argparse.ArgumentParser) -> None:
     """Recorded runs (files, folders, bags) and how to read them (shared by fit and validate)."""
     p.add_argument("paths", nargs="+", metavar="RUN_OR_DIR", help="run file, folder or bag")
     p.add_argument(
         "--ticks-per-rev",
-        type=positive_float,
+        type=ticks_per_rev,
         metavar="N",
         help="encoder ticks per wheel revolution for tick inputs that do not give it",
     )
@@ -183,12 +230,34 @@ def add_bag_args(p: argparse.ArgumentParser) -> None:
     g.add_argument("--imu-topic", metavar="T", help="sensor_msgs/Imu topic")
     g.add_argument("--right-joint", metavar="NAME", help="right wheel joint name")
     g.add_argument("--left-joint", metavar="NAME", help="left wheel joint name")
+    g.add_argument("--scan-topic", metavar="T", help="sensor_msgs/LaserScan topic (--method scan)")
+
+
+def add_slam_args(p: argparse.ArgumentParser) -> None:
+    """A SLAM pose on /tf as ground truth (shared by fit and validate)."""
+    s = p.add_argument_group("SLAM pose as ground truth (bags)")
+    s.add_argument(
+        "--truth-frames",
+        metavar="PARENT:CHILD",
+        help="the truth is the pose of CHILD in PARENT on /tf (e.g. map:base_link, composed "
+        "through map -> odom -> base_link); only the relative motions between the SLAM's "
+        "updates are used (docs/slam-truth.md)",
+    )
+    s.add_argument(
+        "--slam-stamp-offset",
+        type=number(float, at_least=0, at_most=10, hint=" s"),
+        default=0.0,
+        metavar="S",
+        help="seconds the SLAM post-dates its correction (slam_toolbox: transform_timeout, 0.2 "
+        "by default; AMCL: transform_tolerance); default 0",
+    )
 
 
 def bag_options(args: argparse.Namespace) -> dict:
     return {
         k: getattr(args, k, None)
         for k in ("joint_topic", "truth_topic", "imu_topic", "right_joint", "left_joint")
+        if getattr(args, k, None) is not None
     }
 
 
@@ -198,7 +267,34 @@ def print_warnings(warnings: Iterable[str], prefix: str = "") -> None:
         print(f"odocal: warning: {prefix}{w}", file=sys.stderr)
 
 
+def _non_finite(obj: Any, where: str = "") -> str | None:
+    """The key path of the first non-finite number in ``obj`` (None if there is none)."""
+    if isinstance(obj, float):
+        return None if math.isfinite(obj) else (where or "the result")
+    if isinstance(obj, dict):
+        items: Iterable = ((f"{where}.{k}" if where else str(k), v) for k, v in obj.items())
+    elif isinstance(obj, (list, tuple)):
+        items = ((f"{where}[{i}]", v) for i, v in enumerate(obj))
+    else:
+        return None
+    for key, value in items:
+        found = _non_finite(value, key)
+        if found is not None:
+            return found
+    return None
+
+
 def print_json(obj: Any) -> None:
+    """``obj`` as one JSON object on stdout, all or nothing. A non-finite number (JSON has none;
+    undefined values are null) is never printed: OdocalError naming its key instead."""
+    bad = _non_finite(obj)
+    if bad is not None:
+        from ..errors import OdocalError
+
+        raise OdocalError(
+            f"the result '{bad}' is not a finite number; nothing printed (please report this "
+            "with the input that caused it)"
+        )
     text = json.dumps(obj, indent=2, allow_nan=False)  # all or nothing: no half-printed object
     sys.stdout.write(text + "\n")
 

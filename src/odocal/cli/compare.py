@@ -7,6 +7,7 @@ import statistics
 
 from ..presets import DEFAULT_ROBOT
 from .common import (
+    ProgressBar,
     add_robot_args,
     length_m,
     positive_int,
@@ -73,6 +74,11 @@ def add_parser(sub) -> None:
     )
     p.add_argument("--plot", metavar="DIR", default=None, help="write compare.png into DIR")
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress bar (also off with --json or when stderr is not a terminal)",
+    )
     p.set_defaults(run=run)
 
 
@@ -83,18 +89,23 @@ def _fmt(v, scale=1.0, f=".2f"):
 def run(args) -> int:
     from ..app.compare import compare, comparison_document
 
-    comparison = compare(
-        args.robot,
-        params=args.params,
-        trials=args.trials,
-        seed=args.seed,
-        runs=args.runs,
-        travel_m=args.travel,
-        ivanjko_straight_m=args.ivanjko_straight,
-        realdata=args.realdata,
-        circle_set=args.circle_set,
-        plot=args.plot,
-    )
+    bar = ProgressBar("odocal compare", enabled=not (args.quiet or args.json))
+    try:
+        comparison = compare(
+            args.robot,
+            params=args.params,
+            trials=args.trials,
+            seed=args.seed,
+            runs=args.runs,
+            travel_m=args.travel,
+            ivanjko_straight_m=args.ivanjko_straight,
+            realdata=args.realdata,
+            circle_set=args.circle_set,
+            plot=args.plot,
+            progress=bar,
+        )
+    finally:
+        bar.close()
     real = comparison.real
     png = comparison.written[0] if comparison.written else None
     doc = comparison_document(

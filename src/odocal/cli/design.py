@@ -11,9 +11,11 @@ from .common import (
     ProgressBar,
     add_robot_args,
     fraction,
+    nonnegative_float,
     positive_int,
     print_json,
     print_table,
+    print_warnings,
     seed_int,
     sides_int,
     trials_int,
@@ -113,9 +115,10 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--side-lengths",
         type=parse_side_lengths,
-        default=parse_side_lengths("0.5:10:0.5"),
+        default=None,
         metavar="START:STOP:STEP",
-        help="candidate side lengths in m, STOP inclusive (default 0.5:10:0.5)",
+        help="candidate side lengths in m, STOP inclusive (default: 20 steps of about 1.3 "
+        "wheelbases, 0.5:10:0.5 for the paper's robot)",
     )
     p.add_argument(
         "--runs-per-direction",
@@ -127,9 +130,9 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--trials",
         type=trials_int,
-        default=800,
+        default=2000,
         metavar="M",
-        help="Monte-Carlo trials per candidate (default 800)",
+        help="Monte-Carlo trials per candidate (default 2000; the paper used 800)",
     )
     p.add_argument(
         "--method",
@@ -140,15 +143,16 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--validate",
         type=parse_validation,
-        default=parse_validation("4:4:ccw"),
+        default=None,
         metavar="SIDES:LENGTH:DIRECTION",
-        help="validation track driven with each calibration (default 4:4:ccw)",
+        help="validation track driven with each calibration (default: a CCW square of about 10 "
+        "wheelbases, 4:4:ccw for the paper's robot)",
     )
     p.add_argument(
         "--alpha",
         type=fraction(lo_open=True),
         default=0.05,
-        help="significance level of the one-sided Welch tests (default 0.05)",
+        help="significance level of the rule's one-sided tests (default 0.05)",
     )
     p.add_argument(
         "--tolerance",
@@ -172,28 +176,61 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--analytic",
         action="store_true",
-        help="first-order propagation instead of Monte Carlo: the same report in milliseconds "
-        "(docs/nonsystematic-errors.md says when first order holds)",
+        help="first-order propagation instead of Monte Carlo: expected values, the same "
+        "report in milliseconds (docs/nonsystematic-errors.md says when first order holds)",
+    )
+    p.add_argument(
+        "--known-errors",
+        action="store_true",
+        help="design for the robot's errors as given even when ROBOT.yaml gives no "
+        "'systematic' or 'nonsystematic' section (default: design over their typical ranges)",
+    )
+    p.add_argument(
+        "--robot-from",
+        nargs="+",
+        metavar="RUN_OR_DIR",
+        help="measure the robot from tracked runs instead (systematic errors from a trajectory "
+        "fit, k from the spread of repeated runs, the instrument from the tracker's jitter "
+        "unless given); --robot then only gives the nominal geometry",
+    )
+    p.add_argument(
+        "--sigma-xy-m",
+        type=nonnegative_float,
+        metavar="S",
+        help="the instrument's position noise per measured final pose, m (replaces the robot's)",
+    )
+    p.add_argument(
+        "--sigma-theta-deg",
+        type=nonnegative_float,
+        metavar="S",
+        help="the instrument's heading noise per measured final pose, deg (replaces the robot's)",
     )
     p.add_argument("--plot", metavar="DIR", help="write PNG figures into DIR")
     p.add_argument("--json", action="store_true", help="print one JSON object")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress bar (also off with --json or when stderr is not a terminal)",
+    )
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
     from ..app.design import design
     from ..design.result import DesignSpec
+    from ..design.robust import RangeDesign
 
     spec = DesignSpec(
         sides=tuple(args.sides or [4]),
-        side_lengths_m=tuple(float(v) for v in args.side_lengths),
+        side_lengths_m=None
+        if args.side_lengths is None
+        else tuple(float(v) for v in args.side_lengths),
         runs_per_direction=args.runs_per_direction,
         trials=args.trials,
         method=args.method,
         validation=args.validate,
     )
-    bar = ProgressBar("odocal design", enabled=not args.quiet and not args.analytic)
+    bar = ProgressBar("odocal design", enabled=not (args.quiet or args.json))
     try:
         res = design(
             args.robot,
@@ -207,16 +244,42 @@ def run(args) -> int:
             reference_sim=args.reference_sim,
             plot=args.plot,
             progress=bar,
+            error_range=False if args.known_errors else None,
+            robot_from=args.robot_from,
+            measurement=_instrument(args),
         )
     finally:
         bar.close()
+    print_warnings(res.warnings)
     if args.json:
         print_json(res.as_dict())
         return 0
-    print_design(res.result, res.robot, None if args.analytic else args.seed)
+    if res.measured is not None:
+        m = res.measured.robot
+        print(
+            f"Robot measured from {len(res.measured.fit.runs)} run(s): E_b {m.systematic.E_b:.6f}, "
+            f"E_d {m.systematic.E_d:.6f} (relative to nominal), k_r + k_l "
+            f"{m.nonsystematic.k_sum_m:.3g} m, instrument {m.measurement.sigma_xy_m * 1000:.3g} mm "
+            f"/ {math.degrees(m.measurement.sigma_theta_rad):.3g} deg "
+            f"({res.measured.measurement_source})"
+        )
+    for note in res.notes:
+        print(f"Note: {note}")
+    if isinstance(res.result, RangeDesign):
+        print_range_design(res.result, res.robot)
+    else:
+        print_design(res.result, res.robot, res.seed)
     for path in res.written:
         print(f"wrote {path}")
     return 0
+
+
+def _instrument(args):
+    if args.sigma_xy_m is None and args.sigma_theta_deg is None:
+        return None
+    from ..core.model import MeasurementNoise
+
+    return MeasurementNoise.from_degrees(args.sigma_xy_m or 0.0, args.sigma_theta_deg or 0.0)
 
 
 def _f(v, fmt: str) -> str:
@@ -226,23 +289,25 @@ def _f(v, fmt: str) -> str:
 def print_design(result, robot: str, seed: int | None = None) -> None:
     """The human-readable design report."""
     from ..design.result import shape_name
-    from ..design.sweep import other_criterion
+    from ..design.sweep import other_criterion, stability
 
     cands = result.candidates
     rec = result.recommendation
     r = cands[rec.index]
-    seed_text = f", seed {seed}" if seed is not None else ""
-    how = f"{result.trials} trials{seed_text}"
-    if result.settings is None:
-        how = f"first-order analytic (t-tests as for {result.trials} trials)"
+    if result.trials is None:
+        how = "first-order analytic (expected values, no trials)"
+    else:
+        crn = ", common random numbers" if result.paired else ""
+        how = f"{result.trials} Monte-Carlo trials per candidate{crn}, seed {seed}"
     print(
         f"Test-track design for {robot}: {result.method} method, "
         f"{result.runs_per_direction} runs per direction, {how}"
     )
+    mean_of = "means over the trials" if result.trials is not None else "expected values"
     print(
         f"Validation: {result.validation.label}; uncalibrated error "
         f"{_f(result.uncalibrated.mean_m, '.3f')} m, floor with the true parameters "
-        f"{_f(result.floor.mean_m, '.3f')} m (means over the trials)"
+        f"{_f(result.floor.mean_m, '.3f')} m ({mean_of})"
     )
     print()
     rows = [
@@ -288,7 +353,7 @@ def print_design(result, robot: str, seed: int | None = None) -> None:
         "  share: systematic share of the n-run-mean leg heading error; |beta|, sigma: "
         "systematic and random heading error of one leg;\n"
         "  error: final position error on the validation track after calibration (mean, std, "
-        "central 95 % of trials); residual: the same without wheel noise"
+        "central 95 % of single calibrations); residual: the same without wheel noise"
     )
     failed = sum(c.failed_trials for c in cands)
     if failed:
@@ -303,10 +368,32 @@ def print_design(result, robot: str, seed: int | None = None) -> None:
         f"{result.floor.mean_m:.4f} m)"
     )
     judged = "error after calibration" if rec.criterion == "error" else "residual error"
+    test = {
+        "exact": "expected values compared directly",
+        "paired": f"one-sided paired t-test on common random numbers, alpha {rec.alpha:g}",
+        "welch": f"one-sided Welch t-test, alpha {rec.alpha:g}",
+    }[rec.test]
     print(
         f"Rule: the smallest track that no larger track beats by more than "
-        f"{100 * rec.tolerance:g} % in {judged} (one-sided Welch t-test, alpha {rec.alpha:g})."
+        f"{100 * rec.tolerance:g} % in {judged} ({test})."
     )
+    st = stability(result)
+    if st is not None:
+        lo, hi = st["range_m"]
+        picks = ", ".join(f"{p['side_m']:g} m {100 * p['share']:.0f} %" for p in st["picks"][:4])
+        if lo == hi:
+            verdict = f"stable: {lo:g} m in at least 90 % of them"
+        else:
+            verdict = f"{lo:g}-{hi:g} m hold 90 % of them: these sizes are indistinguishable"
+        print(
+            f"Stability: the rule on {st['resamples']} bootstrap resamples of the trials picks "
+            f"{picks}; {verdict}."
+        )
+    elif result.trials is None:
+        print(
+            "Stability: expected values (no sampling error); the first-order approximation is "
+            "checked by Monte Carlo ('odocal design' without --analytic)."
+        )
     other = other_criterion(result)
     if other is not None:
         o = cands[other.index]
@@ -320,22 +407,100 @@ def print_design(result, robot: str, seed: int | None = None) -> None:
             print(f"  best {shape_name(s)}: side {cands[i].side_m:g} m ({cands[i].travel_m:g} m)")
     if rec.neighbours:
         print()
-        print(
-            f"t-tests of the {judged} against the recommended {r.side_m:g} m track (Welch, "
-            "two-sided; as the paper's Tables 2 and 3):"
-        )
-        trows = [("track", "vs", "t", "df", "p", "mean difference_m", "better by > tol")]
-        for comp in rec.neighbours:
-            o = cands[comp.other]
-            trows.append(
-                (
-                    f"{o.side_m:g} m",
-                    f"{r.side_m:g} m",
-                    _f(comp.test.t, ".3f"),
-                    _f(comp.test.df, ".1f"),
-                    _f(comp.test.p_two_sided, ".3f"),
-                    _f(comp.test.mean_difference, "+.4f"),
-                    "yes" if comp.significant else "no",
+        tol = f"{100 * rec.tolerance:g} %"
+        if rec.test == "exact":
+            print(f"The recommended {r.side_m:g} m track against its neighbours (expected values):")
+            trows = [("track", "vs", "mean difference_m", "ratio", f"better by > {tol}")]
+            for comp in rec.neighbours:
+                o = cands[comp.other]
+                trows.append(
+                    (
+                        f"{o.side_m:g} m",
+                        f"{r.side_m:g} m",
+                        _f(comp.mean_difference, "+.4f"),
+                        _f(o.post_error_mean_m / r.post_error_mean_m, ".4f"),
+                        "yes" if comp.significant else "no",
+                    )
                 )
+        else:
+            kind = "paired" if rec.test == "paired" else "Welch"
+            print(
+                f"t-tests of the {judged} against the recommended {r.side_m:g} m track ({kind}; "
+                "as the paper's Tables 2 and 3): 'any difference' is the two-sided test, "
+                f"'better by > {tol}' the rule's one-sided test (H1: the other track's mean < "
+                f"{1 - rec.tolerance:g} x this one's)"
             )
+            trows = [
+                (
+                    "track",
+                    "vs",
+                    "mean difference_m",
+                    "t (any difference)",
+                    "df",
+                    "p (any difference)",
+                    f"t (better by > {tol})",
+                    f"p (better by > {tol})",
+                    f"better by > {tol}",
+                )
+            ]
+            for comp in rec.neighbours:
+                o = cands[comp.other]
+                trows.append(
+                    (
+                        f"{o.side_m:g} m",
+                        f"{r.side_m:g} m",
+                        _f(comp.mean_difference, "+.4f"),
+                        _f(comp.test.t, ".3f"),
+                        _f(comp.test.df, ".1f"),
+                        _f(comp.test.p_two_sided, ".3f"),
+                        _f(comp.rule.t, ".3f"),
+                        _f(comp.rule.p_less, ".3f"),
+                        "yes" if comp.significant else "no",
+                    )
+                )
         print_table(trows)
+
+
+def print_range_design(design, robot: str) -> None:
+    """The report of a design over plausible errors."""
+    from ..design.result import shape_name
+
+    d = design.as_dict()
+    rg = d["error_range"]["ranges"]
+    unknown = " and ".join(design.unknown)
+    print(
+        f"Test-track design for {robot}: its {unknown} errors are not given, so the design runs "
+        f"over {len(design.scenarios)} plausible robots (E_b {rg['E_b'][0]:g}-{rg['E_b'][1]:g}, "
+        f"E_d {rg['E_d'][0]:g}-{rg['E_d'][1]:g}, k {rg['k_m'][0]:.2g}-{rg['k_m'][1]:.2g} m; "
+        "typical ranges, docs/design.md), first-order analytic, "
+        f"{design.method} method, {design.runs_per_direction} runs per direction"
+    )
+    print(
+        f"Validation: {design.validation.label}; uncalibrated error "
+        f"{np.min(design.uncalibrated):.3f}-{np.max(design.uncalibrated):.3f} m, floor "
+        f"{np.min(design.floor):.3f}-{np.max(design.floor):.3f} m over the plausible robots"
+    )
+    print()
+    rows = [("track", "side_m", "travel_m", "worst above best_%", "error range_m")]
+    for i, c in enumerate(d["candidates"]):
+        rows.append(
+            (
+                ("* " if i == design.index else "  ") + shape_name(c["sides"]),
+                _f(c["side_m"], "g"),
+                _f(c["travel_m"], "g"),
+                _f(100 * c["worst_regret"], ".1f"),
+                f"{_f(c['post_error_min_m'], '.4f')}-{_f(c['post_error_max_m'], '.4f')}",
+            )
+        )
+    print_table(rows)
+    print(
+        "  worst above best: the largest excess of this size's error after calibration over the "
+        "best size's, over the plausible robots; error range: its smallest and largest error"
+    )
+    print()
+    print(f"Recommended: {design.describe()}.")
+    print(
+        f"Rule: the smallest track that, for every plausible robot, no larger track beats by more "
+        f"than {100 * design.tolerance:g} % (expected values). Give the robot's errors in "
+        "ROBOT.yaml once calibrated (or --known-errors) for a design for them alone."
+    )

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
 
 from .. import __version__
@@ -21,14 +22,22 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "simulate": ("simulate", "simulate test runs on a polygon track and write RUNS.csv"),
     "calibrate": ("calibrate", "calibrate E_b, E_d from RUNS.csv"),
     "plan": ("plan", "floor protocol for calibration runs (or k runs) and a blank RUNS.csv"),
-    "noise": ("noise", "estimate the non-systematic error k_r + k_l from repeated straight runs"),
+    "noise": (
+        "noise",
+        "estimate the wheel noise k_r + k_l from repeated runs (RUNS.csv or recordings)",
+    ),
     "fit": ("fit", "calibrate wheel diameters and wheelbase from recorded runs"),
     "validate": ("validate", "compare calibrated and nominal parameters on recorded runs"),
+    "check": ("check", "is this log enough? predicted standard errors and degenerate motions"),
     "compare": (
         "compare",
         "compare calibration methods on one simulated robot (and real OptiOdom runs)",
     ),
-    "reproduce": ("reproduce", "regenerate the paper's figures and compare with its numbers"),
+    "reproduce": (
+        "reproduce",
+        "regenerate the paper's figures and compare with its numbers (and, with --realdata, "
+        "run its experiment on a real robot)",
+    ),
     "ttest": ("ttest", "Student and Welch t-tests of two samples (CSV columns)"),
     "bag-info": ("bag_info", "list the topics of a ROS bag"),
 }
@@ -79,19 +88,40 @@ def _command(argv: list[str]) -> str:
     return ""
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised like Ctrl-C so that every ``finally`` runs (temporary files removed, no
+    half-written output)."""
+
+
+def _terminate(signum, frame):  # noqa: ARG001 - the signal module's API
+    raise Terminated
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
-    args = build_parser(_command(argv) or "").parse_args(argv)
+    args = build_parser(_command(argv)).parse_args(argv)
+    installed = False
+    try:
+        previous = signal.signal(signal.SIGTERM, _terminate)
+        installed = True
+    except ValueError:  # not the main thread: leave the signal alone
+        pass
     try:
         return int(args.run(args) or 0)
     except OdocalError as exc:
         print(f"odocal: error: {exc}", file=sys.stderr)
         return 2
+    except Terminated:
+        print("odocal: terminated (SIGTERM); nothing half-written", file=sys.stderr)
+        return 128 + signal.SIGTERM
     except KeyboardInterrupt:
-        print("odocal: interrupted", file=sys.stderr)
-        return 130
+        print("odocal: interrupted; nothing half-written", file=sys.stderr)
+        return 128 + signal.SIGINT
     except BrokenPipeError:
         return 0
+    finally:
+        if installed:
+            signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
 
 
 if __name__ == "__main__":

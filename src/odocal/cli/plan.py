@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 from .common import (
+    ProgressBar,
     add_robot_args,
     length_m,
     noise_track,
@@ -32,9 +33,9 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--side-length",
         type=length_m,
-        default=4.0,
+        default=None,
         metavar="L",
-        help="side length in m (default 4)",
+        help="side length in m (default: what 'odocal design --analytic' recommends for the robot)",
     )
     p.add_argument(
         "--runs-per-direction",
@@ -64,6 +65,11 @@ def add_parser(sub) -> None:
         "sheet)",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress bar (also off with --json or when stderr is not a terminal)",
+    )
     p.set_defaults(run=run)
 
 
@@ -72,26 +78,42 @@ def run(args) -> int:
 
     from ..app.plan import plan as make_plan
 
-    res = make_plan(
-        args.robot,
-        params=args.params,
-        sides=args.sides,
-        side_m=args.side_length,
-        runs_per_direction=args.runs_per_direction,
-        noise_track=args.track,
-        out=args.out,
-        force=args.force,
-    )
+    bar = ProgressBar("odocal plan: choosing the side", enabled=not (args.quiet or args.json))
+    try:
+        res = make_plan(
+            args.robot,
+            params=args.params,
+            sides=args.sides,
+            side_m=args.side_length,
+            runs_per_direction=args.runs_per_direction,
+            noise_track=args.track,
+            out=args.out,
+            force=args.force,
+            progress=bar,
+        )
+    finally:
+        bar.close()
     plan = res.floor_plan
     print_warnings(res.warnings)
     if args.json:
         print_json(res.as_dict())
         return 0
+    for note in res.notes:
+        print(f"Note: {note}")
     print(f"Floor protocol: {plan.title}")
     for i, step in enumerate(plan.steps, start=1):
         print(f"{i}. {step}")
     print()
-    print("What to expect (this robot's errors; mean and spread of the measured end errors):")
+    if plan.typical_mean_abs:
+        print(
+            "What to expect: ROBOT.yaml gives no systematic errors (the runs will measure them), "
+            "so the mean below is 0; typical robots (E_b 0.97-1.03, E_d 0.995-1.005) end up to"
+        )
+        for d, (x, y, th) in plan.typical_mean_abs.items():
+            print(f"  {d}: |x| {x:.3f} m, |y| {y:.3f} m, |theta| {math.degrees(th):.2f} deg")
+        print("from the start, plus the spread below:")
+    else:
+        print("What to expect (this robot's errors; mean and spread of the measured end errors):")
     rows = [("direction", "x_m", "y_m", "theta_deg")]
     for d, p in plan.predictions.items():
         m, s = np.round(p.error_mean, 12) + 0.0, p.std(measured=True)  # no "-0.0000"
@@ -108,13 +130,18 @@ def run(args) -> int:
         "  (± one standard deviation of a single run, including the instrument noise in "
         "ROBOT.yaml; values far outside these usually mean a frame or sign mistake)"
     )
+    if "nonsystematic" in plan.unknown:
+        print(
+            "  (ROBOT.yaml gives no wheel noise k: the spread is the instrument's alone; a real "
+            "robot's is larger)"
+        )
     c, r = plan.calibration, plan.reference
     if c is not None and np.isfinite(c.post_error_mean_m):
         lo, hi = c.post_error_ci95_m
         print(
             f"  Calibration from these runs (heading-error method, first-order prediction): "
             f"E_b {c.E_b_mean:.4f} ± {c.E_b_std:.4f}, E_d {c.E_d_mean:.5f} ± {c.E_d_std:.5f}; "
-            f"then a 4 m x 4 m CCW square should end {c.post_error_mean_m:.3f} m from its start "
+            f"then a {plan.validation.label} should end {c.post_error_mean_m:.3f} m from its start "
             f"(95 %: {lo:.3f} .. {hi:.3f} m), against {r.uncalibrated_m:.3f} m uncalibrated and "
             f"{r.floor_m:.3f} m with perfect parameters. 'odocal design' compares track sizes."
         )

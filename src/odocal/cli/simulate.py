@@ -7,7 +7,7 @@ import math
 from .common import (
     add_robot_args,
     add_track_args,
-    positive_float,
+    length_m,
     positive_int,
     print_json,
     print_table,
@@ -37,7 +37,7 @@ def add_parser(sub) -> None:
     p.add_argument("--seed", type=seed_int, default=0, metavar="S", help="random seed (default 0)")
     p.add_argument(
         "--max-step",
-        type=positive_float,
+        type=length_m,
         default=0.01,
         metavar="M",
         help="largest wheel travel of one integration increment, m (default 0.01)",

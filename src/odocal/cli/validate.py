@@ -5,7 +5,14 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from .common import add_recording_args, bag_options, print_json, print_table, print_warnings
+from .common import (
+    add_recording_args,
+    add_slam_args,
+    bag_options,
+    print_json,
+    print_table,
+    print_warnings,
+)
 
 
 def add_parser(sub) -> None:
@@ -21,21 +28,38 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--robot", metavar="ROBOT.yaml", help="nominal geometry (default: the runs' metadata)"
     )
+    p.add_argument(
+        "--nominal",
+        choices=("robot", "firmware"),
+        default=None,
+        help="what the 'nominal' columns use: robot (ROBOT.yaml's nominal geometry; needs "
+        "--robot) or firmware (each run's own ran-with parameters, e.g. an OptiOdom data set's "
+        "firmware values); default robot with --robot, else firmware",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--plot", metavar="DIR", help="write one PNG trajectory plot per run into DIR")
+    add_slam_args(p)
     p.set_defaults(run=run)
 
 
 def run(args) -> int:
     from ..app.validate import validate
 
+    truth_frames = None
+    if args.truth_frames:
+        from ..io.bag_slam import parse_truth_frames
+
+        truth_frames = parse_truth_frames(args.truth_frames)
     result = validate(
         args.paths,
         args.params,
         robot=args.robot,
+        nominal=args.nominal,
         plot=args.plot,
         ticks_per_rev=args.ticks_per_rev,
         bag_options=bag_options(args),
+        truth_frames=truth_frames,
+        slam_stamp_offset_s=args.slam_stamp_offset,
     )
     print_warnings(result.load_warnings)
     d = result.as_dict()
@@ -49,15 +73,16 @@ def run(args) -> int:
     def deg(v):
         return "-" if v is None else f"{math.degrees(v):.2f}"
 
+    col = {"robot": "robot", "firmware": "firmware"}.get(result.nominal_source, "nominal")
     rows = [
         (
             "run",
             "final mm",
             "max mm",
             "final deg",
-            "nominal final mm",
-            "nominal max mm",
-            "nominal final deg",
+            f"{col} final mm",
+            f"{col} max mm",
+            f"{col} final deg",
         )
     ]
     for r in result.runs:
@@ -83,9 +108,12 @@ def run(args) -> int:
             deg(d["mean_nominal_final_heading_error_rad"]),
         )
     )
-    source = {"robot": "ROBOT.yaml's nominal geometry", "firmware": "each run's firmware values"}
-    if result.nominal_source in source:
-        print(f"  nominal: {source[result.nominal_source]} (choose with --robot)")
+    source = {
+        "robot": f"ROBOT.yaml's nominal geometry ({args.robot}; --nominal robot)",
+        "firmware": "each run's firmware values, the parameters it ran with (--nominal firmware)",
+        "unknown": "unknown for some runs (they do not say what they ran with; give --robot)",
+    }
+    print(f"  {col} columns: {source[result.nominal_source]}")
     print_table(rows, title=f"{len(result.runs)} run(s), parameters from {args.params}")
     if result.written:
         print(f"wrote {len(result.written)} plot(s) to {args.plot}")

@@ -3,6 +3,7 @@ recorded runs (never on the runs it was calibrated on)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -67,6 +68,7 @@ def compare_real(
     heldout,
     methods: list[MethodEntry] | None = None,
     published: WheelGeometry | None = None,
+    progress: Callable[[int, int, str], None] | None = None,
 ) -> RealComparison:
     """Calibrate with every method from real data sets and validate on held-out recordings.
 
@@ -79,18 +81,32 @@ def compare_real(
         Validation runs (with ground truth), e.g. OptiOdom free/ plus the other circle set.
     published : WheelGeometry, optional
         A reference geometry to validate the same way (e.g. the published OptiOdom result).
+    progress : callable, optional
+        ``progress(done, total, method)`` after each method.
+
+    A method that fails, or finds no data set it can calibrate from, is listed in ``failures``
+    with the reason (never as a row without numbers).
     """
     methods = METHOD_REGISTRY if methods is None else methods
     heldout = list(heldout)
     nominal = float(np.mean([evaluate(r, r.ran_with)["final_error_m"] for r in heldout]))
     out, failures = [], []
-    for entry in methods:
-        if entry.real is None:
-            continue
+    real_methods = [e for e in methods if e.real is not None]
+    for k, entry in enumerate(real_methods):
+        if progress is not None and k:
+            progress(k, len(real_methods), real_methods[k - 1].name)
         try:
             results = entry.real(datasets)
         except CalibrationError as exc:
             failures.append({"method": entry.name, "error": str(exc)})
+            continue
+        if not results:  # said so, instead of a row without numbers
+            failures.append(
+                {
+                    "method": entry.name,
+                    "error": f"no data set it can calibrate from (it needs: {entry.drives})",
+                }
+            )
             continue
         rows = []
         for name, res in results:
@@ -104,6 +120,8 @@ def compare_real(
                 }
             )
         out.append(RealMethodResult(entry.name, rows))
+    if progress is not None:
+        progress(len(real_methods), len(real_methods), "real runs")
     pub = None
     if published is not None:
         pub = {

@@ -9,6 +9,7 @@ residual the calibration left).
 from __future__ import annotations
 
 import zlib
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -141,11 +142,12 @@ def compare_simulated(
     validation: Track | None = None,
     methods: list[MethodEntry] | None = None,
     max_step_m: float = 0.01,
+    progress: Callable[[int, int, str], None] | None = None,
 ) -> SimulatedComparison:
     """Run every method in ``methods`` (default :data:`METHOD_REGISTRY`) on ``robot`` over
     ``trials`` Monte-Carlo trials (vectorised) and validate each trial's calibration on
     ``validation`` (default: the 4 m square CCW). Seeded: the same arguments give the same
-    numbers."""
+    numbers. ``progress(done, total, method)`` is called after each method."""
     if trials < 2:
         raise CalibrationError(f"trials must be >= 2, got {trials}")
     budget = budget or Budget()
@@ -155,7 +157,7 @@ def compare_simulated(
     true = robot.true_geometry
     b_hat = float(np.mean(ran_with.wheelbase_m))
     stats = []
-    for entry in methods:
+    for k, entry in enumerate(methods):
         rng = _method_rng(seed, entry.name)
         groups = entry.plan(budget, robot)
         data = {g.label: simulate_group(g, robot, trials, rng, max_step_m) for g in groups}
@@ -190,6 +192,8 @@ def compare_simulated(
                 sysf,
             )
         )
+        if progress is not None:
+            progress(k + 1, len(methods), entry.name)
     rng = _method_rng(seed, "nominal")
     nominal = WheelGeometry(
         *(

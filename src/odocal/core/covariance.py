@@ -31,11 +31,15 @@ from .tracks import Track
 __all__ = [
     "PosePrediction",
     "propagate",
+    "propagate_increments",
     "predict",
     "mean_final_pose",
     "measurement_covariance",
     "straight_line_covariance",
     "correlation",
+    "OdometryCovariance",
+    "odometry_covariance",
+    "UNMEASURED_VARIANCE",
 ]
 
 
@@ -157,7 +161,33 @@ def propagate(
     if steps_per_segment is None and not (max_step_m and max_step_m > 0):
         raise ModelError(f"max_step_m must be > 0, got {max_step_m!r}")
     dr, dl = _increments(track, true, believed, max_step_m, steps_per_segment)
-    b = np.asarray(true.wheelbase_m, dtype=float)[..., None]
+    mean, cov = propagate_increments(dr, dl, true.wheelbase_m, noise, integration=integration)
+    x_n, y_n = mean[..., 0:1], mean[..., 1:2]
+    if initial_covariance is not None:
+        phi = np.zeros(mean.shape[:-1] + (3, 3))
+        phi[..., :, :] = np.eye(3)
+        phi[..., 0, 2] = -y_n[..., 0]
+        phi[..., 1, 2] = x_n[..., 0]
+        cov = cov + phi @ np.asarray(initial_covariance, dtype=float) @ np.swapaxes(phi, -1, -2)
+    cov = 0.5 * (cov + np.swapaxes(cov, -1, -2))
+    meas = measurement_covariance(measurement or MeasurementNoise())
+    odo = np.broadcast_to(np.asarray(odometric_pose(track), dtype=float), mean.shape)
+    return PosePrediction(mean, odo, cov, meas)
+
+
+def propagate_increments(
+    dr, dl, wheelbase_m, noise: NonSystematicError, *, integration: str = "midpoint"
+) -> tuple[np.ndarray, np.ndarray]:
+    """Final pose and its first-order covariance for given TRUE wheel-travel increments.
+
+    ``dr``, ``dl``: wheel travel per increment (m), shape (B..., K); ``wheelbase_m`` the true
+    wheelbase (scalar or shape (B...,)). Returns the noise-free final pose, shape (B..., 3), and
+    its covariance from wheel noise, shape (B..., 3, 3) (module docstring). Used by
+    :func:`propagate` for tracks and directly for recorded runs (their wheel increments).
+    """
+    dr = np.asarray(dr, dtype=float)
+    dl = np.asarray(dl, dtype=float)
+    b = np.asarray(wheelbase_m, dtype=float)[..., None]
     dr, dl, b = np.broadcast_arrays(dr, dl, b)
     ds = 0.5 * (dr + dl)
     dth = (dr - dl) / b
@@ -186,16 +216,7 @@ def propagate(
     g *= np.sqrt(q)[..., None, :]
     aw = np.moveaxis(g, -2, -3).reshape(ds.shape[:-1] + (3, -1))  # (B..., 3, 2K)
     cov = aw @ np.swapaxes(aw, -1, -2)
-    if initial_covariance is not None:
-        phi = np.zeros(ds.shape[:-1] + (3, 3))
-        phi[..., :, :] = np.eye(3)
-        phi[..., 0, 2] = -y_n[..., 0]
-        phi[..., 1, 2] = x_n[..., 0]
-        cov = cov + phi @ np.asarray(initial_covariance, dtype=float) @ np.swapaxes(phi, -1, -2)
-    cov = 0.5 * (cov + np.swapaxes(cov, -1, -2))
-    meas = measurement_covariance(measurement or MeasurementNoise())
-    odo = np.broadcast_to(np.asarray(odometric_pose(track), dtype=float), mean.shape)
-    return PosePrediction(mean, odo, cov, meas)
+    return mean, cov
 
 
 def predict(track: Track, robot: Robot, **options) -> PosePrediction:
@@ -243,4 +264,103 @@ def straight_line_covariance(distance_m: float, wheelbase_m: float, k_r_m: float
             [km * d**2 / (4 * b), kp * d**3 / (3 * b**2), kp * d**2 / (2 * b**2)],
             [km * d / (2 * b), kp * d**2 / (2 * b**2), kp * d / b**2],
         ]
+    )
+
+
+#: Variance written for what planar wheel odometry does not measure (z, roll, pitch and their
+#: rates): large, so that a filter never trusts them (robot_localization's two_d_mode ignores
+#: them anyway).
+UNMEASURED_VARIANCE = 1.0e6
+
+
+@dataclass(frozen=True)
+class OdometryCovariance:
+    """Covariances a robot stack asks for, from the wheel noise k (model.md), for a stated
+    motion: straight driving at ``speed_m_s``.
+
+    Attributes
+    ----------
+    pose_diagonal : tuple of 6 float
+        (x, y, z, roll, pitch, yaw) variances of the odometry pose after ``distance_m`` of
+        straight travel from an exactly known start (m^2, rad^2), x along the motion:
+        (k_r + k_l) d / 4, (k_r + k_l) d^3 / (3 b^2), unmeasured, unmeasured, unmeasured,
+        (k_r + k_l) d / b^2 (:func:`straight_line_covariance`).
+    twist_diagonal : tuple of 6 float
+        (vx, vy, vz, wx, wy, wz) variances of the velocity measured from the wheel travel over a
+        window of ``window_s`` at ``speed_m_s``: (k_r + k_l) v / (4 T) and (k_r + k_l) v / (b^2 T)
+        ((m/s)^2, (rad/s)^2); vy is 0 for a differential drive (it cannot move sideways: a
+        small value is written instead of 0 so that a filter's matrix stays invertible).
+    process_noise_per_s : dict
+        Growth rate of the odometry's own uncertainty while driving at ``speed_m_s``: x and y
+        (k_r + k_l) v / 4 (m^2/s; along-track, the cross-track part grows through the heading),
+        yaw (k_r + k_l) v / b^2 (rad^2/s): a floor for robot_localization's
+        ``process_noise_covariance`` entries of x, y and yaw (it multiplies them by the time step).
+    """
+
+    k_r_m: float
+    k_l_m: float
+    wheelbase_m: float
+    speed_m_s: float
+    distance_m: float
+    window_s: float
+    pose_diagonal: tuple[float, ...]
+    twist_diagonal: tuple[float, ...]
+    process_noise_per_s: dict
+
+    def as_dict(self) -> dict:
+        return {
+            "k_r_m": self.k_r_m,
+            "k_l_m": self.k_l_m,
+            "wheelbase_m": self.wheelbase_m,
+            "speed_m_s": self.speed_m_s,
+            "distance_m": self.distance_m,
+            "window_s": self.window_s,
+            "pose_covariance_diagonal": list(self.pose_diagonal),
+            "twist_covariance_diagonal": list(self.twist_diagonal),
+            "process_noise_per_s": dict(self.process_noise_per_s),
+        }
+
+
+def odometry_covariance(
+    k_r_m: float,
+    k_l_m: float,
+    wheelbase_m: float,
+    *,
+    speed_m_s: float,
+    distance_m: float = 1.0,
+    window_s: float = 0.2,
+) -> OdometryCovariance:
+    """The covariances of :class:`OdometryCovariance` (k in METRES, b in m, speed in m/s,
+    distance in m, window in s)."""
+    for name, v in (
+        ("wheelbase_m", wheelbase_m),
+        ("distance_m", distance_m),
+        ("window_s", window_s),
+        ("speed_m_s", speed_m_s),
+    ):
+        if not (math.isfinite(v) and v > 0):
+            raise ModelError(f"{name} must be a finite number > 0, got {v!r}")
+    for name, v in (("k_r_m", k_r_m), ("k_l_m", k_l_m)):
+        if not (math.isfinite(v) and v >= 0):
+            raise ModelError(f"{name} must be a finite number >= 0, got {v!r}")
+    b = float(wheelbase_m)
+    p = straight_line_covariance(distance_m, b, k_r_m, k_l_m)
+    kp = k_r_m + k_l_m
+    big = UNMEASURED_VARIANCE
+    var_v = kp * speed_m_s / (4.0 * window_s)
+    var_w = kp * speed_m_s / (b * b * window_s)
+    pose = (float(p[0, 0]), float(p[1, 1]), big, big, big, float(p[2, 2]))
+    # vy: not a degree of freedom; a tiny fraction of var_v keeps a filter's matrix invertible
+    twist = (float(var_v), float(var_v * 1e-6), big, big, big, float(var_w))
+    process = {"x": kp * speed_m_s / 4.0, "y": kp * speed_m_s / 4.0, "yaw": kp * speed_m_s / b**2}
+    return OdometryCovariance(
+        float(k_r_m),
+        float(k_l_m),
+        b,
+        float(speed_m_s),
+        float(distance_m),
+        float(window_s),
+        pose,
+        twist,
+        {k: float(v) for k, v in process.items()},
     )

@@ -175,6 +175,16 @@ class SystematicError:
         check_positive("E_d", self.E_d)
         check_positive("E_s", self.E_s)
 
+    @classmethod
+    def between(cls, true: WheelGeometry, nominal: WheelGeometry) -> SystematicError:
+        """The errors that make ``nominal.with_systematic(...)`` equal ``true``: E_b = b / b_n,
+        E_d = D_R / D_L, E_s = mean(D) / mean(D_n) (scalar geometries)."""
+        return cls(
+            E_b=float(true.wheelbase_m / nominal.wheelbase_m),
+            E_d=float(true.diameter_ratio),
+            E_s=float(true.mean_diameter_m / nominal.mean_diameter_m),
+        )
+
 
 @dataclass(frozen=True)
 class NonSystematicError:

@@ -40,9 +40,14 @@ def evaluate(recording, geometry: WheelGeometry) -> dict:
     """Dead-reckon ``recording`` with ``geometry`` and compare with its ground truth.
 
     Returns final and maximum position error (m) and final and maximum heading error (rad, abs).
+    Where the ground truth is valid only at some samples (``meta['truth_samples']``, e.g. a
+    SLAM pose at its update instants), only those are compared.
     """
     odo = dead_reckon(recording.wheel_angle_right_rad, recording.wheel_angle_left_rad, geometry)
     gt = recording.ground_truth
+    valid = recording.meta.get("truth_samples") if recording.meta else None
+    if valid is not None:
+        gt, odo = gt[valid], odo[valid]
     pos = position_errors(gt, odo)
     head = np.abs(gt[:, 2] - odo[:, 2])
     return {

@@ -13,6 +13,9 @@ p-values: two-sided 2 sf(|t|), one-sided ``p_less`` (H1: mean_a < mean_b) = cdf(
 1e-13 relative): the Student-t tail is the regularized incomplete beta function, evaluated here
 by its continued fraction (Numerical Recipes 6.4, modified Lentz), so that the t-tests of
 ``odocal design`` need no scipy import.
+
+Paired (two samples of the same n units, e.g. candidates simulated with common random numbers):
+d_i = a_i - b_i, t = mean(d) / (s_d / sqrt(n)), df = n - 1 (``scipy.stats.ttest_rel``).
 """
 
 from __future__ import annotations
@@ -24,7 +27,14 @@ import numpy as np
 
 from ..errors import ModelError
 
-__all__ = ["TTest", "ttest_from_stats", "ttest_samples", "student_t_sf", "circular_mean"]
+__all__ = [
+    "TTest",
+    "ttest_from_stats",
+    "ttest_samples",
+    "ttest_paired",
+    "student_t_sf",
+    "circular_mean",
+]
 
 
 @dataclass(frozen=True)
@@ -141,6 +151,14 @@ def student_t_sf(t: float, df: float) -> float:
     return 0.5 * both if t > 0 else 1.0 - 0.5 * both
 
 
+def _p_values(t: float, df: float) -> tuple[float, float, float]:
+    """Two-sided, less and greater p-values of a finite t with ``df`` degrees of freedom, from
+    one tail computed directly (the small one)."""
+    tail = student_t_sf(abs(t), df)
+    p_less, p_greater = (1.0 - tail, tail) if t >= 0 else (tail, 1.0 - tail)
+    return min(1.0, 2.0 * tail), p_less, p_greater
+
+
 def ttest_from_stats(
     mean_a: float,
     std_a: float,
@@ -177,9 +195,7 @@ def ttest_from_stats(
     diff = mean_a - mean_b
     if se > 0:
         t = diff / se
-        tail = student_t_sf(abs(t), df)  # the small tail, computed directly
-        p_less, p_greater = (1.0 - tail, tail) if t >= 0 else (tail, 1.0 - tail)
-        p_two = min(1.0, 2.0 * tail)
+        p_two, p_less, p_greater = _p_values(t, df)
     elif diff == 0:
         t = p_less = p_greater = p_two = math.nan
     else:
@@ -222,14 +238,58 @@ def ttest_samples(a, b, equal_var: bool = False) -> TTest:
     )
 
 
+def ttest_paired(a, b) -> TTest:
+    """Paired t-test of ``a`` against ``b`` (1-D arrays of equal length; pairs with a non-finite
+    member are left out). ``std_a``/``std_b`` are the groups' own spreads; the test uses the
+    spread of the differences."""
+    a = np.asarray(a, dtype=float).ravel()
+    b = np.asarray(b, dtype=float).ravel()
+    if a.shape != b.shape:
+        raise ModelError(
+            f"a paired t-test needs samples of equal length, got {a.size} and {b.size}"
+        )
+    ok = np.isfinite(a) & np.isfinite(b)
+    a, b = a[ok], b[ok]
+    n = int(a.size)
+    if n < 2:
+        raise ModelError(f"a paired t-test needs at least 2 finite pairs, got {n}")
+    d = a - b
+    diff, sd = float(d.mean()), float(d.std(ddof=1))
+    df = float(n - 1)
+    if sd > 0:
+        t = diff / (sd / math.sqrt(n))
+        p_two, p_less, p_greater = _p_values(t, df)
+    elif diff == 0:
+        t = p_less = p_greater = p_two = math.nan
+    else:
+        t = math.copysign(math.inf, diff)
+        p_less, p_greater = (0.0, 1.0) if diff < 0 else (1.0, 0.0)
+        p_two = 0.0
+    return TTest(
+        "paired",
+        float(t),
+        df,
+        p_two,
+        p_less,
+        p_greater,
+        float(a.mean()),
+        float(b.mean()),
+        float(a.std(ddof=1)),
+        float(b.std(ddof=1)),
+        n,
+        n,
+    )
+
+
 def circular_mean(angles_rad, axis=-1):
     """Circular mean of unwrapped angles that keeps their unwrapped scale.
 
-    The mean direction is taken relative to the first sample, so a set of errors near -2 pi stays
-    near -2 pi (and small errors stay small) instead of being wrapped into (-pi, pi].
+    The mean direction is taken relative to the arithmetic mean, so a set of errors near -2 pi
+    stays near -2 pi (and small errors stay small) instead of being wrapped into (-pi, pi], and
+    the result does not depend on the order of the samples.
     """
     a = np.asarray(angles_rad, dtype=float)
-    ref = np.take(a, [0], axis=axis)
+    ref = np.mean(a, axis=axis, keepdims=True)
     d = a - ref
     return np.squeeze(ref, axis=axis) + np.arctan2(
         np.mean(np.sin(d), axis=axis), np.mean(np.cos(d), axis=axis)

@@ -42,7 +42,12 @@ from ..core.covariance import mean_final_pose, propagate
 from ..core.model import ModelError, Robot, WheelGeometry
 from ..core.simulate import odometric_pose
 from ..core.tracks import Track, polygon
-from .metrics import leg_heading_noise_rad, leg_heading_systematic_rad, systematic_share
+from .metrics import (
+    leg_heading_noise_rad,
+    leg_heading_systematic_rad,
+    systematic_share,
+    true_factors,
+)
 from .result import Candidate
 
 __all__ = [
@@ -302,7 +307,7 @@ def analytic_design_result(
     sides=(4,),
     side_lengths_m=None,
     runs_per_direction: int = 5,
-    trials: int = 800,
+    trials: int | None = None,
     method: str = "heading",
     validation=None,
     alpha: float = 0.05,
@@ -312,16 +317,16 @@ def analytic_design_result(
     """The whole design (``odocal design --analytic``) by first-order propagation.
 
     Same candidates (shapes compared at equal travel), recommendation rule, report and JSON as
-    :func:`odocal.design.sweep.run_design`, without Monte Carlo. The rule's t-tests need a sample
-    size: they are applied as if every candidate's statistics came from ``trials`` trials, i.e.
-    the recommendation is the one a Monte-Carlo design of that many trials would make on these
-    expected statistics. Candidates carry ``trials``; the simulation settings are None.
+    :func:`odocal.design.sweep.run_design`, without Monte Carlo. The candidates are expected
+    values (``trials`` None: no sampling error), so the rule compares their means directly
+    ("exact"): the limit of the Monte-Carlo rule for infinitely many trials. ``trials`` is
+    accepted for symmetry with the Monte-Carlo engine and ignored; ``alpha`` plays no part.
     """
     from .recommend import recommend
     from .result import ErrorSummary, ValidationTrack, check_design_inputs
-    from .sweep import DesignResult, equal_travel_side_lengths
+    from .sweep import DesignResult, equal_travel_side_lengths, gain_warnings
 
-    check_design_inputs(runs_per_direction, trials)
+    check_design_inputs(runs_per_direction, 2 if trials is None else trials)
     sides = [int(v) for v in dict.fromkeys(sides)]
     if side_lengths_m is None:
         side_lengths_m = np.arange(1, 21) * 0.5
@@ -329,14 +334,21 @@ def analytic_design_result(
     track = validation.track()
     candidates = []
     for N, lengths in equal_travel_side_lengths(np.asarray(side_lengths_m, float), sides).items():
-        for a in analytic_design(robot, N, lengths, runs_per_direction, method, track):
-            candidates.append(replace(a, trials=trials))
+        candidates += analytic_design(robot, N, lengths, runs_per_direction, method, track)
     ref = analytic_reference(robot, track)
-    floor = ErrorSummary(ref.floor_m, ref.floor_std_m, ref.floor_ci95_m, trials)
-    uncal = ErrorSummary(
-        ref.uncalibrated_m, ref.uncalibrated_std_m, ref.uncalibrated_ci95_m, trials
-    )
+    floor = ErrorSummary(ref.floor_m, ref.floor_std_m, ref.floor_ci95_m, 0)
+    uncal = ErrorSummary(ref.uncalibrated_m, ref.uncalibrated_std_m, ref.uncalibrated_ci95_m, 0)
     rec = recommend(candidates, alpha, tolerance, criterion)
-    return DesignResult(
-        tuple(candidates), floor, uncal, rec, validation, method, runs_per_direction, trials, None
+    result = DesignResult(
+        tuple(candidates),
+        floor,
+        uncal,
+        rec,
+        validation,
+        method,
+        runs_per_direction,
+        None,
+        None,
+        truth_factors=true_factors(robot),
     )
+    return replace(result, warnings=gain_warnings(result))

@@ -32,6 +32,7 @@ from ..core.model import Robot
 
 __all__ = [
     "wheel_travel_factors",
+    "true_factors",
     "leg_heading_systematic_rad",
     "leg_heading_noise_rad",
     "systematic_share",
@@ -47,6 +48,14 @@ def wheel_travel_factors(robot: Robot) -> tuple[float, float]:
         float(true.diameter_right_m / hat.diameter_right_m),
         float(true.diameter_left_m / hat.diameter_left_m),
     )
+
+
+def true_factors(robot: Robot) -> tuple[float, float]:
+    """(E_b, E_d) a perfect calibration finds: relative to the parameters the robot runs with,
+    b / b_hat and f_R / f_L (dimensionless)."""
+    f_r, f_l = wheel_travel_factors(robot)
+    b, b_hat = robot.true_geometry.wheelbase_m, robot.believed_geometry.wheelbase_m
+    return float(b / b_hat), f_r / f_l
 
 
 def leg_heading_systematic_rad(robot: Robot, side_m):

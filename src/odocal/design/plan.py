@@ -7,14 +7,18 @@ sheet.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
-from ..core.covariance import PosePrediction, predict
+import numpy as np
+
+from ..core.covariance import PosePrediction, mean_final_pose, predict
 from ..core.model import Robot
+from ..core.simulate import odometric_pose
 from ..core.tracks import Track, out_and_back, polygon, straight_line
 from ..errors import ModelError
 from .analytic import AnalyticReference, analytic_design, analytic_reference
-from .result import Candidate
+from .result import Candidate, ValidationTrack, scaled_sizes
+from .robust import plausible_robots, unknown_errors
 
 __all__ = ["FloorPlan", "build_plan"]
 
@@ -40,6 +44,17 @@ class FloorPlan:
         For polygons: the analytic design's prediction of the heading-error calibration from
         these runs and of the error on the paper's 4 m CCW validation square (with the true
         parameters: the floor; uncalibrated).
+    track : (int, float) or None
+        For polygons: (sides, side_m), written into the run sheet as data.
+    validation : ValidationTrack or None
+        The validation track of the prediction (a square scaled to the robot, as in
+        ``odocal design``).
+    typical_mean_abs : dict of str to (float, float, float)
+        When ROBOT.yaml gives no systematic errors (the runs are to measure them): per
+        direction, the largest |mean end error| (x_m, y_m, theta_rad) of the plausible robots
+        (typical E_b, E_d; :mod:`odocal.design.robust`); then ``calibration`` is None.
+    unknown : tuple of str
+        The error classes ROBOT.yaml does not give ('systematic', 'nonsystematic').
     """
 
     kind: str
@@ -50,15 +65,33 @@ class FloorPlan:
     next_command: str
     calibration: Candidate | None = None
     reference: AnalyticReference | None = None
+    track: tuple[int, float] | None = None
+    validation: ValidationTrack | None = None
+    typical_mean_abs: dict = field(default_factory=dict)
+    unknown: tuple[str, ...] = ()
+
+    @staticmethod
+    def template_comments() -> tuple[str, ...]:
+        """The fixed comment lines of every blank run sheet (after its title line)."""
+        return (
+            "# Fill in every run: x_m, y_m (m) and theta_deg (deg), the final pose ERROR (actual -",
+            "# odometric) in the start frame: +x start heading, +y left, theta CCW positive, the",
+            "# small deviation from the commanded turn. The heading-error method needs only",
+            "# theta_deg (leave x_m, y_m empty if you cannot measure them); UMBmark needs",
+            "# x_m, y_m.",
+            "# Keep the rows in driving order and the 'sides'/'side_m' lines above: they tell",
+            "# odocal calibrate which track the runs drove.",
+        )
 
     def template_csv(self) -> str:
-        """Blank RUNS.csv: comment lines, header, one row per run with the direction filled in."""
-        lines = [
+        """Blank RUNS.csv: the track as ``# sides:``/``# side_m:`` settings (read by ``odocal
+        calibrate``), comment lines, header, one row per run with the direction filled in."""
+        lines = []
+        if self.track is not None:
+            lines += [f"# sides: {self.track[0]}", f"# side_m: {self.track[1]:.12g}"]
+        lines += [
             f"# odocal run sheet: {self.title}",
-            "# Fill in x_m, y_m, theta_deg of every run: the final pose ERROR (actual - odometric)",
-            "# in the start frame: +x start heading, +y left, theta CCW positive, unwrapped.",
-            "# Keep the rows in driving order. Lines starting with '#' are ignored.",
-            "# Every field must hold a number: an empty one stops odocal with 'not a number'.",
+            *self.template_comments(),
             "direction,x_m,y_m,theta_deg,run",
         ]
         lines += [f"{d},,,,{i}" for i, d in enumerate(self.order, start=1)]
@@ -81,13 +114,16 @@ class FloorPlan:
                 "E_b_std": num(c.E_b_std),
                 "E_d_mean": num(c.E_d_mean),
                 "E_d_std": num(c.E_d_std),
-                "validation": "4-gon 4 m ccw",
+                "validation": self.validation.as_dict() if self.validation else None,
                 "post_error_mean_m": num(c.post_error_mean_m),
                 "post_error_ci95_m": [num(v) for v in c.post_error_ci95_m],
                 "floor_m": r.floor_m,
                 "uncalibrated_m": r.uncalibrated_m,
             }
+        if self.typical_mean_abs:
+            extra["typical_mean_abs"] = {d: pose(v) for d, v in self.typical_mean_abs.items()}
         return extra | {
+            "unknown_errors": list(self.unknown),
             "kind": self.kind,
             "title": self.title,
             "order": list(self.order),
@@ -192,10 +228,7 @@ def build_plan(
             "a protractor, leave x_m and y_m empty), UMBmark (--method umbmark) uses x_m and "
             "y_m.",
         )
-        next_cmd = (
-            f"odocal calibrate {runs_path} --robot {robot_arg} --sides {sides} "
-            f"--side-length {side_m:g}"
-        )
+        next_cmd = f"odocal calibrate {runs_path} --robot {robot_arg}"
         kind = "polygon"
     else:
         kind, d = noise_track
@@ -231,10 +264,36 @@ def build_plan(
         )
         next_cmd = f"odocal noise {runs_path} --robot {robot_arg} --track {kind}:{d:g}"
     predictions = {lab: predict(t, robot, max_step_m=0.02) for lab, t in tracks.items()}
-    calibration = reference = None
-    if kind == "polygon":
+    calibration = reference = validation = None
+    typical: dict[str, tuple[float, float, float]] = {}
+    unknown = unknown_errors(robot)
+    if kind == "polygon" and "systematic" in unknown:
+        # the robot's errors are what the runs will measure: show what typical robots do
+        for lab, t in tracks.items():
+            means = np.array(
+                [mean_final_pose(t, r.true_geometry, r.believed_geometry) - odometric_pose(t)
+                 for _, r in plausible_robots(robot, ("systematic",))]
+            )  # fmt: skip
+            m = np.max(np.abs(means), axis=0)
+            typical[lab] = (float(m[0]), float(m[1]), float(m[2]))
+    elif kind == "polygon":
         assert sides is not None and side_m is not None
-        validate = polygon(4, 4.0, "ccw")
+        validation = scaled_sizes(float(robot.nominal.wheelbase_m))[1]
+        validate = validation.track()
         calibration = analytic_design(robot, sides, [side_m], n, "heading", validate)[0]
         reference = analytic_reference(robot, validate)
-    return FloorPlan(kind, title, order, predictions, steps, next_cmd, calibration, reference)
+    track = (int(sides), float(side_m)) if kind == "polygon" and sides and side_m else None
+    return FloorPlan(
+        kind,
+        title,
+        order,
+        predictions,
+        steps,
+        next_cmd,
+        calibration,
+        reference,
+        track,
+        validation,
+        typical,
+        unknown,
+    )

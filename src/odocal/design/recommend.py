@@ -1,40 +1,61 @@
 """Choosing the test-track size from candidate summaries (docs/design.md, "The recommendation").
 
 Rule: order the candidates by total travel (then by number of sides). Candidate C is *accepted*
-when no other candidate D of larger travel (or of equal travel and another shape) beats it
-significantly by more than the tolerance, i.e. when for every such D the one-sided Welch test of
+when no other candidate D of larger travel (or of equal travel and another shape) beats it by
+more than the tolerance. The recommendation is the accepted candidate of smallest travel (the
+largest candidate is always accepted, so there is always one).
 
-    H0: mean_D >= (1 - tolerance) mean_C    against    H1: mean_D < (1 - tolerance) mean_C
+"D beats C by more than the tolerance" means mean_D < (1 - tolerance) mean_C, decided by the
+kind of statistics the candidates carry:
 
-is not rejected at level alpha. The recommendation is the accepted candidate of smallest travel
-(the largest candidate is always accepted, so there is always one).
-
-The test works on summary statistics only (mean, std, n of the post-calibration error), so Monte-
-Carlo and analytic candidates are treated alike. Scaling sample C by (1 - tolerance) scales its
-mean and std, so the test is Welch's t-test of D against the scaled C:
-
-    t = (m_D - (1-tol) m_C) / sqrt(s_D^2/n_D + (1-tol)^2 s_C^2/n_C),
-
-with Welch-Satterthwaite df for those two variance terms.
+- ``exact`` (expected values, e.g. the analytic design; ``trials`` is None): the means compared
+  directly. This is the limit of the tests below for infinitely many trials.
+- ``paired`` (Monte-Carlo candidates simulated with common random numbers, so that trial i of
+  every candidate shares its random numbers): the one-sided paired t-test of
+  d_i = e_D,i - (1 - tol) e_C,i, H1: mean(d) < 0, rejected at level alpha.
+- ``welch`` (independent samples, summary statistics only): the one-sided Welch test of
+  H0: mean_D >= (1 - tol) mean_C against H1: mean_D < (1 - tol) mean_C. Scaling sample C by
+  (1 - tol) scales its mean and std, so t = (m_D - (1-tol) m_C) / sqrt(s_D^2/n_D +
+  (1-tol)^2 s_C^2/n_C), with Welch-Satterthwaite df.
 
 The table reported beside the recommendation is laid out like the paper's Tables 2 and 3: the
 recommended track against its neighbours of the same shape (next smaller, next larger), with the
-plain two-sided Welch t, df, p and the mean difference (neighbour - recommended).
+plain two-sided test (any difference), the rule's one-sided test and its verdict.
+
+:func:`pick_spread` measures how stable the pick itself is: the rule applied to bootstrap
+resamples of the trials (jointly for paired candidates), and the share of resamples that pick
+each candidate.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-from ..core.model import ModelError
-from ..core.stats import TTest, ttest_from_stats
+import numpy as np
+from scipy.special import stdtr
 
-__all__ = ["CRITERIA", "Comparison", "Recommendation", "recommend", "compare"]
+from ..core.model import ModelError
+from ..core.stats import TTest, ttest_from_stats, ttest_paired
+
+__all__ = [
+    "CRITERIA",
+    "TESTS",
+    "Comparison",
+    "Recommendation",
+    "recommend",
+    "compare",
+    "pick_spread",
+    "spread_range",
+]
 
 #: What the rule compares: the error after calibration on the validation track ('error', the
 #: paper's quantity) or the residual, the same drive without wheel noise ('residual').
 CRITERIA = ("error", "residual")
+
+#: How "better by more than the tolerance" is decided (module docstring).
+TESTS = ("exact", "paired", "welch")
 
 _TRAVEL_RTOL = 1e-9
 
@@ -43,16 +64,19 @@ _TRAVEL_RTOL = 1e-9
 class Comparison:
     """One row of a t-test table: candidate ``other`` against candidate ``reference``.
 
-    ``test`` is the two-sided Welch test of other against reference (mean difference = other -
-    reference); ``rule`` is the one-sided tolerance test of the recommendation rule (H1: mean_other
-    < (1 - tolerance) mean_reference), ``significant`` its outcome at alpha.
+    ``test`` is the plain two-sided test of other against reference (any difference; mean
+    difference = other - reference), ``rule`` the one-sided tolerance test of the recommendation
+    rule (H1: mean_other < (1 - tolerance) mean_reference); both None for ``kind`` 'exact'.
+    ``significant``: the rule's verdict, "other is better by more than the tolerance".
     """
 
     other: int
     reference: int
-    test: TTest
-    rule: TTest
+    test: TTest | None
+    rule: TTest | None
     significant: bool
+    kind: str = "welch"
+    mean_difference: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -74,6 +98,13 @@ class Recommendation:
         Number of sides -> index of the candidate the rule picks among that shape alone.
     criterion : str
         'error' or 'residual' (see CRITERIA); the tests compare that quantity.
+    test : str
+        'exact', 'paired' or 'welch' (see TESTS).
+    spread : tuple of (int, float)
+        Candidate index and the share of bootstrap resamples of the trials whose pick it is,
+        most frequent first (empty when not measured; see :func:`pick_spread`).
+    resamples : int
+        Number of bootstrap resamples behind ``spread``.
     """
 
     index: int
@@ -83,46 +114,75 @@ class Recommendation:
     beaten_by: dict
     per_shape: dict
     criterion: str = "error"
+    test: str = "welch"
+    spread: tuple[tuple[int, float], ...] = ()
+    resamples: int = 0
+
+
+def _mean_std(c) -> tuple[float, float]:
+    return c.post_error_mean_m, c.post_error_std_m
 
 
 def _usable(c) -> bool:
-    return (
-        math.isfinite(c.post_error_mean_m)
-        and math.isfinite(c.post_error_std_m)
-        and c.trials >= 2
-        and c.post_error_std_m >= 0
-    )
+    m, s = _mean_std(c)
+    if not math.isfinite(m):
+        return False
+    if c.trials is None:
+        return True
+    return math.isfinite(s) and c.trials >= 2 and s >= 0
 
 
-def _rule(candidates, other: int, reference: int, tolerance: float) -> TTest:
-    """The rule's test: is ``other`` better than ``reference`` by more than the tolerance?"""
+def _samples(c) -> np.ndarray | None:
+    x = getattr(c, "post_errors_m", None)
+    return None if x is None else np.asarray(x, dtype=float)
+
+
+def _kind(o, r, paired: bool) -> str:
+    if o.trials is None or r.trials is None:
+        return "exact"
+    if paired and _samples(o) is not None and _samples(r) is not None:
+        return "paired"
+    return "welch"
+
+
+def compare(
+    candidates, other: int, reference: int, alpha: float, tolerance: float, paired: bool = False
+) -> Comparison:
+    """The plain two-sided test and the rule's tolerance test of ``other`` against
+    ``reference`` (module docstring; ``paired`` for candidates with common random numbers)."""
     o, r = candidates[other], candidates[reference]
     scale = 1.0 - tolerance
-    return ttest_from_stats(
-        o.post_error_mean_m,
-        o.post_error_std_m,
-        o.trials,
-        scale * r.post_error_mean_m,
-        scale * r.post_error_std_m,
-        r.trials,
-        equal_var=False,
-    )
-
-
-def compare(candidates, other: int, reference: int, alpha: float, tolerance: float) -> Comparison:
-    """The plain Welch test and the rule's tolerance test of ``other`` against ``reference``."""
-    o, r = candidates[other], candidates[reference]
-    test = ttest_from_stats(
-        o.post_error_mean_m,
-        o.post_error_std_m,
-        o.trials,
-        r.post_error_mean_m,
-        r.post_error_std_m,
-        r.trials,
-        equal_var=False,
-    )
-    rule = _rule(candidates, other, reference, tolerance)
-    return Comparison(other, reference, test, rule, bool(rule.p_less < alpha))
+    kind = _kind(o, r, paired)
+    diff = o.post_error_mean_m - r.post_error_mean_m
+    if kind == "exact":
+        significant = o.post_error_mean_m < scale * r.post_error_mean_m
+        return Comparison(other, reference, None, None, bool(significant), kind, diff)
+    if kind == "paired":
+        a, b = _samples(o), _samples(r)
+        assert a is not None and b is not None
+        test = ttest_paired(a, b)
+        rule = ttest_paired(a, scale * b)
+    else:
+        test = ttest_from_stats(
+            o.post_error_mean_m,
+            o.post_error_std_m,
+            o.trials,
+            r.post_error_mean_m,
+            r.post_error_std_m,
+            r.trials,
+            equal_var=False,
+        )
+        rule = ttest_from_stats(
+            o.post_error_mean_m,
+            o.post_error_std_m,
+            o.trials,
+            scale * r.post_error_mean_m,
+            scale * r.post_error_std_m,
+            r.trials,
+            equal_var=False,
+        )
+    significant = bool(rule.p_less < alpha)
+    return Comparison(other, reference, test, rule, significant, kind, diff)
 
 
 def _larger(a, b) -> bool:
@@ -137,14 +197,13 @@ def _order(candidates, indices):
     return sorted(indices, key=lambda i: (candidates[i].travel_m, candidates[i].sides))
 
 
-def _pick(candidates, indices, alpha, tolerance):
-    beaten = {}
+def _pick(candidates, indices, beats: Callable[[int, int], bool]):
+    """The rule on ``indices``: the first candidate (by travel) no competitor beats."""
+    beaten: dict[int, int] = {}
     order = _order(candidates, indices)
     for i in order:
         rivals = [j for j in order if j != i and _larger(candidates[i], candidates[j])]
-        winner = next(
-            (j for j in rivals if _rule(candidates, j, i, tolerance).p_less < alpha), None
-        )
+        winner = next((j for j in rivals if beats(j, i)), None)
         if winner is None:
             return i, beaten
         beaten[i] = winner
@@ -159,39 +218,59 @@ class _Residual:
         self.trials = c.trials
         self.post_error_mean_m = c.residual_error_mean_m
         self.post_error_std_m = c.residual_error_std_m
+        self.post_errors_m = getattr(c, "residual_errors_m", None)
 
 
-def recommend(
-    candidates, alpha: float = 0.05, tolerance: float = 0.05, criterion: str = "error"
-) -> Recommendation:
-    """Apply the rule (module docstring) to ``candidates`` (objects with the Candidate fields).
-
-    ``criterion`` 'residual' judges the candidates on ``residual_error_mean_m`` and
-    ``residual_error_std_m`` instead of the post-calibration error. Candidates without usable
-    statistics (NaN mean or std, fewer than 2 trials) are ignored. Raises ModelError if none is
-    usable or alpha/tolerance/criterion are out of range.
-    """
+def _check(alpha: float, tolerance: float, criterion: str) -> None:
     if criterion not in CRITERIA:
         raise ModelError(f"criterion must be one of {', '.join(CRITERIA)}, got {criterion!r}")
-    if criterion == "residual":
-        candidates = [_Residual(c) for c in candidates]
     if not (0 < alpha < 1):
         raise ModelError(f"alpha must be in (0, 1), got {alpha!r}")
     if not (0 <= tolerance < 1):
         raise ModelError(f"tolerance must be in [0, 1), got {tolerance!r}")
+
+
+def _view(candidates, criterion: str):
+    return [_Residual(c) for c in candidates] if criterion == "residual" else list(candidates)
+
+
+def recommend(
+    candidates,
+    alpha: float = 0.05,
+    tolerance: float = 0.05,
+    criterion: str = "error",
+    *,
+    paired: bool = False,
+) -> Recommendation:
+    """Apply the rule (module docstring) to ``candidates`` (objects with the Candidate fields).
+
+    ``criterion`` 'residual' judges the candidates on ``residual_error_mean_m`` and
+    ``residual_error_std_m`` (and ``residual_errors_m``) instead of the post-calibration error.
+    ``paired``: the candidates' per-trial samples (``post_errors_m``) share their random numbers
+    trial by trial (common random numbers), so paired tests apply. Candidates without usable
+    statistics (NaN mean or std, fewer than 2 trials) are ignored. Raises ModelError if none is
+    usable or alpha/tolerance/criterion are out of range.
+    """
+    _check(alpha, tolerance, criterion)
+    candidates = _view(candidates, criterion)
     usable = [i for i, c in enumerate(candidates) if _usable(c)]
     if not usable:
         raise ModelError("no candidate track has usable statistics (every calibration failed)")
-    index, beaten = _pick(candidates, usable, alpha, tolerance)
+    cache: dict[tuple[int, int], Comparison] = {}
 
+    def comp(j: int, i: int) -> Comparison:
+        if (j, i) not in cache:
+            cache[j, i] = compare(candidates, j, i, alpha, tolerance, paired)
+        return cache[j, i]
+
+    def beats(j: int, i: int) -> bool:
+        return comp(j, i).significant
+
+    index, beaten = _pick(candidates, usable, beats)
     per_shape = {}
-    shapes = sorted({candidates[i].sides for i in usable})
-    for sides in shapes:
+    for sides in sorted({candidates[i].sides for i in usable}):
         same = [i for i in usable if candidates[i].sides == sides]
-        # one shape: the same pick as above
-        per_shape[sides] = (
-            index if len(shapes) == 1 else _pick(candidates, same, alpha, tolerance)[0]
-        )
+        per_shape[sides] = _pick(candidates, same, beats)[0]
 
     rec = candidates[index]
     same = sorted(
@@ -199,5 +278,87 @@ def recommend(
     )
     pos = same.index(index)
     around = same[max(pos - 1, 0) : pos] + same[pos + 1 : pos + 2]
-    neighbours = tuple(compare(candidates, j, index, alpha, tolerance) for j in around)
-    return Recommendation(index, alpha, tolerance, neighbours, beaten, per_shape, criterion)
+    neighbours = tuple(comp(j, index) for j in around)
+    test = comp(around[0], index).kind if around else ("exact" if rec.trials is None else "welch")
+    return Recommendation(index, alpha, tolerance, neighbours, beaten, per_shape, criterion, test)
+
+
+def pick_spread(
+    candidates,
+    rng: np.random.Generator,
+    alpha: float = 0.05,
+    tolerance: float = 0.05,
+    criterion: str = "error",
+    *,
+    paired: bool = False,
+    resamples: int = 200,
+) -> tuple[tuple[int, float], ...]:
+    """How stable the rule's pick is: the rule applied to ``resamples`` bootstrap resamples of
+    the trials (the same trial indices for every candidate when ``paired``, else independently
+    per candidate). Returns (candidate index, share of resamples picking it), most frequent
+    first; empty when the candidates carry no per-trial samples (e.g. analytic ones)."""
+    _check(alpha, tolerance, criterion)
+    view = _view(candidates, criterion)
+    samples = [_samples(c) for c in view]
+    if resamples < 1 or any(s is None or s.size < 2 for s in samples):
+        return ()
+    usable = [i for i, c in enumerate(view) if _usable(c)]
+    if not usable:
+        return ()
+    X = np.full((len(view), max(s.size for s in samples if s is not None)), np.nan)
+    for i, s in enumerate(samples):
+        assert s is not None
+        X[i, : s.size] = s
+    n_trials = X.shape[1]
+    scale = 1.0 - tolerance
+    counts: dict[int, int] = {}
+    for _ in range(resamples):
+        if paired:
+            Xb = X[:, rng.integers(0, n_trials, n_trials)]
+        else:
+            Xb = np.take_along_axis(X, rng.integers(0, n_trials, X.shape), axis=1)
+        ok = np.isfinite(Xb)
+        n = ok.sum(axis=1)
+        mean = np.where(ok, Xb, 0.0).sum(axis=1) / np.maximum(n, 1)
+        var = np.where(ok, (Xb - mean[:, None]) ** 2, 0.0).sum(axis=1) / np.maximum(n - 1, 1)
+        pick_cache: dict[tuple[int, int], bool] = {}
+
+        def beats(j: int, i: int, Xb=Xb, ok=ok, mean=mean, var=var, n=n, cache=pick_cache) -> bool:
+            if (j, i) in cache:
+                return cache[j, i]
+            if paired:
+                both = ok[j] & ok[i]
+                d = Xb[j, both] - scale * Xb[i, both]
+                m = d.size
+                sd = float(d.std(ddof=1)) if m > 1 else 0.0
+                if sd > 0:
+                    p = float(stdtr(m - 1, float(d.mean()) / (sd / math.sqrt(m))))
+                else:
+                    p = 0.0 if m and float(d.mean()) < 0 else 1.0
+            else:
+                va, vb = var[j] / n[j], scale**2 * var[i] / n[i]
+                se = math.sqrt(va + vb)
+                diff = mean[j] - scale * mean[i]
+                den = va**2 / (n[j] - 1) + vb**2 / (n[i] - 1)
+                df = (va + vb) ** 2 / den if den > 0 else float(n[j] + n[i] - 2)
+                p = float(stdtr(df, diff / se)) if se > 0 else (0.0 if diff < 0 else 1.0)
+            cache[j, i] = p < alpha
+            return cache[j, i]
+
+        index, _ = _pick(view, usable, beats)
+        counts[index] = counts.get(index, 0) + 1
+    return tuple(
+        sorted(((i, k / resamples) for i, k in counts.items()), key=lambda x: (-x[1], x[0]))
+    )
+
+
+def spread_range(candidates: Sequence, spread, coverage: float = 0.9) -> tuple[int, ...]:
+    """The candidates (indices, smallest travel first) that together hold at least ``coverage``
+    of the bootstrap picks in ``spread``, most frequent first."""
+    chosen, total = [], 0.0
+    for i, share in spread:
+        if total >= coverage - 1e-12:
+            break
+        chosen.append(i)
+        total += share
+    return tuple(sorted(chosen, key=lambda i: (candidates[i].travel_m, candidates[i].sides)))

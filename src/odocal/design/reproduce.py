@@ -190,10 +190,11 @@ class PrecisionSweep:
 
 
 def precision_sweep(
-    robot: Robot, levels=INSTRUMENT_LEVELS, side_lengths_m=None, trials: int = 800
+    robot: Robot, levels=INSTRUMENT_LEVELS, side_lengths_m=None, trials: int | None = None
 ) -> PrecisionSweep:
     """Recommended square size per instrument precision, by the analytic design (first order;
-    deterministic, so the curve shows the trend without Monte-Carlo scatter)."""
+    expected values, so the curve shows the trend without Monte-Carlo scatter). ``trials`` is
+    ignored (kept for callers of earlier versions)."""
     from .analytic import analytic_design_result
 
     side_lengths_m = SQUARE_SIDES_M if side_lengths_m is None else side_lengths_m
@@ -201,9 +202,7 @@ def precision_sweep(
     for sxy, sth in levels:
         r = dataclasses.replace(robot, measurement=MeasurementNoise.from_degrees(sxy, sth))
         for method in ("heading", "umbmark"):
-            res = analytic_design_result(
-                r, side_lengths_m=side_lengths_m, trials=trials, method=method
-            )
+            res = analytic_design_result(r, side_lengths_m=side_lengths_m, method=method)
             for criterion in ("error", "residual"):
                 idx = recommend(res.candidates, 0.05, 0.05, criterion).index
                 out.setdefault((method, criterion), []).append(res.candidates[idx].side_m)
@@ -214,7 +213,9 @@ def residual_recommendation(result: DesignResult) -> int:
     """Index of the candidate the rule picks when judged on the residual error alone (the
     validation drive without wheel noise)."""
     rec = result.recommendation
-    return recommend(result.candidates, rec.alpha, rec.tolerance, "residual").index
+    return recommend(
+        result.candidates, rec.alpha, rec.tolerance, "residual", paired=result.paired
+    ).index
 
 
 def _experiment_tests(err: np.ndarray, paper: dict) -> tuple[ExperimentTTest, ...]:
@@ -349,7 +350,7 @@ def reproduce(
         fig9,
         experiment,
         instrument,
-        precision_sweep(PRESETS["paper-fig5"], trials=trials),
+        precision_sweep(PRESETS["paper-fig5"]),
     )
 
 

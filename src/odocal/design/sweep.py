@@ -36,10 +36,15 @@ from ..calibration.heading import heading_factors
 from ..calibration.umbmark import umbmark_factors
 from ..core.model import ModelError, NonSystematicError, Robot, WheelGeometry
 from ..core.simulate import drive, final_headings, measure
-from ..core.stats import circular_mean
+from ..core.stats import circular_mean, ttest_paired
 from ..core.tracks import polygon
-from .metrics import leg_heading_noise_rad, leg_heading_systematic_rad, systematic_share
-from .recommend import Recommendation, recommend
+from .metrics import (
+    leg_heading_noise_rad,
+    leg_heading_systematic_rad,
+    systematic_share,
+    true_factors,
+)
+from .recommend import Recommendation, pick_spread, recommend
 from .result import Candidate, ErrorSummary, ValidationTrack, check_design_inputs, rounded
 
 __all__ = [
@@ -54,6 +59,7 @@ __all__ = [
     "simulate_candidates",
     "equal_travel_side_lengths",
     "run_design",
+    "gain_warnings",
     "design_json",
 ]
 
@@ -123,9 +129,18 @@ class DesignResult:
     validation : ValidationTrack
     method : str
         Calibration method ('heading' or 'umbmark').
-    runs_per_direction, trials : int
+    runs_per_direction : int
+    trials : int or None
+        Monte-Carlo trials per candidate; None for expected values (analytic).
     settings : SimulationSettings or None
         None for candidates that were not simulated.
+    paired : bool
+        The candidates share their random numbers trial by trial (common random numbers), so
+        the rule uses paired tests.
+    warnings : tuple of str
+        E.g. when calibrating on the recommended track would not beat the uncalibrated robot.
+    truth_factors : (float, float) or None
+        The E_b, E_d a perfect calibration finds (relative to the parameters the robot ran with).
     """
 
     candidates: tuple[Candidate, ...]
@@ -135,8 +150,11 @@ class DesignResult:
     validation: ValidationTrack
     method: str
     runs_per_direction: int
-    trials: int
+    trials: int | None
     settings: SimulationSettings | None = None
+    paired: bool = False
+    warnings: tuple[str, ...] = ()
+    truth_factors: tuple[float, float] | None = None
 
     @property
     def recommended(self) -> Candidate:
@@ -268,20 +286,58 @@ def simulate_candidates(
     validation: ValidationTrack,
     rng: np.random.Generator,
     settings: SimulationSettings = FAST,
+    *,
+    common_seeds: tuple[int, int] | None = None,
 ) -> list[Candidate]:
-    """Monte-Carlo candidates for one polygon shape and several side lengths (m)."""
+    """Monte-Carlo candidates for one polygon shape and several side lengths (m).
+
+    ``common_seeds`` (test seed, validation seed): common random numbers. Every candidate
+    simulates its test runs with a generator seeded by the first and its validation drives with
+    one seeded by the second, so trial i of every candidate (and of the floor and the
+    uncalibrated drive, when they use the validation seed too) shares its standard normal draws:
+    the candidates differ only by their size, and paired tests compare them. Without it, one
+    stream ``rng`` runs through all candidates (independent samples).
+    """
     sides_m = np.asarray(side_lengths_m, dtype=float).ravel()
-    E_b, E_d = calibrate_trials(
-        robot, sides, sides_m, runs_per_direction, trials, method, rng, settings
-    )
-    post = validation_errors(
-        robot,
-        calibrated_geometry(robot, E_b.ravel(), E_d.ravel()),
-        validation,
-        E_b.size,
-        rng,
-        settings,
-    ).reshape(E_b.shape)
+    if common_seeds is None:
+        E_b, E_d = calibrate_trials(
+            robot, sides, sides_m, runs_per_direction, trials, method, rng, settings
+        )
+        post = validation_errors(
+            robot,
+            calibrated_geometry(robot, E_b.ravel(), E_d.ravel()),
+            validation,
+            E_b.size,
+            rng,
+            settings,
+        ).reshape(E_b.shape)
+    else:
+        test_seed, val_seed = common_seeds
+        E_b = np.empty((sides_m.size, trials))
+        E_d = np.empty((sides_m.size, trials))
+        post = np.empty((sides_m.size, trials))
+        for i, L in enumerate(sides_m):
+            E_b[i], E_d[i] = (
+                v[0]
+                for v in calibrate_trials(
+                    robot,
+                    sides,
+                    [L],
+                    runs_per_direction,
+                    trials,
+                    method,
+                    np.random.default_rng(test_seed),
+                    settings,
+                )
+            )
+            post[i] = validation_errors(
+                robot,
+                calibrated_geometry(robot, E_b[i], E_d[i]),
+                validation,
+                trials,
+                np.random.default_rng(val_seed),
+                settings,
+            )
     post[~np.isfinite(E_b)] = np.nan
     residual = residual_errors(robot, E_b, E_d, validation)
     beta = np.abs(leg_heading_systematic_rad(robot, sides_m))
@@ -312,6 +368,7 @@ def simulate_candidates(
                 residual_error_std_m=res[1],
                 failed_trials=int(trials - s.n),
                 post_errors_m=post[i].copy(),
+                residual_errors_m=residual[i].copy(),
             )
         )
     return out
@@ -340,6 +397,8 @@ def run_design(
     criterion: str = "error",
     settings: SimulationSettings = FAST,
     progress: Progress | None = None,
+    common_random_numbers: bool = True,
+    resamples: int = 200,
 ) -> DesignResult:
     """The design procedure (module docstring) with the paper's defaults.
 
@@ -360,6 +419,11 @@ def run_design(
         Default: 4 m x 4 m square CCW (the paper's).
     alpha, tolerance, criterion
         Parameters of the recommendation rule (:mod:`odocal.design.recommend`).
+    common_random_numbers : bool
+        Simulate every candidate with the same random numbers (trial by trial) and judge with
+        paired tests (default); False: independent samples and Welch tests.
+    resamples : int
+        Bootstrap resamples of the trials that measure the stability of the pick (0: none).
     """
     check_design_inputs(runs_per_direction, trials)
     if method not in METHODS:
@@ -380,9 +444,10 @@ def run_design(
 
     # Candidates are simulated in blocks of at most _BLOCK_RUNS test runs per direction: this
     # bounds memory and paces the progress bar. The blocks depend only on the arguments, so the
-    # random stream (and the result) is the same on every machine.
+    # random stream (and the result) is the same on every machine. With common random numbers
+    # every candidate draws from its own freshly seeded generators (one block per candidate).
     per_candidate = trials * runs_per_direction
-    block = max(1, _BLOCK_RUNS // per_candidate)
+    block = 1 if common_random_numbers else max(1, _BLOCK_RUNS // per_candidate)
     shapes = equal_travel_side_lengths(side_lengths_m, sides)
     blocks = [
         (s, lengths[i : i + block]) for s, lengths in shapes.items()
@@ -397,23 +462,51 @@ def run_design(
         if progress is not None:
             progress(done, total, label)
 
+    seeds = tuple(int(v) for v in rng.integers(0, 2**63 - 1, size=3))
+    common = (seeds[0], seeds[1]) if common_random_numbers else None
+
+    def val_rng() -> np.random.Generator:
+        return np.random.default_rng(seeds[1]) if common_random_numbers else rng
+
     # floor and uncalibrated first, so they do not depend on the candidate list
     floor = ErrorSummary.from_samples(
-        validation_errors(robot, robot.true_geometry, validation, trials, rng, settings)
+        validation_errors(robot, robot.true_geometry, validation, trials, val_rng(), settings)
     )
     step("floor")
-    uncal = ErrorSummary.from_samples(
-        validation_errors(robot, robot.believed_geometry, validation, trials, rng, settings)
+    uncal_samples = validation_errors(
+        robot, robot.believed_geometry, validation, trials, val_rng(), settings
     )
+    uncal = ErrorSummary.from_samples(uncal_samples)
     step("uncalibrated")
     candidates: list[Candidate] = []
     for s, lengths in blocks:
         candidates += simulate_candidates(
-            robot, s, lengths, runs_per_direction, trials, method, validation, rng, settings
+            robot,
+            s,
+            lengths,
+            runs_per_direction,
+            trials,
+            method,
+            validation,
+            rng,
+            settings,
+            common_seeds=common,
         )
         step(f"{s}-gon up to {lengths[-1]:g} m")
-    rec = recommend(candidates, alpha, tolerance, criterion)
-    return DesignResult(
+    paired = common_random_numbers
+    rec = recommend(candidates, alpha, tolerance, criterion, paired=paired)
+    if resamples:
+        spread = pick_spread(
+            candidates,
+            np.random.default_rng(seeds[2]),
+            alpha,
+            tolerance,
+            criterion,
+            paired=paired,
+            resamples=resamples,
+        )
+        rec = replace(rec, spread=spread, resamples=resamples)
+    result = DesignResult(
         tuple(candidates),
         floor,
         uncal,
@@ -423,6 +516,30 @@ def run_design(
         runs_per_direction,
         trials,
         settings,
+        paired,
+        truth_factors=true_factors(robot),
+    )
+    return replace(result, warnings=gain_warnings(result, uncal_samples if paired else None))
+
+
+def gain_warnings(result: DesignResult, uncalibrated_samples=None) -> tuple[str, ...]:
+    """A warning when calibrating on the recommended track would not beat the uncalibrated
+    robot on the validation track (its mean error is not smaller; with paired samples, not
+    significantly smaller at the rule's alpha)."""
+    r = result.recommended
+    u = result.uncalibrated.mean_m
+    worse = not r.post_error_mean_m < u
+    rec = result.recommendation
+    if not worse and uncalibrated_samples is not None and r.post_errors_m is not None:
+        worse = not ttest_paired(r.post_errors_m, uncalibrated_samples).p_less < rec.alpha
+    if not worse:
+        return ()
+    return (
+        f"calibrating on the recommended {r.side_m:g} m track would not beat the uncalibrated "
+        f"robot: {r.post_error_mean_m:.4g} m after calibration against {u:.4g} m without, on "
+        f"the {result.validation.label}. The robot's errors (ROBOT.yaml 'systematic') are too "
+        "small for this instrument and these runs to measure; keep its parameters, or use a "
+        "more precise instrument or more runs",
     )
 
 
@@ -432,23 +549,57 @@ def other_criterion(result: DesignResult) -> Recommendation | None:
     rec = result.recommendation
     other = "residual" if rec.criterion == "error" else "error"
     try:
-        return recommend(result.candidates, rec.alpha, rec.tolerance, other)
+        return recommend(result.candidates, rec.alpha, rec.tolerance, other, paired=result.paired)
     except ModelError:
         return None
 
 
 def _comparison_dict(result_candidates, comp) -> dict:
     o, r = result_candidates[comp.other], result_candidates[comp.reference]
+    test, rule = comp.test, comp.rule
     return {
         "track": {"sides": o.sides, "side_m": o.side_m},
         "versus": {"sides": r.sides, "side_m": r.side_m},
-        "t": rounded(comp.test.t),
-        "df": rounded(comp.test.df),
-        "p": rounded(comp.test.p_two_sided),
-        "mean_difference_m": rounded(comp.test.mean_difference),
-        "rule_t": rounded(comp.rule.t),
-        "rule_p": rounded(comp.rule.p_less),
+        "test": comp.kind,
+        "t": None if test is None else rounded(test.t),
+        "df": None if test is None else rounded(test.df),
+        "p": None if test is None else rounded(test.p_two_sided),
+        "mean_difference_m": rounded(comp.mean_difference),
+        "rule_t": None if rule is None else rounded(rule.t),
+        "rule_p": None if rule is None else rounded(rule.p_less),
         "significantly_better_beyond_tolerance": comp.significant,
+    }
+
+
+def stability(result: DesignResult) -> dict | None:
+    """How stable the recommendation is (bootstrap of the trials), or None when not measured:
+    ``picks`` (side, travel and share of each candidate the resamples pick) and ``range_m``, the
+    sides that hold 90 % of the picks."""
+    from .recommend import spread_range
+
+    rec, cands = result.recommendation, result.candidates
+    if not rec.spread:
+        return None
+    held = spread_range(cands, rec.spread)
+    return {
+        "resamples": rec.resamples,
+        "picks": [
+            {
+                "sides": cands[i].sides,
+                "side_m": rounded(cands[i].side_m),
+                "travel_m": rounded(cands[i].travel_m),
+                "share": rounded(share, 4),
+            }
+            for i, share in rec.spread
+        ],
+        "range_m": [
+            rounded(min(cands[i].side_m for i in held)),
+            rounded(max(cands[i].side_m for i in held)),
+        ],
+        "range_travel_m": [
+            rounded(min(cands[i].travel_m for i in held)),
+            rounded(max(cands[i].travel_m for i in held)),
+        ],
     }
 
 
@@ -510,6 +661,10 @@ def design_json(result: DesignResult, **extra) -> dict:
             for s, i in rec.per_shape.items()
         },
         "ttests": [_comparison_dict(cands, comp) for comp in rec.neighbours],
+        "rule_test": rec.test,
+        "common_random_numbers": result.paired,
+        "stability": stability(result),
+        "warnings": list(result.warnings),
         "criterion": rec.criterion,
         "alpha": rec.alpha,
         "tolerance": rec.tolerance,

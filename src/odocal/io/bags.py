@@ -30,6 +30,14 @@ import numpy as np
 
 from ..calibration.gyro import rotation_from_quaternion
 from ..errors import InputError, OdocalError
+from .limits import (
+    POSITION_MAX_M,
+    RATE_MAX_RAD_S,
+    SPEED_MAX_M_S,
+    TICKS_MAX,
+    TICKS_PER_REV,
+    WHEEL_ANGLE_MAX_RAD,
+)
 
 __all__ = [
     "TopicInfo",
@@ -46,6 +54,12 @@ __all__ = [
     "static_rotation",
     "BAG_SUFFIXES",
     "BASE_FRAMES",
+    "EdgeMessages",
+    "tf_messages",
+    "transform_buffer",
+    "ScanSeries",
+    "scan_series",
+    "LASER_SCAN",
     "JOINT_STATE",
     "IMU",
     "ODOMETRY",
@@ -63,7 +77,10 @@ POSE_TYPES = (
 )
 BASE_FRAMES = ("base_link", "base_footprint")
 BAG_SUFFIXES = (".bag", ".db3", ".mcap")
-_INSTALL_HINT = "reading ROS bags needs the 'rosbags' package: pip install 'odocal[bags]'"
+_INSTALL_HINT = (
+    "reading ROS bags needs the 'rosbags' package: pip install rosbags (or, in the odocal "
+    "folder, pip install -e '.[bags]')"
+)
 
 
 # --------------------------------------------------------------------------- opening bags
@@ -305,11 +322,25 @@ def _times(msgs: list, path: Path, topic: str, start_ns: int, has_header=True) -
     return t
 
 
-def _finite(arr: np.ndarray, path: Path, topic: str, what: str) -> None:
-    ok = np.all(np.isfinite(arr.reshape(len(arr), -1)), axis=1)
+def _finite(arr: np.ndarray, path: Path, topic: str, what: str, limit: float | None = None) -> None:
+    """InputError naming the first message whose ``what`` is not finite, or larger than
+    ``limit`` in magnitude (an absurd value; odocal.io.limits)."""
+    flat = arr.reshape(len(arr), -1)
+    ok = np.all(np.isfinite(flat), axis=1)
     if not np.all(ok):
         i = int(np.nonzero(~ok)[0][0])
         raise InputError(f"message {i}: {what} is not finite (NaN or inf)", path, None, topic)
+    if limit is not None and len(flat):
+        big = np.nonzero(np.any(np.abs(flat) > limit, axis=1))[0]
+        if len(big):
+            i = int(big[0])
+            v = flat[i][np.argmax(np.abs(flat[i]))]
+            raise InputError(
+                f"message {i}: {what} is implausibly large ({v:.6g}; at most {limit:g})",
+                path,
+                None,
+                topic,
+            )
 
 
 def _need(msgs: list, path: Path, topic: str, n: int = 2) -> None:
@@ -338,14 +369,16 @@ def pose_series(bag: BagContents, topic: str) -> TopicSeries:
         p, q = _pose_of(m, mt)
         rows.append((p.x, p.y, _yaw(q)))
     xy = np.array(rows, dtype=float)
-    _finite(xy, bag.path, topic, "the pose")
+    _finite(xy[:, :2], bag.path, topic, "the position (m)", POSITION_MAX_M)
+    _finite(xy[:, 2:], bag.path, topic, "the orientation")
     t = _times(msgs, bag.path, topic, bag.start_ns)
     values = {"x": xy[:, 0], "y": xy[:, 1], "yaw": np.unwrap(xy[:, 2])}
     if mt == ODOMETRY:
         tw = np.array(
             [(m.twist.twist.linear.x, m.twist.twist.angular.z) for _, m in msgs], dtype=float
         )
-        _finite(tw, bag.path, topic, "the twist")
+        _finite(tw[:, :1], bag.path, topic, "the twist's linear speed (m/s)", SPEED_MAX_M_S)
+        _finite(tw[:, 1:], bag.path, topic, "the twist's yaw rate (rad/s)", RATE_MAX_RAD_S)
         values["speed"], values["yaw_rate"] = tw[:, 0], tw[:, 1]
     last = msgs[0][1]
     return TopicSeries(
@@ -365,7 +398,7 @@ def imu_series(bag: BagContents, topic: str) -> TopicSeries:
         [(m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z) for _, m in msgs],
         dtype=float,
     )
-    _finite(w, bag.path, topic, "angular_velocity")
+    _finite(w, bag.path, topic, "angular_velocity (rad/s)", RATE_MAX_RAD_S)
     t = _times(msgs, bag.path, topic, bag.start_ns)
     return TopicSeries(topic, t, {"angular_velocity": w}, msgs[0][1].header.frame_id.lstrip("/"))
 
@@ -458,12 +491,17 @@ def joint_series(
             rows.append((pos[ir], pos[il]))
     _need(kept, path, topic)
     phi = np.array(rows, dtype=float)
-    _finite(phi, path, topic, "a wheel position")
-    t = _times(kept, path, topic, bag.start_ns)
     if ticks_per_rev is not None:
-        if not (math.isfinite(ticks_per_rev) and ticks_per_rev > 0):
-            raise InputError(f"ticks per revolution must be > 0, got {ticks_per_rev!r}")
+        lo, hi = TICKS_PER_REV
+        if not (math.isfinite(ticks_per_rev) and lo <= ticks_per_rev <= hi):
+            raise InputError(
+                f"ticks per revolution must be {lo:g} .. {hi:g}, got {ticks_per_rev!r}",
+                field="ticks_per_rev",
+            )
+        _finite(phi, path, topic, "a wheel position (ticks)", TICKS_MAX)
         phi = phi * (2.0 * math.pi / ticks_per_rev)
+    _finite(phi, path, topic, "a wheel position (rad)", WHEEL_ANGLE_MAX_RAD)
+    t = _times(kept, path, topic, bag.start_ns)
     r, wr = _unwrap_wheel(phi[:, 0], 2.0 * math.pi, path, topic, right)
     lft, wl = _unwrap_wheel(phi[:, 1], 2.0 * math.pi, path, topic, left)
     return TopicSeries(
@@ -495,3 +533,115 @@ def static_rotation(bag: BagContents, child: str, parents: Sequence[str]):
         rot = r @ rot
         frame = parent
     return rot, frame
+
+
+# --------------------------------------------------------------------------- transforms
+
+
+@dataclass(frozen=True)
+class EdgeMessages:
+    """Every transform of one edge published on ``/tf``, in publishing order, repeats kept.
+
+    ``time_s`` (K,) header stamps relative to the bag start (s); ``translation_m`` (K, 3);
+    ``quaternion_xyzw`` (K, 4)."""
+
+    parent: str
+    child: str
+    time_s: np.ndarray
+    translation_m: np.ndarray
+    quaternion_xyzw: np.ndarray
+
+
+def tf_messages(bag: BagContents, topic: str = "/tf") -> dict[tuple[str, str], EdgeMessages]:
+    """The transforms of ``/tf`` per (parent, child) edge, repeats kept (SLAM packages republish
+    their last correction; which messages bring news is decided later)."""
+    rows: dict[tuple[str, str], list] = {}
+    for i, (t_log, m) in enumerate(bag.messages.get(topic, [])):
+        for tr in m.transforms:
+            key = (tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/"))
+            stamp = _stamp_ns(tr.header) or t_log
+            p, q = tr.transform.translation, tr.transform.rotation
+            rows.setdefault(key, []).append((stamp, p.x, p.y, p.z, q.x, q.y, q.z, q.w, i))
+    out = {}
+    for (parent, child), r in rows.items():
+        a = np.array([row[1:8] for row in r], dtype=float)
+        if not np.all(np.isfinite(a)):
+            k = int(np.nonzero(~np.all(np.isfinite(a), axis=1))[0][0])
+            raise InputError(
+                f"message {r[k][8]}: transform '{parent} -> {child}' is not finite (NaN or inf)",
+                bag.path,
+                None,
+                topic,
+            )
+        t = (np.array([row[0] for row in r], dtype=np.int64) - np.int64(bag.start_ns)) * 1e-9
+        out[(parent, child)] = EdgeMessages(parent, child, t, a[:, :3], a[:, 3:])
+    return out
+
+
+def transform_buffer(bag: BagContents):
+    """A :class:`~odocal.core.transforms.TransformBuffer` of the bag's ``/tf`` and
+    ``/tf_static``."""
+    from ..core.transforms import TransformBuffer
+
+    buf = TransformBuffer()
+    for (parent, child), e in tf_messages(bag).items():
+        buf.add(parent, child, e.time_s, e.translation_m, e.quaternion_xyzw)
+    for _, m in bag.messages.get("/tf_static", []):
+        for tr in m.transforms:
+            p, q = tr.transform.translation, tr.transform.rotation
+            buf.add_static(
+                tr.header.frame_id.lstrip("/"),
+                tr.child_frame_id.lstrip("/"),
+                (p.x, p.y, p.z),
+                (q.x, q.y, q.z, q.w),
+            )
+    return buf
+
+
+# --------------------------------------------------------------------------- laser scans
+
+LASER_SCAN = "sensor_msgs/msg/LaserScan"
+
+
+@dataclass(frozen=True)
+class ScanSeries:
+    """The scans of one ``sensor_msgs/LaserScan`` topic as points in the sensor frame.
+
+    ``time_s`` (N,) header stamps relative to the bag start (s); ``points_m`` N arrays of shape
+    (n_i, 2) (invalid ranges dropped, REP-117); ``frame_id`` the sensor frame."""
+
+    topic: str
+    time_s: np.ndarray
+    points_m: tuple[np.ndarray, ...]
+    frame_id: str
+
+
+def scan_series(bag: BagContents, topic: str) -> ScanSeries:
+    """Every scan of ``topic`` (InputError for absurd scan parameters or no valid range)."""
+    from ..calibration.scan_matching import scan_points
+
+    msgs = bag.messages[topic]
+    _need(msgs, bag.path, topic)
+    points = []
+    for i, (_, m) in enumerate(msgs):
+        params = (m.angle_min, m.angle_increment, m.range_min, m.range_max)
+        if not all(math.isfinite(v) for v in params) or not 0 <= m.range_min < m.range_max:
+            raise InputError(
+                f"message {i}: scan parameters are not usable (angle_min {m.angle_min}, "
+                f"angle_increment {m.angle_increment}, range_min {m.range_min}, range_max "
+                f"{m.range_max})",
+                bag.path,
+                None,
+                topic,
+            )
+        points.append(scan_points(np.asarray(m.ranges, dtype=float), *params))
+    if not any(len(p) for p in points):
+        raise InputError(
+            f"no scan has a valid range (all NaN, inf or outside [range_min, range_max]) in "
+            f"{len(points)} scans",
+            bag.path,
+            None,
+            topic,
+        )
+    t = _times(msgs, bag.path, topic, bag.start_ns)
+    return ScanSeries(topic, t, tuple(points), msgs[0][1].header.frame_id.lstrip("/"))

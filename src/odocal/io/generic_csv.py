@@ -45,38 +45,60 @@ from ..core.model import WheelGeometry
 from ..core.pose import start_frame
 from ..core.recording import Recording
 from ..errors import InputError
-from .table import parse_number, read_table
+from .limits import (
+    HEADING_MAX_RAD,
+    POSITION_MAX_M,
+    ROBOT_LENGTH_M,
+    SIDE_MIN_M,
+    TICKS_MAX,
+    TICKS_PER_REV,
+    TICKS_WRAP,
+    TIME_MAX_S,
+    TRACK_LENGTH_MAX_M,
+    WHEEL_ANGLE_MAX_RAD,
+    WHEEL_STEP_MAX_RAD,
+)
+from .table import MAX_FIELD_CHARS, parse_number, read_table
 
-__all__ = ["load_generic_csv", "write_generic_csv", "looks_like_generic_csv", "WRAP_JUMP_COUNTS"]
+__all__ = [
+    "load_generic_csv",
+    "write_generic_csv",
+    "looks_like_generic_csv",
+    "check_wheel_steps",
+    "WRAP_JUMP_COUNTS",
+    "LABELS",
+]
 
 #: a single-sample tick jump larger than this is treated as a wrap-around (see module docstring)
 WRAP_JUMP_COUNTS = 2**15
 
-# Settings (``# key: value`` above the header) and their plausible ranges: beyond them a value is a
-# typo or a unit slip (the lengths as in ROBOT.yaml).
+# Settings (``# key: value`` above the header) and their plausible ranges (odocal.io.limits):
+# beyond them a value is a typo or a unit slip.
 _SETTINGS_RANGE = {
-    "ticks_per_rev": (1e-3, 1e9),
-    "ticks_wrap": (2.0, 2.0**64),
-    "side_m": (1e-4, 1e5),
-    "wheel_diameter_right_m": (1e-4, 1e3),
-    "wheel_diameter_left_m": (1e-4, 1e3),
-    "wheelbase_m": (1e-4, 1e3),
+    "ticks_per_rev": TICKS_PER_REV,
+    "ticks_wrap": TICKS_WRAP,
+    "side_m": (SIDE_MIN_M, TRACK_LENGTH_MAX_M),
+    "wheel_diameter_right_m": ROBOT_LENGTH_M,
+    "wheel_diameter_left_m": ROBOT_LENGTH_M,
+    "wheelbase_m": ROBOT_LENGTH_M,
 }
 _SETTINGS = (*_SETTINGS_RANGE, "label")
 
-# Largest magnitude of a value per column: time (s; 1e12 s is 30000 years), wheel angles (rad),
-# cumulative ticks (2^53, where floats stop counting exactly), poses (m, rad).
+# Largest magnitude of a value per column (odocal.io.limits).
 _COLUMN_MAX = {
-    "time_s": 1e12,
-    "wheel_right_rad": 1e9,
-    "wheel_left_rad": 1e9,
-    "ticks_right": 2.0**53,
-    "ticks_left": 2.0**53,
-    "x_m": 1e5,
-    "y_m": 1e5,
-    "theta_rad": 1e6,
-    "gyro_yaw_rad": 1e6,
+    "time_s": TIME_MAX_S,
+    "wheel_right_rad": WHEEL_ANGLE_MAX_RAD,
+    "wheel_left_rad": WHEEL_ANGLE_MAX_RAD,
+    "ticks_right": TICKS_MAX,
+    "ticks_left": TICKS_MAX,
+    "x_m": POSITION_MAX_M,
+    "y_m": POSITION_MAX_M,
+    "theta_rad": HEADING_MAX_RAD,
+    "gyro_yaw_rad": HEADING_MAX_RAD,
 }
+
+#: The run kinds the methods know in a ``# label:`` (read in any case; other labels are free text).
+LABELS = ("cw", "ccw", "straight", "spin-cw", "spin-ccw", "fwd")
 
 
 def looks_like_generic_csv(path, text: str | None = None) -> bool:
@@ -100,7 +122,10 @@ def _settings(table, path) -> dict:
     out: dict = {}
     for key, (value, no) in table.settings.items():
         if key == "label":
-            out[key] = (value, no)
+            if len(value) > MAX_FIELD_CHARS:
+                raise InputError(f"over-long value ({len(value)} characters)", path, no, key)
+            # the kinds the methods know are read in any case (CW as cw); others are free text
+            out[key] = (value.lower() if value.lower() in LABELS else value, no)
             continue
         lo, hi = _SETTINGS_RANGE[key]
         v = parse_number(value, path, no, key, positive=True)
@@ -115,7 +140,25 @@ def _settings(table, path) -> dict:
     return out
 
 
-def _unwrap_ticks(ticks: np.ndarray, line_of, name: str, wrap, path) -> np.ndarray:
+def check_wheel_steps(right, left, lines, path, names=("wheel_right_rad", "wheel_left_rad")):
+    """InputError naming the line and column of the first sample where a wheel turns more than
+    :data:`~odocal.io.limits.WHEEL_STEP_MAX_RAD` (rad) since the previous one: a glitch, a reset
+    or a unit slip (no wheel turns 160 times between two samples). ``right``/``left``: wheel
+    angles (rad), ``lines``: the line of each sample."""
+    for angles, name in ((right, names[0]), (left, names[1])):
+        big = np.nonzero(np.abs(np.diff(angles)) > WHEEL_STEP_MAX_RAD)[0]
+        if len(big):
+            i = int(big[0]) + 1
+            raise InputError(
+                f"the wheel turns {angles[i] - angles[i - 1]:+.4g} rad in one sample (at most "
+                f"{WHEEL_STEP_MAX_RAD:g}): a glitch, a counter reset or a unit slip",
+                path,
+                lines[i],
+                name,
+            )
+
+
+def _unwrap_ticks(ticks: np.ndarray, lines, name: str, wrap, path) -> np.ndarray:
     d = np.diff(ticks)
     if wrap is not None:
         d = (d + wrap / 2) % wrap - wrap / 2
@@ -127,7 +170,7 @@ def _unwrap_ticks(ticks: np.ndarray, line_of, name: str, wrap, path) -> np.ndarr
                 f"the tick counter jumps by {d[i]:.0f} counts in one sample: this looks like an "
                 "encoder wrap-around; give the counter modulus as '# ticks_wrap: 65536' (16-bit)",
                 path,
-                line_of(i + 1),
+                lines[i + 1],
                 name,
             )
     return np.concatenate([[0.0], np.cumsum(d)])
@@ -182,7 +225,7 @@ def load_generic_csv(
         raise InputError(
             f"time is not strictly increasing ({t[i - 1]:g} s then {t[i]:g} s)",
             path,
-            table.line_of(i),
+            table.lines[i],
             "time_s",
         )
 
@@ -202,11 +245,12 @@ def load_generic_csv(
             )
         wrap = settings.get("ticks_wrap", (None,))[0]
         scale = 2.0 * math.pi / tpr
-        right = _unwrap_ticks(right, table.line_of, "ticks_right", wrap, path) * scale
-        left = _unwrap_ticks(left, table.line_of, "ticks_left", wrap, path) * scale
+        right = _unwrap_ticks(right, table.lines, "ticks_right", wrap, path) * scale
+        left = _unwrap_ticks(left, table.lines, "ticks_left", wrap, path) * scale
         meta["ticks_per_rev"] = tpr
     else:
         right, left = right - right[0], left - left[0]
+    check_wheel_steps(right, left, table.lines, path, wheel_cols)
 
     gt = None
     if present:

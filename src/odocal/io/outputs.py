@@ -13,8 +13,9 @@ Every command that writes files goes through an :class:`OutputPlan`:
    no folder the plan created).
 
 Contents are ``str`` (UTF-8 text), ``bytes``, an object with a matplotlib-like
-``savefig(path, format="png")`` (a figure; written as PNG), or a function of no arguments that
-returns one of these (called when its file is staged).
+``savefig(path, format="png", metadata=...)`` (a figure; written as PNG without a software
+version or date, so that the same command writes the same bytes), or a function of no arguments
+that returns one of these (called when its file is staged).
 """
 
 from __future__ import annotations
@@ -34,7 +35,11 @@ __all__ = ["OutputPlan", "Savable", "Content"]
 
 
 class Savable(Protocol):
-    def savefig(self, fname: Any, *, format: str) -> None: ...  # noqa: A002 - matplotlib's API
+    def savefig(self, fname: Any, *, format: str, metadata: dict) -> None: ...  # noqa: A002
+
+
+#: PNG text chunks of every figure: none (matplotlib would write its version as 'Software').
+PNG_METADATA: dict = {"Software": None}
 
 
 Content = str | bytes | Savable | Callable[[], "str | bytes | Savable"]
@@ -44,6 +49,10 @@ def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)
     return mask
+
+
+# Most files of the input folders whose identity an output is checked against.
+_MAX_WALKED_FILES = 200_000
 
 
 def _same(a: Path, b: Path) -> bool:
@@ -70,17 +79,64 @@ class _Output:
 
 @contextmanager
 def _signals_held():
-    """Hold SIGINT and SIGTERM back (they are delivered when the block ends)."""
-    held = {signal.SIGINT, signal.SIGTERM}
+    """Hold SIGINT and SIGTERM back: their Python handlers run when the block ends.
+
+    Done with Python-level handlers, not a thread signal mask: a process-directed signal may be
+    delivered to any thread (numpy's BLAS starts some) and Python then runs the handler in the
+    main thread anyway, so a mask on the main thread alone would not hold it."""
+    pending: list[int] = []
+
+    def note(signum, frame):  # noqa: ARG001 - the signal module's API
+        pending.append(signum)
+
+    held = (signal.SIGINT, signal.SIGTERM)
     try:
-        old = signal.pthread_sigmask(signal.SIG_BLOCK, held)
-    except (AttributeError, ValueError, OSError):  # pragma: no cover - not on this platform
+        old = {s: signal.signal(s, note) for s in held}
+    except ValueError:  # not the main thread: signals cannot be handled here anyway
         yield
         return
     try:
         yield
     finally:
-        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+        for s, handler in old.items():
+            signal.signal(s, handler)
+        if pending:
+            s, handler = pending[0], old[pending[0]]
+            if callable(handler):
+                handler(s, None)  # e.g. raises KeyboardInterrupt
+            elif handler == signal.SIG_DFL:
+                os.kill(os.getpid(), s)
+
+
+class _SigTerm(KeyboardInterrupt):
+    pass
+
+
+def _raise_sigterm(signum, frame):  # noqa: ARG001 - the signal module's API
+    raise _SigTerm
+
+
+@contextmanager
+def _sigterm_unwinds():
+    """While writing, a SIGTERM whose action is the default (a library caller; the command line
+    installs its own handler) unwinds like Ctrl-C, so that no temporary file or created folder
+    is left behind; the process then terminates as it was asked to."""
+    try:
+        if signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+            yield
+            return
+        signal.signal(signal.SIGTERM, _raise_sigterm)
+    except ValueError:  # not the main thread
+        yield
+        return
+    try:
+        yield
+    except _SigTerm:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+        os.kill(os.getpid(), signal.SIGTERM)
+        raise
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 class OutputPlan:
@@ -96,10 +152,44 @@ class OutputPlan:
     def __init__(self, inputs: Iterable[Any] = ()):
         self._inputs = [Path(p) for p in inputs if p is not None]
         self._outputs: list[_Output] = []
+        self._files_in_inputs: dict[tuple[int, int], Path] | None = None
 
     # ------------------------------------------------------------------ planning
 
+    def _input_file_ids(self) -> dict[tuple[int, int], Path]:
+        """(device, inode) of every file inside the input folders: an output elsewhere that is a
+        hard link to one of them is the same file."""
+        if self._files_in_inputs is None:
+            ids: dict[tuple[int, int], Path] = {}
+            for src in self._inputs:
+                if not src.is_dir():
+                    continue
+                for root, _dirs, names in os.walk(src):
+                    for name in names:
+                        p = Path(root, name)
+                        try:
+                            st = p.stat()
+                        except OSError:
+                            continue
+                        ids.setdefault((st.st_dev, st.st_ino), p)
+                    if len(ids) > _MAX_WALKED_FILES:
+                        break
+            self._files_in_inputs = ids
+        return self._files_in_inputs
+
     def _check_against_inputs(self, path: Path, flag: str, is_folder: bool) -> None:
+        self._check_against_input_paths(path, flag, is_folder)
+        if path.is_file():
+            st = path.stat()
+            inside = self._input_file_ids().get((st.st_dev, st.st_ino))
+            if inside is not None:
+                raise InputError(
+                    f"{flag} would overwrite an input file of this command ({inside}, the same "
+                    "file through a link); choose another output name",
+                    path,
+                )
+
+    def _check_against_input_paths(self, path: Path, flag: str, is_folder: bool) -> None:
         for src in self._inputs:
             if not src.exists():
                 continue
@@ -194,12 +284,16 @@ class OutputPlan:
         missing = [o.path for o in self._outputs if not o.is_folder and o.path not in contents]
         if missing:
             raise RuntimeError(f"no content for the planned output(s) {missing}")
+        with _sigterm_unwinds():
+            return self._write(contents)
+
+    def _write(self, contents: Mapping[Path, Content]) -> list[Path]:
         created: list[Path] = []
         staged: list[tuple[Path, Path]] = []
         try:
             for o in self._outputs:
                 if o.is_folder and not o.path.is_dir():
-                    created += _make_folder(o.path, o.flag)
+                    _make_folder(o.path, o.flag, created)
             for path, content in contents.items():
                 try:
                     staged.append((_stage(Path(path), content), Path(path)))
@@ -217,8 +311,9 @@ class OutputPlan:
                         os.replace(tmp, path)
                     except OSError as exc:  # pragma: no cover - after staging in the same folder
                         raise InputError(f"cannot write: {exc.strerror or exc}", path) from None
-            staged = []
-            created = []
+                # committed: a signal held back until here must not undo anything
+                staged = []
+                created = []
         finally:
             for tmp, _ in staged:
                 tmp.unlink(missing_ok=True)
@@ -230,24 +325,22 @@ class OutputPlan:
         return list(contents)
 
 
-def _make_folder(path: Path, flag: str) -> list[Path]:
-    """Create ``path`` and missing parents; return the folders created (outermost first)."""
+def _make_folder(path: Path, flag: str, created: list[Path]) -> None:
+    """Create ``path`` and missing parents, appending each folder to ``created`` (outermost
+    first) as soon as it exists, so that an interruption midway leaves none behind."""
     new = []
     p = path
     while not p.exists():
         new.append(p)
         p = p.parent
-    new.reverse()
-    for p in new:
+    for p in reversed(new):
         try:
             p.mkdir()
         except OSError as exc:
-            for q in reversed(new[: new.index(p)]):
-                q.rmdir()
             raise InputError(
                 f"{flag}: cannot create the output folder: {exc.strerror}", p
             ) from None
-    return new
+        created.append(p)
 
 
 def _stage(path: Path, content: Content) -> Path:
@@ -264,7 +357,8 @@ def _stage(path: Path, content: Content) -> Path:
                 fh.write(content)
         else:
             os.close(fd)
-            content.savefig(tmp, format="png")
+            # no software version (nor date) inside: the same command writes the same bytes
+            content.savefig(tmp, format="png", metadata=PNG_METADATA)
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise

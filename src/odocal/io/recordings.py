@@ -2,27 +2,42 @@
 
 ``load_recordings(paths)`` accepts, for each path:
 
-- a generic run CSV (``io/generic_csv.py``; header row starting with ``time_s``);
+- a generic run CSV (``io/generic_csv.py``; header row starting with ``time_s``), also a pipe
+  or ``<(...)`` (every file is read once, sequentially);
 - one OptiOdom run file ``<id>_run-NN.csv`` (its data set's metadata is read beside it);
 - a ROS bag: ``.bag`` (ROS 1), ``.db3`` or ``.mcap`` (ROS 2), or a ROS 2 bag folder holding
   ``metadata.yaml`` (read by ``odocal.io.bag_recording``; needs the optional ``rosbags`` package);
-- a folder: an OptiOdom data set folder (holds ``*_metadata.csv``, e.g. ``square/230620202042``),
-  an OptiOdom category folder holding several data sets (e.g. ``square/``), or a folder of
-  generic run CSVs (all ``*.csv`` files in it, sorted by name).
+- a folder of generic run CSVs (all ``*.csv`` files in it, sorted by name; each must be a run);
+- an OptiOdom data set folder (holds ``*_metadata.csv``, e.g. ``square/230620202042``);
+- a collection: a folder whose sub-folders (to :data:`MAX_WALK_DEPTH` levels) hold data sets
+  or run CSVs, e.g. a category folder (``square/``) or a whole ``optiodom_diff``. Its data sets
+  and run CSVs are read in path order; whatever holds no runs (notes, result tables, unsynchronised
+  raw data, bags: name those on their own) is skipped and listed in one warning.
+
+The same run given twice (the same file twice, a folder and a file inside it, two links to one
+file) is refused: it would count twice. Two files with identical data are warned about.
 """
 
 from __future__ import annotations
 
+import hashlib
+import os
 import re
 from pathlib import Path
+
+import numpy as np
 
 from ..core.recording import Recording
 from ..errors import InputError
 from .bags import BAG_SUFFIXES, is_bag
+from .textfile import read_text
 
-__all__ = ["load_recordings", "require_ground_truth"]
+__all__ = ["load_recordings", "refuse_repeated", "require_ground_truth", "MAX_WALK_DEPTH"]
 
 _OPTI_RUN = re.compile(r"^(?P<id>.+)_run-(?P<n>\d+)\.csv$")
+
+#: How deep a collection folder is walked for data sets and run CSVs.
+MAX_WALK_DEPTH = 4
 
 
 def _load_bag(path: Path, bag_options: dict) -> list[Recording]:
@@ -36,8 +51,10 @@ def _load_file(path: Path, ticks_per_rev) -> list[Recording]:
     from .generic_csv import load_generic_csv, looks_like_generic_csv
     from .optiodom import is_optiodom_dataset, load_optiodom_dataset
 
+    text = read_text(path)  # once: a pipe can be read only once
+    generic = looks_like_generic_csv(path, text)
     m = _OPTI_RUN.match(path.name)
-    if m and not looks_like_generic_csv(path):
+    if m and not generic:
         if not is_optiodom_dataset(path.parent):
             raise InputError(
                 f"OptiOdom run file without its metadata: {m.group('id')}_metadata.csv is "
@@ -45,67 +62,185 @@ def _load_file(path: Path, ticks_per_rev) -> list[Recording]:
                 path,
             )
         runs = load_optiodom_dataset(path.parent)
-        hit = [r for r in runs if Path(r.name).name == path.name]
-        return hit
-    if path.suffix.lower() != ".csv" and not looks_like_generic_csv(path):
+        return [r for r in runs if Path(r.name).name == path.name]
+    if path.suffix.lower() != ".csv" and not generic:
         raise InputError(
             "unknown run file type: expected a generic run CSV (header starting with time_s), "
-            f"an OptiOdom *_run-NN.csv, or a bag ({', '.join(BAG_SUFFIXES)})",
+            f"an OptiOdom *_run-NN.csv, a bag ({', '.join(BAG_SUFFIXES)}) or a .tuple file (a "
+            "pipe of tuples needs --method relative)",
             path,
         )
-    return [load_generic_csv(path, ticks_per_rev=ticks_per_rev)]
+    return [load_generic_csv(path, ticks_per_rev=ticks_per_rev, text=text)]
 
 
-def _load_folder(path: Path, ticks_per_rev) -> list[Recording]:
+def _csvs(folder: Path) -> list[Path]:
+    return sorted(p for p in folder.iterdir() if p.suffix.lower() == ".csv" and p.is_file())
+
+
+def _is_run_csv(path: Path) -> bool:
+    from .generic_csv import looks_like_generic_csv
+
+    return looks_like_generic_csv(path)
+
+
+def _holds_runs(folder: Path, depth: int) -> bool:
+    """True if ``folder`` is a data set or holds run CSVs or data sets (to MAX_WALK_DEPTH)."""
+    from .optiodom import is_optiodom_dataset
+
+    if is_optiodom_dataset(folder):
+        return True
+    if depth > MAX_WALK_DEPTH or is_bag(folder):
+        return False
+    try:
+        entries = sorted(folder.iterdir())
+    except OSError:
+        return False
+    if any(p.suffix.lower() == ".csv" and p.is_file() and _is_run_csv(p) for p in entries):
+        return True
+    return any(d.is_dir() and _holds_runs(d, depth + 1) for d in entries)
+
+
+def _load_folder(path: Path, ticks_per_rev, skipped: list[str], depth: int = 0):
+    """The runs in folder ``path``; what holds none is appended to ``skipped`` (relative)."""
     from .generic_csv import load_generic_csv
-    from .optiodom import (
-        is_optiodom_category,
-        is_optiodom_dataset,
-        load_optiodom_category,
-        load_optiodom_dataset,
-    )
+    from .optiodom import is_optiodom_dataset, load_optiodom_dataset
 
     if is_optiodom_dataset(path):
         return load_optiodom_dataset(path)
-    if is_optiodom_category(path):
-        return load_optiodom_category(path)
-    csvs = sorted(path.glob("*.csv"))
-    if any(_OPTI_RUN.match(p.name) for p in csvs):
-        raise InputError(
-            "OptiOdom run files without a *_metadata.csv (ngear, encRes, Li, Di are needed)", path
-        )
-    if not csvs:
-        raise InputError(
-            "no runs found: expected generic run CSVs, an OptiOdom data set (*_metadata.csv), "
-            "a folder of OptiOdom data sets, or a ROS 2 bag folder (metadata.yaml)",
-            path,
-        )
-    return [load_generic_csv(p, ticks_per_rev=ticks_per_rev) for p in csvs]
+    try:
+        entries = sorted(path.iterdir())
+    except OSError as exc:
+        raise InputError(f"cannot read the folder: {exc.strerror}", path) from None
+    csvs = _csvs(path)
+    below = [d for d in entries if d.is_dir() and _holds_runs(d, depth + 1)]
+    if not below:
+        # a folder of generic run CSVs: every CSV in it must be a run
+        if any(_OPTI_RUN.match(p.name) for p in csvs):
+            raise InputError(
+                "OptiOdom run files without a *_metadata.csv (ngear, encRes, Li, Di are needed)",
+                path,
+            )
+        if not csvs:
+            raise InputError(
+                "no runs found: expected generic run CSVs, an OptiOdom data set (*_metadata.csv), "
+                "a folder of OptiOdom data sets, or a ROS 2 bag folder (metadata.yaml)",
+                path,
+            )
+        return [load_generic_csv(p, ticks_per_rev=ticks_per_rev) for p in csvs]
+    # a collection: its run CSVs and the folders below that hold runs, in path order; the rest
+    # is skipped (and said)
+    out: list[Recording] = []
+    for p in entries:
+        if p in below:
+            inner: list[str] = []
+            out += _load_folder(p, ticks_per_rev, inner, depth + 1)
+            skipped += [f"{p.name}/{q}" for q in inner]
+        elif p in csvs and _is_run_csv(p):
+            out.append(load_generic_csv(p, ticks_per_rev=ticks_per_rev))
+        elif not p.name.startswith("."):
+            skipped.append(p.name + ("/" if p.is_dir() else ""))
+    return out
 
 
-def load_recordings(paths, *, ticks_per_rev: float | None = None, **bag_options) -> list[Recording]:
+def _identity(path: Path):
+    try:
+        st = os.stat(path)
+    except OSError:
+        return None
+    return (st.st_dev, st.st_ino)
+
+
+def _source(r: Recording) -> Path:
+    return Path(r.meta.get("bag") or r.name) if r.meta else Path(r.name)
+
+
+def _fingerprint(r: Recording) -> str:
+    h = hashlib.sha1()
+    for a in (r.time_s, r.wheel_angle_right_rad, r.wheel_angle_left_rad, r.ground_truth):
+        if a is not None:
+            h.update(np.ascontiguousarray(a, dtype=float).tobytes())
+    return h.hexdigest()
+
+
+def load_recordings(
+    paths,
+    *,
+    ticks_per_rev: float | None = None,
+    warnings: list[str] | None = None,
+    **bag_options,
+) -> list[Recording]:
     """Every run found in ``paths`` (files, bags, folders; see module docstring), in order.
 
     ``ticks_per_rev`` applies to generic CSVs with tick columns whose header does not give it.
     ``bag_options`` (joint_topic, truth_topic, imu_topic, right_joint, left_joint,
     ticks_per_rev) are passed to ``odocal.io.bag_recording.load_bag_recording``; None values are
-    dropped.
+    dropped. ``warnings``: a list that receives what the reader has to say (folder entries
+    skipped, runs with identical data).
+
+    Raises InputError when a run is given twice (see module docstring) or none is found.
     """
     if isinstance(paths, (str, Path)):
         paths = [paths]
     out: list[Recording] = []
+    notes: list[str] = []
+    seen: dict = {}
     for p in paths:
         path = Path(p)
         if not path.exists():
             raise InputError("no such file or folder", path)
         if is_bag(path):
-            out += _load_bag(path, {**bag_options, "ticks_per_rev": ticks_per_rev})
+            found = _load_bag(path, {**bag_options, "ticks_per_rev": ticks_per_rev})
         elif path.is_dir():
-            out += _load_folder(path, ticks_per_rev)
+            skipped: list[str] = []
+            found = _load_folder(path, ticks_per_rev, skipped)
+            if skipped:
+                more = f" and {len(skipped) - 8} more" if len(skipped) > 8 else ""
+                notes.append(f"{path}: skipped what holds no runs: {', '.join(skipped[:8])}{more}")
         else:
-            out += _load_file(path, ticks_per_rev)
+            found = _load_file(path, ticks_per_rev)
+        for r in found:
+            key = _identity(_source(r))
+            if key is None:
+                continue
+            if key in seen:
+                how = f"as {seen[key]} and as {p}" if Path(seen[key]) != path else f"twice as {p}"
+                raise InputError(
+                    f"this run is given {how}: it would count twice; give each run once",
+                    _source(r),
+                )
+            seen[key] = p
+        out += found
     if not out:
         raise InputError("no runs found in " + ", ".join(str(p) for p in paths))
+    prints: dict[str, str] = {}
+    for r in out:
+        first = prints.setdefault(_fingerprint(r), r.name)
+        if first != r.name:
+            notes.append(
+                f"{r.name} holds the same data as {first}: the same run copied twice? It counts "
+                "twice"
+            )
+    if warnings is not None:
+        warnings += notes
+    return out
+
+
+def refuse_repeated(paths) -> list[Path]:
+    """``paths`` as Paths; InputError if two of them are the same file or folder (also through
+    a link): the runs would count twice."""
+    seen: dict = {}
+    out = []
+    for p in paths:
+        path = Path(p)
+        key = _identity(path)
+        if key is not None and key in seen:
+            raise InputError(
+                f"given as {seen[key]} and as {p}: the runs would count twice; give each once",
+                path,
+            )
+        if key is not None:
+            seen[key] = p
+        out.append(path)
     return out
 
 

@@ -23,11 +23,13 @@ the record and ignored).
 from __future__ import annotations
 
 from ..core.model import MeasurementNoise, NonSystematicError, Robot, SystematicError, WheelGeometry
+from ..core.plausibility import proportions_problem
 from ..errors import InputError, ModelError
 from ..presets import DEFAULT_ROBOT, PRESETS
+from .limits import ERROR_FACTOR, K_MAX_M, ROBOT_LENGTH_M, SIGMA_THETA_MAX_DEG, SIGMA_XY_MAX_M
 from .yamlfile import YamlDoc, load_yaml
 
-__all__ = ["load_robot", "load_params", "robot_from_doc", "params_yaml"]
+__all__ = ["load_robot", "load_params", "robot_from_doc", "params_yaml", "robot_yaml"]
 
 _TOP = (
     "name",
@@ -42,13 +44,10 @@ _TOP = (
 )
 _GEOMETRY = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
 
-# Plausible ranges: beyond them a value is a typo or a unit mistake, and the equations overflow
-# or become undefined. Lengths in m; error factors (E_b, E_d, E_s) are near 1 for any real robot.
-_LENGTH = {"at_least": 1e-4, "at_most": 1e3}
-_FACTOR = {"at_least": 0.5, "at_most": 2.0}
-_K_MAX_M = 1.0
-_SIGMA_XY_MAX_M = 1e3
-_SIGMA_THETA_MAX_DEG = 360.0
+# Plausible ranges (odocal.io.limits): beyond them a value is a typo or a unit mistake, and the
+# equations overflow or become undefined.
+_LENGTH = {"at_least": ROBOT_LENGTH_M[0], "at_most": ROBOT_LENGTH_M[1]}
+_FACTOR = {"at_least": ERROR_FACTOR[0], "at_most": ERROR_FACTOR[1]}
 
 
 def _geometry(doc: YamlDoc, mapping: dict, prefix: str) -> WheelGeometry:
@@ -57,12 +56,23 @@ def _geometry(doc: YamlDoc, mapping: dict, prefix: str) -> WheelGeometry:
         if key not in mapping:
             raise InputError(f"missing required key '{prefix}{key}'", doc.path)
         vals[key] = doc.number(f"{prefix}{key}", mapping[key], positive=True, **_LENGTH)
-    return WheelGeometry(*(vals[k] for k in _GEOMETRY))
+    g = WheelGeometry(*(vals[k] for k in _GEOMETRY))
+    _check_proportions(doc, g, prefix)
+    return g
+
+
+def _check_proportions(doc: YamlDoc, g: WheelGeometry, prefix: str = "") -> None:
+    """Diameter against wheelbase (a unit slip in one of them cannot pass)."""
+    problem = proportions_problem(g.diameter_right_m, g.diameter_left_m, g.wheelbase_m)
+    if problem:
+        raise InputError(problem, doc.path, None, f"{prefix}wheelbase_m")
 
 
 def robot_from_doc(doc: YamlDoc) -> Robot:
     d = doc.data
     doc.check_keys(d, _TOP)
+    if "name" in d:
+        doc.text("name", d["name"])
     for key in ("wheel_diameter_m", "wheelbase_m"):
         if key not in d:
             raise InputError(f"missing required key '{key}'", doc.path)
@@ -78,6 +88,7 @@ def robot_from_doc(doc: YamlDoc) -> Robot:
             "wheel_diameter_left_m", d["wheel_diameter_left_m"], positive=True, **_LENGTH
         )
     nominal = WheelGeometry(d_r, d_l, wheelbase)
+    _check_proportions(doc, nominal)
 
     s = doc.section("systematic", ("E_b", "E_d", "E_s"))
     systematic = SystematicError(
@@ -86,7 +97,7 @@ def robot_from_doc(doc: YamlDoc) -> Robot:
     n = doc.section("nonsystematic", ("k_r_m", "k_l_m"))
     nonsys = NonSystematicError(
         **{
-            k: doc.number(f"nonsystematic.{k}", v, nonnegative=True, at_most=_K_MAX_M)
+            k: doc.number(f"nonsystematic.{k}", v, nonnegative=True, at_most=K_MAX_M)
             for k, v in n.items()
         }
     )
@@ -96,13 +107,13 @@ def robot_from_doc(doc: YamlDoc) -> Robot:
             "measurement.sigma_xy_m",
             m.get("sigma_xy_m", 0.0),
             nonnegative=True,
-            at_most=_SIGMA_XY_MAX_M,
+            at_most=SIGMA_XY_MAX_M,
         ),
         doc.number(
             "measurement.sigma_theta_deg",
             m.get("sigma_theta_deg", 0.0),
             nonnegative=True,
-            at_most=_SIGMA_THETA_MAX_DEG,
+            at_most=SIGMA_THETA_MAX_DEG,
         ),
     )
     believed = None
@@ -138,4 +149,34 @@ def params_yaml(geometry: WheelGeometry, **record) -> str:
         lines.append(f"{k}: {v:.9g}")
     for k, v in record.items():
         lines.append(f"{k}: {v if isinstance(v, str) else format(v, '.9g')}")
+    return "\n".join(lines) + "\n"
+
+
+def robot_yaml(robot: Robot, comments: tuple[str, ...] = ()) -> str:
+    """ROBOT.yaml text for ``robot`` (read back by :func:`load_robot` to the same values, to 9
+    significant digits), with ``comments`` as header lines (what the numbers came from)."""
+    import math
+
+    n = robot.nominal
+    lines = ["# odocal robot file (metres; k in metres, see docs/conventions.md)"]
+    lines += [f"# {c}" for c in comments]
+    lines += [
+        f"wheel_diameter_m: {float(n.mean_diameter_m):.9g}",
+        f"wheel_diameter_right_m: {float(n.diameter_right_m):.9g}",
+        f"wheel_diameter_left_m: {float(n.diameter_left_m):.9g}",
+        f"wheelbase_m: {float(n.wheelbase_m):.9g}",
+        "systematic:",
+        f"  E_b: {robot.systematic.E_b:.9g}",
+        f"  E_d: {robot.systematic.E_d:.9g}",
+        f"  E_s: {robot.systematic.E_s:.9g}",
+        "nonsystematic:",
+        f"  k_r_m: {robot.nonsystematic.k_r_m:.9g}",
+        f"  k_l_m: {robot.nonsystematic.k_l_m:.9g}",
+        "measurement:",
+        f"  sigma_xy_m: {robot.measurement.sigma_xy_m:.9g}",
+        f"  sigma_theta_deg: {math.degrees(robot.measurement.sigma_theta_rad):.9g}",
+    ]
+    if robot.believed is not None:
+        lines.append("believed:")
+        lines += [f"  {k}: {v:.9g}" for k, v in robot.believed.as_dict().items()]
     return "\n".join(lines) + "\n"

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import re
 
+from ..core.covariance import UNMEASURED_VARIANCE, OdometryCovariance
 from ..core.model import WheelGeometry
 from ..errors import InputError
 
@@ -43,9 +44,13 @@ def ros2_params_yaml(
     calibrated: WheelGeometry,
     nominal: WheelGeometry,
     controller: str = DEFAULT_CONTROLLER,
+    covariance: OdometryCovariance | None = None,
     **record,
 ) -> str:
-    """The YAML text (module docstring); ``record`` (method, ...) goes into header comments."""
+    """The YAML text (module docstring); ``record`` (method, ...) goes into header comments.
+    With ``covariance`` (from the measured wheel noise) the file also sets
+    ``pose_covariance_diagonal`` and ``twist_covariance_diagonal`` and ends with a commented
+    process-noise suggestion for robot_localization (docs/ros.md)."""
     _check_name(controller)
     d_n = float(nominal.mean_diameter_m)
     b_n = float(nominal.wheelbase_m)
@@ -64,9 +69,32 @@ def ros2_params_yaml(
         f"{float(calibrated.wheelbase_m):.9g} m",
     ]
     lines += [f"# {k}: {v}" for k, v in record.items()]
+    if covariance is not None:
+        c = covariance
+        lines += [
+            f"# covariances from the wheel noise k_r {c.k_r_m:.3g} m, k_l {c.k_l_m:.3g} m: pose "
+            f"after {c.distance_m:g} m of straight travel, twist at {c.speed_m_s:g} m/s measured "
+            f"over {c.window_s:g} s; z, roll, pitch unmeasured ({UNMEASURED_VARIANCE:g})",
+        ]
     lines += [f"{controller}:", "  ros__parameters:"]
     lines += [f"    {k}: {v!r}" for k, v in values.items()]
+    if covariance is not None:
+        lines.append(f"    pose_covariance_diagonal: {_floats(covariance.pose_diagonal)}")
+        lines.append(f"    twist_covariance_diagonal: {_floats(covariance.twist_diagonal)}")
+        q = covariance.process_noise_per_s
+        lines += [
+            "# robot_localization (ekf_node) process_noise_covariance: the wheel odometry alone",
+            f"# grows by x {q['x']:.3g} m^2/s, y {q['y']:.3g} m^2/s, yaw {q['yaw']:.3g} rad^2/s at "
+            f"{covariance.speed_m_s:g} m/s;",
+            "# use at least these for the diagonal entries of x, y and yaw (indices 0, 1, 5 of",
+            "# the 15 x 15 matrix; the filter multiplies them by its time step). The velocity",
+            "# entries describe how fast the robot can change speed, which k does not tell.",
+        ]
     return "\n".join(lines) + "\n"
+
+
+def _floats(values) -> str:
+    return "[" + ", ".join(repr(float(v)) for v in values) + "]"
 
 
 def read_ros2_params(path, controller: str = DEFAULT_CONTROLLER) -> WheelGeometry:

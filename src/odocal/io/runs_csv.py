@@ -11,6 +11,10 @@ Header row, then one row per run::
 is simply the robot's final pose measured from its start pose). Extra columns are ignored; blank
 lines and lines starting with '#' are skipped.
 
+The track the runs drove is data of the sheet: ``# sides: N`` and ``# side_m: L`` (m) lines
+above the header (``odocal plan`` and ``odocal simulate`` write them; ``odocal calibrate`` reads
+them, and refuses a --sides/--side-length that disagrees).
+
 The BCPT runs format (``odocal calibrate --method bcpt``) has one row per circle run::
 
     direction,radius_m
@@ -26,15 +30,21 @@ from __future__ import annotations
 import csv
 import io
 import math
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.plausibility import circle_radius_problem
 from ..core.runs import CircleRuns, EndPoseRuns
+from ..core.tracks import MAX_POLYGON_SIDES
 from ..errors import InputError
+from .limits import MEASURED_MAX, TRACK_LENGTH_MAX_M
 from .table import parse_number, read_table
 from .textfile import atomic_write
 
 __all__ = [
+    "RunSheet",
+    "read_run_sheet",
     "read_runs",
     "read_circle_runs",
     "write_runs",
@@ -44,22 +54,72 @@ __all__ = [
 ]
 
 REQUIRED_COLUMNS = ("direction", "x_m", "y_m", "theta_deg")
-# Largest magnitude of a measured value (m or deg): 1000 km, or 2778 turns.
-MAX_MAGNITUDE = 1e6
+# Largest magnitude of a measured value (m or deg; odocal.io.limits): 1000 km, or 2778 turns.
+MAX_MAGNITUDE = MEASURED_MAX
 CIRCLE_COLUMNS = ("direction", "radius_m")
+# Longest side a sheet may name (m), as the command-line flags (odocal.io.limits).
+MAX_LENGTH_M = TRACK_LENGTH_MAX_M
+#: ``# key: value`` settings of a run sheet: the polygon the runs drove.
+TRACK_SETTINGS = ("sides", "side_m")
 
 
-def _read_runs_table(path, columns: tuple[str, ...], directions, required, positive=False):
+@dataclass(frozen=True)
+class RunSheet:
+    """A RUNS.csv as read: the runs, the line of each run, and the track it names (if any).
+
+    Attributes
+    ----------
+    runs : EndPoseRuns
+    lines : tuple of int
+        Line number of each run's row in the file.
+    sides : int or None
+    side_m : float or None
+        The ``# sides:`` and ``# side_m:`` settings (None when absent).
+    setting_lines : dict of str to int
+        Where each setting was given.
+    path : str
+    """
+
+    runs: EndPoseRuns
+    lines: tuple[int, ...]
+    sides: int | None = None
+    side_m: float | None = None
+    setting_lines: dict = field(default_factory=dict)
+    path: str = ""
+
+
+def _track_settings(table) -> tuple[int | None, float | None, dict]:
+    sides = side = None
+    where = {k: table.settings[k][1] for k in TRACK_SETTINGS if k in table.settings}
+    if "sides" in table.settings:
+        raw, no = table.settings["sides"]
+        v = parse_number(raw, table.path, no, "sides", positive=True, at_most=MAX_POLYGON_SIDES)
+        if v != int(v) or v < 3:
+            raise InputError(f"must be a whole number >= 3, got {raw!r}", table.path, no, "sides")
+        sides = int(v)
+    if "side_m" in table.settings:
+        raw, no = table.settings["side_m"]
+        side = parse_number(raw, table.path, no, "side_m", positive=True, at_most=MAX_LENGTH_M)
+    return sides, side, where
+
+
+def _read_runs_table(
+    path, columns: tuple[str, ...], directions, required, positive=False, warnings=None
+):
     """Rows of a runs table: ``columns[0]`` is the direction, the rest are numbers.
 
-    Returns (directions, values of shape (n, len(columns) - 1)); an empty value not in
-    ``required`` is NaN. Every problem raises InputError naming the file, line and field.
+    Returns (table, directions, values of shape (n, len(columns) - 1), line numbers); an empty
+    value not in ``required`` is NaN. Every problem raises InputError naming the file, line and
+    field; two rows with the same direction and values (the same run entered twice?) are
+    appended to ``warnings``.
     """
-    table = read_table(path, what=f"a header row '{','.join(columns)}'")
+    table = read_table(path, what=f"a header row '{','.join(columns)}'", settings=TRACK_SETTINGS)
     table.require(columns)
     col = {c: table.index(c) for c in columns}
     dirs: list[str] = []
     values: list[list[float]] = []
+    lines: list[int] = []
+    seen: dict[tuple, int] = {}
     for line_no, fields in table.rows:
         raw_dir = fields[col[columns[0]]]
         d = raw_dir.lower()
@@ -82,39 +142,82 @@ def _read_runs_table(path, columns: tuple[str, ...], directions, required, posit
             )
         dirs.append(d)
         values.append(row)
+        lines.append(line_no)
+        key = (d, *(fields[col[c]] for c in columns[1:]))
+        if warnings is not None and key in seen and any(fields[col[c]] for c in columns[1:]):
+            warnings.append(
+                f"{path}: line {line_no} repeats line {seen[key]} exactly: the same run entered "
+                "twice? Each row counts as a run"
+            )
+        seen.setdefault(key, line_no)
     if not values:
         raise InputError("no runs: the file has a header but no data rows", path)
-    return tuple(dirs), np.array(values)
+    return table, tuple(dirs), np.array(values), tuple(lines)
+
+
+def read_run_sheet(
+    path,
+    directions: tuple[str, ...] = ("cw", "ccw"),
+    required: tuple[str, ...] = ("x_m", "y_m", "theta_deg"),
+    warnings: list[str] | None = None,
+) -> RunSheet:
+    """Parse RUNS.csv with its line numbers and track settings (see :func:`read_runs`)."""
+    table, dirs, err, lines = _read_runs_table(
+        path, REQUIRED_COLUMNS, directions, required, warnings=warnings
+    )
+    err[:, 2] = np.radians(err[:, 2])
+    sides, side, where = _track_settings(table)
+    return RunSheet(EndPoseRuns(dirs, err), lines, sides, side, where, str(path))
 
 
 def read_runs(
     path,
     directions: tuple[str, ...] = ("cw", "ccw"),
     required: tuple[str, ...] = ("x_m", "y_m", "theta_deg"),
+    warnings: list[str] | None = None,
 ) -> EndPoseRuns:
     """Parse RUNS.csv; every problem raises InputError naming the file, line and field.
 
     All four columns must be present. A value column not in ``required`` may be left empty in a
     row (the method does not use it, e.g. x_m and y_m for the heading-error method): it is read
-    as NaN. An empty required value is reported as not filled in.
+    as NaN. An empty required value is reported as not filled in. ``warnings`` receives a note
+    for every row that repeats an earlier one exactly.
     """
-    dirs, err = _read_runs_table(path, REQUIRED_COLUMNS, directions, required)
-    err[:, 2] = np.radians(err[:, 2])
-    return EndPoseRuns(dirs, err)
+    return read_run_sheet(path, directions, required, warnings).runs
 
 
-def read_circle_runs(path) -> CircleRuns:
+def read_circle_runs(
+    path, warnings: list[str] | None = None, commanded_radius_m: float | None = None
+) -> CircleRuns:
     """Parse a BCPT runs file (``direction,radius_m``); every problem raises InputError naming
-    the file, line and field."""
-    dirs, radii = _read_runs_table(
-        path, CIRCLE_COLUMNS, ("cw", "ccw"), ("radius_m",), positive=True
+    the file, line and field (``warnings`` as in :func:`read_runs`). With ``commanded_radius_m``
+    (m), a radius no run of that circle can have (a unit slip) is refused too."""
+    _, dirs, radii, lines = _read_runs_table(
+        path, CIRCLE_COLUMNS, ("cw", "ccw"), ("radius_m",), positive=True, warnings=warnings
     )
+    if commanded_radius_m is not None:
+        for line, r in zip(lines, radii[:, 0], strict=True):
+            problem = circle_radius_problem(float(r), commanded_radius_m)
+            if problem:
+                raise InputError(problem, path, line, "radius_m")
     return CircleRuns(dirs, radii[:, 0])
 
 
-def runs_csv_text(runs: EndPoseRuns, extra: dict[str, list] | None = None) -> str:
-    """RUNS.csv text for ``runs``; ``extra`` adds columns (e.g. ``run``)."""
+def track_settings_text(sides: int, side_m: float) -> str:
+    """The ``# sides:`` and ``# side_m:`` lines of a run sheet (the track as data)."""
+    return f"# sides: {int(sides)}\n# side_m: {float(side_m):.12g}\n"
+
+
+def runs_csv_text(
+    runs: EndPoseRuns,
+    extra: dict[str, list] | None = None,
+    track: tuple[int, float] | None = None,
+) -> str:
+    """RUNS.csv text for ``runs``; ``extra`` adds columns (e.g. ``run``); ``track`` (sides,
+    side_m) writes the track settings above the header."""
     buf = io.StringIO()
+    if track is not None:
+        buf.write(track_settings_text(*track))
     w = csv.writer(buf, lineterminator="\n")
     extra = extra or {}
     w.writerow([*REQUIRED_COLUMNS, *extra])
@@ -126,6 +229,11 @@ def runs_csv_text(runs: EndPoseRuns, extra: dict[str, list] | None = None) -> st
     return buf.getvalue()
 
 
-def write_runs(path, runs: EndPoseRuns, extra: dict[str, list] | None = None) -> None:
+def write_runs(
+    path,
+    runs: EndPoseRuns,
+    extra: dict[str, list] | None = None,
+    track: tuple[int, float] | None = None,
+) -> None:
     """Write RUNS.csv atomically."""
-    atomic_write(path, runs_csv_text(runs, extra))
+    atomic_write(path, runs_csv_text(runs, extra, track))

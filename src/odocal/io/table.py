@@ -134,6 +134,16 @@ def _body_fields(path, no: int, line: str, width: int) -> list[str] | None:
     return fields
 
 
+class _LineNumbers:
+    """``table.lines[i]``: the line of data row i, without splitting the rows until asked."""
+
+    def __init__(self, table: Table):
+        self._table = table
+
+    def __getitem__(self, index: int) -> int:
+        return self._table.line_of(index)
+
+
 @dataclass(frozen=True)
 class Table:
     """A parsed table.
@@ -193,6 +203,11 @@ class Table:
     def line_of(self, index: int) -> int:
         """Line number of data row ``index`` (0-based), for messages."""
         return self.rows[index][0]
+
+    @property
+    def lines(self) -> _LineNumbers:
+        """The line number of each data row, ``lines[i]``, found only when asked (messages)."""
+        return _LineNumbers(self)
 
     def has(self, name: str) -> bool:
         return name in self.header
@@ -329,16 +344,22 @@ def read_table(
     what: str = "a header row",
     text: str | None = None,
     settings: Sequence[str] = (),
+    columns: Sequence[str] | None = None,
 ) -> Table:
     """Read a table from ``path`` (or from ``text`` already read from it; see module docstring).
 
     ``what`` says what the header should look like, for the empty-file message. ``# key: value``
     lines above the header whose key is in ``settings`` are collected (a key given twice is an
-    error); other comments are free text. The rows are checked when they are read
-    (:attr:`Table.rows`, :meth:`Table.numbers`).
+    error); other comments are free text. ``columns``: the column names of a table WITHOUT a
+    header row (every line is a row; e.g. OptiOdom run files). The rows are checked when they
+    are read (:attr:`Table.rows`, :meth:`Table.numbers`).
     """
     if text is None:
         text = read_text(path)
+    if columns is not None:
+        if not any(ln.strip() and not ln.lstrip().startswith("#") for ln in _head_lines(text)):
+            raise InputError(f"empty file, expected {what}", path)
+        return Table(str(path), tuple(columns), 0, {}, text, 0)
     found: dict[str, tuple[str, int]] = {}
     offset = 0  # characters before the current line
     for no, line in enumerate(_head_lines(text), start=1):

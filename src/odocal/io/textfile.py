@@ -9,15 +9,32 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from ..errors import InputError
+from .limits import MAX_TEXT_BYTES
 
 __all__ = ["read_text", "atomic_write", "atomic_path"]
 
+_CHUNK = 1 << 20
 
-def read_text(path) -> str:
-    """The whole file as UTF-8 text (a leading BOM is dropped); InputError if unreadable."""
+
+def read_text(path, *, max_bytes: int = MAX_TEXT_BYTES) -> str:
+    """The whole file as UTF-8 text (a leading BOM is dropped); InputError if unreadable or
+    larger than ``max_bytes``. Read once, sequentially: a pipe or ``<(...)`` works."""
     path = Path(path)
+    chunks: list[bytes] = []
+    size = 0
     try:
-        raw = path.read_bytes()
+        with open(path, "rb") as fh:
+            # in pieces, so that a binary file (or /dev/zero) is refused at its first NUL byte
+            while chunk := fh.read(min(_CHUNK, max_bytes + 1 - size)):
+                if b"\x00" in chunk:
+                    raise InputError("binary data, expected a text file", path)
+                chunks.append(chunk)
+                size += len(chunk)
+                if size > max_bytes:
+                    raise InputError(
+                        f"larger than {max_bytes} bytes: not the expected kind of file?", path
+                    )
+        raw = b"".join(chunks)
     except FileNotFoundError:
         raise InputError("no such file", path) from None
     except IsADirectoryError:

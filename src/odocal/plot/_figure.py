@@ -8,9 +8,20 @@ from typing import Any
 
 from ..errors import OdocalError
 
-__all__ = ["new_figure", "require_matplotlib", "INSTALL_HINT"]
+__all__ = [
+    "new_figure",
+    "require_matplotlib",
+    "INSTALL_HINT",
+    "METHOD_STYLES",
+    "SHAPE_COLOURS",
+    "method_style",
+    "shape_colour",
+]
 
-INSTALL_HINT = "plotting needs matplotlib: pip install 'odocal[plot]'"
+INSTALL_HINT = (
+    "plotting needs matplotlib: pip install matplotlib (or, in the odocal folder, "
+    "pip install -e '.[plot]')"
+)
 
 
 def new_figure(width: float = 7.0, height: float = 4.4, dpi: float = 120) -> Any:
@@ -28,3 +39,33 @@ def new_figure(width: float = 7.0, height: float = 4.4, dpi: float = 120) -> Any
 def require_matplotlib() -> None:
     """Raise the one-line install hint unless matplotlib can be imported (check before work)."""
     new_figure()
+
+
+#: One colour and one name per calibration method, in every figure (``odocal compare``, the
+#: precision figure of ``reproduce``, ...). Keys are the names the code uses.
+METHOD_STYLES: dict[str, tuple[str, str]] = {
+    "heading": ("tab:green", "heading method"),
+    "umbmark": ("tab:orange", "UMBmark (mean form)"),
+    "umbmark-mean": ("tab:orange", "UMBmark (mean form)"),
+    "umbmark-x": ("#ffbb78", "UMBmark (x form)"),
+    "umbmark-y": ("#8c564b", "UMBmark (y form)"),
+    "bcpt": ("tab:red", "BCPT"),
+    "ivanjko": ("tab:pink", "Ivanjko"),
+    "trajectory": ("tab:cyan", "trajectory fit"),
+    "linear": ("tab:olive", "linear least squares"),
+    "nominal": ("0.45", "nominal (uncalibrated)"),
+}
+
+#: One colour per test-track shape (number of sides), in every figure; none of them is a
+#: method's colour.
+SHAPE_COLOURS: dict[int, str] = {3: "#393b79", 4: "tab:blue", 6: "#6b6ecf", 8: "tab:purple"}
+
+
+def method_style(name: str) -> tuple[str, str]:
+    """(colour, display name) of a calibration method (unknown names: grey, as given)."""
+    return METHOD_STYLES.get(name, ("0.6", name))
+
+
+def shape_colour(sides: int) -> str:
+    """The colour of an N-gon test track."""
+    return SHAPE_COLOURS.get(int(sides), "0.3")

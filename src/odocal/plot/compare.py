@@ -8,105 +8,152 @@ import numpy as np
 
 from ..comparison.real import RealComparison
 from ..comparison.simulated import SimulatedComparison
-from ._figure import new_figure
+from ._figure import method_style, new_figure
 
 __all__ = ["comparison_figure"]
+
+# A method whose spread is this many times the typical one would squash the others on a linear
+# axis: it is listed in a note (its numbers in full) instead of drawn.
+_OFF_SCALE = 8.0
+
+
+def _off_scale(values: dict[str, float]) -> set[str]:
+    typical = float(np.median(list(values.values()))) if values else 0.0
+    return {k for k, v in values.items() if typical > 0 and v > _OFF_SCALE * typical}
+
+
+def _note(ax, lines: list[str]) -> None:
+    for k, text in enumerate(lines):
+        ax.text(
+            0.02, 0.97 - 0.06 * k, text, transform=ax.transAxes, fontsize=7, color="0.3",
+            va="top",
+        )  # fmt: skip
 
 
 def comparison_figure(sim: SimulatedComparison | None, real: RealComparison | None) -> Any:
     """One figure: simulated validation error per method (box plot, with the noise-free
-    residual), E_b / E_d error bias and spread, and the real held-out error per method."""
+    residual), E_b / E_d error bias and spread, and the real held-out error per method. Linear
+    axes throughout; a method far off the others' scale is named in a note with its numbers.
+    Every method has one colour and one name in all panels (:data:`~._figure.METHOD_STYLES`)."""
     panels = (2 if sim is not None else 0) + (1 if real is not None else 0)
     if panels == 0:
         raise ValueError("nothing to draw: neither a simulated nor a real comparison")
-    fig = new_figure(5.2 * panels, 4.6, dpi=110)
+    fig = new_figure(5.4 * panels, 5.2, dpi=110)
     axes = list(fig.subplots(1, panels, squeeze=False)[0])
+    legend: dict[str, Any] = {}
     if sim is not None:
         ax = axes.pop(0)
-        names = [m.name for m in sim.methods]
-        data = [1e3 * m.final_error_m[np.isfinite(m.final_error_m)] for m in sim.methods]
-        ax.boxplot(data, whis=(5, 95), showfliers=False)
-        ax.set_xticks(range(1, len(names) + 1), names, rotation=30, ha="right")
-        sys_err = [1e3 * np.nanmean(m.systematic_error_m) for m in sim.methods]
-        ax.plot(range(1, len(names) + 1), sys_err, "rD", label="noise-free residual (mean)")
-        # log scale: a poorly conditioned method (linear) can miss by metres while the others
-        # differ by millimetres
-        ax.set_yscale("log")
-        ax.set_ylabel("validation final position error (mm, log scale)")
+        data = {m.name: 1e3 * m.final_error_m[np.isfinite(m.final_error_m)] for m in sim.methods}
+        p95 = {k: float(np.percentile(v, 95)) for k, v in data.items() if v.size}
+        off = _off_scale(p95)
+        shown = [m for m in sim.methods if m.name in p95 and m.name not in off]
+        pos = np.arange(1, len(shown) + 1)
+        boxes = ax.boxplot(
+            [data[m.name] for m in shown],
+            positions=pos,
+            whis=(5, 95),
+            showfliers=False,
+            patch_artist=True,
+            medianprops={"color": "k"},
+        )
+        for patch, m in zip(boxes["boxes"], shown, strict=True):
+            colour, name = method_style(m.name)
+            patch.set_facecolor(colour)
+            patch.set_alpha(0.8)
+            legend.setdefault(name, patch)
+        sys_err = [1e3 * float(np.nanmean(m.systematic_error_m)) for m in shown]
+        legend["noise-free residual (mean)"] = ax.plot(pos, sys_err, "kD", ms=5)[0]
+        ax.set_xticks(pos, [method_style(m.name)[1] for m in shown], rotation=35, ha="right")
+        top = max((p95[m.name] for m in shown), default=1.0)
+        ax.set_ylim(0, top * (1.1 + 0.08 * len(off)))  # room for the notes above the whiskers
+        ax.set_ylabel("validation final position error (mm)")
         nom = 1e3 * float(np.mean(sim.nominal_final_error_m))
         ax.set_title(
             f"Simulated: {sim.validation}, {sim.trials} trials\n(box: quartiles, whiskers: "
             f"5-95 %; uncalibrated: {nom:.0f} mm)",
             fontsize=10,
         )
-        ax.legend(fontsize=8, loc="upper left")
+        _note(
+            ax,
+            [
+                f"{method_style(k)[1]}: median {np.median(data[k]):.0f} mm, 95th percentile "
+                f"{p95[k]:.0f} mm (off scale)"
+                for k in sorted(off)
+            ],
+        )
+        ax.grid(alpha=0.3, axis="y")
 
         ax = axes.pop(0)
         stats = []
-        for i, m in enumerate(sim.methods):
+        for m in sim.methods:
             eb = 1e2 * m.E_b_error[np.isfinite(m.E_b_error)]
             ed = 1e2 * m.E_d_error[np.isfinite(m.E_d_error)]
             if len(eb) > 1:
-                stats.append((i, m.name, eb, ed))
-        # a method whose spread is 20 times the typical one would squash the others: list it in
-        # a note instead of drawing it
-        typical = np.median([max(eb.std(ddof=1), 1e-12) for _, _, eb, _ in stats] or [1.0])
-        typical_d = np.median([max(ed.std(ddof=1), 1e-12) for _, _, _, ed in stats] or [1.0])
-        off = []
-        for i, name, eb, ed in stats:
-            if eb.std(ddof=1) > 20 * typical or ed.std(ddof=1) > 20 * typical_d:
-                off.append(
-                    f"{name}: E_b {eb.mean():+.2f} +- {eb.std(ddof=1):.2f} %, "
-                    f"E_d {ed.mean():+.3f} +- {ed.std(ddof=1):.3f} % (off scale)"
-                )
+                stats.append((m.name, eb, ed))
+        spread = {n: max(eb.std(ddof=1) / 0.1, ed.std(ddof=1) / 0.01) for n, eb, ed in stats}
+        off = _off_scale(spread)
+        for name, eb, ed in stats:
+            if name in off:
                 continue
-            ax.errorbar(
-                eb.mean(),
-                ed.mean(),
-                xerr=eb.std(ddof=1),
-                yerr=ed.std(ddof=1),
-                fmt="o",
-                capsize=3,
-                label=name,
-                color=f"C{i}",
-            )
-        for k, text in enumerate(off):
-            ax.text(0.02, 0.03 + 0.06 * k, text, transform=ax.transAxes, fontsize=7, color="0.3")
+            colour, label = method_style(name)
+            h = ax.errorbar(
+                eb.mean(), ed.mean(), xerr=eb.std(ddof=1), yerr=ed.std(ddof=1), fmt="o",
+                capsize=3, color=colour,
+            )  # fmt: skip
+            legend.setdefault(label, h)
+        _note(
+            ax,
+            [
+                f"{method_style(n)[1]}: E_b {eb.mean():+.2f} +- {eb.std(ddof=1):.2f} %, "
+                f"E_d {ed.mean():+.3f} +- {ed.std(ddof=1):.3f} % (off scale)"
+                for n, eb, ed in stats
+                if n in off
+            ],
+        )
         ax.axhline(0, color="gray", lw=0.8)
         ax.axvline(0, color="gray", lw=0.8)
+        ax.margins(0.15)
         ax.set_xlabel("E_b error (%): bias +- std")
         ax.set_ylabel("E_d error (%): bias +- std")
-        ax.set_title("Calibrated vs true geometry", fontsize=10)
-        ax.legend(fontsize=8, loc="upper right")
+        ax.set_title("Calibrated vs true geometry\n(0, 0 = the truth)", fontsize=10)
+        ax.grid(alpha=0.3)
     if real is not None:
         ax = axes.pop(0)
-        names, means, lo, hi = [], [], [], []
+        names, means, lo, hi, colours = [], [], [], [], []
         for m in real.methods:
             s = m.summary()["heldout_mean_final_error_m"]
             if s["mean"] is None:
                 continue
-            names.append(f"{m.name} (n={len(m.per_dataset)})")
+            colour, label = method_style(m.name)
+            names.append(f"{label} (n={len(m.per_dataset)})")
+            colours.append(colour)
             means.append(1e3 * s["mean"])
             lo.append(1e3 * (s["mean"] - s["min"]))
             hi.append(1e3 * (s["max"] - s["mean"]))
+            legend.setdefault(label, None)
         x = np.arange(len(names))
-        ax.bar(x, means, yerr=[lo, hi], capsize=3, color="C0")
-        ax.axhline(
-            1e3 * real.nominal_mean_final_error_m,
-            color="gray",
-            ls="--",
-            label=f"nominal ({1e3 * real.nominal_mean_final_error_m:.0f} mm)",
-        )
+        bars = ax.bar(x, means, yerr=[lo, hi], capsize=3, color=colours, alpha=0.8)
+        for bar, name in zip(bars, names, strict=True):
+            key = name.rsplit(" (n=", 1)[0]
+            if legend.get(key) is None:
+                legend[key] = bar
+        nominal = 1e3 * real.nominal_mean_final_error_m
+        h = ax.axhline(nominal, color=method_style("nominal")[0], ls="--")
+        legend[f"real: nominal ({nominal:.0f} mm)"] = h
         if real.published is not None:
             pe = 1e3 * real.published["heldout_mean_final_error_m"]
-            ax.axhline(pe, color="C3", ls=":", label=f"published OptiOdom ({pe:.0f} mm)")
-        ax.set_xticks(x, names, rotation=30, ha="right")
-        ax.set_ylim(0, 1.3 * max(max(np.add(means, hi)), 1e3 * real.nominal_mean_final_error_m))
+            legend[f"real: published OptiOdom ({pe:.0f} mm)"] = ax.axhline(pe, color="k", ls=":")
+        ax.set_xticks(x, names, rotation=35, ha="right")
+        ax.set_ylim(0, 1.15 * max(max(np.add(means, hi)), nominal))
         ax.set_ylabel("held-out mean final position error (mm)")
         ax.set_title(
             f"OptiOdom real runs: {len(real.heldout)} held-out runs\n(bar: mean over "
             "calibration data sets; whiskers: min-max)",
             fontsize=10,
         )
-        ax.legend(fontsize=8, loc="upper left")
+        ax.grid(alpha=0.3, axis="y")
+    handles = {k: v for k, v in legend.items() if v is not None}
+    fig.legend(
+        list(handles.values()), list(handles.keys()), loc="outside lower center", ncol=6, fontsize=8
+    )
     return fig

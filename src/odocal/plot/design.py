@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from ._figure import method_style, shape_colour
 from ._figure import new_figure as _new_figure
 
 __all__ = [
@@ -14,6 +15,7 @@ __all__ = [
     "post_error_figure",
     "calibration_figure",
     "design_figures",
+    "range_figures",
     "reproduce_figures",
 ]
 
@@ -94,24 +96,38 @@ def post_error_figure(
     uncalibrated_m: float | None = None,
     paper_choice: float | None = None,
     validation_label: str = "",
+    indistinguishable: tuple[float, float] | None = None,
 ):
     """Figs. 5, 6, 9: post-calibration error against the side length or the travel.
 
-    ``series``: list of (label, candidates, recommended candidate or None). Error bars are 95 %
-    confidence intervals of the mean; the dotted line is the residual (no wheel noise).
-    ``x``: 'side' (m) or 'travel' (m). ``paper_choice``: the paper's chosen size on that axis.
+    ``series``: list of (label, candidates, recommended candidate or None, colour, line style).
+    Monte-Carlo candidates get error bars, the 95 % confidence intervals of their means; expected
+    values (``trials`` None: analytic) are drawn without, as what they are. The dotted line is the
+    residual (no wheel noise). ``x``: 'side' (m) or 'travel' (m). ``paper_choice``: the paper's
+    chosen size on that axis. ``indistinguishable``: (low, high) on that axis, shaded: the sizes
+    the rule picks in bootstrap resamples of the trials.
     """
-    fig = _new_figure(7.4 if len(series) == 1 else 8.4, 5.6 if len(series) == 1 else 6.0)
+    fig = _new_figure(7.4 if len(series) == 1 else 8.4, 5.8 if len(series) == 1 else 6.2)
     ax = fig.add_subplot()
-    for k, (label, cands, rec) in enumerate(series):
-        color = f"C{k}"
+    top = 0.0
+    for label, cands, rec, color, ls in series:
         xs = np.array([c.side_m if x == "side" else c.travel_m for c in cands])
         mean = np.array([c.post_error_mean_m for c in cands])
-        half = np.array([1.96 * c.post_error_std_m / math.sqrt(max(c.trials, 1)) for c in cands])
-        ax.errorbar(
-            xs, mean, yerr=half, fmt="o-", ms=4, capsize=2, color=color,
-            label=f"{label}: after calibration (mean, 95 % CI)",
-        )  # fmt: skip
+        top = max(top, float(np.nanmax(mean)))
+        if all(c.trials is not None for c in cands):
+            half = np.array(
+                [1.96 * c.post_error_std_m / math.sqrt(max(c.trials, 1)) for c in cands]
+            )
+            top = max(top, float(np.nanmax(mean + half)))
+            ax.errorbar(
+                xs, mean, yerr=half, fmt="o", ls=ls, ms=4, capsize=2, color=color,
+                label=f"{label}: after calibration (mean, 95 % CI of the mean)",
+            )  # fmt: skip
+        else:
+            ax.plot(
+                xs, mean, marker="o", ls=ls, ms=4, color=color,
+                label=f"{label}: after calibration (expected, first order)",
+            )  # fmt: skip
         resid = np.array([c.residual_error_mean_m for c in cands])
         if np.any(np.isfinite(resid)):
             ax.plot(
@@ -125,8 +141,21 @@ def post_error_figure(
                 label=f"{label}: recommended ({rec.side_m:g} m side, {rec.travel_m:g} m travel)",
                 zorder=5,
             )  # fmt: skip
+    if indistinguishable is not None and indistinguishable[1] > indistinguishable[0]:
+        lo, hi = indistinguishable
+        ax.axvspan(lo, hi, color="0.85", zorder=0, label="indistinguishable sizes (bootstrap)")
+    notes = []
+    if validation_label:
+        notes.append(f"validation: {validation_label}")
     if floor_m is not None and math.isfinite(floor_m):
-        ax.axhline(floor_m, color="0.35", ls="--", lw=1.2)
+        ax.axhline(floor_m, color="0.35", ls="--", lw=1.2, label="floor: the true parameters")
+        notes.append(f"floor with the true parameters: {floor_m:.3f} m")
+    if uncalibrated_m is not None and math.isfinite(uncalibrated_m):
+        if uncalibrated_m <= 1.5 * top:
+            ax.axhline(uncalibrated_m, color="0.1", ls="-.", lw=1.2, label="uncalibrated")
+            top = max(top, uncalibrated_m)
+        else:
+            notes.append(f"uncalibrated: {uncalibrated_m:.3f} m (off the scale)")
     if paper_choice is not None:
         ax.axvline(
             paper_choice, color="C3", ls="-.", lw=1.2, label=f"paper's choice ({paper_choice:g} m)"
@@ -136,47 +165,46 @@ def post_error_figure(
     )
     ax.set_ylabel("final position error on the validation track (m)")
     ax.set_title(title)
-    ax.set_ylim(bottom=0)
+    # room above the data for the notes, so that they never cover a point
+    ax.set_ylim(0, top * (1.12 + 0.07 * len(notes)))
     ax.grid(alpha=0.3)
-    notes = []
-    if validation_label:
-        notes.append(f"validation: {validation_label}")
-    if floor_m is not None and math.isfinite(floor_m):
-        notes.append(f"dashed: floor with the true parameters, {floor_m:.3f} m")
-    if uncalibrated_m is not None and math.isfinite(uncalibrated_m):
-        notes.append(f"uncalibrated: {uncalibrated_m:.3f} m (off the scale)")
     if notes:
         ax.text(
             0.99, 0.98, "\n".join(notes), transform=ax.transAxes, ha="right", va="top",
             fontsize=9, color="0.25",
         )  # fmt: skip
-    fig.legend(loc="outside lower center", ncol=2, fontsize=8)
+    # two columns unless a label is too long for half the width (it would be cut off)
+    labels = ax.get_legend_handles_labels()[1]
+    ncol = 2 if max(map(len, labels), default=0) <= 58 else 1
+    fig.legend(loc="outside lower center", ncol=ncol, fontsize=8)
     return fig
 
 
 def calibration_figure(
     candidates, title: str, truth: tuple[float, float] | None = None, x: str = "side"
 ):
-    """Calibrated E_b and E_d (mean +- std over the trials) against the side length or the
-    travel (m)."""
+    """Calibrated E_b and E_d (mean +- std over the trials, or the first-order std) against the
+    side length or the travel (m), with the true values (relative to the parameters the robot ran
+    with) where known."""
     from ..design.result import shape_name
 
-    fig = _new_figure(7.0, 5.2)
+    fig = _new_figure(7.0, 5.8)
     ax_b, ax_d = fig.subplots(2, 1, sharex=True)
     for sides in sorted({c.sides for c in candidates}):
         cs = [c for c in candidates if c.sides == sides]
         xs = [c.side_m if x == "side" else c.travel_m for c in cs]
-        ax_b.errorbar(
-            xs, [c.E_b_mean for c in cs], yerr=[c.E_b_std for c in cs], fmt="o-", ms=3,
-            capsize=2, label=f"{shape_name(sides)}, mean +- std",
-        )  # fmt: skip
-        ax_d.errorbar(
-            xs, [c.E_d_mean for c in cs], yerr=[c.E_d_std for c in cs], fmt="o-", ms=3,
-            capsize=2, label=f"{shape_name(sides)}, mean +- std",
-        )  # fmt: skip
+        how = "mean +- std" if all(c.trials is not None for c in cs) else "first order, +- std"
+        for ax, mean, std in (
+            (ax_b, [c.E_b_mean for c in cs], [c.E_b_std for c in cs]),
+            (ax_d, [c.E_d_mean for c in cs], [c.E_d_std for c in cs]),
+        ):
+            ax.errorbar(
+                xs, mean, yerr=std, fmt="o-", ms=3, capsize=2, color=shape_colour(sides),
+                label=f"{shape_name(sides)}, {how}" if ax is ax_b else None,
+            )  # fmt: skip
     if truth is not None:
-        ax_b.axhline(truth[0], color="C3", ls="--", lw=1, label=f"true E_b {truth[0]:g}")
-        ax_d.axhline(truth[1], color="C3", ls="--", lw=1, label=f"true E_d {truth[1]:g}")
+        ax_b.axhline(truth[0], color="k", ls="--", lw=1, label="true value")
+        ax_d.axhline(truth[1], color="k", ls="--", lw=1)
     ax_b.set_ylabel("calibrated E_b (-)")
     ax_d.set_ylabel("calibrated E_d (-)")
     ax_d.set_xlabel(
@@ -184,9 +212,10 @@ def calibration_figure(
     )
     for ax in (ax_b, ax_d):
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=8, loc="upper right")
+        ax.margins(y=0.1)  # caps and the truth line inside the axes, never on the frame
         ax.ticklabel_format(axis="y", useOffset=False)
     ax_b.set_title(title)
+    fig.legend(loc="outside lower center", ncol=3, fontsize=8)
     return fig
 
 
@@ -197,8 +226,26 @@ def _series(result, label: str):
     for sides in shapes:
         cs = [c for c in result.candidates if c.sides == sides]
         best = result.candidates[result.recommendation.per_shape[sides]]
-        out.append((label if len(shapes) == 1 else f"{sides}-gon", cs, best))
+        name = label if len(shapes) == 1 else f"{sides}-gon"
+        out.append((name, cs, best, shape_colour(sides), "-"))
     return out
+
+
+def _how(result) -> str:
+    if result.trials is None:
+        return "first-order analytic (expected values, no trials)"
+    crn = ", common random numbers" if result.paired else ""
+    return f"{result.trials} Monte-Carlo trials{crn}"
+
+
+def _indistinguishable(result, x: str):
+    from ..design.sweep import stability
+
+    st = stability(result)
+    if st is None:
+        return None
+    key = "range_m" if x == "side" else "range_travel_m"
+    return tuple(st[key])
 
 
 def design_figures(result) -> dict:
@@ -212,30 +259,88 @@ def design_figures(result) -> dict:
     written = {}
     fig = post_error_figure(
         _series(result, label),
-        f"Post-calibration error\n{result.method} method, {result.runs_per_direction} runs per "
-        f"direction, {result.trials} trials",
+        f"Post-calibration error, {result.method} method, {result.runs_per_direction} runs "
+        f"per direction\n{_how(result)}",
         x=x,
         floor_m=result.floor.mean_m,
         uncalibrated_m=result.uncalibrated.mean_m,
         validation_label=result.validation.label,
+        indistinguishable=_indistinguishable(result, x),
     )
     written["design_error.png"] = fig
-    fig = calibration_figure(cands, "Calibrated factors against the test-track size", x=x)
+    fig = calibration_figure(
+        cands,
+        f"Calibrated factors against the test-track size\n{_how(result)}",
+        truth=result.truth_factors,
+        x=x,
+    )
     written["design_calibration.png"] = fig
     fig = _new_figure(7.0, 4.4)
     ax = fig.add_subplot()
     for sides in sorted({c.sides for c in cands}):
         cs = [c for c in cands if c.sides == sides]
         xs = [c.side_m for c in cs]
-        ax.plot(xs, [100 * c.systematic_share for c in cs], "o-", ms=3, label=shape_name(sides))
+        ax.plot(
+            xs, [100 * c.systematic_share for c in cs], "o-", ms=3, label=shape_name(sides),
+            color=shape_colour(sides),
+        )  # fmt: skip
     ax.set_xlabel("side length of the test track (m)")
     ax.set_ylabel("systematic share of the leg heading error (%)")
     ax.set_ylim(0, 100)
     ax.grid(alpha=0.3)
     ax.legend(loc="lower right")
-    ax.set_title(f"Systematic share (n = {result.runs_per_direction} runs per direction)")
+    ax.set_title(
+        f"Systematic share (closed form; n = {result.runs_per_direction} runs per direction)"
+    )
     written["design_share.png"] = fig
     return written
+
+
+def range_figures(design) -> dict:
+    """Figure of a design over plausible errors (``odocal design`` for a robot whose errors are
+    not given): every plausible robot's error after calibration relative to its best size.
+
+    The y axis is error / best error on a log scale with labelled ticks from +0 % to the largest
+    excess, so both the steep small tracks and the 5 % tolerance are readable."""
+    from ..design.result import shape_name
+
+    fig = _new_figure(7.4, 5.6)
+    ax = fig.add_subplot()
+    cands = design.candidates
+    xs = np.array([c.side_m for c in cands])
+    ratio = 1.0 + design.regret
+    for k in range(ratio.shape[0]):
+        ax.plot(xs, ratio[k], color="0.75", lw=0.8, label="one plausible robot" if k == 0 else None)
+    worst = np.nanmax(ratio, axis=0)
+    colour = shape_colour(cands[0].sides)
+    ax.plot(xs, worst, color=colour, lw=2.2, marker="o", ms=3, label="worst case")
+    r = design.recommended
+    ax.plot(
+        [r.side_m], [1.0 + design.within], "*", ms=18, color=colour, mec="k", zorder=5,
+        label=f"recommended: {r.side_m:g} m, within {100 * design.within:.1f} % of the best",
+    )  # fmt: skip
+    tol = 1.0 / (1.0 - design.tolerance)
+    ax.axhline(
+        tol, color="C3", ls="--", lw=1,
+        label=f"tolerance: beaten by no larger size by more than {100 * design.tolerance:g} %",
+    )  # fmt: skip
+    ax.set_yscale("log")
+    top = float(np.nanmax(worst))
+    ticks = [t for t in (1.0, 1.05, 1.1, 1.2, 1.5, 2.0, 3.0, 5.0, 10.0) if t <= 1.2 * top]
+    ax.set_yticks(ticks, [f"+{100 * (t - 1):g} %" for t in ticks])
+    ax.minorticks_off()
+    ax.set_ylim(0.99, 1.15 * top)
+    ax.set_xlabel(f"side length of the {shape_name(cands[0].sides)} test track (m)")
+    ax.set_ylabel("error after calibration above the best size's")
+    ranges = design.as_dict()["error_range"]["ranges"]
+    ax.set_title(
+        f"Design over plausible errors ({len(design.scenarios)} robots, first-order analytic)\n"
+        f"E_b {ranges['E_b'][0]:g}-{ranges['E_b'][1]:g}, E_d {ranges['E_d'][0]:g}-"
+        f"{ranges['E_d'][1]:g}, k {ranges['k_m'][0]:.2g}-{ranges['k_m'][1]:.2g} m"
+    )
+    ax.grid(alpha=0.3)
+    fig.legend(loc="outside lower center", ncol=2, fontsize=8)
+    return {"design_range.png": fig}
 
 
 def precision_figure(sweep, title: str):
@@ -243,12 +348,11 @@ def precision_figure(sweep, title: str):
     fig = _new_figure(7.0, 4.6)
     ax = fig.add_subplot()
     x = [sth for _, sth in sweep.levels]
-    styles = {
-        ("heading", "error"): ("C0", "-", "o", "heading method, error after calibration"),
-        ("heading", "residual"): ("C0", ":", "s", "heading method, residual"),
-        ("umbmark", "error"): ("C1", "-", "o", "UMBmark (mean form), error after calibration"),
-        ("umbmark", "residual"): ("C1", ":", "s", "UMBmark (mean form), residual"),
-    }
+    styles = {}
+    for method in ("heading", "umbmark"):
+        color, name = method_style(method)
+        styles[method, "error"] = (color, "-", "o", f"{name}, error after calibration")
+        styles[method, "residual"] = (color, ":", "s", f"{name}, residual")
     for key, (color, ls, marker, label) in styles.items():
         if key in sweep.recommended_side_m:
             ax.plot(x, sweep.recommended_side_m[key], color=color, ls=ls, marker=marker,
@@ -296,13 +400,12 @@ def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
             paper_share=PAPER["fig4_share_at_4m"],
         ),
     )
-    t = rep.trials
     f5 = rep.fig5
     files["fig5"] = (
         "fig5_square_post_error.png",
         post_error_figure(
-            [("square", f5.candidates, f5.recommended)],
-            f"Fig. 5: square test tracks\n{cond('paper-fig5')}, {t} trials",
+            [("square", f5.candidates, f5.recommended, shape_colour(4), "-")],
+            f"Fig. 5: square test tracks\n{cond('paper-fig5')}\n{_how(f5)}",
             x="side",
             floor_m=f5.floor.mean_m,
             uncalibrated_m=f5.uncalibrated.mean_m,
@@ -315,10 +418,10 @@ def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
         "fig6_octagon_post_error.png",
         post_error_figure(
             [
-                ("octagon", f6.candidates, f6.recommended),
-                ("square (Fig. 5)", f5.candidates, f5.recommended),
+                ("square (Fig. 5)", f5.candidates, f5.recommended, shape_colour(4), "-"),
+                ("octagon", f6.candidates, f6.recommended, shape_colour(8), "-"),
             ],
-            f"Fig. 6: octagon vs square at equal travel\n{cond('paper-fig5')}, {t} trials",
+            f"Fig. 6: octagon vs square at equal travel\n{cond('paper-fig5')}\n{_how(f6)}",
             x="travel",
             floor_m=f6.floor.mean_m,
             uncalibrated_m=f6.uncalibrated.mean_m,
@@ -338,8 +441,8 @@ def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
     files["fig9"] = (
         "fig9_experiment_post_error.png",
         post_error_figure(
-            [("square", f9.candidates, f9.recommended)],
-            f"Fig. 9: experimental robot\n{cond('paper-experiment')}, {t} trials",
+            [("square", f9.candidates, f9.recommended, shape_colour(4), "-")],
+            f"Fig. 9: experimental robot\n{cond('paper-experiment')}\n{_how(f9)}",
             x="side",
             floor_m=f9.floor.mean_m,
             uncalibrated_m=f9.uncalibrated.mean_m,
@@ -352,14 +455,22 @@ def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
         "fig5_instrument_post_error.png",
         post_error_figure(
             [
-                ("perfect instrument (Fig. 5)", f5.candidates, f5.recommended),
                 (
-                    f"heading instrument {INSTRUMENT_SIGMA_THETA_DEG:g} deg",
+                    "square, perfect instrument (Fig. 5)",
+                    f5.candidates,
+                    f5.recommended,
+                    shape_colour(4),
+                    "-",
+                ),
+                (  # the same shape, so a shade of its colour
+                    f"square, heading instrument {INSTRUMENT_SIGMA_THETA_DEG:g} deg",
                     fi.candidates,
                     fi.recommended,
+                    "#08306b",
+                    "--",
                 ),
             ],
-            f"Fig. 5 with a noisy heading instrument\n{cond('paper-fig5')}, {t} trials",
+            f"Fig. 5 with a noisy heading instrument\n{cond('paper-fig5')}\n{_how(fi)}",
             x="side",
             floor_m=f5.floor.mean_m,
             uncalibrated_m=f5.uncalibrated.mean_m,

@@ -1,0 +1,246 @@
+"""A SLAM pose on ``/tf`` as ground truth: relative motions between the SLAM's update instants.
+
+Reads the wheel joints, ``/tf`` and ``/tf_static`` of a bag, finds the chain between the truth
+frames (e.g. ``map`` -> ``base_link``, composed through ``map`` -> ``odom`` -> ``base_link``),
+takes the SLAM correction edge (the dynamic edge of the chain published least often, normally
+``map`` -> ``odom``) and hands its messages, the odometry at their stamps and the wheel angles at
+their stamps to :func:`odocal.calibration.slam.slam_relative_motions` (docs/slam-truth.md: why
+only the update instants, and relative motions, can be trusted).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..calibration.slam import SlamLimits, SlamMotions, slam_relative_motions
+from ..core.recording import Recording
+from ..core.transforms import RigidTransforms, planar_pose
+from ..errors import InputError
+from .bags import (
+    JOINT_STATE,
+    check_bag_path,
+    joint_series,
+    list_topics,
+    pick_topic,
+    read_bag,
+    tf_messages,
+    transform_buffer,
+)
+
+__all__ = ["SlamBag", "parse_truth_frames", "load_slam_bag"]
+
+
+def parse_truth_frames(text: str) -> tuple[str, str]:
+    """'PARENT:CHILD' (e.g. 'map:base_link') as (parent, child)."""
+    parent, sep, child = text.partition(":")
+    parent, child = parent.strip().lstrip("/"), child.strip().lstrip("/")
+    if not sep or not parent or not child or ":" in child:
+        raise InputError(f"expected PARENT:CHILD frames (e.g. map:base_link), got {text!r}")
+    if parent == child:
+        raise InputError(f"the truth frames must differ, got {text!r}")
+    return parent, child
+
+
+@dataclass(frozen=True)
+class SlamBag:
+    """What one bag gives: the relative motions between SLAM updates, the wheel increments
+    within each interval (right, left; shape (n, K), zero padded: the odometry is integrated
+    over them, not assumed to be one arc), and a recording at the wheel rate whose ground truth
+    is valid only at the update instants (for validation).
+
+    ``chain`` describes the lookup (e.g. 'map -> odom -> base_link'); ``correction`` the edge
+    whose messages are the update instants, or None in direct mode."""
+
+    path: str
+    motions: SlamMotions
+    recording: Recording
+    chain: str
+    correction: str | None
+    increments: tuple[np.ndarray, np.ndarray]
+    meta: dict = field(default_factory=dict)
+
+
+def _span(t: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    return (t >= lo) & (t <= hi)
+
+
+def load_slam_bag(
+    path,
+    truth_frames: tuple[str, str] = ("map", "base_link"),
+    *,
+    joint_topic: str | None = None,
+    right_joint: str | None = None,
+    left_joint: str | None = None,
+    ticks_per_rev: float | None = None,
+    stamp_offset_s: float = 0.0,
+    limits: SlamLimits | None = None,
+) -> SlamBag:
+    """The SLAM relative motions of one bag (module docstring).
+
+    ``stamp_offset_s`` (s) is subtracted from the correction's stamps: slam_toolbox post-dates
+    ``map -> odom`` by its ``transform_timeout`` (0.2 s by default), AMCL by its
+    ``transform_tolerance``."""
+    parent, child = truth_frames
+    p = check_bag_path(path)
+    info = list_topics(p)
+    jt = pick_topic(info, joint_topic, (JOINT_STATE,), "wheel joints", p, "--joint-topic")
+    names = {t.name for t in info}
+    if "/tf" not in names:
+        raise InputError(
+            f"no /tf topic: the truth frames {parent}:{child} need the SLAM pose on /tf", p
+        )
+    bag = read_bag(p, [jt, "/tf"] + (["/tf_static"] if "/tf_static" in names else []))
+    joints = joint_series(bag, jt, right_joint, left_joint, ticks_per_rev)
+    buf = transform_buffer(bag)
+    for frame in (parent, child):
+        if frame not in buf.frames:
+            raise InputError(
+                f"frame '{frame}' never appears on /tf or /tf_static (frames: "
+                f"{', '.join(buf.frames) or 'none'})",
+                p,
+                None,
+                "--truth-frames",
+            )
+    chain = buf.chain(parent, child)  # InputError when the trees do not connect
+    dynamic = [s for s in chain if not s.static]
+    chain_text = " -> ".join([chain[0].frm] + [s.to for s in chain]) if chain else parent
+    if not dynamic:
+        raise InputError(
+            f"the chain {chain_text} is static: it holds no SLAM pose", p, None, "--truth-frames"
+        )
+    edges = tf_messages(bag)
+
+    def messages(step):
+        key = (step.to, step.frm) if step.inverted else (step.frm, step.to)
+        return key, edges[key]
+
+    counted = [messages(s) for s in dynamic]
+    (ce_key, ce), ce_step = min(
+        zip(counted, dynamic, strict=True), key=lambda x: len(x[0][1].time_s)
+    )
+    if ce_step.inverted:
+        raise InputError(
+            f"the SLAM edge {ce_key[0]} -> {ce_key[1]} points from {child} towards {parent}; "
+            f"give the truth frames as {child}:{parent}'s parent first",
+            p,
+            None,
+            "--truth-frames",
+        )
+    stamps = ce.time_s - float(stamp_offset_s)
+    t_j = joints.time_s
+    keep = _span(stamps, t_j[0], t_j[-1])
+    direct = len(dynamic) == 1
+    meta: dict = {"bag": str(p), "joint_topic": jt, "chain": chain_text}
+    correction_pose = odometry_pose = truth_pose = None
+    if direct:
+        # the chain's only moving edge is the SLAM pose itself (e.g. map -> base_link)
+        stamps = stamps[keep]
+        truth_pose = planar_pose(
+            buf.lookup(parent, child, stamps, max_extrapolation_s=1e-9).transform
+        )
+        correction = None
+    else:
+        # the chain splits at the correction edge: parent -> ce.child (the correction, with any
+        # static part above it) and ce.child -> child (the odometry, at the correction stamps)
+        below = buf.chain(ce.child, child)
+        for s in below:
+            if not s.static:
+                k, e = messages(s)
+                keep &= _span(stamps, e.time_s[0], e.time_s[-1])
+        stamps = stamps[keep]
+        above = buf.chain(parent, ce.parent) if ce.parent != parent else ()
+        corr = RigidTransforms(ce.translation_m[keep], ce.quaternion_xyzw[keep])
+        if above:
+            corr = buf.lookup(parent, ce.parent, stamps).transform @ corr
+        correction_pose = planar_pose(corr)
+        odometry_pose = planar_pose(buf.lookup(ce.child, child, stamps).transform)
+        correction = f"{ce.parent} -> {ce.child}"
+    meta.update(
+        correction_edge=correction,
+        slam_messages=int(len(ce.time_s)),
+        slam_messages_outside_joints=int((~keep).sum()),
+        stamp_offset_s=float(stamp_offset_s),
+    )
+    if len(stamps) < 2:
+        raise InputError(
+            f"only {len(stamps)} SLAM message(s) on '{ce.parent} -> {ce.child}' fall within the "
+            f"wheel joints' time span ({t_j[0]:.3f} to {t_j[-1]:.3f} s)",
+            p,
+        )
+    right, left = joints.values["right"], joints.values["left"]
+    wr, wl = np.interp(stamps, t_j, right), np.interp(stamps, t_j, left)
+    motions = slam_relative_motions(
+        stamps,
+        wr,
+        wl,
+        correction_pose=correction_pose,
+        odometry_pose=odometry_pose,
+        truth_pose=truth_pose,
+        limits=limits,
+    )
+    recording = _recording(
+        p,
+        jt,
+        joints.time_s,
+        right,
+        left,
+        stamps,
+        motions,
+        correction_pose,
+        odometry_pose,
+        truth_pose,
+        meta | joints.meta,
+    )
+    increments = wheel_increments(t_j, right, left, motions.start_s, motions.end_s)
+    return SlamBag(str(p), motions, recording, chain_text, correction, increments, meta)
+
+
+def wheel_increments(t, right, left, start_s, end_s) -> tuple[np.ndarray, np.ndarray]:
+    """The wheel rotations of each interval [start_s, end_s] as sampled: the differences of the
+    wheel angles at the interval's ends and at every wheel sample between them. Two arrays of
+    shape (n, K), rows zero padded; each row sums to the interval's rotation."""
+    rows_r, rows_l = [], []
+    for a, b in zip(start_s, end_s, strict=True):
+        inside = t[(t > a) & (t < b)]
+        tt = np.r_[a, inside, b]
+        rows_r.append(np.diff(np.interp(tt, t, right)))
+        rows_l.append(np.diff(np.interp(tt, t, left)))
+    k = max((len(x) for x in rows_r), default=1)
+    out_r, out_l = np.zeros((len(rows_r), k)), np.zeros((len(rows_r), k))
+    for i, (x, y) in enumerate(zip(rows_r, rows_l, strict=True)):
+        out_r[i, : len(x)], out_l[i, : len(y)] = x, y
+    return out_r, out_l
+
+
+def _recording(p: Path, jt, t, right, left, stamps, motions, corr, odo, truth, meta) -> Recording:
+    """The wheel-rate run with the SLAM truth at the update instants used (other samples are
+    not truth: ``meta['truth_samples']`` lists the valid indices)."""
+    from ..core.transforms import se2_compose
+
+    pose = np.array(truth if truth is not None else se2_compose(corr, odo), dtype=float)
+    # the update instants the motions used (their starts and ends), as wheel-sample indices
+    used_t = np.unique(np.r_[motions.start_s, motions.end_s])
+    on = np.isin(stamps, used_t)
+    t_u, pose_u = stamps[on], pose[on]
+    pose_u[:, 2] = np.unwrap(pose_u[:, 2])  # less than half a turn between updates
+    # insert the instants into the wheel-rate time base (angles interpolated there)
+    tt = np.union1d(t[(t >= t_u[0]) & (t <= t_u[-1])], t_u)
+    rr, ll = np.interp(tt, t, right), np.interp(tt, t, left)
+    idx = np.searchsorted(tt, t_u)
+    gt = np.full((len(tt), 3), np.nan)
+    gt[idx] = pose_u
+    # start frame at the first valid instant
+    c, s = np.cos(pose_u[0, 2]), np.sin(pose_u[0, 2])
+    dx, dy = gt[:, 0] - pose_u[0, 0], gt[:, 1] - pose_u[0, 1]
+    gt = np.column_stack([c * dx + s * dy, -s * dx + c * dy, gt[:, 2] - pose_u[0, 2]])
+    return Recording(
+        name=f"{p}:{jt}",
+        time_s=tt - tt[0],
+        wheel_angle_right_rad=rr - rr[0],
+        wheel_angle_left_rad=ll - ll[0],
+        ground_truth=gt,
+        meta={**meta, "truth": "slam", "truth_samples": [int(i) for i in idx]},
+    )

@@ -1,0 +1,210 @@
+"""Steps 2-3 of the paper from recordings: k from repeated recorded runs, the tracker's noise, the
+measured robot (ROBOT.yaml, design --robot-from) and the covariances for the robot stack."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+import yaml
+
+from odocal.calibration.noise import estimate_k_from_recordings, tracker_noise
+from odocal.core.covariance import odometry_covariance, straight_line_covariance
+from odocal.core.model import MeasurementNoise, WheelGeometry
+from odocal.core.odometry import dead_reckon
+from odocal.core.recording import Recording
+from odocal.errors import CalibrationError
+from odocal.io.robot_file import load_robot
+from odocal.io.ros2_export import read_ros2_params
+
+TRUE = WheelGeometry(0.0837, 0.0838, 0.2015)
+K = 2.0e-6  # k_r = k_l (m)
+
+
+def commanded(direction: str, side=1.5, step=0.01):
+    """Wheel angles of a square driven open loop (the encoders read exactly these)."""
+    sign = 1 if direction == "ccw" else -1
+    r, lft = [0.0], [0.0]
+    for _ in range(4):
+        for s_r, s_l in ((side, side), (sign * math.pi / 4 * TRUE.wheelbase_m,
+                                        -sign * math.pi / 4 * TRUE.wheelbase_m)):  # fmt: skip
+            n = int(math.ceil(max(abs(s_r), abs(s_l)) / step))
+            for _ in range(n):
+                r.append(r[-1] + 2 * s_r / n / TRUE.diameter_right_m)
+                lft.append(lft[-1] + 2 * s_l / n / TRUE.diameter_left_m)
+    return np.array(r), np.array(lft)
+
+
+def noisy_run(name, dataset, direction, rng, k=K):
+    """A recorded run: the commanded wheel angles, and the ground truth of the true wheel travel
+    with noise of variance k |ds| per increment (model.md)."""
+    right, left = commanded(direction)
+    ds_r = np.diff(right) * TRUE.diameter_right_m / 2
+    ds_l = np.diff(left) * TRUE.diameter_left_m / 2
+    ds_r = ds_r + np.sqrt(k * np.abs(ds_r)) * rng.standard_normal(ds_r.shape)
+    ds_l = ds_l + np.sqrt(k * np.abs(ds_l)) * rng.standard_normal(ds_l.shape)
+    true_r = np.r_[0, np.cumsum(ds_r)] * 2 / TRUE.diameter_right_m
+    true_l = np.r_[0, np.cumsum(ds_l)] * 2 / TRUE.diameter_left_m
+    gt = dead_reckon(true_r, true_l, TRUE)
+    return Recording(
+        name, np.arange(len(right)) * 0.05, right, left, ground_truth=gt, label=direction,
+        meta={"dataset": dataset},
+    )  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def repeats():
+    rng = np.random.default_rng(11)
+    return [
+        noisy_run(f"{d}-{direction}-{i}", d, direction, rng)
+        for d in ("set-a", "set-b")
+        for direction in ("cw", "ccw")
+        for i in range(20)
+    ]
+
+
+def test_k_from_repeated_squares_recovers_the_truth(repeats):
+    est = estimate_k_from_recordings(repeats, TRUE)
+    assert est.runs == 80 and est.dof == 76 and len(est.groups) == 4
+    # the pooled heading variance has a relative standard error sqrt(2 / 76) = 16 %: 3 of them
+    assert est.k_sum_m == pytest.approx(2 * K, rel=0.49)
+    lo, hi = est.k_sum_ci95_m
+    assert lo < est.k_sum_m < hi
+    assert lo < 2 * K < hi  # the 95 % interval covers the truth (seeded, so deterministic)
+    # squares turn on the spot with both wheels alike: k_r and k_l cannot be told apart
+    assert est.k_r_m is None and "not identifiable" in est.split_note
+    # each group's own interval contains the pooled value (one track, one k)
+    assert not any("disagree" in w for w in est.warnings)
+
+
+def test_the_systematic_part_is_removed(repeats):
+    """A different systematic error per data set (a different wheelbase) shifts the means, not
+    the spread: k is unchanged."""
+    shifted = []
+    for r in repeats:
+        if r.meta["dataset"] == "set-b":
+            gt = r.ground_truth.copy()
+            # the same runs seen by a robot turning 1 % more: a big systematic heading offset
+            odo = dead_reckon(r.wheel_angle_right_rad, r.wheel_angle_left_rad, TRUE)
+            gt[:, 2] += 0.01 * odo[:, 2]
+            r = Recording(r.name, r.time_s, r.wheel_angle_right_rad, r.wheel_angle_left_rad,
+                          ground_truth=gt, label=r.label, meta=r.meta)  # fmt: skip
+        shifted.append(r)
+    a = estimate_k_from_recordings(repeats, TRUE)
+    b = estimate_k_from_recordings(shifted, TRUE)
+    assert b.k_sum_m == pytest.approx(a.k_sum_m, rel=1e-6)
+
+
+def test_tracker_noise_is_subtracted_and_measured(repeats):
+    rng = np.random.default_rng(3)
+    sigma = math.radians(0.6)
+    jittered = []
+    for r in repeats:
+        gt = r.ground_truth.copy()
+        gt[:, 2] += rng.normal(0, sigma, len(gt))
+        gt[:, :2] += rng.normal(0, 0.001, (len(gt), 2))
+        gt -= gt[0]  # the start frame is the (measured) start pose
+        jittered.append(Recording(r.name, r.time_s, r.wheel_angle_right_rad,
+                                  r.wheel_angle_left_rad, ground_truth=gt, label=r.label,
+                                  meta=r.meta))  # fmt: skip
+    tr = tracker_noise(jittered)
+    # white noise on a path that turns smoothly: the second differences see it (10 %)
+    assert tr.sigma_theta_rad == pytest.approx(sigma, rel=0.1)
+    assert tr.sigma_xy_m == pytest.approx(0.001, rel=0.1)
+    clean = estimate_k_from_recordings(repeats, TRUE)
+    naive = estimate_k_from_recordings(jittered, TRUE)
+    fixed = estimate_k_from_recordings(jittered, TRUE, MeasurementNoise(0.001, sigma))
+    # the jitter adds 2 sigma^2 (start and end), a third of the wheel noise's heading variance
+    assert naive.k_sum_m > 1.15 * clean.k_sum_m
+    # subtracting it brings the estimate back; what is left is the jitter's own sampling error
+    # and its cross term with the wheel noise, relative standard error about 0.14: 3 of them
+    assert abs(fixed.k_sum_m - clean.k_sum_m) < abs(naive.k_sum_m - clean.k_sum_m)
+    assert fixed.k_sum_m == pytest.approx(clean.k_sum_m, rel=0.42)
+
+
+def test_single_runs_and_non_repeats_are_refused():
+    rng = np.random.default_rng(0)
+    runs = [noisy_run("a", "s1", "cw", rng), noisy_run("b", "s2", "ccw", rng)]
+    with pytest.raises(CalibrationError, match="no group of repeated runs") as exc:
+        estimate_k_from_recordings(runs, TRUE)
+    assert "a single run" in str(exc.value)
+
+
+def test_ros2_covariance_formulas():
+    c = odometry_covariance(1e-6, 3e-6, 0.2, speed_m_s=0.5, distance_m=2.0, window_s=0.1)
+    p = straight_line_covariance(2.0, 0.2, 1e-6, 3e-6)
+    assert c.pose_diagonal[0] == pytest.approx(p[0, 0]) and c.pose_diagonal[5] == p[2, 2]
+    assert c.pose_diagonal[1] == pytest.approx(4e-6 * 8 / (3 * 0.04))
+    # velocity from the wheel travel over 0.1 s at 0.5 m/s: var = (k_r + k_l) v / (4 T)
+    assert c.twist_diagonal[0] == pytest.approx(4e-6 * 0.5 / 0.4)
+    assert c.twist_diagonal[5] == pytest.approx(4e-6 * 0.5 / (0.04 * 0.1))
+    assert c.process_noise_per_s["yaw"] == pytest.approx(4e-6 * 0.5 / 0.04)
+    with pytest.raises(Exception, match="speed_m_s"):
+        odometry_covariance(1e-6, 1e-6, 0.2, speed_m_s=0.0)
+
+
+def test_noise_cli_on_optiodom_writes_robot_and_ros2(cli, realdata, tmp_path):
+    sq = realdata / "optiodom_diff" / "square"
+    robot, ros2 = tmp_path / "robot.yaml", tmp_path / "dd.yaml"
+    status, out, err = cli("noise", sq, "--robot-out", robot, "--ros2", ros2, "--json")
+    assert status == 0, err
+    d = json.loads(out)
+    # golden (bench_real_experiment.py): k_r + k_l 2.44e-6 m from 40 repeated runs, 28 dof
+    assert d["runs"] == 40 and d["dof"] == 28
+    assert d["k_sum_m"] == pytest.approx(2.44e-6, rel=0.01)
+    lo, hi = d["k_sum_ci95"]
+    assert lo < d["k_sum_m"] < hi and hi / lo < 4
+    assert d["k_r_m"] is None  # not identifiable from squares
+    r = load_robot(robot)
+    assert r.nominal == WheelGeometry(0.084, 0.084, 0.2)
+    assert r.nonsystematic.k_r_m == pytest.approx(d["k_sum_m"] / 2, rel=1e-6)
+    assert r.systematic.E_b == pytest.approx(1.00689, abs=1e-5)
+    assert 0 < r.measurement.sigma_theta_rad < math.radians(0.5)
+    params = yaml.safe_load(ros2.read_text())["diff_drive_controller"]["ros__parameters"]
+    assert len(params["pose_covariance_diagonal"]) == 6
+    assert params["twist_covariance_diagonal"][5] == pytest.approx(
+        d["ros2_covariance"]["twist_covariance_diagonal"][5]
+    )
+    assert read_ros2_params(ros2).wheelbase_m == pytest.approx(
+        d["robot"]["calibrated"]["wheelbase_m"], rel=1e-12
+    )
+    # the measured robot designs like any ROBOT.yaml
+    status, out, err = cli("design", "--robot", robot, "--side-lengths", "0.5:1.5:0.5",
+                           "--trials", "30", "--json")  # fmt: skip
+    assert status == 0, err
+
+
+def test_noise_cli_bad_inputs(cli, realdata, tmp_path):
+    sq = realdata / "optiodom_diff" / "square" / "231220200045"  # one CW and one CCW run
+    cli("noise", sq).expect_error("no group of repeated runs")
+    cli("noise", sq, sq, "--track", "straight:2").expect_error("exactly one RUNS.csv")
+    cli("noise", sq, "--params", tmp_path / "p.yaml").expect_error("--params is for RUNS.csv")
+
+
+def test_design_robot_from_recordings(cli, realdata):
+    sq = realdata / "optiodom_diff" / "square" / "231220200029"
+    status, out, err = cli("design", "--robot-from", sq, "--side-lengths", "0.5:1.5:0.5",
+                           "--trials", "30", "--sigma-theta-deg", "0.5", "--json")  # fmt: skip
+    assert status == 0, err
+    d = json.loads(out)
+    m = d["robot_measured"]
+    assert m["measurement"]["source"] == "given"
+    assert m["measurement"]["sigma_theta_deg"] == pytest.approx(0.5)
+    assert m["nominal"]["wheelbase_m"] == 0.2
+    assert m["systematic"]["E_b"] > 1.0  # the robot turns less than nominal says
+    assert d["robot"].startswith("robot measured from")
+
+
+def test_fit_robot_out(cli, realdata, tmp_path):
+    sq = realdata / "optiodom_diff" / "square"
+    out = tmp_path / "robot.yaml"
+    status, _, err = cli("fit", sq, "--method", "heading", "--robot-out", out)
+    assert status == 0, err
+    r = load_robot(out)
+    # the heading method cannot see the scale (E_s 1); k as odocal noise measures it
+    assert r.systematic.E_s == 1.0 and r.systematic.E_b == pytest.approx(1.00889, abs=1e-5)
+    assert r.nonsystematic.k_r_m == pytest.approx(1.22e-6, rel=0.01)
+    one = realdata / "optiodom_diff" / "square" / "231220200045"  # one run per direction
+    cli("fit", one, "--robot-out", tmp_path / "r2.yaml").expect_error("no group of repeated")

@@ -1,0 +1,163 @@
+"""The paper's experiment on the real OptiOdom robot (odocal reproduce --realdata): the replay
+that predicts it, the paired t-test, the JSON contract, the real numbers and the verdict."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from odocal.core.model import NonSystematicError, WheelGeometry
+from odocal.core.odometry import dead_reckon
+from odocal.core.replay import chunk_rotations, replay_final_errors
+from odocal.core.stats import ttest_paired
+
+TRUE = WheelGeometry(0.0837, 0.0838, 0.2020)
+
+
+def _angles():
+    """A run of arcs, spins and lines at 20 Hz (cumulative wheel angles, rad)."""
+    t = np.arange(0, 60, 0.05)
+    v_r = 0.1 + 0.08 * np.sin(0.3 * t) + 0.15 * (np.sin(0.11 * t) > 0.9)
+    v_l = 0.1 - 0.05 * np.sin(0.23 * t) - 0.15 * (np.sin(0.11 * t) > 0.9)
+    return np.r_[0, np.cumsum(v_r * 0.05)] / 0.0419, np.r_[0, np.cumsum(v_l * 0.05)] / 0.0419
+
+
+def test_replay_without_noise_is_dead_reckoning():
+    right, left = _angles()
+    chunks = chunk_rotations(right, left, 0.05 / 0.042)
+    assert len(chunks) < len(right) / 2  # merged
+    np.testing.assert_allclose(chunks[[0, -1]], [[0, 0], [right[-1], left[-1]]])
+    cals = WheelGeometry.unchecked(
+        np.array([[0.0840, 0.0836], [0.0837, 0.0839]]),
+        np.array([[0.0840, 0.0837], [0.0838, 0.0838]]),
+        np.array([[0.2000, 0.2030], [0.2020, 0.2010]]),
+    )
+    err = replay_final_errors(chunks, TRUE, NonSystematicError(), cals, None)
+    truth = dead_reckon(right, left, TRUE)[-1, :2]
+    for i in range(2):
+        for j in range(2):
+            g = WheelGeometry(
+                cals.diameter_right_m[i, j], cals.diameter_left_m[i, j], cals.wheelbase_m[i, j]
+            )
+            want = np.hypot(*(truth - dead_reckon(right, left, g)[-1, :2]))
+            # exact arcs over 5 cm chunks against the midpoint rule over 20 Hz samples: the
+            # same end point to 0.1 % of the error (0.5 mm of these 0.1-0.7 m errors)
+            assert err[i, j] == pytest.approx(want, rel=1e-3, abs=2e-4)
+
+
+def test_replay_noise_matches_its_variance():
+    """Noise only (calibrated = true): the final heading-free position scatter grows as the
+    model's; checked through the mean squared error against the first-order covariance."""
+    from odocal.core.covariance import propagate_increments
+
+    right, left = _angles()
+    chunks = chunk_rotations(right, left, 0.05 / 0.042)
+    k = NonSystematicError(2e-6, 2e-6)
+    n = 4000
+    cal = WheelGeometry.unchecked(
+        np.full(n, TRUE.diameter_right_m), np.full(n, TRUE.diameter_left_m),
+        np.full(n, TRUE.wheelbase_m),
+    )  # fmt: skip
+    err = replay_final_errors(chunks, TRUE, k, cal, np.random.default_rng(2))[0]
+    dr = np.diff(right) * TRUE.diameter_right_m / 2
+    dl = np.diff(left) * TRUE.diameter_left_m / 2
+    _, cov = propagate_increments(dr, dl, TRUE.wheelbase_m, k)
+    want = cov[0, 0] + cov[1, 1]
+    # mean of n squared errors: relative standard error about sqrt(2 / n) ~ 2 %, plus first
+    # order: 10 %
+    assert np.mean(err**2) == pytest.approx(want, rel=0.1)
+
+
+def test_paired_ttest_matches_scipy():
+    rng = np.random.default_rng(4)
+    a = rng.normal(0.03, 0.01, 19)
+    b = a - rng.normal(0.02, 0.01, 19)
+    t = ttest_paired(a, b)
+    ref = stats.ttest_rel(a, b)
+    assert t.t == pytest.approx(ref.statistic) and t.p_two_sided == pytest.approx(ref.pvalue)
+    assert t.df == 18 and t.kind == "paired"
+
+
+@pytest.fixture(scope="module")
+def produced(realdata, tmp_path_factory):
+    import contextlib
+    import io
+
+    from odocal.cli.main import main
+
+    out = tmp_path_factory.mktemp("real")
+    buf = io.StringIO()
+    with contextlib.redirect_stdout(buf):
+        status = main(
+            ["reproduce", "--realdata", str(realdata / "optiodom_diff"), "--trials", "40",
+             "--out", str(out / "rep"), "--json"]
+        )  # fmt: skip
+    assert status == 0
+    return json.loads(buf.getvalue()), out / "rep"
+
+
+def test_json_contract(produced):
+    d, _ = produced
+    r = d["real_experiment"]
+    assert [s["side_m"] for s in r["squares"]] == [0.75, 1.7]
+    for s in r["squares"]:
+        assert {"side_m", "E_b", "E_d", "heldout_error_m"} <= set(s)
+        assert s["method"] == "heading" and s["scope"] == "pooled"
+    assert set(r["design"]["predicted_error_m"]) == {"0.75", "1.7"}
+    assert r["design"]["preferred_side_m"] > 0
+    assert {"t", "p_two_sided", "df", "kind"} <= set(r["ttest"])
+    assert r["heldout"]["count"] == 19
+    assert r["reference"] == {
+        "wheel_diameter_right_m": 0.084, "wheel_diameter_left_m": 0.084, "wheelbase_m": 0.2,
+    }  # fmt: skip
+    assert "text" in r["verdict"] and r["verdict"]["text"].split(".")[0] in ("Yes", "Partly", "No")
+
+
+def test_real_numbers(produced):
+    """Deterministic real results (bench_real_experiment.py, README): the heading method pooled
+    over each size, relative to the nominal geometry, validated on the 19 held-out runs."""
+    r = produced[0]["real_experiment"]
+    small, large = r["squares"]
+    assert small["E_b"] == pytest.approx(1.00701, abs=1e-5)
+    assert large["E_b"] == pytest.approx(1.01236, abs=1e-5)
+    assert small["heldout_error_m"] == pytest.approx(0.0334, abs=2e-4)
+    assert large["heldout_error_m"] == pytest.approx(0.0125, abs=2e-4)
+    assert r["ttest"]["t"] == pytest.approx(4.78, abs=0.01)
+    assert r["ttest"]["p_two_sided"] < 0.001
+    # per data set: relative to the firmware values the gain changes by under 0.06 %
+    for c in r["per_data_set"]:
+        rw = c.get("relative_to_ran_with")
+        if rw:
+            assert abs(rw["turning_gain_difference"]) / c["turning_gain"] < 6e-4
+
+
+def test_the_verdict_says_no(produced):
+    """The model predicts no real difference between the sizes (|difference| within a few mm at
+    40 trials: std about 3 mm / sqrt(40)), the real one is 21 mm the other way."""
+    v = produced[0]["real_experiment"]["verdict"]
+    assert abs(v["predicted_difference_m"]) < 0.003
+    assert v["real_difference_m"] == pytest.approx(0.0209, abs=3e-4)
+    assert not v["difference_within_prediction"]
+    # one experiment like the real one: the model expects no significant difference (at any
+    # trial count: only a few % of its simulated experiments are significant), the real one is
+    assert v["predicted_outcome"] == "no significant difference"
+    assert v["real_outcome"] == "1.7 m better" and not v["ordering_predicted"]
+    assert v["text"].startswith("No.")
+    assert "0.057 m/s" in v["text"] and "1.01 rad/s" in v["text"]
+
+
+def test_report_and_figures(produced):
+    _, folder = produced
+    text = (folder / "REPORT.md").read_text()
+    assert "The experiment on a real robot (OptiOdom)" in text
+    assert "### Verdict" in text and "paired t" in text
+    for name in ("real_design_vs_real.png", "real_turning_gain.png",
+                 "real_effective_wheelbase.png", "fig5_square_post_error.png"):  # fmt: skip
+        assert (folder / name).stat().st_size > 5000, name
+
+
+def test_reproduce_needs_out_or_json(cli):
+    cli("reproduce").expect_error("--out DIR")

@@ -1,0 +1,91 @@
+"""A SLAM pose on /tf as ground truth, end to end: bags written by tests/synthetic_robot.py
+(map -> odom updated at a low rate, odom -> base_link from the wheel odometry with the believed
+geometry), `odocal fit BAG --truth-frames map:base_link` and `odocal validate ... --truth-frames`.
+"""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from synthetic_robot import default_track, simulate_robot, write_ros2_bag
+
+from odocal.core.model import WheelGeometry
+
+TRUE = WheelGeometry(0.0655, 0.0662, 0.163)  # TurtleBot3-sized, 0.8 % / 0.3 % / 1.9 % off
+BELIEVED = WheelGeometry.symmetric(0.066, 0.160)
+
+
+@pytest.fixture(scope="module")
+def run():
+    return simulate_robot(default_track(), TRUE, BELIEVED)
+
+
+@pytest.fixture(scope="module")
+def slam_bag(run, tmp_path_factory):
+    path = tmp_path_factory.mktemp("slam") / "bag"
+    write_ros2_bag(path, run, map_odom_every=25, imu=False)  # SLAM updates at 2 Hz
+    return path
+
+
+def test_fit_recovers_the_true_geometry_from_the_slam_updates(cli, slam_bag):
+    status, out, err = cli("fit", slam_bag, "--truth-frames", "map:base_link", "--json")
+    assert status == 0, err
+    d = json.loads(out)
+    assert d["method"] == "relative" and d["sensor_pose_fixed"] is True
+    # noise-free updates and the odometry integrated over the wheel samples of each interval:
+    # the geometry is recovered to rounding (the arc model alone would be 0.4 % off here, since
+    # the intervals mix straights, spot turns and arcs)
+    for key, true in TRUE.as_dict().items():
+        assert d[key] == pytest.approx(true, rel=1e-9), key
+    slam = d["slam"][0]
+    assert slam["chain"] == "map -> odom -> base_link" and slam["correction_edge"] == "map -> odom"
+    assert slam["used"] >= 30 and slam["jump"] == 0
+    # the text report says what was used
+    status, out, _ = cli("fit", slam_bag, "--truth-frames", "map:base_link")
+    assert status == 0 and "SLAM updates" in out and "wheelbase_m" in out
+
+
+def test_validate_against_the_slam_pose(cli, slam_bag, tmp_path):
+    good = tmp_path / "true.yaml"
+    bad = tmp_path / "believed.yaml"
+    for path, g in ((good, TRUE), (bad, BELIEVED)):
+        path.write_text("".join(f"{k}: {v}\n" for k, v in g.as_dict().items()))
+    errs = {}
+    for name, params in (("true", good), ("believed", bad)):
+        status, out, err = cli(
+            "validate", slam_bag, "--params", params, "--truth-frames", "map:base_link", "--json"
+        )
+        assert status == 0, err
+        errs[name] = json.loads(out)["mean_final_error_m"]
+    # the true geometry matches the SLAM pose at its updates (to the midpoint rule's error over
+    # the wheel samples); the believed one drifts by centimetres over the 8 m tour
+    assert errs["true"] < 1e-4 < 0.01 < errs["believed"]
+
+
+@pytest.mark.parametrize(
+    "frames, needles",
+    [
+        ("map:nowhere", ["frame 'nowhere' never appears", "base_link"]),
+        ("map", ["PARENT:CHILD"]),
+        ("laser:laser", ["must differ"]),
+    ],
+)
+def test_bad_truth_frames(cli, slam_bag, frames, needles):
+    cli("fit", slam_bag, "--truth-frames", frames).expect_error(*needles)
+
+
+def test_a_bag_without_slam_updates(cli, run, tmp_path):
+    path = tmp_path / "nomap"
+    write_ros2_bag(path, run, map_odom_every=None, imu=False)
+    cli("fit", path, "--truth-frames", "map:base_link").expect_error("frame 'map'")
+    # too few updates for a calibration: the counts are named
+    few = tmp_path / "few"
+    write_ros2_bag(few, run, map_odom_every=400, imu=False)
+    cli("fit", few, "--truth-frames", "map:base_link").expect_error("usable SLAM intervals")
+
+
+def test_truth_frames_only_with_the_relative_method(cli, slam_bag):
+    cli("fit", slam_bag, "--truth-frames", "map:base_link", "--method", "trajectory").expect_error(
+        "--method relative"
+    )
