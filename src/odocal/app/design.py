@@ -6,6 +6,7 @@ import dataclasses
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -17,11 +18,12 @@ from ..design.robust import RangeDesign, range_design, unknown_errors
 from ..design.sweep import DesignResult, Progress, SimulationSettings, design_json, run_design
 from ..errors import InputError
 from ..io.outputs import OutputPlan
-from ..io.recordings import load_recordings, require_ground_truth
 from ..io.robot_file import load_params, load_robot
 from ..presets import PRESETS
 from .common import RobotSpec, input_paths, resolve_robot, robot_label
-from .measured import MeasuredRobot, measure_robot
+
+if TYPE_CHECKING:
+    from .measured import MeasuredRobot
 
 __all__ = ["ENGINES", "MAX_SIMULATED_RUNS", "DesignRun", "design"]
 
@@ -73,6 +75,9 @@ def _robot_from(paths, robot, params, measurement: MeasurementNoise | None) -> M
     """The robot measured from recordings: nominal from ``robot`` (ROBOT.yaml) or the
     recordings' metadata; the instrument ``measurement`` (else ROBOT.yaml's, else the tracker's
     jitter)."""
+    from ..io.recordings import load_recordings, require_ground_truth  # only for --robot-from
+    from .measured import measure_robot
+
     recordings = load_recordings(list(paths))
     require_ground_truth(recordings, "--robot-from")
     base = load_robot(robot) if robot else None

@@ -24,7 +24,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ..core.model import WheelGeometry
 from ..core.odometry import dead_reckon
@@ -93,6 +92,8 @@ def fit_banded(
     mix : dict, optional
         Band -> share of the rotation for the single exported wheelbase; default the runs' own.
     """
+    from scipy.optimize import least_squares  # here: a slow import
+
     runs = [r for r in recordings]
     if not runs:
         raise CalibrationError("banded wheelbase: no runs")

@@ -54,7 +54,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ..core.model import ModelError, WheelGeometry
 from ..errors import CalibrationError
@@ -568,6 +567,8 @@ def _noise_std(p, phi_r, phi_l, sm, n_free: int, everything=None) -> np.ndarray:
 
 
 def _refine(p0, free, phi_r, phi_l, sm, everything) -> tuple[np.ndarray, bool]:
+    from scipy.optimize import least_squares  # here: a slow import
+
     p = p0.copy()
     converged = True
     for _ in range(2):  # noise weights from the current estimate, then once more

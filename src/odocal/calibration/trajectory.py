@@ -42,7 +42,6 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ..core.model import WheelGeometry
 from ..core.odometry import dead_reckon
@@ -157,6 +156,8 @@ def _run_residual(run: RunResiduals, p, kind, w_head) -> np.ndarray:
 
 
 def _solve(runs, x0, kind, w_head):
+    from scipy.optimize import least_squares  # here: a slow import
+
     def fun(p):
         return np.concatenate([r.weight * _run_residual(r, p, kind, w_head) for r in runs])
 

@@ -21,7 +21,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.stats import t as student_t
 
 from ..core.model import WheelGeometry
 
@@ -56,6 +55,8 @@ class CalibrationUncertainty:
 
     def ci95(self) -> dict[str, tuple[float, float]]:
         """name -> (low, high): value +- t(0.975, dof) stderr."""
+        from scipy.stats import t as student_t  # here: the import is slow, the CI rarely needed
+
         out = {}
         for name, v, s, nu in zip(NAMES, self.values, self.stderr, self.dof, strict=True):
             q = float(student_t.ppf(0.975, nu)) if np.isfinite(nu) and nu > 0 else math.nan

@@ -34,10 +34,9 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.special import stdtr
 
 from ..core.model import ModelError
-from ..core.stats import TTest, ttest_from_stats, ttest_paired
+from ..core.stats import TTest, student_t_sf, ttest_from_stats, ttest_paired
 
 __all__ = [
     "CRITERIA",
@@ -332,7 +331,7 @@ def pick_spread(
                 m = d.size
                 sd = float(d.std(ddof=1)) if m > 1 else 0.0
                 if sd > 0:
-                    p = float(stdtr(m - 1, float(d.mean()) / (sd / math.sqrt(m))))
+                    p = student_t_sf(-float(d.mean()) / (sd / math.sqrt(m)), m - 1)  # P(T <= t)
                 else:
                     p = 0.0 if m and float(d.mean()) < 0 else 1.0
             else:
@@ -341,7 +340,7 @@ def pick_spread(
                 diff = mean[j] - scale * mean[i]
                 den = va**2 / (n[j] - 1) + vb**2 / (n[i] - 1)
                 df = (va + vb) ** 2 / den if den > 0 else float(n[j] + n[i] - 2)
-                p = float(stdtr(df, diff / se)) if se > 0 else (0.0 if diff < 0 else 1.0)
+                p = student_t_sf(-diff / se, df) if se > 0 else (0.0 if diff < 0 else 1.0)
             cache[j, i] = p < alpha
             return cache[j, i]
 

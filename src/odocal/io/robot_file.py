@@ -22,12 +22,16 @@ the record and ignored).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from ..core.model import MeasurementNoise, NonSystematicError, Robot, SystematicError, WheelGeometry
 from ..core.plausibility import proportions_problem
 from ..errors import InputError, ModelError
 from ..presets import DEFAULT_ROBOT, PRESETS
 from .limits import ERROR_FACTOR, K_MAX_M, ROBOT_LENGTH_M, SIGMA_THETA_MAX_DEG, SIGMA_XY_MAX_M
-from .yamlfile import YamlDoc, load_yaml
+
+if TYPE_CHECKING:
+    from .yamlfile import YamlDoc
 
 __all__ = ["load_robot", "load_params", "robot_from_doc", "params_yaml", "robot_yaml"]
 
@@ -129,6 +133,8 @@ def load_robot(spec) -> Robot:
         spec = DEFAULT_ROBOT
     if str(spec) in PRESETS:
         return PRESETS[str(spec)]
+    from .yamlfile import load_yaml  # here: PyYAML only when a file is read
+
     doc = load_yaml(spec, "robot file")
     try:
         return robot_from_doc(doc)
@@ -138,6 +144,8 @@ def load_robot(spec) -> Robot:
 
 def load_params(path) -> WheelGeometry:
     """The geometry in a PARAMS.yaml (e.g. written by ``odocal calibrate --out``)."""
+    from .yamlfile import load_yaml
+
     doc = load_yaml(path, "parameter file")
     return _geometry(doc, doc.data, "")
 
