@@ -46,38 +46,45 @@ def machine() -> str:
 
 
 class IncrementCounter:
-    """Wraps core.simulate.drive to count runs x increments actually simulated."""
+    """Wraps core.simulate.drive and final_headings to count runs x increments simulated."""
 
     def __init__(self):
         self.increments = 0
-        self._orig = sim.drive
+        self._orig = {"drive": sim.drive, "final_headings": sim.final_headings}
 
     def __enter__(self):
-        orig = self._orig
+        def counter(orig):
+            def counting(track, true, believed, noise, runs, rng, **kw):
+                self._count(track, believed, runs, kw)
+                return orig(track, true, believed, noise, runs, rng, **kw)
 
-        def counting(track, true, believed, noise, runs, rng, **kw):
-            steps = kw.get("steps_per_segment")
-            if steps is not None:
-                self.increments += runs * steps * len(track.segments)
-            else:
-                max_step = kw.get("max_step_m", 0.01)
-                b = np.max(believed.wheelbase_m)
-                for seg in track.segments:
-                    s_r, s_l = seg.wheel_travel(b)
-                    longest = float(np.max(np.maximum(np.abs(s_r), np.abs(s_l))))
-                    self.increments += runs * max(1, int(np.ceil(longest / max_step - 1e-9)))
-            return orig(track, true, believed, noise, runs, rng, **kw)
+            return counting
 
         import odocal.design.sweep as sweep
 
-        self._patched = [(sim, "drive"), (sweep, "drive")]
-        for mod, name in self._patched:
-            setattr(mod, name, counting)
+        self._patched = []
+        for name, orig in self._orig.items():
+            for mod in (sim, sweep):
+                if hasattr(mod, name):
+                    self._patched.append((mod, name, getattr(mod, name)))
+                    setattr(mod, name, counter(orig))
         return self
 
     def __exit__(self, *exc):
-        for mod, name in self._patched:
-            setattr(mod, name, self._orig)
+        for mod, name, orig in self._patched:
+            setattr(mod, name, orig)
+
+    def _count(self, track, believed, runs, kw):
+        steps = kw.get("steps_per_segment")
+        if steps is not None:
+            self.increments += runs * steps * len(track.segments)
+            return
+        max_step = kw.get("max_step_m", 0.01)
+        b = np.max(believed.wheelbase_m)
+        for seg in track.segments:
+            s_r, s_l = seg.wheel_travel(b)
+            longest = float(np.max(np.maximum(np.abs(s_r), np.abs(s_l))))
+            self.increments += runs * max(1, int(np.ceil(longest / max_step - 1e-9)))
 
 
 def timed(fn, repeat: int):

@@ -135,3 +135,17 @@ def test_cli_ttest_bad_inputs(cli, tmp_path, samples):
     ragged = tmp_path / "ragged.csv"
     ragged.write_text("a,b\n1,2\n3\n")
     cli("ttest", ragged, a).expect_error("ragged.csv", "line 3")
+
+
+@pytest.mark.parametrize("df", [0.7, 1, 2, 7.7, 30, 1598.2, 1e5])
+def test_student_t_tail_and_quantile_without_scipy_agree_with_scipy(df):
+    from odocal.core.stats import student_t_quantile, student_t_sf
+
+    def sf(t):  # df 1 is Cauchy: exact in closed form (scipy loses digits near t = 0 there)
+        return 0.5 - math.atan(t) / math.pi if df == 1 else stats.t.sf(t, df)
+
+    for t in (0.0, 1e-6, 0.3, 1.96, 4.0, 12.0):
+        assert student_t_sf(t, df) == pytest.approx(sf(t), rel=1e-9, abs=1e-300)
+        assert student_t_sf(-t, df) == pytest.approx(sf(-t), rel=1e-12)
+    for p in (1e-6, 0.025, 0.5, 0.9, 0.975):
+        assert student_t_quantile(p, df) == pytest.approx(stats.t.ppf(p, df), rel=1e-10, abs=1e-14)

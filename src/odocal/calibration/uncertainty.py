@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.model import WheelGeometry
+from ..core.stats import student_t_quantile
 
 __all__ = ["NAMES", "CalibrationUncertainty", "spread_uncertainty"]
 
@@ -55,11 +56,9 @@ class CalibrationUncertainty:
 
     def ci95(self) -> dict[str, tuple[float, float]]:
         """name -> (low, high): value +- t(0.975, dof) stderr."""
-        from scipy.stats import t as student_t  # here: the import is slow, the CI rarely needed
-
         out = {}
         for name, v, s, nu in zip(NAMES, self.values, self.stderr, self.dof, strict=True):
-            q = float(student_t.ppf(0.975, nu)) if np.isfinite(nu) and nu > 0 else math.nan
+            q = student_t_quantile(0.975, float(nu)) if np.isfinite(nu) and nu > 0 else math.nan
             out[name] = (float(v - q * s), float(v + q * s))
         return out
 

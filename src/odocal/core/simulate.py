@@ -345,18 +345,21 @@ def _drive_block(segments, b_true, noise, rng, exact, pose, record, traj, headin
             m = hi - lo
             a_r = s_r[lo:hi] / n
             a_l = s_l[lo:hi] / n
-            dr = np.empty((n, m))
-            dl = np.empty((n, m))
-            dr[:] = a_r
-            dl[:] = a_l
+            # each wheel's travel per increment: a + sqrt(k |a|) z (the normals' array reused)
             if noise.k_r_m > 0 and rng is not None:
-                z = rng.standard_normal((n, m))
-                z *= np.sqrt(noise.k_r_m * np.abs(a_r))
-                dr += z
+                dr = rng.standard_normal((n, m))
+                dr *= np.sqrt(noise.k_r_m * np.abs(a_r))
+                dr += a_r
+            else:
+                dr = np.empty((n, m))
+                dr[:] = a_r
             if noise.k_l_m > 0 and rng is not None:
-                z = rng.standard_normal((n, m))
-                z *= np.sqrt(noise.k_l_m * np.abs(a_l))
-                dl += z
+                dl = rng.standard_normal((n, m))
+                dl *= np.sqrt(noise.k_l_m * np.abs(a_l))
+                dl += a_l
+            else:
+                dl = np.empty((n, m))
+                dl[:] = a_l
             ds = dr + dl
             ds *= 0.5
             dth = dr - dl
@@ -371,14 +374,14 @@ def _drive_block(segments, b_true, noise, rng, exact, pose, record, traj, headin
             if exact:
                 # chord of the arc: ds sin(dth/2) / (dth/2)
                 half = np.multiply(dth, 0.5, out=dl)
-                largest = float(np.max(np.abs(half)))
+                largest = max(float(half.max()), -float(half.min()))
                 if largest <= _SMALL_ANGLE:
                     u = np.multiply(half, half, out=half)
                     ds *= _series(u, _SINC[: _terms(largest, _SINC)], np.empty_like(u))
                 else:
                     with np.errstate(invalid="ignore", divide="ignore"):
                         ds *= np.where(half == 0, 1.0, np.sin(half) / half)
-            largest = float(np.max(np.abs(mid)))
+            largest = max(float(mid.max()), -float(mid.min()))
             if largest <= _SMALL_ANGLE:
                 u = np.multiply(mid, mid, out=dth)
                 cos_m = _series(u, _COS[: _terms(largest, _COS)], np.empty_like(u))

@@ -33,6 +33,7 @@ __all__ = [
     "ttest_samples",
     "ttest_paired",
     "student_t_sf",
+    "student_t_quantile",
     "circular_mean",
 ]
 
@@ -149,6 +150,40 @@ def student_t_sf(t: float, df: float) -> float:
     log_front = _log_gamma_ratio_half(h) - 0.5 * math.log(math.pi) + h * log_x + 0.5 * log_y
     both = _beta_lower(h, 0.5, df / (df + t2), t2 / (df + t2), log_front)
     return 0.5 * both if t > 0 else 1.0 - 0.5 * both
+
+
+def student_t_quantile(p: float, df: float) -> float:
+    """The t with P(T <= t) = ``p`` (0 < p < 1) for Student's t with ``df`` > 0 degrees of
+    freedom: :func:`student_t_sf` inverted by safeguarded Newton steps (what
+    ``scipy.stats.t.ppf`` gives, to about 1e-13, without importing scipy.stats)."""
+    if not (0.0 < p < 1.0) or not df > 0:
+        return math.nan
+    if p == 0.5:
+        return 0.0
+    tail = min(p, 1.0 - p)  # solve sf(t) = tail for t > 0
+    lo, hi = 0.0, 1.0
+    while student_t_sf(hi, df) > tail:
+        lo, hi = hi, 2.0 * hi
+        if hi > 1e300:
+            return math.copysign(math.inf, p - 0.5)
+    log_norm = math.lgamma(0.5 * (df + 1)) - math.lgamma(0.5 * df) - 0.5 * math.log(df * math.pi)
+    t = 0.5 * (lo + hi)
+    for _ in range(100):
+        excess = student_t_sf(t, df) - tail  # > 0: t too small
+        if excess > 0:
+            lo = t
+        else:
+            hi = t
+        pdf = math.exp(log_norm - 0.5 * (df + 1) * math.log1p(t * t / df))
+        step = excess / pdf if pdf > 0 else math.inf
+        new = t + step
+        if not lo < new < hi:  # outside the bracket: bisect instead
+            new = 0.5 * (lo + hi)
+        if abs(new - t) <= 1e-15 * abs(new) or new in (lo, hi):
+            t = new
+            break
+        t = new
+    return t if p > 0.5 else -t
 
 
 def _p_values(t: float, df: float) -> tuple[float, float, float]:
