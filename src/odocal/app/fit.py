@@ -312,19 +312,17 @@ def fit(
         require_matplotlib()
         plan.folder(plot, "--plot")
     refuse_repeated(paths)  # the same file twice would count twice, whatever it holds
+    common = dict(
+        robot=robot,
+        out=out,
+        ros2=ros2,
+        controller_name=controller_name,
+        ticks_per_rev=ticks_per_rev,
+        bag_options=bag_options or {},
+        force=force,
+    )
     if method == "scan":
-        return _fit_scan(
-            paths,
-            plan,
-            robot=robot,
-            out=out,
-            ros2=ros2,
-            controller_name=controller_name,
-            ticks_per_rev=ticks_per_rev,
-            bag_options=bag_options or {},
-            scan_interval_s=scan_interval_s,
-            force=force,
-        )
+        return _fit_scan(paths, plan, scan_interval_s=scan_interval_s, **common)
     # a pipe or <(...) has no name to tell a tuple file by: --method relative says it is one
     tuples = [
         p
@@ -341,15 +339,9 @@ def fit(
             paths,
             tuples,
             plan,
-            robot=robot,
-            out=out,
-            ros2=ros2,
-            controller_name=controller_name,
-            ticks_per_rev=ticks_per_rev,
-            bag_options=bag_options or {},
             truth_frames=truth_frames,
             slam_stamp_offset_s=slam_stamp_offset_s,
-            force=force,
+            **common,
         )
     method = method or "trajectory"
     opts = {k: v for k, v in (bag_options or {}).items() if k != "scan_topic"}

@@ -421,18 +421,11 @@ def gyro_heading(
     rate = w @ n
     turn_rate = _rate(t, turn)
     travel_rate = None if travel_rad is None else _rate(t, np.asarray(travel_rad, dtype=float))
-    intervals = still_intervals(
-        t,
-        turn_rate,
-        travel_rate,
-        max_speed_m_s=max_still_rate,
-        max_yaw_rate_rad_s=max_still_rate,
-        min_duration_s=min_still_s,
+    b = _bias(
+        t_i, rate, t, turn_rate, travel_rate, max_still_rate, max_still_rate, min_still_s, bias
     )
-    est, se, _, _ = still_bias(t_i, rate, intervals)
-    applied, bias_source, note = choose_bias(bias, est, se, min_still_s)
-    if note:
-        warnings.append(note)
+    applied, bias_source = b.applied, b.source
+    warnings += b.notes
     yaw = np.interp(t, t_i, integrate_rate(t_i, rate - applied))
     return GyroHeading(
         yaw - yaw[0],
@@ -442,6 +435,34 @@ def gyro_heading(
         bias_source,
         tuple(warnings),
     )
+
+
+@dataclass(frozen=True)
+class _Bias:
+    estimate: float | None
+    stderr: float | None
+    samples: int
+    seconds: float
+    applied: float
+    source: str
+    notes: tuple[str, ...]
+
+
+def _bias(
+    imu_time_s, yaw_rate, ref_time_s, ref_turn_rate, ref_speed, max_speed, max_turn, min_s, policy
+) -> _Bias:
+    """The gyro bias from the reference's still periods, and what the policy removes."""
+    intervals = still_intervals(
+        ref_time_s,
+        ref_turn_rate,
+        ref_speed,
+        max_speed_m_s=max_speed,
+        max_yaw_rate_rad_s=max_turn,
+        min_duration_s=min_s,
+    )
+    est, se, n, seconds = still_bias(imu_time_s, yaw_rate, intervals)
+    applied, source, note = choose_bias(policy, est, se, min_s)
+    return _Bias(est, se, n, seconds, applied, source, (note,) if note else ())
 
 
 def _check_series(name: str, t: np.ndarray, values: np.ndarray) -> None:
@@ -540,18 +561,20 @@ def gyro_calibration(
     yaw_rate = w @ n  # rad/s about base z
 
     # bias from still periods
-    intervals = still_intervals(
+    b = _bias(
+        t_i,
+        yaw_rate,
         t_o,
         rate_o,
         speed,
-        max_speed_m_s=max_still_speed_m_s,
-        max_yaw_rate_rad_s=max_still_yaw_rate_rad_s,
-        min_duration_s=min_still_s,
+        max_still_speed_m_s,
+        max_still_yaw_rate_rad_s,
+        min_still_s,
+        bias,
     )
-    est, se, still_n, still_s = still_bias(t_i, yaw_rate, intervals)
-    applied, bias_source, note = choose_bias(bias, est, se, min_still_s)
-    if note:
-        warnings.append(note)
+    est, se, still_n, still_s = b.estimate, b.stderr, b.samples, b.seconds
+    applied, bias_source = b.applied, b.source
+    warnings += b.notes
 
     # net rotations over the common span
     g_cum = integrate_rate(t_i, yaw_rate)
