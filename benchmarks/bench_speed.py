@@ -339,7 +339,10 @@ def section_csv(rows_n: int) -> None:
 
 # --- suite ----------------------------------------------------------------------------------
 def section_suite() -> None:
-    run = fresh(python_cmd("-m", "pytest", "-q", "-p", "no:cacheprovider"))
+    run = fresh(python_cmd("-m", "pytest", "-q", "-p", "no:cacheprovider"), out=True)
+    for line in run.stderr.splitlines():
+        if line.startswith(("FAILED", "ERROR")):
+            print(f"  {line}", flush=True)
     row(
         "test suite (pytest -q)",
         f"{run.wall_s:.1f} s wall, {run.cpu_s:.1f} s CPU (status {run.status})",

@@ -18,6 +18,7 @@ from __future__ import annotations
 import multiprocessing as mp
 import os
 import platform
+import signal
 import subprocess
 import sys
 import time
@@ -59,15 +60,23 @@ class Run:
     stderr: str = ""
 
 
-def fresh(cmd: list[str], *, cwd: Path | None = None, repeat: int = 1) -> Run:
-    """Run ``cmd`` ``repeat`` times in a fresh process each; the median run by wall time."""
+def fresh(cmd: list[str], *, cwd: Path | None = None, repeat: int = 1, out: bool = False) -> Run:
+    """Run ``cmd`` ``repeat`` times in a fresh process each; the median run by wall time.
+    ``out``: keep the end of standard output (in ``stderr``) instead of its standard error."""
     runs = []
     for _ in range(repeat):
         t = time.perf_counter()
         p = subprocess.Popen(
-            cmd, cwd=cwd or ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+            cmd,
+            cwd=cwd or ROOT,
+            # as from a terminal: a background shell starts its jobs with SIGINT ignored, which
+            # the tests of Ctrl-C handling would notice
+            preexec_fn=_default_sigint,
+            stdout=subprocess.PIPE if out else subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL if out else subprocess.PIPE,
         )
-        err = p.stderr.read().decode(errors="replace") if p.stderr else ""
+        stream = p.stdout if out else p.stderr
+        err = stream.read().decode(errors="replace") if stream else ""
         _, status, usage = os.wait4(p.pid, 0)
         wall = time.perf_counter() - t
         p.returncode = os.waitstatus_to_exitcode(status)
@@ -82,6 +91,10 @@ def fresh(cmd: list[str], *, cwd: Path | None = None, repeat: int = 1) -> Run:
         )
     runs.sort(key=lambda r: r.wall_s)
     return runs[len(runs) // 2]
+
+
+def _default_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def python_cmd(*args: str) -> list[str]:

@@ -313,3 +313,31 @@ def test_heading_method_needs_only_headings_and_blank_cells_say_so(cli, robot, t
     cli("calibrate", p, "--robot", robot, *track).expect_error(
         "line 2", "theta_deg", "not filled in"
     )
+
+
+def test_help_is_complete_and_imports_no_command_module():
+    # 'odocal --help' lists every command with its line without importing any command module
+    # (nor numpy); every module still builds its own parser under its name
+    import subprocess
+    import sys
+
+    from odocal.cli.main import COMMANDS, build_parser
+
+    code = (
+        "import sys, contextlib, io\n"
+        "from odocal.cli.main import main\n"
+        "buf = io.StringIO()\n"
+        "with contextlib.redirect_stdout(buf):\n"
+        "    try:\n"
+        "        main(['--help'])\n"
+        "    except SystemExit:\n"
+        "        pass\n"
+        "print(buf.getvalue())\n"
+        "print('LOADED', sorted(m for m in sys.modules if m.startswith('odocal.cli.') "
+        "or m == 'numpy'))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True).stdout
+    assert all(name in out for name in COMMANDS)
+    assert "LOADED ['odocal.cli.main']" in out
+    sub = next(a for a in build_parser()._actions if hasattr(a, "choices") and a.choices)
+    assert list(sub.choices) == list(COMMANDS)
