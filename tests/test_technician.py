@@ -296,6 +296,10 @@ def test_unknown_errors_are_designed_over_their_typical_range(cli, tmp_path):
     assert d["engine"] == "analytic" and d["validation"]["side_m"] == 1.6
     assert set(d["error_range"]["unknown"]) == {"systematic", "nonsystematic"}
     assert d["recommended"]["within_best"] < 0.06
+    # the text report of the same design
+    status, out, err = cli("design", "--robot", bare, "--side-lengths", "0.4:2.4:0.4")
+    assert status == 0, err
+    assert "Recommended: square" in out and "whatever the robot's errors" in out
 
 
 def test_the_range_design_holds_for_every_plausible_robot():

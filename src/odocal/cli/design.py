@@ -463,6 +463,8 @@ def print_design(result, robot: str, seed: int | None = None) -> None:
 
 def print_range_design(design, robot: str) -> None:
     """The report of a design over plausible errors."""
+    import numpy as np
+
     from ..design.result import shape_name
 
     d = design.as_dict()
