@@ -16,8 +16,6 @@ Target (issue 3): the whole reproduction at 800 trials in under 10 s on 2 cores.
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import sys
 import tempfile
 import time
@@ -29,20 +27,8 @@ import odocal.core.simulate as sim
 from odocal.design import SimulationSettings
 from odocal.design.reproduce import reproduce
 
-
-def machine() -> str:
-    model = "unknown CPU"
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                model = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return (
-        f"{os.cpu_count()} logical cores (nproc {len(os.sched_getaffinity(0))}), {model}; "
-        f"Python {platform.python_version()}, numpy {np.__version__}"
-    )
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from machine import machine  # noqa: E402  (benchmarks/machine.py, beside this script)
 
 
 class IncrementCounter:
