@@ -170,6 +170,7 @@ def wheelbase_bands_figure(
         )
     for j, (name, value) in enumerate((single or {}).items()):
         ax.axhline(value * _MM, ls=["--", ":", "-."][j % 3], color="0.3", lw=1, label=name)
+    ax.margins(y=0.08)  # a reference line at the edge of the data stays inside the axes
     labels = []
     ref = next(iter(tables.values()), None)
     for i, name in enumerate(BANDS):
