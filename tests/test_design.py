@@ -368,3 +368,51 @@ def test_report_json_and_plots_work_from_required_fields_only(tmp_path, capsys):
     plan.folder(tmp_path, "--plot")
     paths = plan.commit({tmp_path / name: fig for name, fig in figs.items()})
     assert len(paths) == 3 and all(p.stat().st_size > 5000 for p in paths)
+
+
+@pytest.mark.parametrize("paired", [True, False])
+def test_pick_spread_is_the_rule_applied_to_each_resample(paired):
+    """The bootstrap spread of the pick computes every pair's moments at once; each resample must
+    pick what the rule itself (recommend) picks on candidates made of the resampled trials,
+    failed trials (NaN) included."""
+    from types import SimpleNamespace
+
+    from odocal.design.recommend import pick_spread, recommend
+
+    rng = np.random.default_rng(2)
+    T = 60
+    common = rng.standard_normal(T)
+    X = []
+    for k in range(8):  # errors that fall with the size, with common random numbers
+        x = np.abs(0.01 * (1 + np.exp(-k / 2)) + 0.004 * common + 0.003 * rng.standard_normal(T))
+        if k == 3:
+            x[[4, 17]] = np.nan
+        X.append(x)
+
+    def candidates(samples):
+        out = []
+        for k, x in enumerate(samples):
+            f = x[np.isfinite(x)]
+            side = 0.5 + 0.5 * k
+            out.append(
+                SimpleNamespace(
+                    sides=4, side_m=side, travel_m=4 * side, trials=f.size,
+                    post_error_mean_m=f.mean(), post_error_std_m=f.std(ddof=1),
+                    post_errors_m=x,
+                )
+            )  # fmt: skip
+        return out
+
+    spread = pick_spread(candidates(X), np.random.default_rng(7), paired=paired, resamples=40)
+    # the same resamples, drawn the same way, through the rule itself
+    draw, counts = np.random.default_rng(7), {}
+    Xa = np.array(X)
+    for _ in range(40):
+        if paired:
+            Xb = Xa[:, draw.integers(0, T, T)]
+        else:
+            Xb = np.take_along_axis(Xa, draw.integers(0, T, Xa.shape), axis=1)
+        pick = recommend(candidates(list(Xb)), paired=paired).index
+        counts[pick] = counts.get(pick, 0) + 1
+    assert dict(spread) == {i: k / 40 for i, k in counts.items()}
+    assert len(spread) > 1  # a spread, not a certainty: the test compares real decisions

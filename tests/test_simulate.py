@@ -111,6 +111,33 @@ def test_same_seed_same_runs_whatever_the_threads(monkeypatch):
     np.testing.assert_allclose(a[[0, -1]], GOLDEN_SEED_11, rtol=1e-9)
 
 
+def test_same_runs_on_worker_processes_as_in_one(monkeypatch):
+    """Large work runs its blocks on forked worker processes writing into shared memory: the same
+    numbers as one process, final poses and the recorded trajectory alike."""
+    import odocal.core.simulate as sim
+
+    monkeypatch.setattr(sim, "_PROCESS_INCREMENTS", 1)
+    robot = Robot(NOMINAL, SystematicError(1.03, 0.998), NonSystematicError(1e-6, 1e-6))
+    track = polygon(4, 2.0, "ccw")
+    runs = []
+    for threads in ("1", "2", "3"):
+        monkeypatch.setenv("ODOCAL_THREADS", threads)
+        runs.append(simulate(track, robot, 2500, np.random.default_rng(3), trajectory=[0, 50, 400]))
+    for other in runs[1:]:
+        np.testing.assert_array_equal(other.true_final, runs[0].true_final)
+        np.testing.assert_array_equal(other.trajectory, runs[0].trajectory)
+    assert np.all(runs[0].trajectory[:, 1:] != 0)  # every block was driven
+
+
+def test_final_pose_does_not_depend_on_what_is_recorded():
+    robot = Robot(NOMINAL, SystematicError(1.03, 0.998), NonSystematicError(1e-6, 2e-6))
+    for track in (polygon(4, 2.0, "cw"), polygon(3, np.array([1.0, 2.0, 3.0] * 10), "ccw")):
+        a = simulate(track, robot, 30, np.random.default_rng(9))
+        b = simulate(track, robot, 30, np.random.default_rng(9), trajectory=True)
+        np.testing.assert_array_equal(a.true_final, b.true_final)
+        np.testing.assert_allclose(b.trajectory[:, -1], b.true_final, rtol=0, atol=1e-13)
+
+
 GOLDEN_SEED_11 = [
     [-0.08307388795263983, -0.16925818976893267, -6.127119535521176],
     [-0.08166476179231197, -0.15330005053865126, -6.131861519279268],

@@ -19,14 +19,16 @@ use (``ODOCAL_THREADS`` to choose): the same seed gives the same runs on any num
 
 from __future__ import annotations
 
+import functools
 import math
-import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from .model import ModelError, NonSystematicError, Robot, WheelGeometry
+from .parallel import can_fork, run_tasks, shared_zeros
+from .parallel import workers as parallel_workers
 from .pose import compose
 from .tracks import Track
 
@@ -205,13 +207,18 @@ def _simulate(
             "track or a larger maximum step"
         )
     record = _recorded(trajectory, total)
-    pose = np.zeros((runs, 3))
-    traj = None if record is None else np.zeros((runs, len(record), 3))
     # blocks of runs, each with its own random stream: fixed by the problem alone, so the result
-    # is the same however many threads run them
+    # is the same however many workers run them
     rows = max(1, _BLOCK_INCREMENTS // total)
     blocks = [(lo, min(runs, lo + rows)) for lo in range(0, runs, rows)]
     keys = None if noise.is_zero or rng is None else rng.integers(0, 2**63, size=2)
+    workers = min(len(blocks), parallel_workers())
+    # large work on worker processes (numpy's many short calls would hold threads back on
+    # Python's lock), writing into shared memory; smaller work on threads
+    processes = workers > 1 and can_fork() and runs * total >= _PROCESS_INCREMENTS
+    zeros = shared_zeros if processes else np.zeros
+    pose = zeros((runs, 3))
+    traj = None if record is None else zeros((runs, len(record), 3))
 
     def run_block(i: int) -> None:
         lo, hi = blocks[i]
@@ -231,15 +238,20 @@ def _simulate(
             heading_only,
         )
 
-    workers = min(len(blocks), _threads())
-    if workers > 1:
+    def run_group(group) -> None:
+        for i in group:
+            run_block(i)
+
+    if processes:
+        groups = np.array_split(np.arange(len(blocks)), workers)
+        run_tasks([functools.partial(run_group, g) for g in groups], workers, share=True)
+    elif workers > 1:
         from concurrent.futures import ThreadPoolExecutor
 
         with ThreadPoolExecutor(workers) as pool:
             list(pool.map(run_block, range(len(blocks))))
     else:
-        for i in range(len(blocks)):
-            run_block(i)
+        run_group(range(len(blocks)))
     # the commanded pose (only its heading where the positions were not driven)
     if heading_only:
         heading = np.asarray(sum(seg.angle_rad for seg in track.segments), dtype=float)
@@ -253,18 +265,9 @@ def _simulate(
 # Work of one block of runs (runs x increments) with its own random stream; and the elements of
 # one numpy pass (small enough to stay in the cache). Both fixed: they decide the random stream.
 _BLOCK_INCREMENTS = 1 << 18
+# Work (runs x increments) from which the blocks run on worker processes rather than threads.
+_PROCESS_INCREMENTS = 1 << 22
 _CHUNK = 1 << 14
-
-
-def _threads() -> int:
-    """Worker threads for the blocks: ODOCAL_THREADS, else the CPUs this process may use."""
-    env = os.environ.get("ODOCAL_THREADS", "")
-    if env.strip().isdigit() and int(env) > 0:
-        return int(env)
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        return os.cpu_count() or 1
 
 
 def _recorded(trajectory, total: int) -> np.ndarray | None:
@@ -289,9 +292,10 @@ _SMALL_ANGLE = 0.25
 
 
 def _terms(largest: float, coefficients: np.ndarray) -> int:
-    """Taylor terms after which the next one is below 2^-60 (relative) for |x| <= largest."""
+    """Taylor terms after which the next one is below 2^-56 (relative: a sixteenth of the last
+    bit of the sum, which is near 1) for |x| <= largest."""
     for t in range(1, len(coefficients)):
-        if abs(coefficients[t]) * largest ** (2 * t) < 2.0**-60:
+        if abs(coefficients[t]) * largest ** (2 * t) < 2.0**-56:
             return t
     return len(coefficients)
 
@@ -320,17 +324,45 @@ def _accumulate(x: np.ndarray) -> np.ndarray:
 _ROW_LOOP = 32
 
 
+def _wheel_noise(rng, k_m: float, scale: np.ndarray, n: int) -> np.ndarray | None:
+    """The noise of one wheel's travel over ``n`` increments: ``scale`` (m, sqrt(k |a|) for a
+    mean travel a per increment; shape (runs,)) times standard normals, shape (n, runs); None
+    without noise."""
+    if not (k_m > 0 and rng is not None):
+        return None
+    z = rng.standard_normal((n, len(scale)))
+    z *= scale
+    return z
+
+
+def _cos_sin(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """cos x and sin x as new arrays: Taylor polynomials (accurate to the last bit) where every
+    |x| is at most _SMALL_ANGLE, else numpy's."""
+    largest = max(float(x.max()), -float(x.min()))
+    if largest > _SMALL_ANGLE:
+        return np.cos(x), np.sin(x)
+    u = np.multiply(x, x)
+    sin_x = _series(u, _SINC[: _terms(largest, _SINC)], np.empty_like(u))
+    sin_x *= x
+    return _series(u, _COS[: _terms(largest, _COS)], np.empty_like(u)), sin_x
+
+
 def _drive_block(segments, b_true, noise, rng, exact, pose, record, traj, heading_only) -> None:
     """Drive one block of runs (rows of ``pose``, updated in place) through ``segments``.
 
     Per segment of n increments, runs are taken a few at a time (about _CHUNK increments; arrays
     of shape (n, runs)); for each such pass the right wheel's normals are drawn, then the left
-    wheel's (where k > 0). Within a segment the heading relative to its start is a cumulative
-    sum, and the displacement is rotated by the start heading th0 once per run:
-    sum_k ds_k (cos, sin)(th0 + m_k) = R(th0) sum_k ds_k (cos m_k, sin m_k), with m_k the
-    increment's mid heading relative to th0. Where every |m_k| of a pass is small (straight
-    legs), cos and sin are Taylor polynomials accurate to the last bit; likewise sin(x)/x of
-    the exact arcs.
+    wheel's (where k > 0). Each wheel's travel per increment is its mean a plus its noise; the
+    heading change per increment is delta + eta, delta = (a_r - a_l) / b the same at every
+    increment, eta the noise's part. The segment's heading change is therefore n delta +
+    sum(eta) (what :func:`final_headings` reads, with no more work than the sums), and the mid
+    heading of increment k, relative to the segment's start, is m_k = (k + 1/2) delta + e_k with
+    e_k = sum_{j<k} eta_j + eta_k / 2. The displacement is rotated by the start heading th0 once
+    per run: sum_k ds_k (cos, sin)(th0 + m_k) = R(th0) sum_k ds_k (cos m_k, sin m_k). Where
+    delta is the same for every run of the pass, cos m_k and sin m_k are expanded around
+    (k + 1/2) delta (one angle per increment, not per run): only e_k, which is small, is left
+    per run, and its cos and sin are Taylor polynomials accurate to the last bit; likewise the
+    sin(x)/x of the exact arcs and, on straight legs, cos and sin of the whole mid heading.
     """
     start = 0  # increments driven before the segment
     for s_r, s_l, n in segments:
@@ -340,70 +372,96 @@ def _drive_block(segments, b_true, noise, rng, exact, pose, record, traj, headin
             inside = (record >= start + 1) & (record <= start + n)
             if inside.any():
                 wanted = (np.flatnonzero(inside), record[inside] - start - 1)
+        middle = np.arange(n) + 0.5  # increment k's middle, in increments
+        # per run: mean travel of each wheel and of the centre per increment, the noise's scale,
+        # the heading change per increment without noise
+        a_r, a_l = s_r / n, s_l / n
+        a_mean = 0.5 * (a_r + a_l)
+        scale_r = np.sqrt(noise.k_r_m * np.abs(a_r))
+        scale_l = np.sqrt(noise.k_l_m * np.abs(a_l))
+        delta_all = (a_r - a_l) / b_true
+        turn_all = n * delta_all
         for lo in range(0, len(b_true), step):
             hi = min(len(b_true), lo + step)
-            m = hi - lo
-            a_r = s_r[lo:hi] / n
-            a_l = s_l[lo:hi] / n
-            # each wheel's travel per increment: a + sqrt(k |a|) z (the normals' array reused)
-            if noise.k_r_m > 0 and rng is not None:
-                dr = rng.standard_normal((n, m))
-                dr *= np.sqrt(noise.k_r_m * np.abs(a_r))
-                dr += a_r
-            else:
-                dr = np.empty((n, m))
-                dr[:] = a_r
-            if noise.k_l_m > 0 and rng is not None:
-                dl = rng.standard_normal((n, m))
-                dl *= np.sqrt(noise.k_l_m * np.abs(a_l))
-                dl += a_l
-            else:
-                dl = np.empty((n, m))
-                dl[:] = a_l
-            ds = dr + dl
-            ds *= 0.5
-            dth = dr - dl
-            dth /= b_true[lo:hi]
-            rel = _accumulate(dth)  # heading change after each increment
+            b = b_true[lo:hi]
+            u = _wheel_noise(rng, noise.k_r_m, scale_r[lo:hi], n)
+            v = _wheel_noise(rng, noise.k_l_m, scale_l[lo:hi], n)
+            delta = delta_all[lo:hi]
+            turn = turn_all[lo:hi].copy()
+            if u is not None:
+                turn += u.sum(axis=0) / b
+            if v is not None:
+                turn -= v.sum(axis=0) / b
+            th0 = pose[lo:hi, 2].copy()
+            pose[lo:hi, 2] += turn
             if heading_only:
-                pose[lo:hi, 2] += rel[-1]
                 continue
-            mid = dr  # reuse: the mid heading relative to the segment's start
-            np.multiply(dth, 0.5, out=mid)
-            np.subtract(rel, mid, out=mid)
+            # ds (travel of the centre) and eta (noise part of the heading change)
+            if u is None and v is None:
+                ds = np.empty((n, hi - lo))
+                ds[:] = a_mean[lo:hi]
+                eta = np.zeros_like(ds)
+            else:
+                if v is None:
+                    assert u is not None
+                    ds, eta = u.copy(), u
+                elif u is None:
+                    ds, eta = v.copy(), np.negative(v, out=v)
+                else:
+                    ds = u + v
+                    eta = np.subtract(u, v, out=u)
+                ds *= 0.5
+                ds += a_mean[lo:hi]
+                eta /= b
             if exact:
-                # chord of the arc: ds sin(dth/2) / (dth/2)
-                half = np.multiply(dth, 0.5, out=dl)
+                # chord of the arc: ds sin(dth/2) / (dth/2), dth = delta + eta
+                half = np.multiply(eta, 0.5)
+                half += 0.5 * delta
                 largest = max(float(half.max()), -float(half.min()))
                 if largest <= _SMALL_ANGLE:
-                    u = np.multiply(half, half, out=half)
-                    ds *= _series(u, _SINC[: _terms(largest, _SINC)], np.empty_like(u))
+                    sq = np.multiply(half, half, out=half)
+                    ds *= _series(sq, _SINC[: _terms(largest, _SINC)], np.empty_like(sq))
                 else:
                     with np.errstate(invalid="ignore", divide="ignore"):
                         ds *= np.where(half == 0, 1.0, np.sin(half) / half)
-            largest = max(float(mid.max()), -float(mid.min()))
-            if largest <= _SMALL_ANGLE:
-                u = np.multiply(mid, mid, out=dth)
-                cos_m = _series(u, _COS[: _terms(largest, _COS)], np.empty_like(u))
-                sin_m = _series(u, _SINC[: _terms(largest, _SINC)], np.empty_like(u))
-                sin_m *= mid
-            else:
-                cos_m, sin_m = np.cos(mid), np.sin(mid)
-            cos_m *= ds
-            sin_m *= ds
-            x0, y0, th0 = pose[lo:hi, 0], pose[lo:hi, 1], pose[lo:hi, 2]
+            noise_heading = _accumulate(eta)  # sum_{j<=k} eta_j
+            e = np.multiply(eta, -0.5, out=eta)
+            e += noise_heading
             c0, s0 = np.cos(th0), np.sin(th0)
-            if wanted is not None:
+            x0, y0 = pose[lo:hi, 0], pose[lo:hi, 1]
+            uniform = bool(delta.min() == delta.max())
+            if uniform:
+                cos_m, sin_m = _cos_sin(e)
+                mbar = middle * float(delta[0])
+                col_c, col_s = np.cos(mbar), np.sin(mbar)
+                cos_m *= ds
+                sin_m *= ds
+                # sums over the increments as matrix-vector products
+                sx = col_c @ cos_m - col_s @ sin_m
+                sy = col_s @ cos_m + col_c @ sin_m
+                if wanted is not None:  # (cos, sin)(mbar + e) ds, increment by increment
+                    cos_m, sin_m = (
+                        cos_m * col_c[:, None] - sin_m * col_s[:, None],
+                        sin_m * col_c[:, None] + cos_m * col_s[:, None],
+                    )
+            else:
+                mid = np.multiply.outer(middle, delta)
+                mid += e
+                cos_m, sin_m = _cos_sin(mid)
+                cos_m *= ds
+                sin_m *= ds
+                sx, sy = cos_m.sum(axis=0), sin_m.sum(axis=0)
+            if wanted is not None and traj is not None:
                 cols, at = wanted
                 cx = _accumulate(cos_m)[at]
                 cy = _accumulate(sin_m)[at]
                 traj[lo:hi, cols, 0] = (x0 + c0 * cx - s0 * cy).T
                 traj[lo:hi, cols, 1] = (y0 + s0 * cx + c0 * cy).T
-                traj[lo:hi, cols, 2] = (th0 + rel[at]).T
-            sx, sy = cos_m.sum(axis=0), sin_m.sum(axis=0)
+                heading = np.multiply.outer(at + 1.0, delta)
+                heading += noise_heading[at]
+                traj[lo:hi, cols, 2] = (th0 + heading).T
             pose[lo:hi, 0] += c0 * sx - s0 * sy
             pose[lo:hi, 1] += s0 * sx + c0 * sy
-            pose[lo:hi, 2] += rel[-1]
         start += n
 
 

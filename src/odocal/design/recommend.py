@@ -36,7 +36,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.model import ModelError
-from ..core.stats import TTest, student_t_sf, ttest_from_stats, ttest_paired
+from ..core.stats import TTest, student_t_quantile, student_t_sf, ttest_from_stats, ttest_paired
 
 __all__ = [
     "CRITERIA",
@@ -310,45 +310,71 @@ def pick_spread(
         X[i, : s.size] = s
     n_trials = X.shape[1]
     scale = 1.0 - tolerance
+    # centred on each candidate's mean, so that the moments below lose no digits to cancellation
+    centre = np.array([np.mean(s[np.isfinite(s)]) if np.isfinite(s).any() else 0.0 for s in X])
+    quantiles: dict[float, float] = {}  # lower alpha-quantile of Student's t, per df
+
+    def below(t: float, df: float) -> bool:
+        """P(T <= t) < alpha for Student's t with ``df`` degrees of freedom."""
+        if df not in quantiles:
+            quantiles[df] = student_t_quantile(alpha, df)
+        return t < quantiles[df]
+
     counts: dict[int, int] = {}
     for _ in range(resamples):
         if paired:
             Xb = X[:, rng.integers(0, n_trials, n_trials)]
         else:
             Xb = np.take_along_axis(X, rng.integers(0, n_trials, X.shape), axis=1)
-        ok = np.isfinite(Xb)
-        n = ok.sum(axis=1)
-        mean = np.where(ok, Xb, 0.0).sum(axis=1) / np.maximum(n, 1)
-        var = np.where(ok, (Xb - mean[:, None]) ** 2, 0.0).sum(axis=1) / np.maximum(n - 1, 1)
-        pick_cache: dict[tuple[int, int], bool] = {}
-
-        def beats(j: int, i: int, Xb=Xb, ok=ok, mean=mean, var=var, n=n, cache=pick_cache) -> bool:
-            if (j, i) in cache:
-                return cache[j, i]
-            if paired:
-                both = ok[j] & ok[i]
-                d = Xb[j, both] - scale * Xb[i, both]
-                m = d.size
-                sd = float(d.std(ddof=1)) if m > 1 else 0.0
-                if sd > 0:
-                    p = student_t_sf(-float(d.mean()) / (sd / math.sqrt(m)), m - 1)  # P(T <= t)
-                else:
-                    p = 0.0 if m and float(d.mean()) < 0 else 1.0
-            else:
-                va, vb = var[j] / n[j], scale**2 * var[i] / n[i]
-                se = math.sqrt(va + vb)
-                diff = mean[j] - scale * mean[i]
-                den = va**2 / (n[j] - 1) + vb**2 / (n[i] - 1)
-                df = (va + vb) ** 2 / den if den > 0 else float(n[j] + n[i] - 2)
-                p = student_t_sf(-diff / se, df) if se > 0 else (0.0 if diff < 0 else 1.0)
-            cache[j, i] = p < alpha
-            return cache[j, i]
-
+        beats = _resample_rule(Xb, centre, scale, paired, alpha, below)
         index, _ = _pick(view, usable, beats)
         counts[index] = counts.get(index, 0) + 1
     return tuple(
         sorted(((i, k / resamples) for i, k in counts.items()), key=lambda x: (-x[1], x[0]))
     )
+
+
+def _resample_rule(Xb, centre, scale: float, paired: bool, alpha: float, below):
+    """``beats(j, i)`` of the rule on one resample ``Xb`` (candidates x trials, NaN where a trial
+    failed): the moments of every candidate (Welch) or of every pair's differences (paired) at
+    once, the test decided per pair when :func:`_pick` asks."""
+    ok = np.isfinite(Xb)
+    w = ok.astype(float)
+    z = np.where(ok, Xb - centre[:, None], 0.0)
+    n = ok.sum(axis=1)
+    if paired:
+        # d = x_j - scale x_i over the trials both have, for every pair (j, i) at once
+        m = w @ w.T
+        z2 = z * z
+        sum_d = z @ w.T - scale * (w @ z.T)
+        sum_d2 = z2 @ w.T - 2.0 * scale * (z @ z.T) + scale**2 * (w @ z2.T)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean_d = sum_d / m + (centre[:, None] - scale * centre[None, :])
+            var_d = np.maximum(sum_d2 - sum_d**2 / m, 0.0) / (m - 1)
+            t_d = mean_d / np.sqrt(var_d / m)
+
+        def beats_paired(j: int, i: int) -> bool:
+            mj = int(m[j, i])
+            if mj > 1 and var_d[j, i] > 0:
+                return below(float(t_d[j, i]), mj - 1)
+            return bool(mj and mean_d[j, i] < 0)
+
+        return beats_paired
+    mean = z.sum(axis=1) / np.maximum(n, 1)  # about the centre
+    var = ((z - mean[:, None]) ** 2 * w).sum(axis=1) / np.maximum(n - 1, 1)
+    mean = mean + centre
+
+    def beats_welch(j: int, i: int) -> bool:
+        va, vb = var[j] / n[j], scale**2 * var[i] / n[i]
+        se = math.sqrt(va + vb)
+        diff = mean[j] - scale * mean[i]
+        if not se > 0:
+            return bool(diff < 0)
+        den = va**2 / (n[j] - 1) + vb**2 / (n[i] - 1)
+        df = (va + vb) ** 2 / den if den > 0 else float(n[j] + n[i] - 2)
+        return student_t_sf(-diff / se, df) < alpha
+
+    return beats_welch
 
 
 def spread_range(candidates: Sequence, spread, coverage: float = 0.9) -> tuple[int, ...]:

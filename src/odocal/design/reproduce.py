@@ -18,12 +18,14 @@ change when another part changes.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from ..core.model import MeasurementNoise, Robot
+from ..core.parallel import run_tasks
 from ..core.stats import ttest_from_stats
 from ..presets import PRESETS
 from .metrics import LegHeadingCurve, leg_heading_curve
@@ -308,49 +310,50 @@ def reproduce(
 ) -> Reproduction:
     """Regenerate the paper's simulations and predict its experiment (module docstring)."""
     streams = np.random.default_rng(seed).spawn(5)
-    total, done = 5, 0
+    squares: dict[str, Any] = {"sides": (4,), "side_lengths_m": SQUARE_SIDES_M, "trials": trials}
+    octagons: dict[str, Any] = {
+        "sides": (8,),
+        "side_lengths_m": SQUARE_SIDES_M * 4 / 8,
+        "trials": trials,
+    }
+    fig5_robot, experiment_robot = PRESETS["paper-fig5"], PRESETS["paper-experiment"]
+    instrument_robot = with_heading_instrument(fig5_robot, INSTRUMENT_SIGMA_THETA_DEG)
+    # independent pieces (each with its own stream), on the cores there are; longest first
+    tasks: dict[str, Callable[[], Any]] = {
+        "precision": lambda: precision_sweep(fig5_robot),
+        "Fig. 5": lambda: run_design(fig5_robot, streams[0], **squares, settings=settings),
+        "Fig. 6": lambda: run_design(fig5_robot, streams[1], **octagons, settings=settings),
+        "instrument sensitivity": lambda: run_design(
+            instrument_robot, streams[4], **squares, settings=settings
+        ),
+        "Fig. 9": lambda: run_design(experiment_robot, streams[2], **squares, settings=settings),
+        "Tables 1-3": lambda: predict_experiment(
+            experiment_robot, streams[3], trials, settings=settings
+        ),
+    }
+    names = list(tasks)
+    finished = 0
 
-    def step(label: str) -> None:
-        nonlocal done
-        done += 1
+    def step(i: int) -> None:
+        nonlocal finished
+        finished += 1
         if progress is not None:
-            progress(done, total, label)
+            progress(finished, len(names), names[i])
 
-    fig5 = run_design(
-        PRESETS["paper-fig5"], streams[0], sides=(4,), side_lengths_m=SQUARE_SIDES_M,
-        trials=trials, settings=settings,
-    )  # fmt: skip
-    step("Fig. 5")
-    fig6 = run_design(
-        PRESETS["paper-fig5"], streams[1], sides=(8,), side_lengths_m=SQUARE_SIDES_M * 4 / 8,
-        trials=trials, settings=settings,
-    )  # fmt: skip
-    step("Fig. 6")
-    fig9 = run_design(
-        PRESETS["paper-experiment"], streams[2], sides=(4,), side_lengths_m=SQUARE_SIDES_M,
-        trials=trials, settings=settings,
-    )  # fmt: skip
-    step("Fig. 9")
-    experiment = predict_experiment(
-        PRESETS["paper-experiment"], streams[3], trials, settings=settings
+    results: dict[str, Any] = dict(
+        zip(names, run_tasks(list(tasks.values()), done=step), strict=True)
     )
-    step("Tables 1-3")
-    instrument = run_design(
-        with_heading_instrument(PRESETS["paper-fig5"], INSTRUMENT_SIGMA_THETA_DEG), streams[4],
-        sides=(4,), side_lengths_m=SQUARE_SIDES_M, trials=trials, settings=settings,
-    )  # fmt: skip
-    step("instrument sensitivity")
     return Reproduction(
         trials,
         seed,
         leg_heading_curve(PRESETS["paper-fig3"], FIG3_SIDES_M),
-        fig5,
-        fig6,
-        leg_heading_curve(PRESETS["paper-experiment"], FIG3_SIDES_M),
-        fig9,
-        experiment,
-        instrument,
-        precision_sweep(PRESETS["paper-fig5"]),
+        results["Fig. 5"],
+        results["Fig. 6"],
+        leg_heading_curve(experiment_robot, FIG3_SIDES_M),
+        results["Fig. 9"],
+        results["Tables 1-3"],
+        results["instrument sensitivity"],
+        results["precision"],
     )
 
 

@@ -20,6 +20,8 @@ that returns one of these (called when its file is staged).
 
 from __future__ import annotations
 
+import functools
+import io
 import os
 import signal
 import tempfile
@@ -29,6 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
 
+from ..core.parallel import run_tasks
 from ..errors import InputError
 
 __all__ = ["OutputPlan", "Savable", "Content"]
@@ -291,6 +294,7 @@ class OutputPlan:
         created: list[Path] = []
         staged: list[tuple[Path, Path]] = []
         try:
+            contents = _render_figures(contents)
             for o in self._outputs:
                 if o.is_folder and not o.path.is_dir():
                     _make_folder(o.path, o.flag, created)
@@ -343,22 +347,40 @@ def _make_folder(path: Path, flag: str, created: list[Path]) -> None:
         created.append(p)
 
 
-def _stage(path: Path, content: Content) -> Path:
+def _render_figures(contents: Mapping[Path, Content]) -> Mapping[Path, Content]:
+    """``contents`` with its figures rendered to PNG bytes: several at once, each in a worker
+    process of its own where there are cores for it (:func:`odocal.core.parallel.run_tasks`)."""
+    figures = [p for p, c in contents.items() if not isinstance(c, str | bytes)]
+    if len(figures) < 2:
+        return contents
+    pngs = run_tasks([functools.partial(_png, contents[p]) for p in figures])
+    return {**contents, **dict(zip(figures, pngs, strict=True))}
+
+
+def _png(content: Content) -> str | bytes:
+    """Text or bytes as they are; a figure (or a function making one, called only now, so that
+    many figures never sit in memory at once) as PNG bytes, without a software version or date
+    inside: the same command writes the same bytes."""
     if callable(content) and not hasattr(content, "savefig"):
-        content = content()  # made only now, so that many figures never sit in memory at once
+        content = content()
+    if isinstance(content, str | bytes):
+        return content
+    buffer = io.BytesIO()
+    content.savefig(buffer, format="png", metadata=PNG_METADATA)
+    return buffer.getvalue()
+
+
+def _stage(path: Path, content: Content) -> Path:
+    content = _png(content)
     fd, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     tmp = Path(name)
     try:
         if isinstance(content, str):
             with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
                 fh.write(content)
-        elif isinstance(content, bytes):
+        else:
             with os.fdopen(fd, "wb") as fh:
                 fh.write(content)
-        else:
-            os.close(fd)
-            # no software version (nor date) inside: the same command writes the same bytes
-            content.savefig(tmp, format="png", metadata=PNG_METADATA)
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise

@@ -1,0 +1,64 @@
+"""odocal.core.parallel: independent tasks on worker processes, results in order."""
+
+import os
+
+import numpy as np
+import pytest
+
+from odocal.core import parallel
+from odocal.core.parallel import run_tasks, shared_zeros
+
+
+@pytest.mark.parametrize("share", [False, True])
+def test_results_in_order_from_worker_processes(monkeypatch, share):
+    monkeypatch.setenv("ODOCAL_THREADS", "2")
+    done = []
+    tasks = [lambda i=i: (i, os.getpid()) for i in range(5)]
+    out = run_tasks(tasks, done=done.append, share=share)
+    assert [i for i, _ in out] == list(range(5))
+    assert sorted(done) == list(range(5))
+    pids = {pid for _, pid in out}
+    if parallel.can_fork():
+        assert pids - {os.getpid()}  # some ran elsewhere
+        assert (os.getpid() in pids) == share  # with share, this process ran the first task
+    assert parallel._TASKS == ()
+
+
+def test_one_worker_runs_here_in_order(monkeypatch):
+    monkeypatch.setenv("ODOCAL_THREADS", "1")
+    seen = []
+    out = run_tasks([lambda i=i: seen.append(i) or os.getpid() for i in range(3)])
+    assert seen == [0, 1, 2] and set(out) == {os.getpid()}
+
+
+def test_a_failing_task_raises_here(monkeypatch):
+    monkeypatch.setenv("ODOCAL_THREADS", "2")
+
+    def bad():
+        raise ValueError("task 1 failed")
+
+    with pytest.raises(ValueError, match="task 1 failed"):
+        run_tasks([lambda: 1, bad, lambda: 3])
+    assert parallel._TASKS == ()
+
+
+def test_workers_write_into_shared_memory(monkeypatch):
+    monkeypatch.setenv("ODOCAL_THREADS", "2")
+    a = shared_zeros((4, 3))
+    assert a.shape == (4, 3) and np.all(a == 0)
+
+    def fill(i):
+        a[i] = i + 1
+
+    run_tasks([lambda i=i: fill(i) for i in range(4)])
+    np.testing.assert_array_equal(a[:, 0], [1, 2, 3, 4])
+
+
+def test_no_nesting_inside_a_worker(monkeypatch):
+    monkeypatch.setenv("ODOCAL_THREADS", "2")
+
+    def inner():
+        return run_tasks([os.getpid, os.getpid])  # runs in the worker itself
+
+    for pids in run_tasks([inner, inner]):
+        assert len(set(pids)) == 1
