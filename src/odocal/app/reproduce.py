@@ -107,6 +107,14 @@ def real_experiment(
     )
 
 
+def _import_plotting() -> None:
+    from ..plot._figure import require_matplotlib
+    from ..plot.design import reproduce_figures  # noqa: F401
+    from ..plot.real_experiment import real_figures  # noqa: F401
+
+    require_matplotlib()
+
+
 def reproduce(
     out: str | Path | None,
     *,
@@ -121,14 +129,17 @@ def reproduce(
     into the folder ``out`` (all files or none; nothing without ``out``)."""
     plan = OutputPlan([realdata] if realdata is not None else [])
     folder = None
+    warm_up = None
     if out is not None:
         from ..plot._figure import require_matplotlib
 
-        # fail early, before the computation, when matplotlib is missing or the folder is unusable
-        require_matplotlib()
+        # fail early, before the computation, when matplotlib is missing or the folder is
+        # unusable; import it while worker processes compute
+        require_matplotlib(load=False)
         folder = plan.folder(out, "--out")
+        warm_up = _import_plotting
     start = time.perf_counter()
-    rep = reproduce_paper(trials, seed, progress=progress) if paper else None
+    rep = reproduce_paper(trials, seed, progress=progress, meanwhile=warm_up) if paper else None
     real = real_experiment(realdata, trials=trials, seed=seed) if realdata is not None else None
     elapsed = time.perf_counter() - start
     if folder is None:

@@ -73,16 +73,20 @@ def run_tasks(
     done: Callable[[int], None] | None = None,
     *,
     share: bool = False,
+    meanwhile: Callable[[], object] | None = None,
 ) -> list[T]:
     """The results of ``tasks`` (zero-argument callables), in order (module docstring).
 
     ``share``: this process runs the first task itself meanwhile, with one worker process fewer
-    (for tasks of about equal work). ``done(i)`` is called here as task ``i`` finishes (for a
-    progress display). An exception in a task is raised here; an interruption here (Ctrl-C, an
-    exception) ends the workers at once."""
+    (for tasks of about equal work). ``meanwhile``: something else for this process to do while
+    the workers work (called once in any case). ``done(i)`` is called here as task ``i``
+    finishes (for a progress display). An exception in a task is raised here; an interruption
+    here (Ctrl-C, an exception) ends the workers at once."""
     global _TASKS
     n = min(len(tasks), workers() if max_workers is None else max_workers)
     if n <= 1 or not can_fork():  # inside a worker too: no nesting
+        if meanwhile is not None:
+            meanwhile()
         results = []
         for i, task in enumerate(tasks):
             results.append(task())
@@ -97,6 +101,8 @@ def run_tasks(
     try:
         with mp.get_context("fork").Pool(n - first, initializer=_quiet_worker) as pool:
             pending = pool.imap_unordered(_indexed, range(first, len(tasks)))
+            if meanwhile is not None:
+                meanwhile()
             if share:
                 out[0] = tasks[0]()
                 if done is not None:

@@ -197,17 +197,21 @@ def precision_sweep(
     """Recommended square size per instrument precision, by the analytic design (first order;
     expected values, so the curve shows the trend without Monte-Carlo scatter). ``trials`` is
     ignored (kept for callers of earlier versions)."""
-    from .analytic import analytic_design_result
+    from ..core.tracks import polygon
+    from .analytic import analytic_design
 
     side_lengths_m = SQUARE_SIDES_M if side_lengths_m is None else side_lengths_m
     out: dict = {}
     for sxy, sth in levels:
         r = dataclasses.replace(robot, measurement=MeasurementNoise.from_degrees(sxy, sth))
         for method in ("heading", "umbmark"):
-            res = analytic_design_result(r, side_lengths_m=side_lengths_m, method=method)
+            # the candidates of `design --analytic` (squares, 4 m validation square)
+            candidates = analytic_design(
+                r, 4, side_lengths_m, method=method, validate_track=polygon(4, 4.0, "ccw")
+            )
             for criterion in ("error", "residual"):
-                idx = recommend(res.candidates, 0.05, 0.05, criterion).index
-                out.setdefault((method, criterion), []).append(res.candidates[idx].side_m)
+                idx = recommend(candidates, 0.05, 0.05, criterion).index
+                out.setdefault((method, criterion), []).append(candidates[idx].side_m)
     return PrecisionSweep(tuple(levels), {k: tuple(v) for k, v in out.items()})
 
 
@@ -307,8 +311,10 @@ def reproduce(
     seed: int = 0,
     settings: SimulationSettings = FAST,
     progress: Progress | None = None,
+    meanwhile: Callable[[], object] | None = None,
 ) -> Reproduction:
-    """Regenerate the paper's simulations and predict its experiment (module docstring)."""
+    """Regenerate the paper's simulations and predict its experiment (module docstring).
+    ``meanwhile``: other work for this process while worker processes compute (run once)."""
     streams = np.random.default_rng(seed).spawn(5)
     squares: dict[str, Any] = {"sides": (4,), "side_lengths_m": SQUARE_SIDES_M, "trials": trials}
     octagons: dict[str, Any] = {
@@ -341,7 +347,7 @@ def reproduce(
             progress(finished, len(names), names[i])
 
     results: dict[str, Any] = dict(
-        zip(names, run_tasks(list(tasks.values()), done=step), strict=True)
+        zip(names, run_tasks(list(tasks.values()), done=step, meanwhile=meanwhile), strict=True)
     )
     return Reproduction(
         trials,

@@ -36,9 +36,16 @@ def new_figure(width: float = 7.0, height: float = 4.4, dpi: float = 120) -> Any
     return fig
 
 
-def require_matplotlib() -> None:
-    """Raise the one-line install hint unless matplotlib can be imported (check before work)."""
-    new_figure()
+def require_matplotlib(load: bool = True) -> None:
+    """Raise the one-line install hint unless matplotlib can be imported (check before work).
+    ``load`` False: only look for it (no import; the import can then overlap other work)."""
+    if load:
+        new_figure()
+        return
+    import importlib.util
+
+    if importlib.util.find_spec("matplotlib") is None:
+        raise OdocalError(INSTALL_HINT)
 
 
 #: One colour and one name per calibration method, in every figure (``odocal compare``, the

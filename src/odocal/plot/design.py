@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from functools import partial
 
 import numpy as np
 
@@ -377,7 +378,7 @@ def precision_figure(sweep, title: str):
 
 def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
     """The paper's figures from a :class:`odocal.design.reproduce.Reproduction`:
-    key -> (file name, figure)."""
+    key -> (file name, a function drawing the figure: drawn when written, several at once)."""
     from ..design.reproduce import INSTRUMENT_SIGMA_THETA_DEG, PAPER
     from ..presets import PRESETS
 
@@ -394,7 +395,8 @@ def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
     )
     files["fig4"] = (
         "fig4_systematic_share.png",
-        share_figure(
+        partial(
+            share_figure,
             rep.fig3,
             f"Fig. 4: systematic share ({cond('paper-fig3')})",
             paper_share=PAPER["fig4_share_at_4m"],
@@ -403,7 +405,8 @@ def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
     f5 = rep.fig5
     files["fig5"] = (
         "fig5_square_post_error.png",
-        post_error_figure(
+        partial(
+            post_error_figure,
             [("square", f5.candidates, f5.recommended, shape_colour(4), "-")],
             f"Fig. 5: square test tracks\n{cond('paper-fig5')}\n{_how(f5)}",
             x="side",
@@ -416,7 +419,8 @@ def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
     f6 = rep.fig6
     files["fig6"] = (
         "fig6_octagon_post_error.png",
-        post_error_figure(
+        partial(
+            post_error_figure,
             [
                 ("square (Fig. 5)", f5.candidates, f5.recommended, shape_colour(4), "-"),
                 ("octagon", f6.candidates, f6.recommended, shape_colour(8), "-"),
@@ -431,7 +435,8 @@ def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
     )
     files["fig8"] = (
         "fig8_systematic_share_experiment.png",
-        share_figure(
+        partial(
+            share_figure,
             rep.fig8,
             f"Fig. 8: systematic share ({cond('paper-experiment')})",
             paper_share=PAPER["fig8_share_at_4m"],
@@ -440,7 +445,8 @@ def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
     f9 = rep.fig9
     files["fig9"] = (
         "fig9_experiment_post_error.png",
-        post_error_figure(
+        partial(
+            post_error_figure,
             [("square", f9.candidates, f9.recommended, shape_colour(4), "-")],
             f"Fig. 9: experimental robot\n{cond('paper-experiment')}\n{_how(f9)}",
             x="side",
@@ -453,7 +459,8 @@ def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
     fi = rep.instrument
     files["fig5_instrument"] = (
         "fig5_instrument_post_error.png",
-        post_error_figure(
+        partial(
+            post_error_figure,
             [
                 (
                     "square, perfect instrument (Fig. 5)",
@@ -481,7 +488,8 @@ def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
     r5 = PRESETS["paper-fig5"].systematic
     files["fig5_calibration"] = (
         "fig5_calibrated_factors.png",
-        calibration_figure(
+        partial(
+            calibration_figure,
             f5.candidates,
             f"Calibrated factors on square tracks ({cond('paper-fig5')})",
             truth=(r5.E_b, r5.E_d),
@@ -490,7 +498,8 @@ def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
     if rep.precision is not None:
         files["precision"] = (
             "precision_recommended_size.png",
-            precision_figure(
+            partial(
+                precision_figure,
                 rep.precision,
                 f"Recommended track size vs instrument precision\n{cond('paper-fig5')}",
             ),

@@ -3,6 +3,8 @@ per band of motion (``odocal fit --plot``)."""
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 
 from ._figure import method_style, new_figure
@@ -195,12 +197,14 @@ def wheelbase_bands_figure(
 
 
 def real_figures(exp) -> dict[str, tuple[str, object]]:
-    """key -> (file name, figure) for the real experiment."""
+    """key -> (file name, a function drawing the figure) for the real experiment (drawn when
+    written, several at once)."""
     a, b = exp.sides_m
     return {
         "real_design": (
             "real_design_vs_real.png",
-            design_vs_real_figure(
+            partial(
+                design_vs_real_figure,
                 exp,
                 f"OptiOdom robot: the design's prediction against the real calibrations\n"
                 f"validation: {len(exp.heldout_names)} held-out runs, {exp.prediction.trials} "
@@ -209,11 +213,12 @@ def real_figures(exp) -> dict[str, tuple[str, object]]:
         ),
         "real_gain": (
             "real_turning_gain.png",
-            gain_figure(exp, "Held-out error against the turning gain mean(D)/b"),
+            partial(gain_figure, exp, "Held-out error against the turning gain mean(D)/b"),
         ),
         "real_bands": (
             "real_effective_wheelbase.png",
-            wheelbase_bands_figure(
+            partial(
+                wheelbase_bands_figure,
                 exp.turning,
                 "Effective wheelbase per band of motion (at the diameters of odocal's fit)",
             ),
