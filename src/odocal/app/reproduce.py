@@ -6,15 +6,18 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..design.real_experiment import RealExperiment, experiment_dict, run_real_experiment
 from ..design.reproduce import Reproduction
 from ..design.reproduce import reproduce as reproduce_paper
 from ..design.sweep import Progress
 from ..io.outputs import OutputPlan
 from ..io.report import real_experiment_markdown, reproduce_markdown
+
+if TYPE_CHECKING:
+    from ..design.real_experiment import RealExperiment
 
 __all__ = ["ReproduceResult", "reproduce", "real_experiment"]
 
@@ -50,6 +53,8 @@ class ReproduceResult:
                 for name, c in (("fig5", rep.fig5), ("fig6", rep.fig6), ("fig9", rep.fig9))
             }
         if self.real is not None:
+            from ..design.real_experiment import experiment_dict
+
             out["real_experiment"] = experiment_dict(self.real)
         out["written"] = [str(p) for p in ([self.report] if self.report else [])] + [
             str(p) for p in self.figures.values()
@@ -64,7 +69,12 @@ def real_experiment(
     (:mod:`odocal.design.real_experiment`; the split: :func:`load_optiodom_experiment`)."""
     from ..app.measured import measure_robot
     from ..calibration.trajectory import fit_trajectory
-    from ..design.real_experiment import BOOTSTRAP, GainPoint, heldout_errors
+    from ..design.real_experiment import (
+        BOOTSTRAP,
+        GainPoint,
+        heldout_errors,
+        run_real_experiment,
+    )
     from ..io.optiodom import load_optiodom_experiment, read_published
 
     by_side, ivanjko, heldout, split = load_optiodom_experiment(realdata)

@@ -344,10 +344,16 @@ def _resample_rule(Xb, centre, scale: float, paired: bool, alpha: float, below):
     n = ok.sum(axis=1)
     if paired:
         # d = x_j - scale x_i over the trials both have, for every pair (j, i) at once
-        m = w @ w.T
         z2 = z * z
-        sum_d = z @ w.T - scale * (w @ z.T)
-        sum_d2 = z2 @ w.T - 2.0 * scale * (z @ z.T) + scale**2 * (w @ z2.T)
+        if ok.all():  # every trial of every candidate: sums over all trials
+            m = np.full((len(z), len(z)), float(z.shape[1]))
+            s1, s2 = z.sum(axis=1), z2.sum(axis=1)
+            sum_d = s1[:, None] - scale * s1[None, :]
+            sum_d2 = s2[:, None] - 2.0 * scale * (z @ z.T) + scale**2 * s2[None, :]
+        else:
+            m = w @ w.T
+            sum_d = z @ w.T - scale * (w @ z.T)
+            sum_d2 = z2 @ w.T - 2.0 * scale * (z @ z.T) + scale**2 * (w @ z2.T)
         with np.errstate(invalid="ignore", divide="ignore"):
             mean_d = sum_d / m + (centre[:, None] - scale * centre[None, :])
             var_d = np.maximum(sum_d2 - sum_d**2 / m, 0.0) / (m - 1)

@@ -4,6 +4,7 @@ caller's business (``odocal.io.outputs``)."""
 
 from __future__ import annotations
 
+import functools
 from typing import Any
 
 from ..errors import OdocalError
@@ -28,12 +29,30 @@ def new_figure(width: float = 7.0, height: float = 4.4, dpi: float = 120) -> Any
     """A new ``matplotlib.figure.Figure`` (inches, constrained layout) on an Agg canvas."""
     try:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
     except ImportError:
         raise OdocalError(INSTALL_HINT) from None
-    fig = Figure(figsize=(width, height), dpi=dpi, layout="constrained")
+    fig = _figure_class()(figsize=(width, height), dpi=dpi, layout="constrained")
     FigureCanvasAgg(fig)
     return fig
+
+
+@functools.cache
+def _figure_class() -> type:
+    from matplotlib.figure import Figure
+
+    class LaidOutOnce(Figure):
+        """A Figure whose ``savefig`` lays it out once, then draws it once: matplotlib's own
+        ``savefig`` of a constrained layout draws the whole figure twice (once to lay it out);
+        the same pixels either way."""
+
+        def savefig(self, *args: Any, **kwargs: Any) -> None:
+            engine = self.get_layout_engine()
+            if engine is not None:
+                engine.execute(self)
+                self.set_layout_engine("none")
+            super().savefig(*args, **kwargs)
+
+    return LaidOutOnce
 
 
 def require_matplotlib(load: bool = True) -> None:
