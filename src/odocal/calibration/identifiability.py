@@ -36,7 +36,6 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy.linalg import cho_factor, cho_solve
 
 from ..core.model import MeasurementNoise, NonSystematicError, WheelGeometry
 from ..core.odometry import dead_reckon
@@ -570,6 +569,8 @@ def _noise_covariance(
 
 def _solve_psd(S, X):
     """S^-1 X for a covariance S (pseudo-inverse when singular, e.g. no noise at all)."""
+    from scipy.linalg import cho_factor, cho_solve  # here: scipy.linalg takes long to import
+
     try:
         return cho_solve(cho_factor(S, lower=True, check_finite=False), X, check_finite=False)
     except np.linalg.LinAlgError:

@@ -26,11 +26,14 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..errors import CalibrationError, ModelError
+
+if TYPE_CHECKING:
+    from scipy.spatial import cKDTree
 
 __all__ = [
     "ScanMatch",
@@ -236,6 +239,8 @@ def prepare_scan(
     """
     if normal_neighbors < 3:
         raise ModelError(f"normal_neighbors must be >= 3, got {normal_neighbors}")
+    from scipy.spatial import cKDTree  # here: scipy.spatial takes long to import
+
     p = _check_points("reference scan", points_m)
     tree = cKDTree(p)
     k = min(normal_neighbors, p.shape[0])

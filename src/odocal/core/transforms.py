@@ -45,11 +45,22 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from ..errors import InputError, ModelError
+
+if TYPE_CHECKING:
+    from scipy.spatial.transform import Rotation
+
+
+def _rotation():
+    """scipy's Rotation class, imported when first needed (scipy.spatial takes long to import)."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation
+
 
 __all__ = [
     "RigidTransforms",
@@ -143,7 +154,7 @@ class RigidTransforms:
             m = m[None]
         if m.ndim != 3 or m.shape[1:] != (4, 4):
             raise ModelError(f"matrices must have shape (n, 4, 4), got {np.shape(matrix)}")
-        return cls(m[:, :3, 3], Rotation.from_matrix(m[:, :3, :3]).as_quat())
+        return cls(m[:, :3, 3], _rotation().from_matrix(m[:, :3, :3]).as_quat())
 
     def __len__(self) -> int:
         return len(self.translation_m)
@@ -157,7 +168,7 @@ class RigidTransforms:
     def rotation(self) -> Rotation:
         """The rotations as one scipy ``Rotation`` (n rotations)."""
         # scipy's compiled routines refuse read-only buffers: hand them a copy
-        return Rotation.from_quat(np.array(self.quaternion_xyzw))
+        return _rotation().from_quat(np.array(self.quaternion_xyzw))
 
     def matrix(self) -> np.ndarray:
         """Homogeneous matrices, shape (n, 4, 4)."""
@@ -367,7 +378,7 @@ class _Edge:
         keep = np.r_[True, np.diff(t) > 0]  # equal stamps: keep the first, as tf2 does
         self.repeated = int((~keep).sum())
         self.time_s, self.translation_m, self.quaternion_xyzw = t[keep], tr[keep], q[keep]
-        self.rotation = Rotation.from_quat(self.quaternion_xyzw)
+        self.rotation = _rotation().from_quat(self.quaternion_xyzw)
         self._dirty = False
 
     def at(self, time_s: np.ndarray, tol: float, max_gap: float | None, name: str, query: str):
@@ -406,7 +417,7 @@ class _Edge:
         tr = (1.0 - w)[:, None] * self.translation_m[i] + w[:, None] * self.translation_m[i + 1]
         r0 = rot[i]
         delta = (r0.inv() * rot[i + 1]).as_rotvec()  # angle <= pi: the shorter arc
-        return tr, r0 * Rotation.from_rotvec(w[:, None] * delta)
+        return tr, r0 * _rotation().from_rotvec(w[:, None] * delta)
 
 
 def _frame(name: str, what: str) -> str:
@@ -618,7 +629,7 @@ class TransformBuffer:
         if n == 0:
             raise ModelError("no query times")
         trans = np.zeros((n, 3))
-        rot = Rotation.identity(n)
+        rot = _rotation().identity(n)
         for s in steps:
             key = (s.to, s.frm) if s.inverted else (s.frm, s.to)
             tr_e, r_e = self._edges[key].at(
