@@ -36,9 +36,9 @@ from ..io.bags import (
     imu_series,
     is_bag,
     joint_series,
-    list_topics,
     pick_topic,
     pose_series,
+    present,
     read_bag,
     scan_series,
     static_rotation,
@@ -577,15 +577,22 @@ def _fit_scan(
 def _scan_intervals(path, nominal, ticks_per_rev, bag_options: dict, interval_s: float) -> dict:
     """Wheel rotations and scan-matched laser motions over intervals of one bag."""
     p = check_bag_path(path)
-    info = list_topics(p)
-    jt = pick_topic(
-        info, bag_options.get("joint_topic"), (JOINT_STATE,), "wheel joints", p, "--joint-topic"
-    )
-    st = pick_topic(
-        info, bag_options.get("scan_topic"), (LASER_SCAN,), "laser scans", p, "--scan-topic"
-    )
-    names = {t.name for t in info}
-    bag = read_bag(p, [jt, st] + [t for t in ("/tf", "/tf_static") if t in names])
+
+    def choose(info):
+        opt = bag_options.get
+        return {
+            "joints": pick_topic(
+                info, opt("joint_topic"), (JOINT_STATE,), "wheel joints", p, "--joint-topic"
+            ),
+            "scan": pick_topic(
+                info, opt("scan_topic"), (LASER_SCAN,), "laser scans", p, "--scan-topic"
+            ),
+            "tf": present(info, "/tf"),
+            "tf_static": present(info, "/tf_static"),
+        }
+
+    bag = read_bag(p, choose)
+    jt, st = bag.picked["joints"], bag.picked["scan"]
     joints = joint_series(
         bag, jt, bag_options.get("right_joint"), bag_options.get("left_joint"), ticks_per_rev
     )
@@ -757,23 +764,27 @@ def fit_gyro_bag(
     :mod:`odocal.io.bags`.
     """
     p = check_bag_path(path)
-    info = list_topics(p)
-    it = pick_topic(info, imu_topic, (IMU,), "gyro", p, "--imu-topic")
-    use_joints = joint_topic is not None
-    if odom_topic is None and joint_topic is None:
-        has_odom = any(t.msgtype == ODOMETRY for t in info)
-        has_joints = any(t.msgtype == JOINT_STATE for t in info)
-        use_joints = not has_odom and has_joints
-    if use_joints:
-        if wheel_geometry is None:
-            raise InputError(
-                "odometry from wheel joints needs the nominal wheel geometry (--robot)", p
-            )
-        src = pick_topic(info, joint_topic, (JOINT_STATE,), "wheel joints", p, "--joint-topic")
-    else:
-        src = pick_topic(info, odom_topic, (ODOMETRY,), "wheel odometry", p, "--odom-topic")
-    names = {t.name for t in info}
-    bag = read_bag(p, [it, src] + (["/tf_static"] if "/tf_static" in names else []))
+
+    def choose(info):
+        it = pick_topic(info, imu_topic, (IMU,), "gyro", p, "--imu-topic")
+        use_joints = joint_topic is not None
+        if odom_topic is None and joint_topic is None:
+            has_odom = any(t.msgtype == ODOMETRY for t in info)
+            has_joints = any(t.msgtype == JOINT_STATE for t in info)
+            use_joints = not has_odom and has_joints
+        if use_joints:
+            if wheel_geometry is None:
+                raise InputError(
+                    "odometry from wheel joints needs the nominal wheel geometry (--robot)", p
+                )
+            src = pick_topic(info, joint_topic, (JOINT_STATE,), "wheel joints", p, "--joint-topic")
+        else:
+            src = pick_topic(info, odom_topic, (ODOMETRY,), "wheel odometry", p, "--odom-topic")
+        return {"imu": it, "odometry": src, "tf_static": present(info, "/tf_static")}
+
+    bag = read_bag(p, choose)
+    it, src = bag.picked["imu"], bag.picked["odometry"]
+    use_joints = bag.msgtype(src) == JOINT_STATE
     imu = imu_series(bag, it)
     meta = {"bag": str(p), "imu_topic": it, "odom_topic": src}
     if use_joints:

@@ -26,9 +26,9 @@ from .bags import (
     check_bag_path,
     imu_series,
     joint_series,
-    list_topics,
     pick_topic,
     pose_series,
+    present,
     read_bag,
     static_rotation,
 )
@@ -169,23 +169,21 @@ def load_bag_recording(
     ``invert_right``/``invert_left`` negate a joint whose axis is mirrored. Times start at 0.
     """
     p = check_bag_path(path)
-    info = list_topics(p)
-    jt = pick_topic(info, joint_topic, (JOINT_STATE,), "wheel joints", p, "--joint-topic")
-    gt_topic = truth_topic
-    if gt_topic is None:
-        gt_topic = pick_topic(info, None, POSE_TYPES, "ground truth", p, "--truth-topic", False)
-        if gt_topic is None:
-            gt_topic = pick_topic(
-                info, None, (ODOMETRY,), "ground truth", p, "--truth-topic", False
-            )
-    else:
-        pick_topic(info, gt_topic, (*POSE_TYPES, ODOMETRY), "ground truth", p, "--truth-topic")
-    it = pick_topic(info, imu_topic, (IMU,), "gyro", p, "--imu-topic", required=False)
-    names = {t.name for t in info}
-    topics = (
-        [jt] + [t for t in (gt_topic, it) if t] + (["/tf_static"] if "/tf_static" in names else [])
-    )
-    bag = read_bag(p, topics)
+
+    def choose(info):
+        jt = pick_topic(info, joint_topic, (JOINT_STATE,), "wheel joints", p, "--joint-topic")
+        gt = truth_topic
+        if gt is None:
+            gt = pick_topic(info, None, POSE_TYPES, "ground truth", p, "--truth-topic", False)
+            if gt is None:
+                gt = pick_topic(info, None, (ODOMETRY,), "ground truth", p, "--truth-topic", False)
+        else:
+            pick_topic(info, gt, (*POSE_TYPES, ODOMETRY), "ground truth", p, "--truth-topic")
+        it = pick_topic(info, imu_topic, (IMU,), "gyro", p, "--imu-topic", required=False)
+        return {"joints": jt, "truth": gt, "imu": it, "tf_static": present(info, "/tf_static")}
+
+    bag = read_bag(p, choose)
+    jt, gt_topic, it = (bag.picked.get(k) for k in ("joints", "truth", "imu"))
     joints = joint_series(bag, jt, right_joint, left_joint, ticks_per_rev)
     t = joints.time_s
     right = joints.values["right"] * (-1.0 if invert_right else 1.0)

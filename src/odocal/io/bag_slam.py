@@ -23,8 +23,8 @@ from .bags import (
     JOINT_STATE,
     check_bag_path,
     joint_series,
-    list_topics,
     pick_topic,
+    present,
     read_bag,
     tf_messages,
     transform_buffer,
@@ -85,14 +85,17 @@ def load_slam_bag(
     ``transform_tolerance``."""
     parent, child = truth_frames
     p = check_bag_path(path)
-    info = list_topics(p)
-    jt = pick_topic(info, joint_topic, (JOINT_STATE,), "wheel joints", p, "--joint-topic")
-    names = {t.name for t in info}
-    if "/tf" not in names:
-        raise InputError(
-            f"no /tf topic: the truth frames {parent}:{child} need the SLAM pose on /tf", p
-        )
-    bag = read_bag(p, [jt, "/tf"] + (["/tf_static"] if "/tf_static" in names else []))
+
+    def choose(info):
+        jt = pick_topic(info, joint_topic, (JOINT_STATE,), "wheel joints", p, "--joint-topic")
+        if present(info, "/tf") is None:
+            raise InputError(
+                f"no /tf topic: the truth frames {parent}:{child} need the SLAM pose on /tf", p
+            )
+        return {"joints": jt, "tf": "/tf", "tf_static": present(info, "/tf_static")}
+
+    bag = read_bag(p, choose)
+    jt = bag.picked["joints"]
     joints = joint_series(bag, jt, right_joint, left_joint, ticks_per_rev)
     buf = transform_buffer(bag)
     for frame in (parent, child):

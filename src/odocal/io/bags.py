@@ -22,7 +22,7 @@ Runs are assembled from these series in :mod:`odocal.io.bag_recording`. Every pr
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -30,6 +30,7 @@ import numpy as np
 
 from ..calibration.gyro import rotation_from_quaternion
 from ..errors import InputError, OdocalError
+from .bag_decode import RECORD_TYPES, ImuRecord, OdometryRecord, decoder, record, stamp_ns
 from .limits import (
     POSITION_MAX_M,
     RATE_MAX_RAD_S,
@@ -46,6 +47,8 @@ __all__ = [
     "is_bag",
     "list_topics",
     "read_bag",
+    "TopicChoice",
+    "present",
     "check_bag_path",
     "pick_topic",
     "pose_series",
@@ -85,6 +88,8 @@ _INSTALL_HINT = (
 
 # --------------------------------------------------------------------------- opening bags
 
+_RECORDS = (ImuRecord, OdometryRecord)
+
 
 @dataclass(frozen=True)
 class TopicInfo:
@@ -105,15 +110,20 @@ class BagContents:
     topics : list of TopicInfo
         Every topic of the bag (not only the ones read).
     messages : dict
-        topic -> list of (log_time_ns, message), in recording order.
+        topic -> list of (log_time_ns, message), in recording order; ``sensor_msgs/Imu`` and
+        ``nav_msgs/Odometry`` messages as :class:`~odocal.io.bag_decode.ImuRecord` and
+        :class:`~odocal.io.bag_decode.OdometryRecord` (the fields odocal reads).
     start_ns : int
         The bag's start time (ns since the epoch); times in seconds are relative to it.
+    picked : dict
+        role -> topic, as chosen by the function given to :func:`read_bag` (else empty).
     """
 
     path: Path
     topics: list[TopicInfo]
     messages: dict
     start_ns: int
+    picked: dict = field(default_factory=dict)
 
     def msgtype(self, topic: str) -> str | None:
         return next((t.msgtype for t in self.topics if t.name == topic), None)
@@ -189,15 +199,29 @@ class _Bag:
             entry[1] += int(c.msgcount)
         return [TopicInfo(name, t, n) for name, (t, n) in sorted(counts.items())]
 
-    def read(self, topics: Iterable[str]) -> dict:
+    def read(self, topics: Iterable[str], fast: bool = True) -> dict:
+        """topic -> [(log_time_ns, message)]; Imu and Odometry as records
+        (:mod:`odocal.io.bag_decode`), decoded there unless ``fast`` is False or the message is
+        not of the standard form (then by rosbags, as every other type)."""
         wanted = set(topics)
         out: dict[str, list] = {t: [] for t in wanted}
         conns = [c for c in self.reader.connections if c.topic in wanted]
+        deserialize = self.reader.deserialize
+        ros1 = not self.reader.is2
+        decoders = {
+            c.id: decoder(c.msgtype, self.reader.typestore, ros1) if fast else None for c in conns
+        }
         topic, count = None, 0
         try:
             for conn, t_ns, raw in self.reader.messages(connections=conns):
                 topic = conn.topic
-                out[topic].append((int(t_ns), self.reader.deserialize(raw, conn.msgtype)))
+                fast_decode = decoders[conn.id]
+                msg = fast_decode(raw) if fast_decode else None
+                if msg is None:
+                    msg = deserialize(raw, conn.msgtype)
+                    if conn.msgtype in RECORD_TYPES:
+                        msg = self._record(conn.msgtype, msg, topic)
+                out[topic].append((int(t_ns), msg))
                 count += 1
         except OdocalError:
             raise
@@ -210,6 +234,17 @@ class _Bag:
             ) from None
         return out
 
+    def _record(self, msgtype: str, msg, topic: str):
+        try:
+            return record(msgtype, msg)
+        except AttributeError as exc:
+            raise InputError(
+                f"{_short(msgtype)} of a non-standard definition: it has no field '{exc.name}'",
+                self.path,
+                None,
+                topic,
+            ) from None
+
 
 def list_topics(path) -> list[TopicInfo]:
     """The topics of a bag, sorted by name."""
@@ -217,17 +252,39 @@ def list_topics(path) -> list[TopicInfo]:
         return bag.topics()
 
 
-def read_bag(path, topics: Iterable[str] = ()) -> BagContents:
-    """Read the messages of ``topics`` (names; each must exist) from a bag."""
+TopicChoice = Callable[[list[TopicInfo]], Mapping[str, str | None]]
+
+
+def read_bag(path, topics: Iterable[str] | TopicChoice = (), *, fast: bool = True) -> BagContents:
+    """Read the messages of some topics of a bag, opening it once.
+
+    ``topics``: topic names (each must exist), or a function of the bag's topic list returning
+    role -> topic name (None: that role has no topic; nothing is read for it), which picks the
+    topics on the open bag (with :func:`pick_topic`, whose errors it raises); the roles are kept
+    in :attr:`BagContents.picked`. ``fast``: decode ``sensor_msgs/Imu`` and ``nav_msgs/Odometry``
+    of the standard definition with :mod:`odocal.io.bag_decode` (the same numbers as rosbags);
+    False: every message through rosbags (the reference the tests and benchmarks compare with).
+    """
     with _Bag(path) as bag:
         info = bag.topics()
+        picked: dict[str, str] = {}
+        if callable(topics):
+            picked = {role: t for role, t in topics(info).items() if t is not None}
+            wanted = list(dict.fromkeys(picked.values()))
+        else:
+            wanted = list(topics)
         names = {t.name for t in info}
-        for t in topics:
+        for t in wanted:
             if t not in names:
                 raise InputError(f"no topic '{t}' in the bag; {_available(info)}", bag.path)
-        messages = bag.read(topics)
+        messages = bag.read(wanted, fast)
         start = int(bag.reader.start_time) if info else 0
-    return BagContents(bag.path, info, messages, start)
+    return BagContents(bag.path, info, messages, start, picked)
+
+
+def present(topics: Sequence[TopicInfo], name: str) -> str | None:
+    """``name`` if the bag has that topic (an optional topic such as ``/tf_static``), else None."""
+    return name if any(t.name == name for t in topics) else None
 
 
 def _available(topics: Sequence[TopicInfo]) -> str:
@@ -293,18 +350,20 @@ class TopicSeries:
     meta: dict = field(default_factory=dict)
 
 
-def _stamp_ns(header) -> int:
-    return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec)
+def _stamp_ns(msg) -> int:
+    """The header stamp (ns) of a message, or of a record (Imu, Odometry; io.bag_decode)."""
+    return msg.stamp_ns if isinstance(msg, _RECORDS) else stamp_ns(msg.header)
 
 
-def _times(msgs: list, path: Path, topic: str, start_ns: int, has_header=True) -> np.ndarray:
+def _frame_id(msg) -> str:
+    return msg.frame_id if isinstance(msg, _RECORDS) else msg.header.frame_id
+
+
+def _times(msgs: list, path: Path, topic: str, start_ns: int) -> np.ndarray:
     """Header stamps (or log times when the stamps are zero) in s relative to ``start_ns``;
     InputError unless strictly increasing."""
-    if has_header:
-        stamps = [_stamp_ns(m.header) for _, m in msgs]
-        if any(s == 0 for s in stamps):
-            stamps = [t for t, _ in msgs]
-    else:
+    stamps = [_stamp_ns(m) for _, m in msgs]
+    if any(s == 0 for s in stamps):
         stamps = [t for t, _ in msgs]
     t = (np.array(stamps, dtype=np.int64) - np.int64(start_ns)).astype(float) * 1e-9
     d = np.diff(t)
@@ -348,16 +407,21 @@ def _need(msgs: list, path: Path, topic: str, n: int = 2) -> None:
         raise InputError(f"needs at least {n} messages, got {len(msgs)}", path, None, topic)
 
 
-def _yaw(q) -> float:
-    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+def _yaw(x: float, y: float, z: float, w: float) -> float:
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
 def _pose_of(msg, msgtype: str):
-    if msgtype == ODOMETRY or msgtype.endswith("PoseWithCovarianceStamped"):
-        return msg.pose.pose.position, msg.pose.pose.orientation
-    if msgtype.endswith("TransformStamped"):
-        return msg.transform.translation, msg.transform.rotation
-    return msg.pose.position, msg.pose.orientation
+    """Position (x, y) and orientation (x, y, z, w) of a pose message or an odometry record."""
+    if msgtype == ODOMETRY:
+        return msg.position, msg.orientation
+    if msgtype.endswith("PoseWithCovarianceStamped"):
+        p, q = msg.pose.pose.position, msg.pose.pose.orientation
+    elif msgtype.endswith("TransformStamped"):
+        p, q = msg.transform.translation, msg.transform.rotation
+    else:
+        p, q = msg.pose.position, msg.pose.orientation
+    return (p.x, p.y), (q.x, q.y, q.z, q.w)
 
 
 def pose_series(bag: BagContents, topic: str) -> TopicSeries:
@@ -367,16 +431,14 @@ def pose_series(bag: BagContents, topic: str) -> TopicSeries:
     rows = []
     for _, m in msgs:
         p, q = _pose_of(m, mt)
-        rows.append((p.x, p.y, _yaw(q)))
+        rows.append((p[0], p[1], _yaw(*q)))
     xy = np.array(rows, dtype=float)
     _finite(xy[:, :2], bag.path, topic, "the position (m)", POSITION_MAX_M)
     _finite(xy[:, 2:], bag.path, topic, "the orientation")
     t = _times(msgs, bag.path, topic, bag.start_ns)
     values = {"x": xy[:, 0], "y": xy[:, 1], "yaw": np.unwrap(xy[:, 2])}
     if mt == ODOMETRY:
-        tw = np.array(
-            [(m.twist.twist.linear.x, m.twist.twist.angular.z) for _, m in msgs], dtype=float
-        )
+        tw = np.array([(m.linear[0], m.angular[2]) for _, m in msgs], dtype=float)
         _finite(tw[:, :1], bag.path, topic, "the twist's linear speed (m/s)", SPEED_MAX_M_S)
         _finite(tw[:, 1:], bag.path, topic, "the twist's yaw rate (rad/s)", RATE_MAX_RAD_S)
         values["speed"], values["yaw_rate"] = tw[:, 0], tw[:, 1]
@@ -385,7 +447,7 @@ def pose_series(bag: BagContents, topic: str) -> TopicSeries:
         topic,
         t,
         values,
-        last.header.frame_id.lstrip("/"),
+        _frame_id(last).lstrip("/"),
         getattr(last, "child_frame_id", "").lstrip("/"),
     )
 
@@ -394,13 +456,10 @@ def imu_series(bag: BagContents, topic: str) -> TopicSeries:
     """Angular velocity (rad/s, IMU frame), ``values['angular_velocity']`` shape (K, 3)."""
     msgs = bag.messages[topic]
     _need(msgs, bag.path, topic)
-    w = np.array(
-        [(m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z) for _, m in msgs],
-        dtype=float,
-    )
+    w = np.array([m.angular_velocity for _, m in msgs], dtype=float)
     _finite(w, bag.path, topic, "angular_velocity (rad/s)", RATE_MAX_RAD_S)
     t = _times(msgs, bag.path, topic, bag.start_ns)
-    return TopicSeries(topic, t, {"angular_velocity": w}, msgs[0][1].header.frame_id.lstrip("/"))
+    return TopicSeries(topic, t, {"angular_velocity": w}, msgs[0][1].frame_id.lstrip("/"))
 
 
 def _side_joint(names: set[str], side: str, path: Path, topic: str) -> str:
@@ -559,7 +618,7 @@ def tf_messages(bag: BagContents, topic: str = "/tf") -> dict[tuple[str, str], E
     for i, (t_log, m) in enumerate(bag.messages.get(topic, [])):
         for tr in m.transforms:
             key = (tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/"))
-            stamp = _stamp_ns(tr.header) or t_log
+            stamp = stamp_ns(tr.header) or t_log
             p, q = tr.transform.translation, tr.transform.rotation
             rows.setdefault(key, []).append((stamp, p.x, p.y, p.z, q.x, q.y, q.z, q.w, i))
     out = {}
