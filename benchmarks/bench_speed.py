@@ -4,7 +4,8 @@ Run from the project root (about 3 to 6 minutes on 2 cores; ``--only`` picks sec
 
     .venv/bin/python benchmarks/bench_speed.py [--only SECTION,...]
 
-with SECTION among limit, sim, design, startup, compare, reproduce, csv, suite (default: all).
+with SECTION among limit, sim, design, startup, compare, reproduce, csv, bags, suite (default:
+all).
 
 Sections and their references (see machine.py for the measuring tools):
 
@@ -26,6 +27,12 @@ Sections and their references (see machine.py for the measuring tools):
 - ``reproduce``: ``odocal reproduce`` at 800 trials as a command (target: under 2 s).
 - ``csv``: reading a 5-million-row generic run CSV (``io.generic_csv.load_generic_csv``) against
   ``numpy.loadtxt`` of the same file (time; peak memory against the file size).
+- ``bags``: reading the Husky bag's IMU and odometry (ROS 1 ``.bag`` and ROS 2 ``.mcap``,
+  15 817 messages) into series (``io.bags.read_bag`` + ``imu_series`` + ``pose_series``) with the
+  fast Imu/Odometry decoder, against the rosbags-only path (``read_bag(..., fast=False)``) and
+  against rosbags' messages kept as objects (how ``read_bag`` read before), interleaved, best of
+  5; and ``odocal fit husky_test1.bag --method gyro --json`` (median of 5) against importing
+  what it imports.
 - ``suite``: the whole test suite (``pytest -q``) in a fresh process (target: under 30 s).
 """
 
@@ -45,8 +52,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from machine import ROOT, fresh, machine, odocal_cmd, python_cmd, rng_limit  # noqa: E402
 
-SECTIONS = ("limit", "sim", "design", "startup", "compare", "reproduce", "csv", "suite")
+SECTIONS = ("limit", "sim", "design", "startup", "compare", "reproduce", "csv", "bags", "suite")
 REALDATA = ROOT.parent / "shared" / "realdata" / "optiodom_diff"
+HUSKY = ROOT.parent / "shared" / "realdata" / "husky"
 
 rows: list[tuple[str, str, str, str, str]] = []  # figure, value, reference, ratio, target
 
@@ -337,6 +345,63 @@ def section_csv(rows_n: int) -> None:
     )
 
 
+# --- bags -----------------------------------------------------------------------------------
+def _rosbags_objects(path: Path, topics: list[str]) -> int:
+    """The former read: every message deserialised by rosbags and kept as its object."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC if path.suffix == ".bag" else Stores.ROS2_HUMBLE)
+    with AnyReader([path], default_typestore=store) as r:
+        conns = [c for c in r.connections if c.topic in topics]
+        kept = [(t, r.deserialize(raw, c.msgtype)) for c, t, raw in r.messages(conns)]
+    return len(kept)
+
+
+def section_bags() -> None:
+    from odocal.io.bags import imu_series, pose_series, read_bag
+
+    imu, odom = "/imu/data", "/husky_velocity_controller/odom"
+    for label, path in (("ROS 1 .bag", "husky_test1.bag"), ("ROS 2 .mcap", "husky_test1_ros2")):
+        path = HUSKY / path
+        if not path.exists():
+            row(f"read the Husky bag ({label})", f"SKIPPED: no {path}")
+            continue
+
+        def series(fast: bool, path=path) -> None:
+            bag = read_bag(path, [imu, odom], fast=fast)
+            imu_series(bag, imu), pose_series(bag, odom)
+
+        ways = {
+            "fast": lambda: series(True),
+            "rosbags": lambda: series(False),
+            "objects": lambda path=path: _rosbags_objects(path, [imu, odom]),
+        }
+        best = dict.fromkeys(ways, math.inf)
+        for _ in range(5):  # interleaved: the load moves all three alike
+            for name, fn in ways.items():
+                best[name] = min(best[name], best_of(fn, 1))
+        row(
+            f"read the Husky bag's IMU + odometry into series ({label}, 15817 messages)",
+            f"{best['fast']:.3f} s ({1e6 * best['fast'] / 15817:.1f} us/message)",
+            f"rosbags-only path {best['rosbags']:.3f} s; rosbags objects kept (the former "
+            f"read, without series) {best['objects']:.3f} s",
+            f"{best['rosbags'] / best['fast']:.2f}x faster than rosbags-only, "
+            f"{best['objects'] / best['fast']:.2f}x than the former read",
+        )
+    bag = HUSKY / "husky_test1.bag"
+    if bag.exists():
+        cmd = odocal_cmd("fit", str(bag), "--method", "gyro", "--json")
+        run = fresh(cmd, repeat=5)
+        ref = fresh(python_cmd("-c", "import rosbags.highlevel, odocal.app.fit"), repeat=5)
+        row(
+            "odocal fit husky_test1.bag --method gyro --json",
+            f"{run.wall_s:.3f} s wall, {run.cpu_s:.3f} s CPU (status {run.status})",
+            f"importing odocal.app.fit + rosbags {ref.wall_s:.3f} s",
+            f"{run.wall_s - ref.wall_s:.3f} s beyond the imports",
+        )
+
+
 # --- suite ----------------------------------------------------------------------------------
 def section_suite() -> None:
     run = fresh(python_cmd("-m", "pytest", "-q", "-p", "no:cacheprovider"), out=True)
@@ -378,6 +443,7 @@ def main(argv=None) -> int:
             "compare": lambda: section_compare(args.trials),
             "reproduce": section_reproduce,
             "csv": lambda: section_csv(args.csv_rows),
+            "bags": section_bags,
             "suite": section_suite,
         }[name]()
     print(f"\nmachine at the end: {machine()}\n")
