@@ -412,7 +412,7 @@ def _yaw(x: float, y: float, z: float, w: float) -> float:
 
 
 def _pose_of(msg, msgtype: str):
-    """Position (x, y) and orientation (x, y, z, w) of a pose message or an odometry record."""
+    """Position (x, y, z) and orientation (x, y, z, w) of a pose message or an odometry record."""
     if msgtype == ODOMETRY:
         return msg.position, msg.orientation
     if msgtype.endswith("PoseWithCovarianceStamped"):
@@ -421,7 +421,7 @@ def _pose_of(msg, msgtype: str):
         p, q = msg.transform.translation, msg.transform.rotation
     else:
         p, q = msg.pose.position, msg.pose.orientation
-    return (p.x, p.y), (q.x, q.y, q.z, q.w)
+    return (p.x, p.y, p.z), (q.x, q.y, q.z, q.w)
 
 
 def pose_series(bag: BagContents, topic: str) -> TopicSeries:
