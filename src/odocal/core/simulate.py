@@ -9,12 +9,15 @@ Everything is vectorised over a batch of runs and, within a segment, over its in
 (through cumulative sums), so there is no Python loop per increment. Geometry values and segment
 values may be arrays of shape (runs,): one robot or one track size per run.
 
-Random streams and threads: the runs are cut into blocks of about 2^18 run-increments, fixed by
+Random streams and workers: the runs are cut into blocks of about 2^18 run-increments, fixed by
 the problem alone (runs and increments, never by the machine). Each block draws its wheel noise
 from its own stream, seeded from two 63-bit integers drawn from the caller's generator and the
-block's number; within a block, segment by segment and a few runs at a time, the right wheel's
-normals are drawn before the left wheel's. The blocks run on as many threads as the process may
-use (``ODOCAL_THREADS`` to choose): the same seed gives the same runs on any number of cores.
+block's number; within a block, segment by segment and a few runs at a time (passes of about
+2^14 run-increments), the right wheel's normals are drawn before the left wheel's. The blocks
+run on as many workers as the process may use (``ODOCAL_THREADS`` to choose; see
+:mod:`odocal.core.parallel`): forked worker processes writing into shared memory for large work
+(2^22 run-increments and more), threads below. The same seed gives the same runs on any number
+of cores.
 """
 
 from __future__ import annotations
@@ -262,8 +265,8 @@ def _simulate(
     return SimulationResult(pose, odometric, traj)
 
 
-# Work of one block of runs (runs x increments) with its own random stream; and the elements of
-# one numpy pass (small enough to stay in the cache). Both fixed: they decide the random stream.
+# Work of one block of runs (runs x increments) with its own random stream; and the width of the
+# passes its normals are drawn in (run-increments). Both fixed: they decide the random stream.
 _BLOCK_INCREMENTS = 1 << 18
 # Work (runs x increments) from which the blocks run on worker processes rather than threads.
 _PROCESS_INCREMENTS = 1 << 22
