@@ -112,7 +112,6 @@ def section_sim() -> None:
     robot = PRESETS["paper-fig5"]
     track = polygon(4, 4.0, "ccw")
     true, bel, noise = robot.true_geometry, robot.believed_geometry, robot.nonsystematic
-    limit = _limit()
     cases = [
         ("design setting (10 exact increments per segment)", 100_000, {
             "steps_per_segment": 10, "integration": "exact"}),
@@ -131,13 +130,21 @@ def section_sim() -> None:
         work = runs * steps
         rng = np.random.default_rng(0)
         drive(track, true, bel, noise, runs, rng, **opts)  # warm up
-        t = best_of(lambda: drive(track, true, bel, noise, runs, rng, **opts))  # noqa: B023
-        rate = work / t
+        # the machine's load drifts (shared machines): each round measures the limit right
+        # before the simulator; the median round is reported
+        rounds = []
+        for _ in range(3):
+            two = rng_limit(60_000_000)[1] / 2.0
+            t = best_of(lambda: drive(track, true, bel, noise, runs, rng, **opts))  # noqa: B023
+            rounds.append((work / t / two, work / t, two))
+        share, rate, two = sorted(rounds)[1]
         row(
             f"simulator, {label}, 4 m square x {runs} runs",
             f"{rate / 1e6:.1f} M trial-increments/s",
-            f"limit {limit / 1e6:.1f} M/s",
-            f"{rate / limit:.0%} of the two-core limit",
+            f"limit {two / 1e6:.1f} M/s measured just before",
+            f"{share:.0%} of the two-core limit (median of 3 rounds: "
+            + ", ".join(f"{r[0]:.0%}" for r in rounds)
+            + ")",
             ">= 50 %",
         )
 

@@ -14,6 +14,10 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
+# The tests already run on every core (pytest-xdist): odocal's own worker processes would only
+# compete with them. Tests of the parallel paths set ODOCAL_THREADS themselves.
+os.environ.setdefault("ODOCAL_THREADS", "1")
+
 
 def _find_realdata() -> Path | None:
     env = os.environ.get("ODOCAL_REALDATA")

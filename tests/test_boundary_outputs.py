@@ -252,6 +252,26 @@ def test_a_signal_during_the_renames_waits_until_all_are_done(cli, tmp_path, run
     assert not list(tmp_path.glob(".*.tmp"))
 
 
+def _wait_for_work(proc, at_most_s: float) -> None:
+    """Until ``proc`` has its SIGTERM handler and has spent 0.3 s of CPU after it (Linux's
+    /proc tells), at most ``at_most_s``."""
+    status, stat = Path(f"/proc/{proc.pid}/status"), Path(f"/proc/{proc.pid}/stat")
+    start, handled_cpu = time.monotonic(), None
+    while time.monotonic() - start < at_most_s:
+        try:
+            caught = int(status.read_text().split("SigCgt:")[1].split()[0], 16)
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except (OSError, IndexError, ValueError):  # no /proc: wait the whole time
+            time.sleep(0.05)
+            continue
+        cpu = (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+        if caught & (1 << (signal.SIGTERM - 1)):
+            handled_cpu = cpu if handled_cpu is None else handled_cpu
+            if cpu - handled_cpu >= 0.3:
+                return
+        time.sleep(0.02)
+
+
 def test_real_sigterm_in_a_subprocess(tmp_path):
     """A real SIGTERM to a running command: exit 143, one line, no folder, no temporary file."""
     plot = tmp_path / "figs"
@@ -262,7 +282,7 @@ def test_real_sigterm_in_a_subprocess(tmp_path):
             stderr=subprocess.PIPE,
             text=True,
         )
-        time.sleep(wait_s)  # past the imports, inside the Monte-Carlo sweep (about 10 s)
+        _wait_for_work(proc, wait_s)  # past the imports, inside the Monte-Carlo sweep (10 s)
         proc.send_signal(signal.SIGTERM)
         out, err = proc.communicate(timeout=120)
         if proc.returncode != -signal.SIGTERM:  # not killed before odocal's handler was set
@@ -276,11 +296,21 @@ def test_real_sigterm_in_a_subprocess(tmp_path):
 
 
 def _run_twice(cli, tmp_path, make_argv):
+    """The same command twice: in one process, then with its figures drawn on worker processes
+    (ODOCAL_THREADS=2); the same bytes."""
     results = []
-    for name in ("first", "second"):
+    for name, threads in (("first", "1"), ("second", "2")):
         folder = tmp_path / name
         folder.mkdir()
-        status, out, err = cli(*make_argv(folder))
+        before = os.environ.get("ODOCAL_THREADS")
+        os.environ["ODOCAL_THREADS"] = threads
+        try:
+            status, out, err = cli(*make_argv(folder))
+        finally:
+            if before is None:
+                del os.environ["ODOCAL_THREADS"]
+            else:
+                os.environ["ODOCAL_THREADS"] = before
         assert status == 0, err
         results.append(tree(folder))
     assert results[0] == results[1]

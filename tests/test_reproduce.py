@@ -100,7 +100,10 @@ def test_figures_and_report_are_written(produced):
     assert not list(out.glob(".*.tmp"))
 
 
-def test_cli_reproduce_writes_the_same_bytes(cli, tmp_path, produced):
+def test_cli_reproduce_writes_the_same_bytes(cli, tmp_path, produced, monkeypatch):
+    # the library call ran in one process; the command runs its computations and figures on
+    # worker processes
+    monkeypatch.setenv("ODOCAL_THREADS", "2")
     args = ("--trials", str(TRIALS), "--seed", "1", "--quiet")
     status, out, err = cli("reproduce", "--out", tmp_path / "r", *args)
     assert status == 0, err

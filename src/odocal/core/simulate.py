@@ -9,12 +9,15 @@ Everything is vectorised over a batch of runs and, within a segment, over its in
 (through cumulative sums), so there is no Python loop per increment. Geometry values and segment
 values may be arrays of shape (runs,): one robot or one track size per run.
 
-Random streams and threads: the runs are cut into blocks of about 2^18 run-increments, fixed by
+Random streams and workers: the runs are cut into blocks of about 2^18 run-increments, fixed by
 the problem alone (runs and increments, never by the machine). Each block draws its wheel noise
 from its own stream, seeded from two 63-bit integers drawn from the caller's generator and the
-block's number; within a block, segment by segment and a few runs at a time, the right wheel's
-normals are drawn before the left wheel's. The blocks run on as many threads as the process may
-use (``ODOCAL_THREADS`` to choose): the same seed gives the same runs on any number of cores.
+block's number; within a block, segment by segment and a few runs at a time (passes of about
+2^14 run-increments), the right wheel's normals are drawn before the left wheel's. The blocks
+run on as many workers as the process may use (``ODOCAL_THREADS`` to choose; see
+:mod:`odocal.core.parallel`): forked worker processes writing into shared memory for large work
+(2^22 run-increments and more), threads below. The same seed gives the same runs on any number
+of cores.
 """
 
 from __future__ import annotations
@@ -262,8 +265,8 @@ def _simulate(
     return SimulationResult(pose, odometric, traj)
 
 
-# Work of one block of runs (runs x increments) with its own random stream; and the elements of
-# one numpy pass (small enough to stay in the cache). Both fixed: they decide the random stream.
+# Work of one block of runs (runs x increments) with its own random stream; and the width of the
+# passes its normals are drawn in (run-increments). Both fixed: they decide the random stream.
 _BLOCK_INCREMENTS = 1 << 18
 # Work (runs x increments) from which the blocks run on worker processes rather than threads.
 _PROCESS_INCREMENTS = 1 << 22
@@ -324,15 +327,30 @@ def _accumulate(x: np.ndarray) -> np.ndarray:
 _ROW_LOOP = 32
 
 
-def _wheel_noise(rng, k_m: float, scale: np.ndarray, n: int) -> np.ndarray | None:
-    """The noise of one wheel's travel over ``n`` increments: ``scale`` (m, sqrt(k |a|) for a
-    mean travel a per increment; shape (runs,)) times standard normals, shape (n, runs); None
-    without noise."""
-    if not (k_m > 0 and rng is not None):
-        return None
-    z = rng.standard_normal((n, len(scale)))
-    z *= scale
-    return z
+def _wheel_noises(rng, noise, scale_r: np.ndarray, scale_l: np.ndarray, n: int, passes: int):
+    """The noise of each wheel's travel over ``n`` increments, for ``passes`` passes of equal
+    width: ``scale_*`` (m, sqrt(k |a|) for a mean travel a per increment; shape (runs,)) times
+    standard normals, shape (n, runs) each; None for a wheel without noise.
+
+    The normals are those of drawing, pass after pass, the right wheel's (n, width) and then the
+    left wheel's: one call draws them all, in that order."""
+    wheels = [(k, s) for k, s in ((noise.k_r_m, scale_r), (noise.k_l_m, scale_l)) if k > 0]
+    if rng is None or not wheels:
+        return None, None
+    width = len(scale_r) // passes
+    z = rng.standard_normal((passes, len(wheels), n, width))
+    out = []
+    for w, (_, scale) in enumerate(wheels):
+        x = np.empty((n, len(scale)))  # pass-major columns, as the runs are
+        np.multiply(
+            z[:, w].transpose(1, 0, 2),
+            scale.reshape(passes, width),
+            out=x.reshape(n, passes, width),
+        )
+        out.append(x)
+    if len(wheels) == 2:
+        return out[0], out[1]
+    return (out[0], None) if noise.k_r_m > 0 else (None, out[0])
 
 
 def _cos_sin(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -350,19 +368,22 @@ def _cos_sin(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _drive_block(segments, b_true, noise, rng, exact, pose, record, traj, heading_only) -> None:
     """Drive one block of runs (rows of ``pose``, updated in place) through ``segments``.
 
-    Per segment of n increments, runs are taken a few at a time (about _CHUNK increments; arrays
-    of shape (n, runs)); for each such pass the right wheel's normals are drawn, then the left
-    wheel's (where k > 0). Each wheel's travel per increment is its mean a plus its noise; the
-    heading change per increment is delta + eta, delta = (a_r - a_l) / b the same at every
-    increment, eta the noise's part. The segment's heading change is therefore n delta +
-    sum(eta) (what :func:`final_headings` reads, with no more work than the sums), and the mid
-    heading of increment k, relative to the segment's start, is m_k = (k + 1/2) delta + e_k with
+    Per segment of n increments, the normals are those of taking the runs a few at a time
+    (passes of about _CHUNK increments) and drawing, for each pass, the right wheel's (n, runs)
+    normals, then the left wheel's (where k > 0); the passes of equal width are drawn in one
+    call and computed together (arrays of shape (n, runs)), then the narrower last one.
+
+    Each wheel's travel per increment is its mean a plus its noise; the heading change per
+    increment is delta + eta, delta = (a_r - a_l) / b the same at every increment, eta the
+    noise's part. The segment's heading change is therefore n delta + sum(eta) (what
+    :func:`final_headings` reads, with no more work than the sums), and the mid heading of
+    increment k, relative to the segment's start, is m_k = (k + 1/2) delta + e_k with
     e_k = sum_{j<k} eta_j + eta_k / 2. The displacement is rotated by the start heading th0 once
     per run: sum_k ds_k (cos, sin)(th0 + m_k) = R(th0) sum_k ds_k (cos m_k, sin m_k). Where
-    delta is the same for every run of the pass, cos m_k and sin m_k are expanded around
-    (k + 1/2) delta (one angle per increment, not per run): only e_k, which is small, is left
-    per run, and its cos and sin are Taylor polynomials accurate to the last bit; likewise the
-    sin(x)/x of the exact arcs and, on straight legs, cos and sin of the whole mid heading.
+    delta is the same for every run, cos m_k and sin m_k are expanded around (k + 1/2) delta
+    (one angle per increment, not per run): only e_k, which is small, is left per run, and its
+    cos and sin are Taylor polynomials accurate to the last bit; likewise the sin(x)/x of the
+    exact arcs and, on straight legs, cos and sin of the whole mid heading.
     """
     start = 0  # increments driven before the segment
     for s_r, s_l, n in segments:
@@ -381,11 +402,16 @@ def _drive_block(segments, b_true, noise, rng, exact, pose, record, traj, headin
         scale_l = np.sqrt(noise.k_l_m * np.abs(a_l))
         delta_all = (a_r - a_l) / b_true
         turn_all = n * delta_all
-        for lo in range(0, len(b_true), step):
-            hi = min(len(b_true), lo + step)
+        # the passes of equal width at once, then the narrower last one
+        rows = len(b_true)
+        full = rows // step * step
+        for lo, hi in ((0, full), (full, rows)):
+            if hi == lo:
+                continue
             b = b_true[lo:hi]
-            u = _wheel_noise(rng, noise.k_r_m, scale_r[lo:hi], n)
-            v = _wheel_noise(rng, noise.k_l_m, scale_l[lo:hi], n)
+            u, v = _wheel_noises(
+                rng, noise, scale_r[lo:hi], scale_l[lo:hi], n, max(1, (hi - lo) // step)
+            )
             delta = delta_all[lo:hi]
             turn = turn_all[lo:hi].copy()
             if u is not None:
