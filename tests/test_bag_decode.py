@@ -120,10 +120,11 @@ def test_fast_path_equals_rosbags_on_the_synthetic_robot_bag(storage, tmp_path, 
     assert assert_fast_equals_rosbags(path, monkeypatch)["/imu"] == len(robot.gyro_time_ns)
 
 
-def test_fast_path_equals_rosbags_on_the_husky_bags(realdata, monkeypatch):
-    for name in ("husky_test1.bag", "husky_test1_ros2"):
-        counts = assert_fast_equals_rosbags(realdata / "husky" / name, monkeypatch)
-        assert counts == {"/imu/data": 11865, "/husky_velocity_controller/odom": 3952}
+def test_fast_path_equals_rosbags_on_the_husky_bag(realdata, monkeypatch):
+    """The bag a real ``rosbag record`` wrote. (Its ROS 2 copy was converted by rosbags, like the
+    written bags above; test_fit_bags checks that both give the same fit.)"""
+    counts = assert_fast_equals_rosbags(realdata / "husky" / "husky_test1.bag", monkeypatch)
+    assert counts == {"/imu/data": 11865, "/husky_velocity_controller/odom": 3952}
 
 
 # --------------------------------------------------------------------------- message bytes
