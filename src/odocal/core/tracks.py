@@ -131,10 +131,10 @@ class Track:
         """Largest distance (m) of the commanded path from its start (floor space it needs)."""
         pose = np.zeros(3)
         far = 0.0
+        f = np.linspace(0.0, 1.0, samples_per_segment + 1)[1:]
         for s in self.segments:
-            for f in np.linspace(0.0, 1.0, samples_per_segment + 1)[1:]:
-                p = compose(pose, s.distance_m * f, s.angle_rad * f)
-                far = max(far, float(np.hypot(p[0], p[1])))
+            p = compose(pose, s.distance_m * f, s.angle_rad * f)  # every sample at once
+            far = max(far, float(np.hypot(p[:, 0], p[:, 1]).max()))
             pose = compose(pose, s.distance_m, s.angle_rad)
         return far
 
