@@ -265,8 +265,8 @@ def _simulate(
     return SimulationResult(pose, odometric, traj)
 
 
-# Work of one block of runs (runs x increments) with its own random stream; and the width of the
-# passes its normals are drawn in (run-increments). Both fixed: they decide the random stream.
+# Work of one block of runs (runs x increments) with its own random stream; and the elements of
+# one numpy pass (small enough to stay in the cache). Both fixed: they decide the random stream.
 _BLOCK_INCREMENTS = 1 << 18
 # Work (runs x increments) from which the blocks run on worker processes rather than threads.
 _PROCESS_INCREMENTS = 1 << 22
@@ -327,30 +327,15 @@ def _accumulate(x: np.ndarray) -> np.ndarray:
 _ROW_LOOP = 32
 
 
-def _wheel_noises(rng, noise, scale_r: np.ndarray, scale_l: np.ndarray, n: int, passes: int):
-    """The noise of each wheel's travel over ``n`` increments, for ``passes`` passes of equal
-    width: ``scale_*`` (m, sqrt(k |a|) for a mean travel a per increment; shape (runs,)) times
-    standard normals, shape (n, runs) each; None for a wheel without noise.
-
-    The normals are those of drawing, pass after pass, the right wheel's (n, width) and then the
-    left wheel's: one call draws them all, in that order."""
-    wheels = [(k, s) for k, s in ((noise.k_r_m, scale_r), (noise.k_l_m, scale_l)) if k > 0]
-    if rng is None or not wheels:
-        return None, None
-    width = len(scale_r) // passes
-    z = rng.standard_normal((passes, len(wheels), n, width))
-    out = []
-    for w, (_, scale) in enumerate(wheels):
-        x = np.empty((n, len(scale)))  # pass-major columns, as the runs are
-        np.multiply(
-            z[:, w].transpose(1, 0, 2),
-            scale.reshape(passes, width),
-            out=x.reshape(n, passes, width),
-        )
-        out.append(x)
-    if len(wheels) == 2:
-        return out[0], out[1]
-    return (out[0], None) if noise.k_r_m > 0 else (None, out[0])
+def _wheel_noise(rng, k_m: float, scale: np.ndarray, n: int) -> np.ndarray | None:
+    """The noise of one wheel's travel over ``n`` increments: ``scale`` (m, sqrt(k |a|) for a
+    mean travel a per increment; shape (runs,)) times standard normals, shape (n, runs); None
+    without noise."""
+    if not (k_m > 0 and rng is not None):
+        return None
+    z = rng.standard_normal((n, len(scale)))
+    z *= scale
+    return z
 
 
 def _cos_sin(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -368,10 +353,10 @@ def _cos_sin(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def _drive_block(segments, b_true, noise, rng, exact, pose, record, traj, heading_only) -> None:
     """Drive one block of runs (rows of ``pose``, updated in place) through ``segments``.
 
-    Per segment of n increments, the normals are those of taking the runs a few at a time
-    (passes of about _CHUNK increments) and drawing, for each pass, the right wheel's (n, runs)
-    normals, then the left wheel's (where k > 0); the passes of equal width are drawn in one
-    call and computed together (arrays of shape (n, runs)), then the narrower last one.
+    Per segment of n increments, runs are taken a few at a time (passes of about _CHUNK
+    increments, arrays of shape (n, runs), small enough to stay in the cache); for each pass the
+    right wheel's normals are drawn, then the left wheel's (where k > 0). (Drawing and computing
+    a segment's passes together was tried: no faster on two cores.)
 
     Each wheel's travel per increment is its mean a plus its noise; the heading change per
     increment is delta + eta, delta = (a_r - a_l) / b the same at every increment, eta the
@@ -402,16 +387,11 @@ def _drive_block(segments, b_true, noise, rng, exact, pose, record, traj, headin
         scale_l = np.sqrt(noise.k_l_m * np.abs(a_l))
         delta_all = (a_r - a_l) / b_true
         turn_all = n * delta_all
-        # the passes of equal width at once, then the narrower last one
-        rows = len(b_true)
-        full = rows // step * step
-        for lo, hi in ((0, full), (full, rows)):
-            if hi == lo:
-                continue
+        for lo in range(0, len(b_true), step):
+            hi = min(len(b_true), lo + step)
             b = b_true[lo:hi]
-            u, v = _wheel_noises(
-                rng, noise, scale_r[lo:hi], scale_l[lo:hi], n, max(1, (hi - lo) // step)
-            )
+            u = _wheel_noise(rng, noise.k_r_m, scale_r[lo:hi], n)
+            v = _wheel_noise(rng, noise.k_l_m, scale_l[lo:hi], n)
             delta = delta_all[lo:hi]
             turn = turn_all[lo:hi].copy()
             if u is not None:
