@@ -383,13 +383,16 @@ def _drive_block(segments, b_true, noise, rng, exact, pose, record, traj, headin
         # the heading change per increment without noise
         a_r, a_l = s_r / n, s_l / n
         a_mean = 0.5 * (a_r + a_l)
-        scale_r = np.sqrt(noise.k_r_m * np.abs(a_r))
-        scale_l = np.sqrt(noise.k_l_m * np.abs(a_l))
+        # halves of the noise's scale sqrt(k |a|) and of the wheelbase (exact halvings): the
+        # centre's travel is then u + v and the heading change (u - v) / (b / 2)
+        scale_r = 0.5 * np.sqrt(noise.k_r_m * np.abs(a_r))
+        scale_l = 0.5 * np.sqrt(noise.k_l_m * np.abs(a_l))
+        half_b = 0.5 * b_true
         delta_all = (a_r - a_l) / b_true
         turn_all = n * delta_all
         for lo in range(0, len(b_true), step):
             hi = min(len(b_true), lo + step)
-            b = b_true[lo:hi]
+            b = half_b[lo:hi]
             u = _wheel_noise(rng, noise.k_r_m, scale_r[lo:hi], n)
             v = _wheel_noise(rng, noise.k_l_m, scale_l[lo:hi], n)
             delta = delta_all[lo:hi]
@@ -416,7 +419,6 @@ def _drive_block(segments, b_true, noise, rng, exact, pose, record, traj, headin
                 else:
                     ds = u + v
                     eta = np.subtract(u, v, out=u)
-                ds *= 0.5
                 ds += a_mean[lo:hi]
                 eta /= b
             if exact:
