@@ -39,6 +39,7 @@ Sections and their references (see machine.py for the measuring tools):
 from __future__ import annotations
 
 import argparse
+import compileall
 import math
 import os
 import sys
@@ -436,6 +437,12 @@ def main(argv=None) -> int:
     if unknown:
         p.error(f"unknown section(s): {', '.join(sorted(unknown))}")
     print(f"machine: {machine()}")
+    # as an installation does (pip compiles a package's bytecode; an editable one writes it on
+    # first import): compiled once here, so that every fresh process below does not compile
+    # odocal again where PYTHONDONTWRITEBYTECODE is set (as on the machine these figures are from)
+    compileall.compile_dir(str(ROOT / "src"), quiet=1)
+    flag = os.environ.get("PYTHONDONTWRITEBYTECODE", "")
+    print(f"PYTHONDONTWRITEBYTECODE={flag!r}; odocal's sources compiled")
     git = os.popen(f"git -C {ROOT} rev-parse --short HEAD 2>/dev/null").read().strip()
     print(f"commit: {git or 'unknown'}", flush=True)
     for name in SECTIONS:
