@@ -391,7 +391,7 @@ def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
     files = {}
     files["fig3"] = (
         "fig3_leg_heading_error.png",
-        leg_heading_figure(rep.fig3, f"Fig. 3: leg heading error ({cond('paper-fig3')})"),
+        partial(leg_heading_figure, rep.fig3, f"Fig. 3: leg heading error ({cond('paper-fig3')})"),
     )
     files["fig4"] = (
         "fig4_systematic_share.png",
