@@ -14,7 +14,9 @@ Sections and their references (see machine.py for the measuring tools):
   one process needs for 10^8 normals: long commands are also given in machine units.
 - ``sim``: ``core.simulate.drive`` throughput (trial-increments per second) on the design's
   setting (10 exact increments per segment) and on ``odocal simulate``'s (1 cm midpoint), as a
-  share of the two-core limit (target: >= 50 %).
+  share of the two-core limit (target: >= 50 %): 5 rounds of (the limit, then the simulator),
+  the best of each (the load of a shared machine drifts within a minute), every round's share
+  printed too.
 - ``design``: the default Monte-Carlo design (paper-fig5, 20 squares, 800 trials) in process,
   against the plain numpy loop of ``reference_design.py`` on the same Monte-Carlo work (timed on
   ``--ref-trials`` trials per candidate and scaled; target: >= 10x); its errors are checked

@@ -62,3 +62,17 @@ def test_no_nesting_inside_a_worker(monkeypatch):
 
     for pids in run_tasks([inner, inner]):
         assert len(set(pids)) == 1
+
+
+def _inside_a_pool_worker(_):
+    os.environ["ODOCAL_THREADS"] = "2"
+    return run_tasks([os.getpid, os.getpid])
+
+
+def test_inside_a_daemonic_pool_worker_runs_here():
+    """A worker of the caller's own pool may not have children: the tasks run in it."""
+    import multiprocessing as mp
+
+    with mp.get_context("fork").Pool(1) as pool:
+        pids = pool.map(_inside_a_pool_worker, [0])[0]
+    assert len(set(pids)) == 1

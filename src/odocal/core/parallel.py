@@ -38,9 +38,14 @@ def workers() -> int:
 
 
 def can_fork() -> bool:
-    """Does :func:`run_tasks` run its tasks in forked processes here (Linux, and not already
-    inside one of its workers)?"""
-    return sys.platform.startswith("linux") and not _TASKS
+    """Does :func:`run_tasks` run its tasks in forked processes here (Linux, not already inside
+    one of its workers, nor inside a daemonic process, e.g. a worker of the caller's own
+    multiprocessing pool, which may not have children)?"""
+    if not sys.platform.startswith("linux") or _TASKS:
+        return False
+    import multiprocessing as mp
+
+    return not mp.current_process().daemon
 
 
 def shared_zeros(shape: tuple[int, ...]) -> np.ndarray:
