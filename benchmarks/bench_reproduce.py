@@ -16,6 +16,7 @@ Target (issue 3): the whole reproduction at 800 trials in under 10 s on 2 cores.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import tempfile
 import time
@@ -32,13 +33,17 @@ from machine import machine  # noqa: E402  (benchmarks/machine.py, beside this s
 
 
 class IncrementCounter:
-    """Wraps core.simulate.drive and final_headings to count runs x increments simulated."""
+    """Wraps core.simulate.drive and final_headings to count runs x increments simulated (in
+    this process: ODOCAL_THREADS=1 while counting, as worker processes would count their own)."""
 
     def __init__(self):
         self.increments = 0
         self._orig = {"drive": sim.drive, "final_headings": sim.final_headings}
 
     def __enter__(self):
+        self._threads = os.environ.get("ODOCAL_THREADS")
+        os.environ["ODOCAL_THREADS"] = "1"
+
         def counter(orig):
             def counting(track, true, believed, noise, runs, rng, **kw):
                 self._count(track, believed, runs, kw)
@@ -59,6 +64,10 @@ class IncrementCounter:
     def __exit__(self, *exc):
         for mod, name, orig in self._patched:
             setattr(mod, name, orig)
+        if self._threads is None:
+            del os.environ["ODOCAL_THREADS"]
+        else:
+            os.environ["ODOCAL_THREADS"] = self._threads
 
     def _count(self, track, believed, runs, kw):
         steps = kw.get("steps_per_segment")
@@ -97,7 +106,7 @@ def main(argv=None) -> int:
     increments = count.increments
     t_fast, rep = timed(lambda: reproduce(args.trials, 0), args.repeat)
     print(
-        f"reproduce computation (fast setting): {t_fast:.2f} s, "
+        f"reproduce computation (fast setting, on every core): {t_fast:.2f} s, "
         f"{increments / 1e6:.1f} M trial-increments, {increments / t_fast / 1e6:.1f} M/s"
     )
 
@@ -143,7 +152,8 @@ def main(argv=None) -> int:
         t_ref = time.perf_counter() - t
     scale = args.trials / ref_trials
     print(
-        f"reproduce at the 1 cm midpoint reference, {ref_trials} trials: {t_ref:.2f} s, "
+        f"reproduce at the 1 cm midpoint reference, {ref_trials} trials, one process: "
+        f"{t_ref:.2f} s, "
         f"{count.increments / 1e6:.1f} M trial-increments, "
         f"{count.increments / t_ref / 1e6:.1f} M/s; at {args.trials} trials: about "
         f"{count.increments * scale / 1e6:.0f} M trial-increments, {t_ref * scale:.0f} s"
