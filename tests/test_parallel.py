@@ -42,6 +42,26 @@ def test_a_failing_task_raises_here(monkeypatch):
     assert parallel._TASKS == ()
 
 
+@pytest.mark.parametrize("share", [False, True])
+def test_the_first_failure_in_task_order_is_raised(monkeypatch, share):
+    """Several tasks fail, the later one first in time: the error is the same on every run."""
+    import time
+
+    from odocal.errors import InputError
+
+    monkeypatch.setenv("ODOCAL_THREADS", "2")
+
+    def slow_bad():
+        time.sleep(0.3)
+        raise InputError("bad file", "a.csv", 3)
+
+    def quick_bad():
+        raise InputError("also bad", "b.csv", 1)
+
+    with pytest.raises(InputError, match="a.csv, line 3: bad file"):
+        run_tasks([lambda: 0, slow_bad, quick_bad], share=share)
+
+
 def test_workers_write_into_shared_memory(monkeypatch):
     monkeypatch.setenv("ODOCAL_THREADS", "2")
     a = shared_zeros((4, 3))

@@ -68,8 +68,12 @@ def _quiet_worker() -> None:
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
-def _indexed(i: int) -> tuple[int, Any]:
-    return i, _TASKS[i]()
+def _indexed(i: int) -> tuple[int, bool, Any]:
+    """Task ``i`` in a worker: (i, True, its result) or (i, False, the exception it raised)."""
+    try:
+        return i, True, _TASKS[i]()
+    except Exception as exc:  # noqa: BLE001 - raised again by the caller, in task order
+        return i, False, exc
 
 
 def run_tasks(
@@ -85,8 +89,9 @@ def run_tasks(
     ``share``: this process runs the first task itself meanwhile, with one worker process fewer
     (for tasks of about equal work). ``meanwhile``: something else for this process to do while
     the workers work (called once in any case). ``done(i)`` is called here as task ``i``
-    finishes (for a progress display). An exception in a task is raised here; an interruption
-    here (Ctrl-C, an exception) ends the workers at once."""
+    finishes (for a progress display). An exception in a task is raised here once the tasks
+    have ended (the first failed task's, in task order, however the workers were scheduled); an
+    interruption here (Ctrl-C, an exception) ends the workers at once."""
     global _TASKS
     n = min(len(tasks), workers() if max_workers is None else max_workers)
     if n <= 1 or not can_fork():  # inside a worker too: no nesting
@@ -102,6 +107,7 @@ def run_tasks(
 
     _TASKS = tasks
     out: dict[int, Any] = {}
+    failed: dict[int, BaseException] = {}
     first = 1 if share else 0
     try:
         with mp.get_context("fork").Pool(n - first, initializer=_quiet_worker) as pool:
@@ -112,10 +118,15 @@ def run_tasks(
                 out[0] = tasks[0]()
                 if done is not None:
                     done(0)
-            for i, result in pending:
-                out[i] = result
+            for i, ok, result in pending:
+                if ok:
+                    out[i] = result
+                else:
+                    failed[i] = result
                 if done is not None:
                     done(i)
     finally:  # leaving the with block has terminated the workers
         _TASKS = ()
+    if failed:
+        raise failed[min(failed)]
     return [out[i] for i in range(len(tasks))]
