@@ -29,9 +29,11 @@ def new_figure(width: float = 7.0, height: float = 4.4, dpi: float = 120) -> Any
     """A new ``matplotlib.figure.Figure`` (inches, constrained layout) on an Agg canvas."""
     try:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+        figure_class = _figure_class()
     except ImportError:
         raise OdocalError(INSTALL_HINT) from None
-    fig = _figure_class()(figsize=(width, height), dpi=dpi, layout="constrained")
+    fig = figure_class(figsize=(width, height), dpi=dpi, layout="constrained")
     FigureCanvasAgg(fig)
     return fig
 
@@ -43,7 +45,8 @@ def _figure_class() -> type:
     class LaidOutOnce(Figure):
         """A Figure whose ``savefig`` lays it out once, then draws it once: matplotlib's own
         ``savefig`` of a constrained layout draws the whole figure twice (once to lay it out);
-        the same pixels either way."""
+        the same pixels either way. The layout is then fixed: a figure changed after it was
+        saved keeps it (call ``set_layout_engine("constrained")`` to lay it out again)."""
 
         def savefig(self, *args: Any, **kwargs: Any) -> None:
             engine = self.get_layout_engine()
