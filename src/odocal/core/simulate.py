@@ -246,8 +246,10 @@ def _simulate(
             run_block(i)
 
     if processes:
-        groups = np.array_split(np.arange(len(blocks)), workers)
-        run_tasks([functools.partial(run_group, g) for g in groups], workers, share=True)
+        # no more processes than the work pays for (a fork costs about 10 ms)
+        procs = min(workers, runs * total // max(1, _PROCESS_INCREMENTS // 2))
+        groups = np.array_split(np.arange(len(blocks)), procs)
+        run_tasks([functools.partial(run_group, g) for g in groups], procs, share=True)
     elif workers > 1:
         from concurrent.futures import ThreadPoolExecutor
 
@@ -268,7 +270,8 @@ def _simulate(
 # Work of one block of runs (runs x increments) with its own random stream; and the elements of
 # one numpy pass (small enough to stay in the cache). Both fixed: they decide the random stream.
 _BLOCK_INCREMENTS = 1 << 18
-# Work (runs x increments) from which the blocks run on worker processes rather than threads.
+# Work (runs x increments) from which the blocks run on worker processes rather than threads;
+# each process gets at least half of it.
 _PROCESS_INCREMENTS = 1 << 22
 _CHUNK = 1 << 14
 
