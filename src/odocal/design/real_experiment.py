@@ -422,32 +422,20 @@ def predict(
     chunks = [
         chunk_rotations(r.wheel_angle_right_rad, r.wheel_angle_left_rad, chunk_rad) for r in heldout
     ]
-    floor = np.mean(
-        [
-            replay_final_errors(
-                c,
-                robot.true_geometry,
-                robot.nonsystematic,
-                _batch(robot.true_geometry, trials),
-                rng,
-            )[0]
-            for c in chunks
-        ],
-        axis=0,
-    )
-    uncal = np.mean(
-        [
-            replay_final_errors(
-                c,
-                robot.true_geometry,
-                robot.nonsystematic,
-                _batch(robot.believed_geometry, trials),
-                rng,
-            )[0]
-            for c in chunks
-        ],
-        axis=0,
-    )
+
+    def replayed(geometry):
+        """Mean over the held-out runs of their replayed final errors with ``geometry``."""
+        batch = _batch(geometry, trials)
+        return np.mean(
+            [
+                replay_final_errors(c, robot.true_geometry, robot.nonsystematic, batch, rng)[0]
+                for c in chunks
+            ],
+            axis=0,
+        )
+
+    floor = replayed(robot.true_geometry)  # in this order: they share the stream
+    uncal = replayed(robot.believed_geometry)
     sweep, _ = _candidates(robot, sweep_sides_m, runs_per_direction, trials, rng, chunks, settings)
     rec = recommend(sweep, alpha, tolerance, "error")
     real = {}
