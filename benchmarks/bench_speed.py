@@ -94,12 +94,6 @@ def section_limit() -> None:
     row("machine unit (10^8 normals on one process)", f"{state['unit_s']:.2f} s")
 
 
-def _limit() -> float:
-    if "rate2" not in state:
-        section_limit()
-    return state["rate2"] / 2.0
-
-
 def _unit() -> float:
     if "unit_s" not in state:
         section_limit()
