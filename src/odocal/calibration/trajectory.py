@@ -44,7 +44,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.model import WheelGeometry
-from ..core.odometry import dead_reckon
+from ..core.odometry import dead_reckon, dead_reckon_rows
 from ..errors import CalibrationError
 from .linear import fit_linear
 from .result import GeometryFit, check_physical, stderr_dict
@@ -145,6 +145,8 @@ def relative_poses(P, i0, i1):
 
 
 def _run_residual(run: RunResiduals, p, kind, w_head) -> np.ndarray:
+    """One run's (unweighted) residual at geometry ``p`` = (D_R, D_L, b): the definition that
+    :class:`_Residuals` evaluates for many runs at once."""
     odo = dead_reckon(run.phi_r, run.phi_l, WheelGeometry.unchecked(*p))
     if kind == "pose":
         e = run.gt[run.idx] - odo[run.idx]
@@ -155,11 +157,89 @@ def _run_residual(run: RunResiduals, p, kind, w_head) -> np.ndarray:
     return e.ravel()
 
 
-def _solve(runs, x0, kind, w_head):
-    from scipy.optimize import least_squares  # here: a slow import
+# Blocks of runs dead-reckoned at once: at most this share of zero padding (extra work) and
+# this many increments (temporaries of 128 KiB that stay in the cache; larger blocks are slower)
+_MAX_PADDING = 0.1
+_MAX_BLOCK = 2**14
 
-    def fun(p):
-        return np.concatenate([r.weight * _run_residual(r, p, kind, w_head) for r in runs])
+
+class _Residuals:
+    """The residual of ``runs`` at a geometry, bit for bit ``np.concatenate([r.weight *
+    _run_residual(r, p, kind, w_head) for r in runs])`` (``weighted=False``: without r.weight).
+
+    The runs are sorted by length and packed into blocks of similar length, each dead-reckoned
+    at once by :func:`~odocal.core.odometry.dead_reckon_rows` (the operations of
+    ``dead_reckon`` on every element); the compared samples are gathered per block and put back
+    in the runs' order with one precomputed permutation.
+    """
+
+    def __init__(self, runs: list[RunResiduals], kind: str, w_head: float, weighted=True):
+        self.kind, self.w_head = kind, w_head
+        if kind == "pose":
+            samples = [r.idx for r in runs]
+            truth = [r.gt[r.idx] for r in runs]
+        else:  # the starts, then the ends of a run's segments
+            samples = [np.concatenate([r.i0, r.i1]) for r in runs]
+            truth = [r.gt_rel for r in runs]
+        self.truth = np.concatenate(truth)
+        counts = [len(t) for t in truth]
+        self.splits = 3 * np.cumsum(counts)[:-1]  # where each run's part of the residual starts
+        self.weight = np.repeat([r.weight if weighted else 1.0 for r in runs], counts)[:, None]
+        # where every run's samples go in self.poses
+        sizes = [len(t) for t in samples]
+        where = np.split(np.arange(sum(sizes)), np.cumsum(sizes)[:-1])
+        if kind == "segment":
+            self.i0 = np.concatenate([w[:n] for w, n in zip(where, counts, strict=True)])
+            self.i1 = np.concatenate([w[n:] for w, n in zip(where, counts, strict=True)])
+        lengths = [len(r.phi_r) - 1 for r in runs]
+        by_length = sorted(range(len(runs)), key=lambda j: -lengths[j])
+        self.blocks = []
+        gathered = []
+        while by_length:
+            width = lengths[by_length[0]]
+            n, work = 1, width
+            while (
+                n < len(by_length)
+                and (n + 1) * width <= _MAX_BLOCK
+                and (n + 1) * width <= (1 + _MAX_PADDING) * (work + lengths[by_length[n]])
+            ):
+                work += lengths[by_length[n]]
+                n += 1
+            block, by_length = by_length[:n], by_length[n:]
+            inc_r = np.zeros((n, width))
+            inc_l = np.zeros((n, width))
+            for i, j in enumerate(block):
+                inc_r[i, : lengths[j]] = np.diff(runs[j].phi_r)
+                inc_l[i, : lengths[j]] = np.diff(runs[j].phi_l)
+            flat = np.concatenate([i * (width + 1) + samples[j] for i, j in enumerate(block)])
+            self.blocks.append((inc_r, inc_l, flat))
+            gathered += [where[j] for j in block]
+        gathered_at = np.concatenate(gathered)
+        self.order = np.empty_like(gathered_at)
+        self.order[gathered_at] = np.arange(len(gathered_at))
+
+    def poses(self, p) -> np.ndarray:
+        """Dead-reckoned poses at the compared samples, shape (samples, 3), in the runs' order."""
+        g = WheelGeometry.unchecked(*p)
+        parts = [dead_reckon_rows(*inc, g).reshape(3, -1)[:, flat] for *inc, flat in self.blocks]
+        return np.concatenate(parts, axis=1)[:, self.order].T
+
+    def __call__(self, p) -> np.ndarray:
+        odo = self.poses(p)
+        if self.kind == "pose":
+            e = self.truth - odo
+        else:
+            e = self.truth - relative_poses(odo, self.i0, self.i1)
+        e[:, 2] *= self.w_head
+        return (self.weight * e).ravel()
+
+    def per_run(self, residual: np.ndarray) -> list[np.ndarray]:
+        """A residual of __call__ cut into the runs' parts."""
+        return np.split(residual, self.splits)
+
+
+def _solve(fun, x0):
+    from scipy.optimize import least_squares  # here: a slow import
 
     scale = np.abs(np.asarray(x0)) * 1e-2
     with np.errstate(all="ignore"):
@@ -261,12 +341,13 @@ def fit_trajectory(
         # every start is tried and the lowest cost kept: the linear estimate is usually best,
         # but it can be far off when the runs' end poses alone condition it badly
         best = None
+        runs = [
+            RunResiduals(r, residual, samples_per_run, segment_m, gauge, run_weight) for r in rs
+        ]
+        fun = _Residuals(runs, residual, heading_weight_m)
         for g in starts:
             x0 = np.array([g.diameter_right_m, g.diameter_left_m, g.wheelbase_m], float)
-            runs = [
-                RunResiduals(r, residual, samples_per_run, segment_m, gauge, run_weight) for r in rs
-            ]
-            sol = _solve(runs, x0, residual, heading_weight_m)
+            sol = _solve(fun, x0)
             if np.all(np.isfinite(sol.x)) and np.all(sol.x > 0):
                 if best is None or sol.cost < best[1].cost:
                     best = (runs, sol, x0)
@@ -278,12 +359,8 @@ def fit_trajectory(
     # outlier statistic: RMS of the SEGMENT residuals whatever residual the fit used, because
     # segments have the same travel in every run, so short and long runs are comparable
     seg_runs = [RunResiduals(r, "segment", samples_per_run, segment_m, gauge) for r in use]
-    rms = np.array(
-        [
-            np.sqrt(np.mean(_run_residual(r, sol.x, "segment", heading_weight_m) ** 2))
-            for r in seg_runs
-        ]
-    )
+    segments = _Residuals(seg_runs, "segment", heading_weight_m, weighted=False)
+    rms = np.array([np.sqrt(np.mean(e**2)) for e in segments.per_run(segments(sol.x))])
     z = robust_z(rms) if len(rms) >= 3 else np.zeros(len(rms))
     outliers = [r.name for r, zi in zip(runs, z, strict=True) if zi > outlier_z]
     per_run = [

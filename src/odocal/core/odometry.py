@@ -6,7 +6,7 @@ import numpy as np
 
 from .model import WheelGeometry
 
-__all__ = ["dead_reckon", "final_error", "position_errors", "evaluate"]
+__all__ = ["dead_reckon", "dead_reckon_rows", "final_error", "position_errors", "evaluate"]
 
 
 def dead_reckon(angle_right_rad, angle_left_rad, geometry: WheelGeometry) -> np.ndarray:
@@ -24,6 +24,31 @@ def dead_reckon(angle_right_rad, angle_left_rad, geometry: WheelGeometry) -> np.
     x = np.concatenate([[0.0], np.cumsum(ds * np.cos(mid))])
     y = np.concatenate([[0.0], np.cumsum(ds * np.sin(mid))])
     return np.column_stack([x, y, theta])
+
+
+def dead_reckon_rows(
+    increment_right_rad, increment_left_rad, geometry: WheelGeometry
+) -> np.ndarray:
+    """:func:`dead_reckon` of many runs at once, bit for bit: one run per row.
+
+    The increments (rad, shape (R, L)) are each row's ``np.diff`` of its cumulative wheel
+    angles, zero-padded at its end (padding leaves the row's earlier poses untouched: the sums
+    run along each row, element after element, as for one run). Returns the poses, shape
+    (3, R, L + 1) (x, y, theta; column k = sample k, column 0 the start (0, 0, 0)), with the
+    operations of :func:`dead_reckon` in the same order on every element, so that row r up to
+    its own length equals ``dead_reckon`` of that run exactly.
+    """
+    dr = np.asarray(increment_right_rad, dtype=float) * (0.5 * geometry.diameter_right_m)
+    dl = np.asarray(increment_left_rad, dtype=float) * (0.5 * geometry.diameter_left_m)
+    ds = 0.5 * (dr + dl)
+    dth = (dr - dl) / geometry.wheelbase_m
+    poses = np.empty((3, dr.shape[0], dr.shape[1] + 1))
+    poses[:, :, 0] = 0.0
+    np.cumsum(dth, axis=1, out=poses[2, :, 1:])
+    mid = poses[2, :, :-1] + 0.5 * dth
+    np.cumsum(ds * np.cos(mid), axis=1, out=poses[0, :, 1:])
+    np.cumsum(ds * np.sin(mid), axis=1, out=poses[1, :, 1:])
+    return poses
 
 
 def final_error(ground_truth: np.ndarray, odometry: np.ndarray) -> np.ndarray:
