@@ -221,7 +221,7 @@ class _Residuals:
     def poses(self, p) -> np.ndarray:
         """Dead-reckoned poses at the compared samples, shape (samples, 3), in the runs' order."""
         g = WheelGeometry.unchecked(*p)
-        parts = [dead_reckon_rows(*inc, g).reshape(3, -1)[:, flat] for *inc, flat in self.blocks]
+        parts = [dead_reckon_rows(ri, li, g).reshape(3, -1)[:, k] for ri, li, k in self.blocks]
         return np.concatenate(parts, axis=1)[:, self.order].T
 
     def __call__(self, p) -> np.ndarray:
