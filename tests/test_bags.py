@@ -119,18 +119,31 @@ def quat_of(r):
     )
 
 
+_STORES: dict = {}
+
+
+def typestore(ros1: bool):
+    """rosbags' ROS 1 (Noetic) or ROS 2 (Humble) type store, with tf2_msgs/TFMessage: one per
+    kind for every writer, so that rosbags compiles each serialiser once rather than per bag
+    (the bytes written are the same)."""
+    if ros1 not in _STORES:
+        ts = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+        if "tf2_msgs/msg/TFMessage" not in ts.types:  # not in rosbags' ROS 1 store
+            ts.register(
+                get_types_from_msg(
+                    "geometry_msgs/TransformStamped[] transforms", "tf2_msgs/msg/TFMessage"
+                )
+            )
+        _STORES[ros1] = ts
+    return _STORES[ros1]
+
+
 class BagWriter:
     """Write messages into a ROS 1 bag or a ROS 2 bag (mcap or sqlite3) with rosbags."""
 
     def __init__(self, path, kind):
         self.ros1 = kind == "ros1"
-        self.ts = get_typestore(Stores.ROS1_NOETIC if self.ros1 else Stores.ROS2_HUMBLE)
-        if "tf2_msgs/msg/TFMessage" not in self.ts.types:  # not in rosbags' ROS 1 store
-            self.ts.register(
-                get_types_from_msg(
-                    "geometry_msgs/TransformStamped[] transforms", "tf2_msgs/msg/TFMessage"
-                )
-            )
+        self.ts = typestore(self.ros1)
         if self.ros1:
             self.w = Writer1(path)
         else:
@@ -298,7 +311,7 @@ def synthetic(request, tmp_path_factory, run):
 # --------------------------------------------------------------------------- happy paths
 
 
-def test_list_topics_and_table(synthetic):
+def test_list_topics_and_table(synthetic, run):
     kind, path = synthetic
     topics = bags.list_topics(path)
     by = {t.name: t for t in topics}
@@ -306,7 +319,7 @@ def test_list_topics_and_table(synthetic):
     assert by["/mocap/pose"].msgtype == "geometry_msgs/msg/PoseStamped"
     assert by["/imu"].msgtype == "sensor_msgs/msg/Imu"
     assert by["/tf_static"].count == 1
-    n = len(make_run(TRACK).time_s)
+    n = len(run.time_s)
     assert by["/joint_states"].count == n
     if kind != "ros1":  # a ROS 2 storage file can be opened without its folder
         storage = next(p for p in path.iterdir() if p.suffix in (".mcap", ".db3"))
@@ -511,9 +524,19 @@ def one_line_error(cli, *argv):
     return err
 
 
+@pytest.fixture(scope="module")
+def plain_ros1(tmp_path_factory, run):
+    """A ROS 1 bag of ``run`` without the IMU, only read by the tests that use it (the damaged
+    copies they need are written beside their own tmp_path)."""
+    return write_bag(tmp_path_factory.mktemp("plain") / "full.bag", "ros1", run, imu=False)
+
+
 @pytest.mark.parametrize("kind", ["ros1", "mcap"])
-def test_truncated_bag(tmp_path, run, kind, cli):
-    path = write_bag(bag_path(tmp_path, kind, "full"), kind, run, imu=False)
+def test_truncated_bag(tmp_path, run, kind, cli, plain_ros1):
+    if kind == "ros1":
+        path = plain_ros1
+    else:
+        path = write_bag(bag_path(tmp_path, kind, "full"), kind, run, imu=False)
     src = path if kind == "ros1" else next(path.glob("*.mcap"))
     data = src.read_bytes()
     cut = tmp_path / ("cut.bag" if kind == "ros1" else "cut.mcap")
@@ -525,10 +548,10 @@ def test_truncated_bag(tmp_path, run, kind, cli):
     assert str(cut) in err
 
 
-def test_corrupt_bag_body(tmp_path, run):
+def test_corrupt_bag_body(tmp_path, plain_ros1):
     """Garbage in the middle of a ROS 1 bag (index intact): an InputError, not a traceback."""
-    path = write_bag(tmp_path / "c.bag", "ros1", run, imu=False)
-    data = bytearray(path.read_bytes())
+    path = tmp_path / "c.bag"
+    data = bytearray(plain_ros1.read_bytes())
     mid = len(data) // 2
     data[mid : mid + 4000] = (
         np.random.default_rng(3).integers(0, 256, 4000, dtype=np.uint8).tobytes()
@@ -630,10 +653,11 @@ def test_backwards_mocap_body_warns(tmp_path, run):
     assert any("points backwards" in w for w in rec.meta["warnings"])
 
 
-def test_swapped_wheels_are_detected(tmp_path, run):
-    path = write_bag(tmp_path / "swap.bag", "ros1", run, imu=False)
+def test_swapped_wheels_are_detected(plain_ros1):
     with pytest.raises(InputError, match="wheels look swapped"):
-        load_bag_recording(path, right_joint="left_wheel_joint", left_joint="right_wheel_joint")
+        load_bag_recording(
+            plain_ros1, right_joint="left_wheel_joint", left_joint="right_wheel_joint"
+        )
 
 
 def test_gyro_with_swapped_joints_says_so(synthetic):
