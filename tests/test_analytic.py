@@ -175,6 +175,17 @@ def test_norm_stats_against_the_rayleigh_distribution():
     assert sd == pytest.approx(0.3 * 0.6, rel=1e-2)
 
 
+def test_without_intervals_only_the_intervals_are_missing():
+    # intervals=False (the precision sweep, the range design) leaves the 95 % intervals NaN and
+    # every other number bit for bit as it was
+    robot = PRESETS["paper-fig5"]
+    full = analytic_design(robot, [3, 4], [0.5, 2.0, 4.0], 5, "heading", VALIDATE)
+    bare = analytic_design(robot, [3, 4], [0.5, 2.0, 4.0], 5, "heading", VALIDATE, intervals=False)
+    for a, b in zip(full, bare, strict=True):
+        assert np.all(np.isfinite(a.post_error_ci95_m)) and np.all(np.isnan(b.post_error_ci95_m))
+        assert replace(a, post_error_ci95_m=(0, 0)) == replace(b, post_error_ci95_m=(0, 0))
+
+
 def test_reference_floor_and_uncalibrated():
     robot = PRESETS["paper-fig5"]
     ref = analytic_reference(robot, VALIDATE)

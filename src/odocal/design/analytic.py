@@ -76,11 +76,14 @@ def _normal_sample() -> np.ndarray:
     return np.column_stack([radius * np.cos(angle), radius * np.sin(angle)])
 
 
-def norm_stats(mean_xy, cov_xy) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def norm_stats(
+    mean_xy, cov_xy, *, quantiles: bool = True
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Mean, std, 2.5 % and 97.5 % quantiles of ||p|| for p ~ N(mean_xy, cov_xy).
 
     ``mean_xy`` has shape (..., 2), ``cov_xy`` shape (..., 2, 2) (m, m^2); results have shape
     (...). Computed on a fixed sample of 2^14 points (deterministic; :func:`_normal_sample`).
+    ``quantiles=False`` gives NaN quantiles (they are a third of the time).
     """
     mu = np.asarray(mean_xy, dtype=float)
     c = np.asarray(cov_xy, dtype=float)
@@ -92,7 +95,10 @@ def norm_stats(mean_xy, cov_xy) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.
     px = mu[..., 0, None] + root[..., 0, 0, None] * z0 + root[..., 0, 1, None] * z1
     py = mu[..., 1, None] + root[..., 1, 0, None] * z0 + root[..., 1, 1, None] * z1
     r = np.hypot(px, py)
-    lo, hi = np.quantile(r, [0.025, 0.975], axis=-1)
+    if quantiles:
+        lo, hi = np.quantile(r, [0.025, 0.975], axis=-1)
+    else:
+        lo = hi = np.full(r.shape[:-1], math.nan)
     return r.mean(axis=-1), r.std(axis=-1), lo, hi
 
 
@@ -166,6 +172,7 @@ def analytic_design(
     umbmark_form: str = "mean",
     measured_validation: bool = False,
     steps: int = 64,
+    intervals: bool = True,
 ) -> list[Candidate]:
     """First-order prediction of the Monte-Carlo design for every (sides, side length) candidate.
 
@@ -190,6 +197,9 @@ def analytic_design(
     steps : int
         Increments per segment of the covariance propagation (its discretisation error falls as
         1/steps^2: below 1e-3 relative at 64); the means are exact.
+    intervals : bool
+        False leaves ``post_error_ci95_m`` NaN, which saves a third of the time where only the
+        means and standard deviations count (a recommendation, the range design).
 
     Returns
     -------
@@ -248,7 +258,7 @@ def analytic_design(
         )  # (S, 2, 2)
         C = H @ cov_E @ np.swapaxes(H, -1, -2)
         rm, rs, _, _ = norm_stats(
-            np.where(ok[:, None], p0, 0.0), np.where(ok[:, None, None], C, 0.0)
+            np.where(ok[:, None], p0, 0.0), np.where(ok[:, None, None], C, 0.0), quantiles=False
         )
         run = propagate(
             validate_track,
@@ -262,7 +272,7 @@ def analytic_design(
             C += meas[:2, :2]
         # 4. ||p||
         m, s, lo, hi = norm_stats(
-            np.where(ok[:, None], p0, 0.0), np.where(ok[:, None, None], C, 0.0)
+            np.where(ok[:, None], p0, 0.0), np.where(ok[:, None, None], C, 0.0), quantiles=intervals
         )
         for i, side in enumerate(L):
             nan2 = (math.nan, math.nan)

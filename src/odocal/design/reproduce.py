@@ -207,7 +207,12 @@ def precision_sweep(
         for method in ("heading", "umbmark"):
             # the candidates of `design --analytic` (squares, 4 m validation square)
             candidates = analytic_design(
-                r, 4, side_lengths_m, method=method, validate_track=polygon(4, 4.0, "ccw")
+                r,
+                4,
+                side_lengths_m,
+                method=method,
+                validate_track=polygon(4, 4.0, "ccw"),
+                intervals=False,
             )
             for criterion in ("error", "residual"):
                 idx = recommend(candidates, 0.05, 0.05, criterion).index

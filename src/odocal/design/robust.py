@@ -244,7 +244,10 @@ def range_design(
     for k, (levels, r) in enumerate(grid):
         cands = []
         for N, lengths in shapes.items():
-            cands += analytic_design(r, N, lengths, runs_per_direction, method, track)
+            # intervals only where they are reported: the robot as given (k == 0)
+            cands += analytic_design(
+                r, N, lengths, runs_per_direction, method, track, intervals=k == 0
+            )
         if k == 0:
             candidates = cands
         errors.append([c.post_error_mean_m for c in cands])
