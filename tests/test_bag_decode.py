@@ -62,7 +62,7 @@ def refuse_records(monkeypatch) -> None:
     monkeypatch.setattr(AnyReader, "deserialize", guarded)
 
 
-def assert_fast_equals_rosbags(path, monkeypatch, expect_fast=True) -> dict:
+def assert_fast_equals_rosbags(path, monkeypatch, expect_fast=True) -> bags.BagContents:
     """Read every Imu and Odometry topic of ``path`` fast and through rosbags: the records and
     the series are identical. Returns the fast read (a BagContents)."""
     topics = [t.name for t in bags.list_topics(path) if t.msgtype in bag_decode.RECORD_TYPES]

@@ -456,10 +456,11 @@ _HUSKY_READS: dict = {}
 
 
 def read_husky_once(monkeypatch):
-    """fit_gyro_bag reads each Husky bag once in this module: a later fit that picks topics
-    already read gets the messages of that first read, which it does not change (what the Husky
-    tests vary -- axis, bias, mounting -- acts after the read; the first fit of each bag, and
-    test_bag_decode, read it for real)."""
+    """From now on (``monkeypatch``) odocal's gyro fit reads each Husky bag once per test
+    process: a later fit that picks topics already read gets the messages of the first read,
+    which it does not change. What the Husky fits vary (axis, bias, mounting, exports) acts after
+    the read; the first fit of each bag reads it for real, and test_bag_decode checks the read
+    itself message by message."""
     import odocal.app.fit as fit_module
 
     real = fit_module.read_bag
