@@ -208,7 +208,10 @@ def rosbags_record(ts, ros1, msgtype, raw):
     return bag_decode.record(msgtype, msg)
 
 
-@pytest.mark.parametrize("case", encodings(), ids=lambda c: f"{c[2]}-{len(c[3])}-{c[3][:2].hex()}")
+ENCODINGS = encodings()  # built once for both tests below (the cases are only read)
+
+
+@pytest.mark.parametrize("case", ENCODINGS, ids=lambda c: f"{c[2]}-{len(c[3])}-{c[3][:2].hex()}")
 def test_message_bytes_decode_as_rosbags(case):
     ts, ros1, msgtype, raw = case
     if not ros1:  # the encapsulation header says which byte order
@@ -248,7 +251,7 @@ def damaged(raw: bytes, rng) -> list[bytes]:
     return out
 
 
-@pytest.mark.parametrize("case", encodings(), ids=lambda c: f"{c[2]}-{c[3][:2].hex()}")
+@pytest.mark.parametrize("case", ENCODINGS, ids=lambda c: f"{c[2]}-{c[3][:2].hex()}")
 def test_damaged_bytes_decode_as_rosbags_or_fall_back(case):
     """Whatever the bytes, the decoder gives rosbags' numbers or None (then rosbags decides);
     it never decodes what rosbags refuses."""
