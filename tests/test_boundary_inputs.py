@@ -11,6 +11,7 @@ import os
 import shutil
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import pytest
@@ -70,10 +71,46 @@ def files(tmp_path) -> Path:
 # --- pipes, process substitution, /dev/stdin ----------------------------------------------------
 
 
+class _Pipes:
+    """Files given as pipes, as bash's ``<(cat FILE)`` gives them: ``path(name)`` is
+    ``/dev/fd/N`` of a new pipe that a thread fills with the file's bytes (a pipe can be read
+    once); ``close()`` closes every read end and waits for the writers."""
+
+    def __init__(self, folder: Path):
+        self.folder, self.fds, self.threads = folder, [], []
+
+    def path(self, name: str) -> str:
+        r, w = os.pipe()
+        data = (self.folder / name).read_bytes()
+
+        def fill():
+            try:
+                with os.fdopen(w, "wb") as fh:
+                    fh.write(data)
+            except BrokenPipeError:  # the reader stopped early: the numbers will tell
+                pass
+
+        t = threading.Thread(target=fill, daemon=True)
+        t.start()
+        self.fds.append(r)
+        self.threads.append(t)
+        return f"/dev/fd/{r}"
+
+    def close(self) -> None:
+        for r in self.fds:
+            os.close(r)
+        for t in self.threads:
+            t.join(timeout=10)
+            assert not t.is_alive()
+        self.fds, self.threads = [], []
+
+
 @pytest.mark.skipif(BASH is None, reason="needs bash for <(...)")
+@pytest.mark.filterwarnings("error::RuntimeWarning")
 def test_every_reader_reads_a_pipe_once(cli, files, monkeypatch):
-    """Each command from files (in-process) and with every input through <(cat ...) (bash): the
-    same numbers."""
+    """Each command from files and with every input through a pipe (/dev/fd/N, what bash's
+    <(cat ...) gives; in-process), the same numbers; and, through a real shell, standard input
+    as a pipe and as a redirected file, and a process substitution."""
     commands = [
         "calibrate {runs.csv} --robot {robot.yaml} --side-length 4 --json",
         "simulate --robot {robot.yaml} --params {params.yaml} --track {track.yaml} --runs 2 --json",
@@ -83,33 +120,34 @@ def test_every_reader_reads_a_pipe_once(cli, files, monkeypatch):
         "fit {m.tuple} --method relative --json",
     ]
     monkeypatch.chdir(files)
-    piped_script = []
-    plain_docs = []
     for command in commands:
-        names = [n.split("}")[0] for n in command.split("{")[1:]]
-        plain, piped = command, command
-        for n in names:
-            plain, piped = plain.replace(f"{{{n}}}", n), piped.replace(f"{{{n}}}", f"<(cat {n})")
-        status, out, err = cli(*plain.split())
+        words = command.split()
+        plain = [w.strip("{}") for w in words]
+        status, out, err = cli(*plain)
         assert status == 0, (plain, err)
-        plain_docs.append(json.loads(out))
-        piped_script.append(f"odocal {piped}; echo @@@")
-    # and standard input, as a pipe and as a redirected file
-    piped_script.append(
-        "cat runs.csv | odocal calibrate /dev/stdin --robot robot.yaml --side-length 4 --json"
+        pipes = _Pipes(files)
+        try:
+            piped = [pipes.path(w.strip("{}")) if w.startswith("{") else w for w in words]
+            p_status, p_out, p_err = cli(*piped)
+        finally:
+            pipes.close()
+        assert p_status == 0 and "odocal: error" not in p_err, (piped, p_err)
+        # the inputs' names differ (/dev/fd/N for a pipe); the numbers do not
+        assert _numbers(json.loads(out)) == _numbers(json.loads(p_out)), command
+    # a real shell: standard input as a pipe (with a process substitution beside it) and as a
+    # redirected file, in fresh processes
+    r = odocal_sh(
+        "cat runs.csv | odocal calibrate /dev/stdin --robot <(cat robot.yaml) --side-length 4 "
+        "--json; echo @@@; odocal simulate --robot /dev/stdin --runs 2 --json < robot.yaml",
+        files,
     )
-    piped_script.append("echo @@@; odocal simulate --robot /dev/stdin --runs 2 --json < robot.yaml")
-    piped_script.append("echo @@@")
-    commands += [commands[0], "simulate --robot robot.yaml --runs 2 --json"]
-    status, out, err = cli(*commands[-1].split())
-    plain_docs += [plain_docs[0], json.loads(out)]
-    r = odocal_sh("; ".join(piped_script), files)
     assert r.returncode == 0 and "odocal: error" not in r.stderr, r.stderr
-    piped_docs = [json.loads(t) for t in r.stdout.split("@@@")[:-1]]
-    assert len(piped_docs) == len(commands)
-    for command, a, b in zip(commands, plain_docs, piped_docs, strict=True):
-        # the inputs' names differ (/dev/fd/63 for a pipe); the numbers do not
-        assert _numbers(a) == _numbers(b), command
+    piped_docs = [json.loads(t) for t in r.stdout.split("@@@")]
+    shell_commands = [commands[0], "simulate --robot robot.yaml --runs 2 --json"]
+    for command, b in zip(shell_commands, piped_docs, strict=True):
+        status, out, err = cli(*command.replace("{", "").replace("}", "").split())
+        assert status == 0, err
+        assert _numbers(json.loads(out)) == _numbers(b), command
 
 
 def _numbers(doc):

@@ -61,8 +61,9 @@ class _Listed:
 
 
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
-    """The parser. The module of ``command`` (of every command when None) adds its own; the
-    others are listed by name and one-line help only."""
+    """The parser. The module of ``command`` (of every command when None) adds its own. Without
+    a known command ('': help, version, a mistake), the others are listed by name and one-line
+    help; with one, only its parser is built (every other listing would go unread)."""
     parser = _Parser(
         prog="odocal",
         description="Odometry calibration and test-track design for differential-drive robots.",
@@ -73,7 +74,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     for name, (module, line) in COMMANDS.items():
         if command is None or name == command:
             importlib.import_module(f".{module}", __package__).add_parser(_Listed(sub, line))
-        else:
+        elif command not in COMMANDS:
             sub.add_parser(name, help=line)
     return parser
 
