@@ -19,7 +19,7 @@ from rosbags.rosbag1 import Writer as Writer1
 from rosbags.rosbag2 import StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
-from synthetic_robot import Gyro, simulate_robot, write_ros2_bag
+from synthetic_robot import Gyro, Laser, simulate_robot, write_ros2_bag
 from test_bags import KINDS, TRACK, BagWriter, bag_path, make_run, write_bag
 
 from odocal.app.fit import fit_gyro_bag
@@ -62,9 +62,9 @@ def refuse_records(monkeypatch) -> None:
     monkeypatch.setattr(AnyReader, "deserialize", guarded)
 
 
-def assert_fast_equals_rosbags(path, monkeypatch, expect_fast=True) -> dict:
+def assert_fast_equals_rosbags(path, monkeypatch, expect_fast=True) -> bags.BagContents:
     """Read every Imu and Odometry topic of ``path`` fast and through rosbags: the records and
-    the series are identical. Returns the per-topic counts."""
+    the series are identical. Returns the fast read (a BagContents)."""
     topics = [t.name for t in bags.list_topics(path) if t.msgtype in bag_decode.RECORD_TYPES]
     assert topics
     ref = bags.read_bag(path, topics, fast=False)
@@ -77,7 +77,7 @@ def assert_fast_equals_rosbags(path, monkeypatch, expect_fast=True) -> dict:
         assert [bits(x) for x in a] == [bits(x) for x in b], topic
         series = bags.imu_series if fast.msgtype(topic) == IMU else bags.pose_series
         assert series_bits(series(fast, topic)) == series_bits(series(ref, topic)), topic
-    return {t: len(fast.messages[t]) for t in topics}
+    return fast
 
 
 # --------------------------------------------------------------------------- every bag kind
@@ -88,22 +88,47 @@ def run():
     return make_run(TRACK)
 
 
+@pytest.fixture(scope="module")
+def written(run, tmp_path_factory):
+    """kind -> a bag of ``run`` with odometry (test_bags.write_bag), written on first use and
+    only read by the tests."""
+    paths = {}
+
+    def get(kind):
+        if kind not in paths:
+            folder = tmp_path_factory.mktemp(kind)
+            paths[kind] = write_bag(bag_path(folder, kind), kind, run, odom=True)
+        return paths[kind]
+
+    return get
+
+
 @pytest.mark.parametrize("kind", KINDS)
-def test_fast_path_equals_rosbags_on_written_bags(kind, run, tmp_path, monkeypatch):
-    path = write_bag(bag_path(tmp_path, kind), kind, run, odom=True)
-    counts = assert_fast_equals_rosbags(path, monkeypatch)
-    assert counts["/imu"] > 1000 and counts["/odom"] > 100
+def test_fast_path_equals_rosbags_on_written_bags(kind, written, monkeypatch):
+    messages = assert_fast_equals_rosbags(written(kind), monkeypatch).messages
+    assert len(messages["/imu"]) > 1000 and len(messages["/odom"]) > 100
+
+
+@pytest.fixture(scope="module")
+def robot_bag(tmp_path_factory):
+    """A short synthetic robot run and its ROS 2 (sqlite3) bag, written once and only read."""
+    short = Track("short", (straight(0.5), spot_turn(math.pi / 2)))
+    geometry = WheelGeometry.symmetric(0.2, 0.5)
+    # no test here reads the scans: 8 rays, not 720 (noise-free ranges draw nothing from rng)
+    robot = simulate_robot(
+        short, geometry, geometry, gyro=Gyro(0.01, 0.002), rng=np.random.default_rng(5),
+        laser=Laser(n_rays=8),
+    )  # fmt: skip
+    path = tmp_path_factory.mktemp("robot") / "robot"
+    write_ros2_bag(path, robot)
+    return robot, path
 
 
 @pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
-def test_fast_path_equals_rosbags_on_the_synthetic_robot_bag(storage, tmp_path, monkeypatch):
-    short = Track("short", (straight(0.5), spot_turn(math.pi / 2)))
-    geometry = WheelGeometry.symmetric(0.2, 0.5)
-    robot = simulate_robot(
-        short, geometry, geometry, gyro=Gyro(0.01, 0.002), rng=np.random.default_rng(5)
-    )
-    path = tmp_path / "robot"
-    write_ros2_bag(path, robot)
+def test_fast_path_equals_rosbags_on_the_synthetic_robot_bag(
+    storage, robot_bag, tmp_path, monkeypatch
+):
+    robot, path = robot_bag
     if storage == "mcap":  # the same messages into an mcap bag
         src = path
         path = tmp_path / "robot_mcap"
@@ -117,13 +142,15 @@ def test_fast_path_equals_rosbags_on_the_synthetic_robot_bag(storage, tmp_path, 
             }
             for c, t, raw in r.messages():
                 w.write(conns[c.id], t, raw)
-    assert assert_fast_equals_rosbags(path, monkeypatch)["/imu"] == len(robot.gyro_time_ns)
+    messages = assert_fast_equals_rosbags(path, monkeypatch).messages
+    assert len(messages["/imu"]) == len(robot.gyro_time_ns)
 
 
 def test_fast_path_equals_rosbags_on_the_husky_bag(realdata, monkeypatch):
     """The bag a real ``rosbag record`` wrote. (Its ROS 2 copy was converted by rosbags, like the
     written bags above; test_fit_bags checks that both give the same fit.)"""
-    counts = assert_fast_equals_rosbags(realdata / "husky" / "husky_test1.bag", monkeypatch)
+    fast = assert_fast_equals_rosbags(realdata / "husky" / "husky_test1.bag", monkeypatch)
+    counts = {topic: len(m) for topic, m in fast.messages.items()}
     assert counts == {"/imu/data": 11865, "/husky_velocity_controller/odom": 3952}
 
 
@@ -181,7 +208,10 @@ def rosbags_record(ts, ros1, msgtype, raw):
     return bag_decode.record(msgtype, msg)
 
 
-@pytest.mark.parametrize("case", encodings(), ids=lambda c: f"{c[2]}-{len(c[3])}-{c[3][:2].hex()}")
+ENCODINGS = encodings()  # built once for both tests below (the cases are only read)
+
+
+@pytest.mark.parametrize("case", ENCODINGS, ids=lambda c: f"{c[2]}-{len(c[3])}-{c[3][:2].hex()}")
 def test_message_bytes_decode_as_rosbags(case):
     ts, ros1, msgtype, raw = case
     if not ros1:  # the encapsulation header says which byte order
@@ -221,7 +251,7 @@ def damaged(raw: bytes, rng) -> list[bytes]:
     return out
 
 
-@pytest.mark.parametrize("case", encodings(), ids=lambda c: f"{c[2]}-{c[3][:2].hex()}")
+@pytest.mark.parametrize("case", ENCODINGS, ids=lambda c: f"{c[2]}-{c[3][:2].hex()}")
 def test_damaged_bytes_decode_as_rosbags_or_fall_back(case):
     """Whatever the bytes, the decoder gives rosbags' numbers or None (then rosbags decides);
     it never decodes what rosbags refuses."""
@@ -306,8 +336,9 @@ def test_a_custom_type_of_the_standard_name_is_left_to_rosbags(kind, tmp_path, m
     write_custom_imu(path, kind, SWAPPED_IMU, rates)
     with AnyReader([path]) as r:  # the bag carries its own definition, rosbags uses it
         assert bag_decode.decoder(IMU, r.typestore, kind == "ros1") is None
-    assert_fast_equals_rosbags(path, monkeypatch, expect_fast=False)
-    s = bags.imu_series(bags.read_bag(path, ["/imu"]), "/imu")
+    fast = assert_fast_equals_rosbags(path, monkeypatch, expect_fast=False)
+    assert list(fast.messages) == ["/imu"]  # that read was read_bag(path, ["/imu"])
+    s = bags.imu_series(fast, "/imu")
     np.testing.assert_array_equal(s.values["angular_velocity"], np.outer(rates, [1, 2, 3]))
 
 
@@ -361,8 +392,8 @@ def opens(monkeypatch):
     return count
 
 
-def test_every_bag_reader_opens_the_bag_once(run, tmp_path, opens):
-    path = write_bag(tmp_path / "run.bag", "ros1", run, odom=True)
+def test_every_bag_reader_opens_the_bag_once(written, opens):
+    path = written("ros1")
     load_bag_recording(path)
     assert opens[0] == 1
     fit_gyro_bag(path, odom_topic="/odom")
@@ -375,9 +406,9 @@ def test_every_bag_reader_opens_the_bag_once(run, tmp_path, opens):
     assert opens[0] == 4
 
 
-def test_read_bag_with_a_choice_function(run, tmp_path, monkeypatch):
+def test_read_bag_with_a_choice_function(written, monkeypatch):
+    path = written("ros1")
     refuse_records(monkeypatch)
-    path = write_bag(tmp_path / "run.bag", "ros1", run, odom=True)
     seen = []
 
     def choose(info):

@@ -65,8 +65,14 @@ def repeats():
     ]
 
 
-def test_k_from_repeated_squares_recovers_the_truth(repeats):
-    est = estimate_k_from_recordings(repeats, TRUE)
+@pytest.fixture(scope="module")
+def clean(repeats):
+    """k estimated from the noise-free-tracker repeats (computed once, only inspected)."""
+    return estimate_k_from_recordings(repeats, TRUE)
+
+
+def test_k_from_repeated_squares_recovers_the_truth(clean):
+    est = clean
     assert est.runs == 80 and est.dof == 76 and len(est.groups) == 4
     # the pooled heading variance has a relative standard error sqrt(2 / 76) = 16 %: 3 of them
     assert est.k_sum_m == pytest.approx(2 * K, rel=0.49)
@@ -79,7 +85,7 @@ def test_k_from_repeated_squares_recovers_the_truth(repeats):
     assert not any("disagree" in w for w in est.warnings)
 
 
-def test_the_systematic_part_is_removed(repeats):
+def test_the_systematic_part_is_removed(repeats, clean):
     """A different systematic error per data set (a different wheelbase) shifts the means, not
     the spread: k is unchanged."""
     shifted = []
@@ -92,12 +98,11 @@ def test_the_systematic_part_is_removed(repeats):
             r = Recording(r.name, r.time_s, r.wheel_angle_right_rad, r.wheel_angle_left_rad,
                           ground_truth=gt, label=r.label, meta=r.meta)  # fmt: skip
         shifted.append(r)
-    a = estimate_k_from_recordings(repeats, TRUE)
     b = estimate_k_from_recordings(shifted, TRUE)
-    assert b.k_sum_m == pytest.approx(a.k_sum_m, rel=1e-6)
+    assert b.k_sum_m == pytest.approx(clean.k_sum_m, rel=1e-6)
 
 
-def test_tracker_noise_is_subtracted_and_measured(repeats):
+def test_tracker_noise_is_subtracted_and_measured(repeats, clean):
     rng = np.random.default_rng(3)
     sigma = math.radians(0.6)
     jittered = []
@@ -113,7 +118,6 @@ def test_tracker_noise_is_subtracted_and_measured(repeats):
     # white noise on a path that turns smoothly: the second differences see it (10 %)
     assert tr.sigma_theta_rad == pytest.approx(sigma, rel=0.1)
     assert tr.sigma_xy_m == pytest.approx(0.001, rel=0.1)
-    clean = estimate_k_from_recordings(repeats, TRUE)
     naive = estimate_k_from_recordings(jittered, TRUE)
     fixed = estimate_k_from_recordings(jittered, TRUE, MeasurementNoise(0.001, sigma))
     # the jitter adds 2 sigma^2 (start and end), a third of the wheel noise's heading variance

@@ -4,7 +4,6 @@ agree with the simulated truth, and the scans in it match back to the true laser
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -50,11 +49,17 @@ def bag(run, tmp_path_factory):
     return path, counts
 
 
-def read(path: Path, topic: str):
-    """[(log time ns, message)] of one topic."""
-    with AnyReader([path]) as reader:
-        conns = [c for c in reader.connections if c.topic == topic]
-        return [(t, reader.deserialize(raw, c.msgtype)) for c, t, raw in reader.messages(conns)]
+@pytest.fixture(scope="module")
+def contents(bag):
+    """The bag read once with rosbags and only inspected by the tests: the connections' counts
+    and types, and topic -> [(log time ns, message)] in recording order."""
+    with AnyReader([bag[0]]) as reader:
+        counts = {c.topic: c.msgcount for c in reader.connections}
+        types = {c.topic: c.msgtype for c in reader.connections}
+        messages: dict[str, list] = {topic: [] for topic in counts}
+        for c, t, raw in reader.messages():
+            messages[c.topic].append((t, reader.deserialize(raw, c.msgtype)))
+    return counts, types, messages
 
 
 def stamp_ns(msg) -> int:
@@ -82,8 +87,8 @@ def test_without_errors_the_odometry_is_the_true_path():
     )
 
 
-def test_message_counts(run, bag):
-    path, counts = bag
+def test_message_counts(run, bag, contents):
+    _, counts = bag
     k, s = len(run.time_ns), len(run.scan_index)
     expected = {
         TOPICS["joints"]: k,
@@ -93,16 +98,16 @@ def test_message_counts(run, bag):
         TOPICS["tf_static"]: 1,
     }
     assert counts == expected
-    with AnyReader([path]) as reader:
-        assert {c.topic: c.msgcount for c in reader.connections} == expected
-        types = {c.topic: c.msgtype for c in reader.connections}
+    in_bag, types, messages = contents
+    assert in_bag == expected
+    assert {topic: len(m) for topic, m in messages.items()} == expected
     assert types[TOPICS["scan"]] == "sensor_msgs/msg/LaserScan"
     assert types[TOPICS["joints"]] == "sensor_msgs/msg/JointState"
     assert types[TOPICS["imu"]] == "sensor_msgs/msg/Imu"
 
 
-def test_static_transform_is_the_laser_mounting(bag):
-    ((_, msg),) = read(bag[0], TOPICS["tf_static"])
+def test_static_transform_is_the_laser_mounting(contents):
+    ((_, msg),) = contents[2][TOPICS["tf_static"]]
     laser = next(t for t in msg.transforms if t.child_frame_id == "laser")
     assert laser.header.frame_id == "base_link"
     tr = laser.transform
@@ -110,8 +115,8 @@ def test_static_transform_is_the_laser_mounting(bag):
     assert yaw(tr.rotation) == pytest.approx(LASER.mount[2])
 
 
-def test_tf_carries_the_odometry_and_the_map_correction(run, bag):
-    msgs = read(bag[0], TOPICS["tf"])
+def test_tf_carries_the_odometry_and_the_map_correction(run, contents):
+    msgs = contents[2][TOPICS["tf"]]
     k = 600
     t, msg = msgs[k]
     assert t == stamp_ns(msg.transforms[0]) == run.time_ns[k]
@@ -135,15 +140,15 @@ def test_tf_carries_the_odometry_and_the_map_correction(run, bag):
     assert math.remainder(base[2] - run.true_pose[i, 2], 2 * math.pi) == pytest.approx(0, abs=1e-9)
 
 
-def test_joint_states_and_gyro(run, bag):
-    joints = read(bag[0], TOPICS["joints"])
+def test_joint_states_and_gyro(run, contents):
+    joints = contents[2][TOPICS["joints"]]
     t, msg = joints[300]
     assert stamp_ns(msg) == t == run.time_ns[300]
     assert list(msg.name) == ["right_wheel_joint", "left_wheel_joint"]
     np.testing.assert_allclose(
         msg.position, [run.wheel_angle_right_rad[300], run.wheel_angle_left_rad[300]]
     )
-    imu = read(bag[0], TOPICS["imu"])
+    imu = contents[2][TOPICS["imu"]]
     wz = np.array([m.angular_velocity.z for _, m in imu])
     assert imu[0][1].header.frame_id == "imu_link"
     # standing still for the first 49 samples: the mean is the bias (noise 0.002 / sqrt(49))
@@ -154,8 +159,8 @@ def test_joint_states_and_gyro(run, bag):
     assert total == pytest.approx(run.true_pose[-1, 2] - run.true_pose[0, 2], abs=6e-3)
 
 
-def test_scans_in_the_bag_match_back_to_the_true_laser_motion(run, bag):
-    scans = read(bag[0], TOPICS["scan"])
+def test_scans_in_the_bag_match_back_to_the_true_laser_motion(run, contents):
+    scans = contents[2][TOPICS["scan"]]
     first = scans[0][1]
     assert first.header.frame_id == "laser"
     assert first.angle_increment == pytest.approx(2 * math.pi / LASER.n_rays)
