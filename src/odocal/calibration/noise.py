@@ -139,12 +139,27 @@ def _coefficients(track: str, d: float, b: float, curvature_rad_per_m: float):
 
 
 def _trend(values: np.ndarray) -> tuple[float, float, float]:
-    """Least-squares slope of ``values`` against run order, its t statistic and R^2."""
-    from scipy import stats
+    """Least-squares slope of ``values`` against run order, its t statistic and R^2 (what
+    ``scipy.stats.linregress`` gives, without importing scipy.stats: 0.6 s)."""
+    y = np.asarray(values, dtype=float)
+    x = np.arange(len(y), dtype=float)
+    xc, yc = x - x.mean(), y - y.mean()
+    sxx, syy, sxy = float(xc @ xc), float(yc @ yc), float(xc @ yc)
+    slope = sxy / sxx
+    r2 = min(sxy * sxy / (sxx * syy), 1.0) if syy > 0 else 0.0
+    residual = yc - slope * xc  # (linregress's (1 - r^2) syy loses digits for a near-exact line)
+    stderr = math.sqrt(float(residual @ residual) / sxx / (len(y) - 2))
+    t = slope / stderr if stderr > 0 else (math.inf if slope else 0.0)
+    return slope, t, r2
 
-    res = stats.linregress(np.arange(len(values), dtype=float), values)
-    t = res.slope / res.stderr if res.stderr > 0 else (math.inf if res.slope else 0.0)
-    return float(res.slope), float(t), float(res.rvalue**2)
+
+def _chi2_quantiles(dof: int) -> np.ndarray:
+    """The 97.5 % and 2.5 % quantiles of chi^2 with ``dof`` degrees of freedom: 2 P^-1(dof/2, q)
+    (the inverse regularised gamma function), the numbers ``scipy.stats.chi2.ppf`` gives bit for
+    bit, without importing scipy.stats (0.6 s)."""
+    from scipy.special import gammaincinv
+
+    return 2.0 * gammaincinv(dof / 2, np.array([0.975, 0.025]))
 
 
 def estimate_k(
@@ -185,8 +200,6 @@ def estimate_k(
     systematic part changes between runs). A lateral spread inconsistent with the heading spread
     (misaligned start, not a straight path) is a warning.
     """
-    from scipy import stats
-
     if track not in NOISE_TRACKS:
         raise CalibrationError(f"track must be one of {', '.join(NOISE_TRACKS)}, got {track!r}")
     d, b = float(distance_m), float(wheelbase_m)
@@ -206,7 +219,7 @@ def estimate_k(
     c_xth = float(np.cov(x, th, ddof=1)[0, 1])
     s2_x = float(np.var(x, ddof=1))
     dof = n - 1
-    lo_q, hi_q = stats.chi2.ppf([0.975, 0.025], dof)
+    lo_q, hi_q = _chi2_quantiles(dof)
     var_lo, var_hi = dof * s2_th / lo_q, dof * s2_th / hi_q
     if s2_th <= var_m_theta:
         raise CalibrationError(
@@ -420,9 +433,7 @@ class RecordedNoise:
 
 
 def _chi2_interval(ss_scaled: float, dof: int) -> tuple[float, float]:
-    from scipy import stats
-
-    lo_q, hi_q = stats.chi2.ppf([0.975, 0.025], dof)
+    lo_q, hi_q = _chi2_quantiles(dof)
     return ss_scaled / lo_q, ss_scaled / hi_q
 
 
