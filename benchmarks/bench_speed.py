@@ -261,7 +261,7 @@ def section_compare(trials: int) -> None:
 # --- reproduce ------------------------------------------------------------------------------
 def section_reproduce() -> None:
     with tempfile.TemporaryDirectory() as tmp:
-        run = fresh(odocal_cmd("reproduce", "--out", tmp, "--quiet"), repeat=3)
+        run = fresh(odocal_cmd("reproduce", "--out", tmp, "--quiet"), repeat=5)
     row(
         "odocal reproduce (800 trials)",
         f"{run.wall_s:.2f} s wall, {run.cpu_s:.2f} s CPU, {run.peak_mb:.0f} MB peak",
