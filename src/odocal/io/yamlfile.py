@@ -9,7 +9,8 @@ and bounded where PyYAML is neither:
 - merge keys (``<<: *base``) work; keys given in the mapping itself win over merged ones;
 - a key given twice in one mapping is an error (PyYAML silently keeps the last);
 - aliases are bounded: at most :data:`MAX_ALIASES` of them and :data:`MAX_NODES` values after
-  expansion (a "billion laughs" file is refused in milliseconds instead of filling the memory);
+  expansion (a "billion laughs" file is refused at its 200 000th value, in a fraction of a
+  second, instead of filling the memory);
 - nesting deeper than :data:`MAX_DEPTH` (and a recursive alias) is an error, never a crash;
 - only the core tags (str, int, float, bool, null, map, seq) are accepted;
 - a number too large for a float, or a number field longer than ``MAX_FIELD_CHARS``, is an error
