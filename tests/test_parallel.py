@@ -84,6 +84,16 @@ def test_no_nesting_inside_a_worker(monkeypatch):
         assert len(set(pids)) == 1
 
 
+@pytest.mark.parametrize("share", [False, True])
+def test_one_worker_inside_a_task(monkeypatch, share):
+    # the workers already take the cores: no threads of their own inside a task (the simulator
+    # would run its blocks on workers() threads), in this process's share of the tasks too
+    monkeypatch.setenv("ODOCAL_THREADS", "2")
+    assert parallel.workers() == 2
+    assert run_tasks([parallel.workers, parallel.workers], share=share) == [1, 1]
+    assert parallel.workers() == 2
+
+
 def _inside_a_pool_worker(_):
     os.environ["ODOCAL_THREADS"] = "2"
     return run_tasks([os.getpid, os.getpid])

@@ -27,7 +27,11 @@ T = TypeVar("T")
 
 
 def workers() -> int:
-    """Workers for independent pieces of work: ODOCAL_THREADS, else the usable CPUs."""
+    """Workers for independent pieces of work: ODOCAL_THREADS, else the usable CPUs; one inside a
+    task of :func:`run_tasks` (its workers already take the cores: threads of their own would
+    only compete with them)."""
+    if _TASKS:
+        return 1
     env = os.environ.get("ODOCAL_THREADS", "")
     if env.strip().isdigit() and int(env) > 0:
         return int(env)
