@@ -80,6 +80,10 @@ def test_without_a_gyro_the_heading_source_is_refused(cli, bags, tmp_path):
         "--robot", robot, "--side-length", SIDE,
     )  # fmt: skip
     assert status == 2 and "--method heading" in err and err.count("\n") == 1
+    # ... before any run is read (a folder of bags takes a while): a damaged run is not reached
+    junk = tmp_path / "junk.bag"
+    junk.write_bytes(b"not a bag")
+    cli("fit", junk, "--heading-source", "gyro").expect_error("not trajectory")
     # a generic run CSV without gyro_yaw_rad
     csv = tmp_path / "run.csv"
     t = np.linspace(0, 10, 50)

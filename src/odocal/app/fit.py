@@ -72,6 +72,11 @@ METHODS = ("trajectory", "linear", "umbmark", "heading", "gyro", "relative", "sc
 WHEELBASE_MODELS = ("constant", "banded")
 
 
+def _check_heading_source(method: str, heading_source: str) -> None:
+    if heading_source == "gyro" and method != "heading":
+        raise InputError(f"--heading-source gyro is for --method heading, not {method}")
+
+
 def fit_recordings(
     recordings: Sequence[Recording],
     method: str = "trajectory",
@@ -112,8 +117,7 @@ def fit_recordings(
             "(--method trajectory)",
             field="method",
         )
-    if heading_source == "gyro" and method != "heading":
-        raise InputError(f"--heading-source gyro is for --method heading, not {method}")
+    _check_heading_source(method, heading_source)
     if heading_source != "gyro":
         require_ground_truth(list(recordings), f"--method {method}")
     if method == "linear":
@@ -344,6 +348,8 @@ def fit(
             **common,
         )
     method = method or "trajectory"
+    # before the runs are loaded (many bags take a while), as fit_recordings checks it
+    _check_heading_source(method, options.get("heading_source", "truth"))
     opts = {k: v for k, v in (bag_options or {}).items() if k != "scan_topic"}
     notes: list[str] = []
     recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, warnings=notes, **opts)
