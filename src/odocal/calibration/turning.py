@@ -56,6 +56,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.model import WheelGeometry
+from ..core.stats import student_t_quantile
 from ..errors import CalibrationError
 
 __all__ = [
@@ -321,8 +322,6 @@ def effective_wheelbase(
             per_band[idx].append((k, x, float(gt[b] - gt[a])))
     total_rotation = float(rotation_all.sum())
     d_ref = float(reference.mean_diameter_m)
-    # the t quantile of scipy.stats.t.ppf bit for bit, without importing scipy.stats (0.6 s)
-    from scipy.special import stdtrit
 
     estimates = []
     for i, name in enumerate(BANDS):
@@ -345,7 +344,7 @@ def effective_wheelbase(
                     scores = np.array([float(xs[run_of == k] @ e[run_of == k]) for k in runs])
                     n = len(runs)
                     var = n / (n - 1) * float(scores @ scores) / sxx**2
-                    half = float(stdtrit(n - 1, 0.975)) * math.sqrt(var)
+                    half = student_t_quantile(0.975, n - 1) * math.sqrt(var)
                     lo_g, hi_g = g - half, g + half
                     ci = (b_ref / hi_g, b_ref / lo_g if lo_g > 0 else math.inf)
         excited = (
