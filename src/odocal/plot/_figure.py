@@ -44,15 +44,23 @@ def _figure_class() -> type:
 
     class LaidOutOnce(Figure):
         """A Figure whose ``savefig`` lays it out once, then draws it once: matplotlib's own
-        ``savefig`` of a constrained layout draws the whole figure twice (once to lay it out);
-        the same pixels either way. The layout is then fixed: a figure changed after it was
-        saved keeps it (call ``set_layout_engine("constrained")`` to lay it out again)."""
+        ``savefig`` of a figure with any layout engine (even the placeholder that
+        ``set_layout_engine("none")`` leaves) first walks the whole figure without painting,
+        and a constrained layout walks it once more to lay it out; the same pixels either way.
+        The layout is then fixed: a figure changed after it was saved keeps it (call
+        ``set_layout_engine("constrained")`` to lay it out again)."""
 
         def savefig(self, *args: Any, **kwargs: Any) -> None:
             engine = self.get_layout_engine()
             if engine is not None:
+                import matplotlib
+
                 engine.execute(self)
-                self.set_layout_engine("none")
+                # None means no engine at all only where the rc asks for no automatic layout
+                with matplotlib.rc_context(
+                    {"figure.autolayout": False, "figure.constrained_layout.use": False}
+                ):
+                    self.set_layout_engine(None)
             super().savefig(*args, **kwargs)
 
     return LaidOutOnce
