@@ -188,19 +188,34 @@ def standard_messages(ros1: bool):
     return w.ts, [(IMU, imu), (ODOMETRY, odom)]
 
 
-def encodings():
-    """(typestore, ros1, msgtype, raw bytes) for ROS 1 and for CDR little- and big-endian."""
-    out = []
+#: (ros1, little endian, msgtype): ROS 1, and CDR little- and big-endian, of each message
+CASES = [
+    (ros1, little, msgtype)
+    for ros1, little in ((True, True), (False, True), (False, False))
+    for msgtype in (IMU, ODOMETRY)
+]
+
+
+@pytest.fixture(scope="module")
+def encoded():
+    """(typestore, ros1, msgtype, raw bytes) per case of CASES (built here, not at collection:
+    the type stores and serialisers take a while, and only this file's worker needs them)."""
+    out = {}
     for ros1 in (True, False):
         ts, msgs = standard_messages(ros1)
         for msgtype, msg in msgs:
-            if ros1:
-                out.append((ts, True, msgtype, bytes(ts.serialize_ros1(msg, msgtype))))
-            else:
-                for little in (True, False):
+            for little in (True,) if ros1 else (True, False):
+                if ros1:
+                    raw = bytes(ts.serialize_ros1(msg, msgtype))
+                else:
                     raw = bytes(ts.serialize_cdr(msg, msgtype, little_endian=little))
-                    out.append((ts, False, msgtype, raw))
+                out[ros1, little, msgtype] = (ts, ros1, msgtype, raw)
     return out
+
+
+def _case_id(case) -> str:
+    ros1, little, msgtype = case
+    return f"{msgtype.rsplit('/', 1)[-1]}-{'ros1' if ros1 else 'cdr-le' if little else 'cdr-be'}"
 
 
 def rosbags_record(ts, ros1, msgtype, raw):
@@ -208,12 +223,9 @@ def rosbags_record(ts, ros1, msgtype, raw):
     return bag_decode.record(msgtype, msg)
 
 
-ENCODINGS = encodings()  # built once for both tests below (the cases are only read)
-
-
-@pytest.mark.parametrize("case", ENCODINGS, ids=lambda c: f"{c[2]}-{len(c[3])}-{c[3][:2].hex()}")
-def test_message_bytes_decode_as_rosbags(case):
-    ts, ros1, msgtype, raw = case
+@pytest.mark.parametrize("case", CASES, ids=_case_id)
+def test_message_bytes_decode_as_rosbags(case, encoded):
+    ts, ros1, msgtype, raw = encoded[case]
     if not ros1:  # the encapsulation header says which byte order
         assert raw[:2] in (b"\x00\x00", b"\x00\x01")
     dec = bag_decode.decoder(msgtype, ts, ros1)
@@ -251,11 +263,11 @@ def damaged(raw: bytes, rng) -> list[bytes]:
     return out
 
 
-@pytest.mark.parametrize("case", ENCODINGS, ids=lambda c: f"{c[2]}-{c[3][:2].hex()}")
-def test_damaged_bytes_decode_as_rosbags_or_fall_back(case):
+@pytest.mark.parametrize("case", CASES, ids=_case_id)
+def test_damaged_bytes_decode_as_rosbags_or_fall_back(case, encoded):
     """Whatever the bytes, the decoder gives rosbags' numbers or None (then rosbags decides);
     it never decodes what rosbags refuses."""
-    ts, ros1, msgtype, raw = case
+    ts, ros1, msgtype, raw = encoded[case]
     dec = bag_decode.decoder(msgtype, ts, ros1)
     taken = refused = 0
     for bad in damaged(raw, np.random.default_rng(len(raw))):

@@ -8,7 +8,6 @@ import math
 
 import numpy as np
 import pytest
-from scipy import stats
 
 from odocal.core.model import MeasurementNoise, NonSystematicError
 from odocal.core.simulate import drive
@@ -111,6 +110,8 @@ def test_rule_needs_significance():
 
 
 def test_rule_test_is_welch_against_the_scaled_candidate():
+    from scipy import stats
+
     cs = [cand(1, 0.30, std=0.02, n=50), cand(2, 0.28, std=0.03, n=40)]
     comp = compare(cs, 1, 0, alpha=0.05, tolerance=0.05)
     ref = stats.ttest_ind_from_stats(

@@ -7,7 +7,6 @@ import json
 
 import numpy as np
 import pytest
-from scipy import stats
 
 from odocal.core.model import NonSystematicError, WheelGeometry
 from odocal.core.odometry import dead_reckon
@@ -72,6 +71,8 @@ def test_replay_noise_matches_its_variance():
 
 
 def test_paired_ttest_matches_scipy():
+    from scipy import stats
+
     rng = np.random.default_rng(4)
     a = rng.normal(0.03, 0.01, 19)
     b = a - rng.normal(0.02, 0.01, 19)

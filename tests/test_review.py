@@ -10,7 +10,6 @@ import math
 
 import numpy as np
 import pytest
-from scipy import stats
 
 from odocal.calibration.bcpt import bcpt_factors, bcpt_first_order
 from odocal.calibration.circle_fit import fit_circle
@@ -146,6 +145,8 @@ def test_bcpt_tv5_and_simulated_circles_with_a_scale_error():
 
 
 def test_ttest_tv6_student_and_welch():
+    from scipy import stats
+
     a = [12.1, 15.3, 9.8, 14.2, 11.0]
     b = [18.4, 21.0, 16.7, 25.3, 19.9]
     s = ttest_samples(a, b, equal_var=True)
@@ -299,6 +300,8 @@ def test_systematic_share_at_4m_is_the_papers_91_percent():
 
 
 def test_design_candidate_statistics_do_not_depend_on_batching():
+    from scipy import stats
+
     robot, val, trials = PRESETS["paper-fig5"], ValidationTrack(4, 4.0, "ccw"), 1500
     alone = simulate_candidates(
         robot, 4, [2.0], 5, trials, "heading", val, np.random.default_rng(7)
