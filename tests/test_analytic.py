@@ -175,6 +175,22 @@ def test_norm_stats_against_the_rayleigh_distribution():
     assert sd == pytest.approx(0.3 * 0.6, rel=1e-2)
 
 
+def test_norm_stats_of_a_batch_are_each_distributions_own_numbers():
+    # the batch is taken a few distributions per pass: every distribution's numbers are bit
+    # for bit those it has alone, whatever the batch's shape (and a mean shared by all)
+    rng = np.random.default_rng(3)
+    a = rng.normal(size=(3, 3, 2, 2)) * 0.01
+    cov = a @ np.swapaxes(a, -1, -2)
+    mean = rng.normal(size=(3, 3, 2)) * 0.01
+    batch = norm_stats(mean, cov)
+    assert all(x.shape == (3, 3) for x in batch)
+    for i, j in np.ndindex(3, 3):
+        alone = norm_stats(mean[i, j], cov[i, j])
+        assert [float(x[i, j]) for x in batch] == [float(x) for x in alone]
+    shared = norm_stats(mean[0, 0], cov[0])
+    assert np.array_equal(shared[0][0], batch[0][0, 0]) and shared[0].shape == (3,)
+
+
 def test_without_intervals_only_the_intervals_are_missing():
     # intervals=False (the precision sweep, the range design) leaves the 95 % intervals NaN and
     # every other number bit for bit as it was

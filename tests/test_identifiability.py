@@ -383,17 +383,3 @@ def test_optiodom_ivanjko_split_is_flagged(realdata):
     # thresholds are parameters: demanding 0.01 % precision flags even the full set
     strict = check_recordings(recs, g, thresholds=CheckThresholds(max_relative_stderr=1e-4), **kw)
     assert strict.flagged("imprecise")
-
-
-def test_the_check_is_pure_math():
-    """The import rule: calibration imports no io, yaml, matplotlib or rosbags."""
-    import subprocess
-    import sys
-
-    code = (
-        "import sys\n"
-        "for m in ('matplotlib', 'rosbags', 'yaml', 'odocal.io', 'odocal.cli'):\n"
-        "    sys.modules[m] = None\n"
-        "import odocal.calibration.identifiability\n"
-    )
-    subprocess.run([sys.executable, "-c", code], check=True)
