@@ -14,7 +14,6 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
 
 from odocal.calibration.slam import SlamLimits, slam_relative_motions
 from odocal.core.model import WheelGeometry
@@ -39,6 +38,8 @@ JUMP = np.array([0.3, -0.2, math.radians(6.0)])
 
 def planar_to_3d(p):
     """(x, y, yaw) rows -> translation (n, 3) and quaternion (n, 4) of a transform in the plane."""
+    from scipy.spatial.transform import Rotation
+
     p = np.atleast_2d(p)
     t = np.column_stack([p[:, :2], np.zeros(len(p))])
     return t, Rotation.from_euler("z", p[:, 2:3]).as_quat()

@@ -7,7 +7,6 @@ import math
 
 import numpy as np
 import pytest
-from scipy.spatial.transform import Rotation
 
 from odocal.core.transforms import (
     RigidTransforms,
@@ -93,6 +92,8 @@ def test_midway_lookup_interpolates_translation_linearly_and_rotation_by_slerp()
 
 
 def test_slerp_of_a_general_axis_and_the_shorter_arc():
+    from scipy.spatial.transform import Rotation
+
     axis = np.array([1.0, 1.0, 1.0]) / math.sqrt(3.0)
     q0 = Rotation.identity().as_quat()
     q1 = Rotation.from_rotvec(axis * math.radians(120)).as_quat()
@@ -123,6 +124,8 @@ def test_inverse_chain_is_the_inverse_transform():
 
 
 def test_vectorised_lookup_equals_one_at_a_time():
+    from scipy.spatial.transform import Rotation
+
     rng = np.random.default_rng(1000)
     buf = TransformBuffer()
     t = np.sort(rng.uniform(0, 10, 40))
@@ -296,6 +299,8 @@ def test_quaternions_are_normalised():
 
 
 def test_planar_pose_of_a_tilted_robot_keeps_the_heading():
+    from scipy.spatial.transform import Rotation
+
     r = Rotation.from_euler("ZYX", [30, 5, -3], degrees=True)  # yaw, then pitch and roll
     tr = RigidTransforms.from_rotation([[1.0, 2.0, 0.1]], r)
     np.testing.assert_allclose(planar_pose(tr), [[1.0, 2.0, math.radians(30)]], atol=1e-12)
@@ -320,6 +325,8 @@ def test_se2_relative_compose_and_inverse():
 
 
 def test_planar_matches_se2_of_the_composed_chain():
+    from scipy.spatial.transform import Rotation
+
     rng = np.random.default_rng(1000)
     yaw = rng.uniform(-3, 3, (2, 5))
     xy = rng.normal(size=(2, 5, 2))
