@@ -122,7 +122,8 @@ def test_yaml_alias_bomb_is_refused_quickly(cli, tmp_path):
         text += f"a{k}: &a{k} [" + ", ".join([f"*a{k - 1}"] * 9) + "]\n"
     robot = write(tmp_path / "bomb.yaml", text + BASE)  # 9^10 values if expanded
     start = time.perf_counter()
-    cli("simulate", "--robot", robot).expect_error("aliases are expanded")
+    # a0 makes 10 values, a1 91, ... a4 66 430, a5 597 871: a5 (line 6) passes 200 000
+    cli("simulate", "--robot", robot).expect_error("line 6:", "aliases are expanded")
     assert time.perf_counter() - start < 5.0
     many = write(tmp_path / "many.yaml", "d: &d 1\nv: [" + ", ".join(["*d"] * 1500) + "]\n")
     cli("simulate", "--robot", many).expect_error("more than 1000 aliases")
@@ -131,6 +132,26 @@ def test_yaml_alias_bomb_is_refused_quickly(cli, tmp_path):
     few.write_text(few.read_text() + "believed: {wheel_diameter_right_m: *d, ")
     few.write_text(few.read_text() + "wheel_diameter_left_m: *d, wheelbase_m: 0.39}\n")
     assert cli("simulate", "--robot", few, "--runs", 2)[0] == 0
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "a: &a [1, 2, {b: 3, c: [4, 5]}]\nd: [*a, *a, {<<: {e: *a, f: 6}, g: *a}]\n",
+        "base: &b {x: 1, y: [2, 3]}\nm: {<<: [*b, {z: 4, x: 5}], w: 6}\nn: [*b, [*b, *b]]\n",
+        "s: &s x\nl: &l [*s, *s, [*s]]\nt: [*l, *l, *l]\n",
+    ],
+)
+def test_the_expansion_is_counted_as_the_conversion_counts(text):
+    """The alias-bomb bound is checked on the parsed graph before anything is expanded: it
+    counts the values the conversion then makes, exactly."""
+    from odocal.io import yamlfile
+
+    loader = yamlfile._Loader(text, "t.yaml")
+    node = loader.get_single_node()
+    conv = yamlfile._Converter("t.yaml")
+    conv.value(node, "", 0)
+    assert yamlfile._values(node, {}) == conv.nodes > 10
 
 
 @pytest.mark.parametrize(

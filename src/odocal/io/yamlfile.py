@@ -9,8 +9,9 @@ and bounded where PyYAML is neither:
 - merge keys (``<<: *base``) work; keys given in the mapping itself win over merged ones;
 - a key given twice in one mapping is an error (PyYAML silently keeps the last);
 - aliases are bounded: at most :data:`MAX_ALIASES` of them and :data:`MAX_NODES` values after
-  expansion (a "billion laughs" file is refused at its 200 000th value, in a fraction of a
-  second, instead of filling the memory);
+  expansion (a "billion laughs" file is refused before anything is expanded: the values it
+  would make are counted on the parsed graph, each node once, and the error names the key whose
+  value passes the bound);
 - nesting deeper than :data:`MAX_DEPTH` (and a recursive alias) is an error, never a crash;
 - only the core tags (str, int, float, bool, null, map, seq) are accepted;
 - a number too large for a float, or a number field longer than ``MAX_FIELD_CHARS``, is an error
@@ -307,6 +308,48 @@ class _Converter:
         raise self._tag(node, prefix)
 
 
+def _values(node, memo: dict[int, int], depth: int = 0) -> int:
+    """How many values :class:`_Converter` makes of ``node`` (itself, then its items, its
+    mapping's values and its merged mappings' values), counted on the graph: each node is
+    visited once, however many aliases name it. Below MAX_DEPTH only (deeper nesting, and a
+    recursive alias, is the converter's error)."""
+    if id(node) in memo:
+        return memo[id(node)]
+    if depth > MAX_DEPTH:
+        return 0
+    count = 1
+    if isinstance(node, yaml.SequenceNode):
+        count += sum(_values(v, memo, depth + 1) for v in node.value)
+    elif isinstance(node, yaml.MappingNode):
+        for knode, vnode in node.value:
+            if isinstance(knode, yaml.ScalarNode) and knode.tag == _MERGE:
+                merged = vnode.value if isinstance(vnode, yaml.SequenceNode) else [vnode]
+                count += sum(_values(m, memo, depth + 1) - 1 for m in merged)
+            else:
+                count += _values(vnode, memo, depth + 1)
+    memo[id(node)] = count
+    return count
+
+
+def _check_expansion(node, path) -> None:
+    """Refuse a document that expands to more than MAX_NODES values (an alias bomb), before
+    expanding it, naming the top-level key whose value passes the bound."""
+    memo: dict[int, int] = {}
+    if _values(node, memo) <= MAX_NODES:
+        return
+    line = node.start_mark.line + 1
+    if isinstance(node, yaml.MappingNode):
+        count = 1
+        for knode, vnode in node.value:
+            count += _values(vnode, memo, 1)
+            if count > MAX_NODES:
+                line = knode.start_mark.line + 1
+                break
+    raise InputError(
+        f"more than {MAX_NODES} values once the aliases are expanded (an alias bomb?)", path, line
+    )
+
+
 def load_yaml(path, what: str = "YAML file") -> YamlDoc:
     """Parse a YAML file whose top level must be a mapping (see the module docstring)."""
     text = read_text(path, max_bytes=MAX_YAML_BYTES)
@@ -315,6 +358,7 @@ def load_yaml(path, what: str = "YAML file") -> YamlDoc:
         node = loader.get_single_node()
         if node is None:
             raise InputError(f"empty {what}", path)
+        _check_expansion(node, path)
         conv = _Converter(path)
         data = conv.value(node, "", 0)
     except yaml.YAMLError as exc:
