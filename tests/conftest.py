@@ -37,6 +37,22 @@ _MISSING = (
 )
 
 
+_last_file: list = [None]
+
+
+def pytest_runtest_setup(item):
+    # At each new test file: collect the garbage, then move everything that lives on (imported
+    # modules, caches) out of the collector's sight (gc.freeze). Python's full collections
+    # otherwise walk all of numpy, scipy and matplotlib's objects about twenty times per worker
+    # (1.5-1.9 s per worker in all); now they walk what the current file made (0.5 s in all,
+    # these collections included). The previous file's module fixtures are torn down by now;
+    # anything frozen is still freed when its count drops.
+    if item.path != _last_file[0]:
+        _last_file[0] = item.path
+        gc.collect()
+        gc.freeze()
+
+
 def pytest_unconfigure(config):
     # the test process (each xdist worker too) is about to exit: spare it the interpreter's last
     # garbage collection over everything the tests imported and made (0.3 s each; the odocal
