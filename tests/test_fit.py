@@ -104,6 +104,24 @@ def test_trajectory_is_exact_on_noise_free_data(residual):
     assert not fit.outliers
 
 
+def test_trajectory_reports_every_residual_evaluation(monkeypatch):
+    """The fit's optimizer report counts the residual's evaluations, its finite-difference
+    Jacobian's too (scipy's nfev leaves those out for Levenberg-Marquardt)."""
+    import scipy.optimize
+
+    calls = []
+    real = scipy.optimize.least_squares
+
+    def spy(fun, x0, **options):
+        return real(lambda p: calls.append(1) or fun(p), x0, **options)
+
+    monkeypatch.setattr(scipy.optimize, "least_squares", spy)
+    fit = fit_trajectory(mixed_runs(), NOMINAL, nominal=NOMINAL)  # one start: one solve
+    report = fit.extras["optimizer"]
+    assert fit.extras["starts_tried"] == 1
+    assert report["evaluations"] == len(calls) > report["nfev"]
+
+
 def test_trajectory_noise_stderr_and_outlier():
     rng = np.random.default_rng(7)
     runs = []

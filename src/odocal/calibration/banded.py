@@ -117,7 +117,11 @@ def fit_banded(
     band_param = np.array([excited.index(nearest[i]) for i in range(len(BANDS))])
     prepared = [_Run(r, start, samples_per_run, band_param, window_s) for r in runs]
 
+    evaluations = 0
+
     def fun(p):
+        nonlocal evaluations
+        evaluations += 1
         return np.concatenate([r.residual(p, heading_weight_m) for r in prepared])
 
     x0 = np.array(
@@ -170,7 +174,12 @@ def fit_banded(
             "motion_mix": choice.as_dict(),
             "effective_wheelbase": table.as_dict(),
             "residual_rms": float(math.sqrt(2.0 * sol.cost / max(m, 1))),
-            "optimizer": {"nfev": int(sol.nfev), "status": int(sol.status)},
+            # nfev: scipy's count; evaluations: every residual evaluation, its Jacobian's too
+            "optimizer": {
+                "nfev": int(sol.nfev),
+                "evaluations": evaluations,
+                "status": int(sol.status),
+            },
             "note": "wheelbase_m is the single value for the motion mix; the model itself uses "
             "band_wheelbase_m per band of motion",
         },

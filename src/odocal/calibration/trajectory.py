@@ -239,11 +239,23 @@ class _Residuals:
 
 
 def _solve(fun, x0):
+    """scipy's Levenberg-Marquardt from ``x0``; ``sol.evaluations`` counts every evaluation of
+    ``fun`` (scipy's ``nfev`` leaves out those of its finite-difference Jacobian)."""
     from scipy.optimize import least_squares  # here: a slow import
+
+    evaluations = 0
+
+    def counted(p):
+        nonlocal evaluations
+        evaluations += 1
+        return fun(p)
 
     scale = np.abs(np.asarray(x0)) * 1e-2
     with np.errstate(all="ignore"):
-        sol = least_squares(fun, x0, x_scale=scale, method="lm", xtol=1e-12, ftol=1e-12, gtol=1e-15)
+        sol = least_squares(
+            counted, x0, x_scale=scale, method="lm", xtol=1e-12, ftol=1e-12, gtol=1e-15
+        )
+    sol.evaluations = evaluations
     return sol
 
 
@@ -410,7 +422,12 @@ def fit_trajectory(
             "heading_weight_m": heading_weight_m,
             "run_weight": run_weight,
             "residual_rms": float(np.sqrt(2.0 * sol.cost / max(m, 1))),
-            "optimizer": {"nfev": int(sol.nfev), "status": int(sol.status)},
+            # nfev: scipy's count; evaluations: every residual evaluation, its Jacobian's too
+            "optimizer": {
+                "nfev": int(sol.nfev),
+                "evaluations": int(sol.evaluations),
+                "status": int(sol.status),
+            },
             "starts_tried": len(starts),
             "linear_start": linear_start,
         },
