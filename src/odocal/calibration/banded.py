@@ -29,6 +29,7 @@ from ..core.model import WheelGeometry
 from ..core.odometry import dead_reckon
 from ..errors import CalibrationError
 from .result import GeometryFit, check_physical
+from .trajectory import optimizer_report, solve_lm
 from .turning import (
     BANDS,
     MIN_ROTATION_RAD,
@@ -92,8 +93,6 @@ def fit_banded(
     mix : dict, optional
         Band -> share of the rotation for the single exported wheelbase; default the runs' own.
     """
-    from scipy.optimize import least_squares  # here: a slow import
-
     runs = [r for r in recordings]
     if not runs:
         raise CalibrationError("banded wheelbase: no runs")
@@ -117,19 +116,14 @@ def fit_banded(
     band_param = np.array([excited.index(nearest[i]) for i in range(len(BANDS))])
     prepared = [_Run(r, start, samples_per_run, band_param, window_s) for r in runs]
 
-    evaluations = 0
-
     def fun(p):
-        nonlocal evaluations
-        evaluations += 1
         return np.concatenate([r.residual(p, heading_weight_m) for r in prepared])
 
     x0 = np.array(
         [start.diameter_right_m, start.diameter_left_m] + [start.wheelbase_m] * len(excited),
         dtype=float,
     )
-    with np.errstate(all="ignore"):
-        sol = least_squares(fun, x0, x_scale=np.abs(x0) * 1e-2, method="lm", xtol=1e-12, ftol=1e-12)
+    sol = solve_lm(fun, x0, xtol=1e-12, ftol=1e-12)
     if not np.all(np.isfinite(sol.x)):
         raise CalibrationError("banded wheelbase: the fit did not converge")
     warnings = []
@@ -174,12 +168,7 @@ def fit_banded(
             "motion_mix": choice.as_dict(),
             "effective_wheelbase": table.as_dict(),
             "residual_rms": float(math.sqrt(2.0 * sol.cost / max(m, 1))),
-            # nfev: scipy's count; evaluations: every residual evaluation, its Jacobian's too
-            "optimizer": {
-                "nfev": int(sol.nfev),
-                "evaluations": evaluations,
-                "status": int(sol.status),
-            },
+            "optimizer": optimizer_report(sol),
             "note": "wheelbase_m is the single value for the motion mix; the model itself uses "
             "band_wheelbase_m per band of motion",
         },

@@ -238,9 +238,10 @@ class _Residuals:
         return np.split(residual, self.splits)
 
 
-def _solve(fun, x0):
-    """scipy's Levenberg-Marquardt from ``x0``; ``sol.evaluations`` counts every evaluation of
-    ``fun`` (scipy's ``nfev`` leaves out those of its finite-difference Jacobian)."""
+def solve_lm(fun, x0, **tolerances):
+    """scipy's Levenberg-Marquardt (``least_squares``, parameters scaled by 1 % of |x0|) from
+    ``x0``; ``sol.evaluations`` counts every evaluation of ``fun`` (scipy's ``nfev`` leaves out
+    those of its finite-difference Jacobian). The trajectory and banded fits use it."""
     from scipy.optimize import least_squares  # here: a slow import
 
     evaluations = 0
@@ -252,11 +253,15 @@ def _solve(fun, x0):
 
     scale = np.abs(np.asarray(x0)) * 1e-2
     with np.errstate(all="ignore"):
-        sol = least_squares(
-            counted, x0, x_scale=scale, method="lm", xtol=1e-12, ftol=1e-12, gtol=1e-15
-        )
+        sol = least_squares(counted, x0, x_scale=scale, method="lm", **tolerances)
     sol.evaluations = evaluations
     return sol
+
+
+def optimizer_report(sol) -> dict:
+    """What a fit reports of its :func:`solve_lm` solution: scipy's ``nfev``, every residual
+    evaluation (its Jacobian's too) and scipy's status."""
+    return {"nfev": int(sol.nfev), "evaluations": int(sol.evaluations), "status": int(sol.status)}
 
 
 # Largest heading weight (m of residual per rad): 1 km/rad already ignores the positions.
@@ -359,7 +364,7 @@ def fit_trajectory(
         fun = _Residuals(runs, residual, heading_weight_m)
         for g in starts:
             x0 = np.array([g.diameter_right_m, g.diameter_left_m, g.wheelbase_m], float)
-            sol = _solve(fun, x0)
+            sol = solve_lm(fun, x0, xtol=1e-12, ftol=1e-12, gtol=1e-15)
             if np.all(np.isfinite(sol.x)) and np.all(sol.x > 0):
                 if best is None or sol.cost < best[1].cost:
                     best = (runs, sol, x0)
@@ -422,12 +427,7 @@ def fit_trajectory(
             "heading_weight_m": heading_weight_m,
             "run_weight": run_weight,
             "residual_rms": float(np.sqrt(2.0 * sol.cost / max(m, 1))),
-            # nfev: scipy's count; evaluations: every residual evaluation, its Jacobian's too
-            "optimizer": {
-                "nfev": int(sol.nfev),
-                "evaluations": int(sol.evaluations),
-                "status": int(sol.status),
-            },
+            "optimizer": optimizer_report(sol),
             "starts_tried": len(starts),
             "linear_start": linear_start,
         },

@@ -329,7 +329,7 @@ def reproduce(
     }
     fig5_robot, experiment_robot = PRESETS["paper-fig5"], PRESETS["paper-experiment"]
     instrument_robot = with_heading_instrument(fig5_robot, INSTRUMENT_SIGMA_THETA_DEG)
-    # independent pieces (each with its own stream), on the cores there are; longest first
+    # independent pieces (each with its own stream, or none), on the cores there are
     tasks: dict[str, Callable[[], Any]] = {
         "precision": lambda: precision_sweep(fig5_robot),
         "Fig. 5": lambda: run_design(fig5_robot, streams[0], **squares, settings=settings),
