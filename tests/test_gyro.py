@@ -117,6 +117,26 @@ def test_detected_axis_warns():
         gyro_calibration(t_i, w, t_o, odom_yaw_rad=yaw_o, imu_axis="x")
 
 
+def test_detected_axis_ignores_a_rounding_residue_of_the_mounting():
+    # base z = the IMU's y axis, with the 6e-17 cross-talk that rotation_from_rpy(pi/2, ...)
+    # leaves on z: z correlates as well as y (correlation is blind to scale) but carries
+    # nothing; the axis that carries the heading must win whichever way the last bits fall
+    r = rotation_from_rpy(math.pi / 2, 0.0, -math.pi / 2)
+    assert 0 < abs(r[2, 2]) < 1e-15
+    t_i, w, t_o, yaw_o, v = scenario(rotation=r)
+    name, corr, per_axis = detect_yaw_axis(t_i, w, t_o, yaw_o)
+    assert name == "y" and corr > 0.99
+    # a noisy yaw axis (y) and a clean 1e-3 residue on x that correlates better than y:
+    # ranked by correlation alone, x would win
+    rng = np.random.default_rng(1)
+    t_i, w, t_o, yaw_o, v = scenario(noise=0.05, rng=rng, rotation=r)
+    clean = scenario(rotation=r)[1]
+    w[:, 0] = 1e-3 * clean[:, 1]
+    name, corr, per_axis = detect_yaw_axis(t_i, w, t_o, yaw_o)
+    assert abs(per_axis["x"]) > abs(per_axis["y"])
+    assert name == "y"
+
+
 def test_noise_and_significance_of_the_bias():
     rng = np.random.default_rng(0)
     # noise 0.01 rad/s at 50 Hz over ~10 s still: bias se ~ 0.01 / sqrt(500) = 4.5e-4 rad/s

@@ -175,11 +175,18 @@ def detect_yaw_axis(imu_time_s, angular_velocity, odom_time_s, odom_yaw_rad):
     inside = (t_o >= t_i[0]) & (t_o <= t_i[-1])
     t_c, d_o = t_o[inside], np.diff(th_o[inside])
     corr = {}
+    slope = {}
+    d_oo = float(np.dot(d_o, d_o)) if len(d_o) else 0.0
     for k, name in enumerate("xyz"):
         d_g = np.diff(np.interp(t_c, t_i, integrate_rate(t_i, w[:, k])))
-        denom = math.sqrt(float(np.dot(d_g, d_g) * np.dot(d_o, d_o))) if len(d_o) else 0.0
+        denom = math.sqrt(float(np.dot(d_g, d_g)) * d_oo)
         corr[name] = float(np.dot(d_g, d_o) / denom) if denom > 0 else 0.0
-    best = max(corr, key=lambda a: abs(corr[a]))
+        slope[name] = float(np.dot(d_g, d_o) / d_oo) if d_oo > 0 else 0.0
+    # Ranked by how much of the heading each axis carries (the regression slope of its
+    # increments on the odometry's, ~1 on the yaw axis), not by the correlation alone: the
+    # correlation is blind to scale, so an axis that sees the yaw rate only through a rounding
+    # residue of the mounting rotation (1e-16 of it) correlates as well as the yaw axis itself.
+    best = max("xyz", key=lambda a: (abs(slope[a]), "xyz".index(a) * -1))
     name = ("-" if corr[best] < 0 else "") + best
     return name, abs(corr[best]), corr
 
