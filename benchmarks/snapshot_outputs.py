@@ -8,7 +8,8 @@ PNG), into one folder; ``diff`` compares two such folders byte for byte.
     .venv/bin/python benchmarks/snapshot_outputs.py diff OLD_DIR NEW_DIR
 
 Run it before and after a change (for instance in a worktree of the old commit) and diff.
-Lines that carry a timing (``seconds``, ``elapsed``) are masked in stdout, nothing else.
+Lines that carry a timing (``seconds``, ``elapsed``, ``took``) are left out of the comparison,
+and the checkout's own path is written as ``{root}``; nothing else is masked.
 """
 
 from __future__ import annotations
@@ -200,6 +201,7 @@ SMALL_ROBOT = (
     "wheel_diameter_m: 0.066\nwheelbase_m: 0.160\n"
     "measurement: {sigma_xy_m: 0.01, sigma_theta_deg: 1.0}\n"
 )
+TEXT = (".txt", ".json", ".md", ".yaml", ".csv")
 TIMING = re.compile(r"(seconds|elapsed|took [0-9.]+ s)", re.IGNORECASE)
 
 
@@ -219,6 +221,9 @@ def run(out: Path) -> None:
         (case / "stdout.txt").write_text(p.stdout.replace(mask, "{out}"))
         (case / "stderr.txt").write_text(p.stderr.replace(mask, "{out}"))
         (case / "status.txt").write_text(f"{p.returncode}\n")
+        for f in case.rglob("*"):  # the checkout's own path is not an output
+            if f.is_file() and f.suffix in TEXT:
+                f.write_text(f.read_text().replace(str(ROOT), "{root}"))
         print(f"{name}: exit {p.returncode}", flush=True)
 
 
@@ -228,7 +233,7 @@ def digests(folder: Path) -> dict[str, str]:
     for f in sorted(folder.rglob("*")):
         if f.is_file():
             data = f.read_bytes()
-            if f.suffix in (".txt", ".json", ".md", ".yaml", ".csv"):
+            if f.suffix in TEXT:
                 lines = [
                     ln for ln in data.decode(errors="replace").splitlines() if not TIMING.search(ln)
                 ]
