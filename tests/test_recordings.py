@@ -193,3 +193,14 @@ def test_optiodom_data_set_category_and_single_run(realdata):
     # the firmware parameters differ per data set and are kept per run
     sq = load_recordings([base / "square" / "230620202258"])
     assert sq[0].ran_with.diameter_right_m == 0.085 and sq[0].ran_with.wheelbase_m == 0.205
+
+
+def test_the_data_set_of_a_run_is_one_rule():
+    t = np.arange(3.0)
+    z = np.zeros(3)
+    opti = Recording("sq/2306/run-01.csv", t, z, z, meta={"dataset": "2306"})
+    csv = Recording("runs/a/run-01.csv", t, z, z)
+    bag = Recording("runs/b/x.bag:/joint_states#2", t, z, z, meta={"bag": "runs/b/x.bag"})
+    assert opti.dataset == "2306"
+    assert csv.dataset == "runs/a"
+    assert bag.dataset == "runs/b"

@@ -483,7 +483,7 @@ def estimate_k_from_recordings(
         gt = np.asarray(r.ground_truth, dtype=float)
         err = gt[-1] - mean
         key = (
-            str(r.meta.get("dataset") or Path(r.name).parent),
+            r.dataset,
             _kind_of_run(r, float(gt[-1, 2] - gt[0, 2])),
         )
         groups.setdefault(key, []).append(

@@ -107,10 +107,7 @@ def recorded_end_errors(
 def _group(recordings):
     groups: dict[str, list] = {}
     for r in recordings:
-        # a data set: OptiOdom's id, else the folder holding the run file or the bag
-        source = r.meta.get("bag") or r.name
-        key = r.meta.get("dataset") or str(Path(source).parent)
-        groups.setdefault(key, []).append(r)
+        groups.setdefault(r.dataset, []).append(r)
     return groups
 
 

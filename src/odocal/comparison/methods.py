@@ -323,7 +323,7 @@ def square_end_pose_runs(recordings) -> EndPoseRuns:
 
 
 def _dataset_name(recs) -> str:
-    return recs[0].meta.get("dataset", recs[0].name)
+    return recs[0].dataset
 
 
 def _real_squares(fn: Callable) -> Callable:

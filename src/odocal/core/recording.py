@@ -6,6 +6,7 @@ All loaders (generic CSV, OptiOdom folders, ROS bags) produce this one type.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
@@ -51,3 +52,12 @@ class Recording:
 
     def __len__(self) -> int:
         return len(self.time_s)
+
+    @property
+    def dataset(self) -> str:
+        """The data set the run belongs to: the loader's id (``meta['dataset']``, e.g. an
+        OptiOdom folder's name), else the folder holding the run file or the bag."""
+        given = self.meta.get("dataset")
+        if given:
+            return str(given)
+        return str(Path(self.meta.get("bag") or self.name).parent)

@@ -257,7 +257,7 @@ def _bootstrap(method, ends: EndPoseRuns, side_m, reference, heldout, rng, n_boo
 def _group(recordings):
     out: dict[str, list] = {}
     for r in recordings:
-        out.setdefault(str(r.meta.get("dataset") or r.name), []).append(r)
+        out.setdefault(r.dataset, []).append(r)
     return out
 
 
