@@ -1,0 +1,95 @@
+"""Clock offsets by temporal registration of headings (calibration.time_offset)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from odocal.calibration.time_offset import (
+    TimeOffset,
+    estimate_time_offset,
+    time_blocks,
+    wheel_rotations,
+)
+from odocal.errors import CalibrationError
+
+D_R, D_L, B = 0.101, 0.099, 0.42  # the true geometry the source sees
+
+
+def drive(duration_s=240.0, rate_hz=50.0, seed=0):
+    """Wheel angles of a robot that alternates straight legs and turns of varied rates."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, duration_s, 1.0 / rate_hz)
+    # piecewise-constant commands, 1-4 s each, smoothed over 0.3 s
+    edges = np.cumsum(rng.uniform(1.0, 4.0, size=200))
+    seg = np.searchsorted(edges, t)
+    v = rng.uniform(0.0, 0.6, size=201)[seg]
+    w = rng.choice([-1.0, -0.4, 0.0, 0.0, 0.5, 1.2], size=201)[seg]
+    k = np.ones(int(0.3 * rate_hz)) / int(0.3 * rate_hz)
+    v, w = np.convolve(v, k, "same"), np.convolve(w, k, "same")
+    wr = (v + 0.5 * B * w) / (0.5 * D_R)  # rad/s
+    wl = (v - 0.5 * B * w) / (0.5 * D_L)
+    dt = 1.0 / rate_hz
+    right = np.concatenate([[0.0], np.cumsum(0.5 * (wr[1:] + wr[:-1]) * dt)])
+    left = np.concatenate([[0.0], np.cumsum(0.5 * (wl[1:] + wl[:-1]) * dt)])
+    return t, right, left
+
+
+def source_intervals(t, right, left, offset_s, rate_hz, noise_rad, seed=1):
+    """A source at ``rate_hz`` whose stamps are ``offset_s`` late: its heading changes between
+    consecutive samples, with white noise on each heading."""
+    rng = np.random.default_rng(seed)
+    stamps = np.arange(t[0] + 1.0, t[-1] - 1.0, 1.0 / rate_hz)
+    seen = stamps - offset_s  # the wheel time each sample saw
+    heading = (0.5 * D_R * np.interp(seen, t, right) - 0.5 * D_L * np.interp(seen, t, left)) / B
+    heading = heading + noise_rad * rng.standard_normal(len(stamps))
+    return stamps[:-1], stamps[1:], np.diff(heading)
+
+
+@pytest.mark.parametrize("offset_s, rate_hz", [(0.1, 5.0), (-0.07, 10.0), (0.0, 4.7), (0.25, 20.0)])
+def test_a_known_offset_is_recovered_within_its_error_and_10_ms(offset_s, rate_hz):
+    t, right, left = drive()
+    a, b, dth = source_intervals(t, right, left, offset_s, rate_hz, math.radians(0.3))
+    est = estimate_time_offset(t, right, left, a, b, dth, source="laser")
+    assert est.how == "estimated" and est.source == "laser"
+    assert abs(est.offset_s - offset_s) < 0.010
+    # the bootstrap error is honest: the truth within 4 of them, and it is not absurdly wide
+    assert abs(est.offset_s - offset_s) < 4 * est.stderr_s + 1e-4
+    assert est.stderr_s < 0.01
+    assert est.warnings == ()
+
+
+def test_the_offset_ignores_outlying_intervals():
+    # a tenth of the intervals replaced by loop-closure-like jumps of 20 deg
+    t, right, left = drive(seed=3)
+    a, b, dth = source_intervals(t, right, left, 0.1, 5.0, math.radians(0.2))
+    bad = np.random.default_rng(5).choice(len(dth), size=len(dth) // 10, replace=False)
+    dth = dth.copy()
+    dth[bad] += math.radians(20.0)
+    est = estimate_time_offset(t, right, left, a, b, dth, source="slam")
+    assert abs(est.offset_s - 0.1) < 0.010
+
+
+def test_no_turning_no_offset_and_the_edge_is_reported():
+    t = np.arange(0.0, 60.0, 0.02)
+    straight = 5.0 * t
+    a, b = t[50:-100:10], t[60:-90:10]
+    with pytest.raises(CalibrationError, match="turn by more than 0.5 deg"):
+        estimate_time_offset(t, straight, straight, a, b, np.zeros(len(a)), source="imu")
+    tt, right, left = drive()
+    a, b, dth = source_intervals(tt, right, left, 0.45, 10.0, 0.0)
+    est = estimate_time_offset(tt, right, left, a, b, dth, source="mocap", max_offset_s=0.3)
+    assert any("edge of the searched range" in w for w in est.warnings)
+
+
+def test_helpers():
+    t = np.array([0.0, 1.0, 2.0])
+    r, lft = wheel_rotations(t, np.array([0.0, 1.0, 3.0]), np.zeros(3), [0.5], [1.5])
+    assert r[0] == pytest.approx(1.5) and lft[0] == 0.0
+    blocks = time_blocks(np.linspace(0.0, 100.0, 1001), blocks=10)
+    assert blocks.max() == 9 and np.all(np.diff(blocks) >= 0)
+    assert time_blocks(np.linspace(0.0, 5.0, 51), blocks=10, min_block_s=2.0).max() == 1
+    g = TimeOffset.given("slam", -0.2)
+    assert g.as_dict()["offset_s"] == -0.2 and g.stderr_s is None and g.how == "given"
