@@ -1,0 +1,102 @@
+"""Standard errors that hold when residuals are correlated and the model is not exact.
+
+A least-squares fit's formal covariance, s^2 (J^T J)^-1, assumes independent residuals that the
+model explains up to white noise. Real logs break both: a wheel that slips for a second, a heading
+drift the model cannot express, a SLAM pose that is off for a stretch, a session that differs
+from the next. Those residuals come in runs, and the formal standard errors come out 3-10 times
+too small (OptiOdom, MIT CSAIL: docs/uncertainty.md).
+
+The cluster-robust ("sandwich") covariance keeps the estimate and replaces the middle of the
+formula by what the residuals did, summed within clusters that are independent of each other
+(runs, or contiguous time blocks of one log):
+
+    cov = c (J^T J)^-1 [ sum_g (J_g^T r_g)(J_g^T r_g)^T ] (J^T J)^-1,
+    c = G / (G - 1) (m - 1) / (m - p)
+
+with J and r the weighted Jacobian and residual at the solution (m rows, p parameters) and g
+the G clusters (Liang & Zeger 1986; the small-sample factor c as Stata's). Correlation inside a
+cluster and a model mismatch that varies between clusters both widen it. Its degrees of
+freedom are G - 1: intervals use Student's t with G - 1, so a log cut into few blocks gets wide
+intervals rather than falsely narrow ones.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import CalibrationError
+
+__all__ = ["ClusterCovariance", "cluster_covariance"]
+
+
+@dataclass(frozen=True)
+class ClusterCovariance:
+    """A cluster-robust covariance.
+
+    Attributes
+    ----------
+    covariance : ndarray, shape (p, p)
+        In the units of the parameters, squared.
+    clusters : int
+        Independent clusters G behind it.
+    dof : int
+        Degrees of freedom of its standard errors (G - 1).
+    formal : ndarray, shape (p, p)
+        The formal s^2 (J^T J)^-1 on the same residuals, for comparison.
+    """
+
+    covariance: np.ndarray
+    clusters: int
+    dof: int
+    formal: np.ndarray
+
+    @property
+    def stderr(self) -> np.ndarray:
+        """Square roots of the diagonal, shape (p,)."""
+        return np.sqrt(np.diag(self.covariance))
+
+    def inflation(self) -> np.ndarray:
+        """Robust over formal standard error per parameter, shape (p,)."""
+        return self.stderr / np.sqrt(np.diag(self.formal))
+
+
+def cluster_covariance(
+    jacobian: np.ndarray, residual: np.ndarray, clusters: np.ndarray
+) -> ClusterCovariance:
+    """The cluster-robust covariance (module docstring).
+
+    Parameters
+    ----------
+    jacobian : ndarray, shape (m, p)
+        Derivatives of the weighted residuals with respect to the parameters at the solution.
+    residual : ndarray, shape (m,)
+        Weighted residuals at the solution.
+    clusters : ndarray of int, shape (m,)
+        Cluster of each residual row (any integer labels).
+
+    Raises
+    ------
+    CalibrationError
+        Fewer than 2 clusters, or a singular J^T J.
+    """
+    j = np.asarray(jacobian, dtype=float)
+    r = np.asarray(residual, dtype=float)
+    labels, g = np.unique(np.asarray(clusters), return_inverse=True)
+    m, p = j.shape
+    n_g = len(labels)
+    if n_g < 2:
+        raise CalibrationError("a cluster-robust covariance needs at least 2 clusters")
+    jtj = j.T @ j
+    try:
+        bread = np.linalg.inv(jtj)
+    except np.linalg.LinAlgError:
+        raise CalibrationError("the parameters are not identified (singular J^T J)") from None
+    scores = np.zeros((n_g, p))
+    np.add.at(scores, g, j * r[:, None])
+    meat = scores.T @ scores
+    c = n_g / (n_g - 1) * (m - 1) / max(m - p, 1)
+    cov = c * bread @ meat @ bread
+    s2 = float(r @ r) / max(m - p, 1)
+    return ClusterCovariance(0.5 * (cov + cov.T), n_g, n_g - 1, s2 * bread)
