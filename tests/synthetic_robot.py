@@ -342,6 +342,8 @@ def write_ros2_bag(
     scan_time_s: float = 0.1,
     slam_noise: tuple[float, float] | None = None,
     rng: np.random.Generator | None = None,
+    laser_delay_s: float = 0.0,
+    slam_delay_s: float = 0.0,
 ) -> dict[str, int]:
     """Write ``run`` into a ROS 2 bag folder ``path`` (must not exist); returns the message
     count per topic.
@@ -350,6 +352,12 @@ def write_ros2_bag(
     ``map`` -> ``odom`` on ``/tf`` every that many increments (None: never). ``imu``: write
     ``/imu`` when the run has a gyro. ``slam_noise`` = (sigma_xy_m, sigma_theta_rad): the SLAM
     pose at each update is the true one plus independent Gaussian noise (drawn from ``rng``).
+
+    Clock offsets (s, whole increments): ``laser_delay_s`` stamps every scan that much late
+    (the scan taken at t carries t + delay); ``slam_delay_s`` stamps every ``map -> odom``
+    update late in the same way, and computes it as a SLAM on that clock would: the pose at
+    the scan, composed with the inverse odometry looked up at the (late) stamp, so that the
+    composed ``map -> base_link`` at the stamp is the true pose at the scan.
     """
     w = _Ros2Writer(Path(path))
     w.w.open()
@@ -376,7 +384,18 @@ def write_ros2_bag(
         # merge the streams in time order: joints + odom tf at every increment, scans, imu
         events: list[tuple[int, int, int]] = []  # (t_ns, kind, index); kind orders ties
         events += [(int(t), 0, k) for k, t in enumerate(run.time_ns)]
-        events += [(int(run.time_ns[k]), 1, i) for i, k in enumerate(run.scan_index)]
+        dt_ns = int(run.time_ns[1] - run.time_ns[0])
+        laser_shift, slam_shift = (round(d * 1e9 / dt_ns) for d in (laser_delay_s, slam_delay_s))
+        if map_odom is not None and slam_shift > 0:
+            # published at increment k (stamped k): the update of the scan at k - shift, composed
+            # with the odometry at k (the SLAM looks it up at its own, late, stamp)
+            truth_at = compose(map_odom, run.odom_pose)  # the (noisy) SLAM pose at each k
+            late = compose(truth_at[:-slam_shift], _inverse(run.odom_pose[slam_shift:]))
+            map_odom = np.concatenate([np.repeat(late[:1], slam_shift, 0), late])
+        events += [
+            (int(run.time_ns[min(k + laser_shift, len(run.time_ns) - 1)]), 1, i)
+            for i, k in enumerate(run.scan_index)
+        ]
         if imu and run.gyro_z_rad_s is not None:
             events += [(int(t), 2, k) for k, t in enumerate(run.gyro_time_ns)]
         events.sort()
