@@ -44,6 +44,7 @@ __all__ = [
     "default_track",
     "simulate_robot",
     "write_ros2_bag",
+    "repeat_run",
     "compose",
     "relative",
     "TOPICS",
@@ -281,6 +282,34 @@ def simulate_robot(
     return RobotRun(
         time_ns, r_ang, l_ang, true_pose, odom, scan_index, ranges, laser, room, true, believed,
         gyro, gyro_t, gyro_z,
+    )  # fmt: skip
+
+
+def repeat_run(run: RobotRun, repeats: int) -> RobotRun:
+    """``run`` driven ``repeats`` times in a row, for long bags: the wheel angles and the
+    odometry continue, the true pose starts over each time (a SLAM would see a jump there),
+    the stamps run on without a gap."""
+    if repeats < 1:
+        raise ModelError(f"repeats must be >= 1, got {repeats}")
+    k = len(run.time_ns)
+    dt_ns = int(run.time_ns[1] - run.time_ns[0])
+    time_ns = run.time_ns[0] + dt_ns * np.arange(k * repeats, dtype=np.int64)
+    r_end, l_end = run.wheel_angle_right_rad[-1], run.wheel_angle_left_rad[-1]
+    right = np.concatenate([run.wheel_angle_right_rad + i * r_end for i in range(repeats)])
+    left = np.concatenate([run.wheel_angle_left_rad + i * l_end for i in range(repeats)])
+    odom, start = [], np.zeros(3)
+    for _ in range(repeats):
+        odom.append(compose(np.broadcast_to(start, run.odom_pose.shape), run.odom_pose))
+        start = odom[-1][-1]
+    scans = np.concatenate([run.scan_index + i * k for i in range(repeats)])
+    gyro_t = gyro_z = None
+    if run.gyro_time_ns is not None and run.gyro_z_rad_s is not None:
+        gyro_t = np.concatenate([run.gyro_time_ns + i * k * dt_ns for i in range(repeats)])
+        gyro_z = np.tile(run.gyro_z_rad_s, repeats)
+    return RobotRun(
+        time_ns, right, left, np.tile(run.true_pose, (repeats, 1)), np.concatenate(odom), scans,
+        np.tile(run.scan_ranges_m, (repeats, 1)), run.laser, run.room, run.true, run.believed,
+        run.gyro, gyro_t, gyro_z,
     )  # fmt: skip
 
 
