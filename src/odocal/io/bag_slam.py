@@ -10,15 +10,19 @@ only the update instants, and relative motions, can be trusted).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from ..calibration.relative_motions import RelativeMotions, wheel_increments
 from ..calibration.slam import SlamLimits, SlamMotions, slam_relative_motions
 from ..core.recording import Recording
 from ..core.transforms import RigidTransforms, planar_pose
 from ..errors import InputError
+from .bag_options import BagOptions
 from .bags import (
     JOINT_STATE,
     check_bag_path,
@@ -30,7 +34,7 @@ from .bags import (
     transform_buffer,
 )
 
-__all__ = ["SlamBag", "parse_truth_frames", "load_slam_bag"]
+__all__ = ["SlamBag", "parse_truth_frames", "load_slam_bag", "load_slam_bags", "wheel_increments"]
 
 
 def parse_truth_frames(text: str) -> tuple[str, str]:
@@ -61,6 +65,27 @@ class SlamBag:
     correction: str | None
     increments: tuple[np.ndarray, np.ndarray]
     meta: dict = field(default_factory=dict)
+
+    @property
+    def relative_motions(self) -> RelativeMotions:
+        """The intervals as the relative-motion calibration takes them (the truth frame is the
+        base itself)."""
+        m = self.motions
+        return RelativeMotions(m.phi_right_rad, m.phi_left_rad, m.sensor_motion, self.increments)
+
+    def as_dict(self) -> dict[str, Any]:
+        """What ``odocal fit --truth-frames --json`` reports of this bag (its ``slam`` entry)."""
+        m = self.motions
+        return {
+            "bag": self.path,
+            "chain": self.chain,
+            "correction_edge": self.correction,
+            **asdict(m.counts),
+            "dropped": m.counts.dropped,
+            "segments": m.segments,
+            "summary": m.summary(),
+            "warnings": list(m.warnings),
+        }
 
 
 def _span(t: np.ndarray, lo: float, hi: float) -> np.ndarray:
@@ -201,23 +226,6 @@ def load_slam_bag(
     return SlamBag(str(p), motions, recording, chain_text, correction, increments, meta)
 
 
-def wheel_increments(t, right, left, start_s, end_s) -> tuple[np.ndarray, np.ndarray]:
-    """The wheel rotations of each interval [start_s, end_s] as sampled: the differences of the
-    wheel angles at the interval's ends and at every wheel sample between them. Two arrays of
-    shape (n, K), rows zero padded; each row sums to the interval's rotation."""
-    rows_r, rows_l = [], []
-    for a, b in zip(start_s, end_s, strict=True):
-        inside = t[(t > a) & (t < b)]
-        tt = np.r_[a, inside, b]
-        rows_r.append(np.diff(np.interp(tt, t, right)))
-        rows_l.append(np.diff(np.interp(tt, t, left)))
-    k = max((len(x) for x in rows_r), default=1)
-    out_r, out_l = np.zeros((len(rows_r), k)), np.zeros((len(rows_r), k))
-    for i, (x, y) in enumerate(zip(rows_r, rows_l, strict=True)):
-        out_r[i, : len(x)], out_l[i, : len(y)] = x, y
-    return out_r, out_l
-
-
 def _recording(p: Path, jt, t, right, left, stamps, motions, corr, odo, truth, meta) -> Recording:
     """The wheel-rate run with the SLAM truth at the update instants used (other samples are
     not truth: ``meta['truth_samples']`` lists the valid indices)."""
@@ -247,3 +255,29 @@ def _recording(p: Path, jt, t, right, left, stamps, motions, corr, odo, truth, m
         ground_truth=gt,
         meta={**meta, "truth": "slam", "truth_samples": [int(i) for i in idx]},
     )
+
+
+def load_slam_bags(
+    paths: Sequence[str | Path],
+    truth_frames: tuple[str, str],
+    bag: BagOptions,
+    *,
+    ticks_per_rev: float | None = None,
+    stamp_offset_s: float = 0.0,
+) -> list[SlamBag]:
+    """:func:`load_slam_bag` of every bag of ``paths`` with the joints of ``bag``; InputError
+    when a path is given twice (its runs would count twice)."""
+    from .recordings import refuse_repeated
+
+    return [
+        load_slam_bag(
+            p,
+            truth_frames,
+            joint_topic=bag.joint_topic,
+            right_joint=bag.right_joint,
+            left_joint=bag.left_joint,
+            ticks_per_rev=ticks_per_rev,
+            stamp_offset_s=stamp_offset_s,
+        )
+        for p in refuse_repeated(paths)
+    ]
