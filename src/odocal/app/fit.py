@@ -71,6 +71,12 @@ METHODS = FIT_METHODS
 Route = Literal["runs", "tuples", "slam", "scan", "gyro"]
 
 
+def _tuple_inputs(paths: Sequence[str | Path], relative: bool) -> list[str | Path]:
+    """The paths that hold tuples: ``.tuple`` files, and with ``relative`` whatever is no bag (a
+    pipe or ``<(...)`` has no name to tell a tuple file by)."""
+    return [p for p in paths if is_tuple_file(p) or (relative and not is_bag(p))]
+
+
 def choose_route(
     paths: Sequence[str | Path], method: FitMethod | None, truth_frames: tuple[str, str] | None
 ) -> Route:
@@ -79,11 +85,7 @@ def choose_route(
     says it is one) or from bags with ``truth_frames``; they cannot be mixed with runs."""
     if method in ("gyro", "scan"):
         return method
-    tuples = [
-        p
-        for p in paths
-        if is_tuple_file(p) or (method == "relative" and truth_frames is None and not is_bag(p))
-    ]
+    tuples = _tuple_inputs(paths, method == "relative" and truth_frames is None)
     if not (tuples or truth_frames is not None or method == "relative"):
         return "runs"
     if method not in (None, "relative"):

@@ -25,6 +25,7 @@ from ..errors import InputError
 from .bag_options import BagOptions
 from .bags import (
     JOINT_STATE,
+    EdgeMessages,
     check_bag_path,
     joint_series,
     pick_topic,
@@ -92,6 +93,54 @@ def _span(t: np.ndarray, lo: float, hi: float) -> np.ndarray:
     return (t >= lo) & (t <= hi)
 
 
+def _truth_chain(buf: Any, parent: str, child: str, p: Path) -> tuple[list[Any], str]:
+    """The moving steps of the chain from ``parent`` to ``child`` on /tf and /tf_static, and
+    the chain in words; InputError when a frame is missing or the chain does not move."""
+    for frame in (parent, child):
+        if frame not in buf.frames:
+            raise InputError(
+                f"frame '{frame}' never appears on /tf or /tf_static (frames: "
+                f"{', '.join(buf.frames) or 'none'})",
+                p,
+                None,
+                "--truth-frames",
+            )
+    chain = buf.chain(parent, child)  # InputError when the trees do not connect
+    dynamic = [s for s in chain if not s.static]
+    chain_text = " -> ".join([chain[0].frm] + [s.to for s in chain]) if chain else parent
+    if not dynamic:
+        raise InputError(
+            f"the chain {chain_text} is static: it holds no SLAM pose", p, None, "--truth-frames"
+        )
+    return dynamic, chain_text
+
+
+def _edge_key(step: Any) -> tuple[str, str]:
+    """The (parent, child) of the /tf edge a chain step follows (either way)."""
+    return (step.to, step.frm) if step.inverted else (step.frm, step.to)
+
+
+def _correction_edge(
+    edges: dict[tuple[str, str], EdgeMessages],
+    dynamic: list[Any],
+    parent: str,
+    child: str,
+    p: Path,
+) -> EdgeMessages:
+    """The SLAM correction: the moving edge of the chain published least often; InputError
+    when it points from the child towards the parent."""
+    key, step = min(((_edge_key(s), s) for s in dynamic), key=lambda ks: len(edges[ks[0]].time_s))
+    if step.inverted:
+        raise InputError(
+            f"the SLAM edge {key[0]} -> {key[1]} points from {child} towards {parent}; "
+            f"give the truth frames as {child}:{parent}'s parent first",
+            p,
+            None,
+            "--truth-frames",
+        )
+    return edges[key]
+
+
 def load_slam_bag(
     path,
     truth_frames: tuple[str, str] = ("map", "base_link"),
@@ -123,40 +172,9 @@ def load_slam_bag(
     jt = bag.picked["joints"]
     joints = joint_series(bag, jt, right_joint, left_joint, ticks_per_rev)
     buf = transform_buffer(bag)
-    for frame in (parent, child):
-        if frame not in buf.frames:
-            raise InputError(
-                f"frame '{frame}' never appears on /tf or /tf_static (frames: "
-                f"{', '.join(buf.frames) or 'none'})",
-                p,
-                None,
-                "--truth-frames",
-            )
-    chain = buf.chain(parent, child)  # InputError when the trees do not connect
-    dynamic = [s for s in chain if not s.static]
-    chain_text = " -> ".join([chain[0].frm] + [s.to for s in chain]) if chain else parent
-    if not dynamic:
-        raise InputError(
-            f"the chain {chain_text} is static: it holds no SLAM pose", p, None, "--truth-frames"
-        )
+    dynamic, chain_text = _truth_chain(buf, parent, child, p)
     edges = tf_messages(bag)
-
-    def messages(step):
-        key = (step.to, step.frm) if step.inverted else (step.frm, step.to)
-        return key, edges[key]
-
-    counted = [messages(s) for s in dynamic]
-    (ce_key, ce), ce_step = min(
-        zip(counted, dynamic, strict=True), key=lambda x: len(x[0][1].time_s)
-    )
-    if ce_step.inverted:
-        raise InputError(
-            f"the SLAM edge {ce_key[0]} -> {ce_key[1]} points from {child} towards {parent}; "
-            f"give the truth frames as {child}:{parent}'s parent first",
-            p,
-            None,
-            "--truth-frames",
-        )
+    ce = _correction_edge(edges, dynamic, parent, child, p)
     stamps = ce.time_s - float(stamp_offset_s)
     t_j = joints.time_s
     keep = _span(stamps, t_j[0], t_j[-1])
@@ -176,7 +194,7 @@ def load_slam_bag(
         below = buf.chain(ce.child, child)
         for s in below:
             if not s.static:
-                k, e = messages(s)
+                e = edges[_edge_key(s)]
                 keep &= _span(stamps, e.time_s[0], e.time_s[-1])
         stamps = stamps[keep]
         above = buf.chain(parent, ce.parent) if ce.parent != parent else ()
