@@ -33,6 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
+from odocal.calibration.fit_settings import TrajectorySettings
 from odocal.calibration.identifiability import NoiseModel, check_recordings
 from odocal.calibration.trajectory import fit_trajectory
 from odocal.core.model import MeasurementNoise, NonSystematicError, WheelGeometry
@@ -136,7 +137,8 @@ def measure_noise(squares, ivanjko, b: float) -> tuple[NoiseModel, dict]:
 def agreement(sets: dict[str, list], noise: NoiseModel, residual: str) -> dict:
     rows = []
     for name, recs in sets.items():
-        g = fit_trajectory(recs, nominal=NOMINAL, residual=residual).geometry
+        settings = TrajectorySettings(residual=residual)
+        g = fit_trajectory(recs, nominal=NOMINAL, settings=settings).geometry
         stated = check_recordings(recs, g, noise=noise, residual=residual)
         emp = check_recordings(recs, g, noise=noise, residual=residual, residual_scale="empirical")
         rows.append(
@@ -149,7 +151,7 @@ def agreement(sets: dict[str, list], noise: NoiseModel, residual: str) -> dict:
                 "stderr_empirical_m": [emp.stderr[k] for k in KEYS],
                 "residual_scale": emp.residual_scale,
                 "formal_fit_stderr_m": [
-                    fit_trajectory(recs, nominal=NOMINAL, residual=residual).stderr[k] for k in KEYS
+                    fit_trajectory(recs, nominal=NOMINAL, settings=settings).stderr[k] for k in KEYS
                 ],
             }
         )

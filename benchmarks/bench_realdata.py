@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from odocal.app.fit import fit_recordings
+from odocal.calibration.fit_settings import TrajectorySettings
 from odocal.core.model import WheelGeometry
 from odocal.core.odometry import evaluate
 from odocal.io.recordings import load_recordings
@@ -138,7 +139,9 @@ def main(argv=None) -> int:
         ("trajectory --residual segment", {"residual": "segment"}),
     ]
     for name, kw in variants:
-        fit = fit_recordings(train, "trajectory", nominal=nominal, **kw)
+        fit = fit_recordings(
+            train, "trajectory", nominal=nominal, settings=TrajectorySettings(**kw)
+        )
         note = ""
         if fit.outliers:
             note = "outliers: " + ", ".join(Path(n).stem for n in fit.outliers)
@@ -200,9 +203,9 @@ def main(argv=None) -> int:
                 runs,
                 "trajectory",
                 nominal=nominal,
-                heading_weight_m=hw,
-                residual=residual,
-                run_weight=weight,
+                settings=TrajectorySettings(
+                    heading_weight_m=hw, residual=residual, run_weight=weight
+                ),
             ).geometry
             sweep.append(
                 {

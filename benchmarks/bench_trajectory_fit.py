@@ -1,14 +1,14 @@
 """Speed of the trajectory fit's residual: all runs at once against run by run (issue 12).
 
-``calibration.trajectory._Residuals`` (runs packed into blocks of similar length, dead-reckoned
-by ``core.odometry.dead_reckon_rows``) against the per-run definition
-(``np.concatenate([r.weight * _run_residual(r, p, ...) for r in runs])``, which the fit called
+``calibration.trajectory_residuals.TrajectoryResiduals`` (runs packed into blocks of similar
+length, dead-reckoned by ``core.odometry.dead_reckon_rows``) against the per-run definition
+(``np.concatenate([r.weight * run_residual(r, p, ...) for r in runs])``, which the fit called
 before), on the 110 OptiOdom calibration runs (squares + Ivanjko lines and spins, as
 ``app.reproduce.real_experiment`` loads them) at the nominal geometry they ran with:
 
 - one residual evaluation, 'pose' and 'segment' residuals;
 - a whole ``fit_trajectory(runs, nominal=...)`` (what ``app.measured.measure_robot`` runs), the
-  old way being the same function with the per-run residual put in place of ``_Residuals``;
+  old way being the same function with the per-run residual put in place of ``TrajectoryResiduals``;
 - the floor: only ``np.cos``, ``np.sin`` and the three running sums of dead reckoning on the
   runs' increments (each run's own arrays; no way around them bit for bit).
 
@@ -33,12 +33,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from machine import ROOT, machine  # noqa: E402
 
 from odocal.calibration import trajectory  # noqa: E402
-from odocal.calibration.trajectory import RunResiduals, _run_residual  # noqa: E402
+from odocal.calibration.trajectory_residuals import RunResiduals, run_residual  # noqa: E402
 from odocal.io.optiodom import load_optiodom_experiment  # noqa: E402
 
 
 class PerRun:
-    """The residual as the fit evaluated it before: run by run (same interface as _Residuals)."""
+    """The residual as the fit evaluated it before: run by run (the interface of
+    TrajectoryResiduals)."""
 
     def __init__(self, runs, kind, w_head, weighted=True):
         self.runs, self.kind, self.w_head, self.weighted = runs, kind, w_head, weighted
@@ -49,7 +50,7 @@ class PerRun:
         PerRun.calls += 1
         return np.concatenate(
             [
-                (r.weight if self.weighted else 1.0) * _run_residual(r, p, self.kind, self.w_head)
+                (r.weight if self.weighted else 1.0) * run_residual(r, p, self.kind, self.w_head)
                 for r in self.runs
             ]
         )
@@ -100,7 +101,7 @@ def main(argv=None) -> int:
 
     for kind in trajectory.RESIDUALS:
         runs = [RunResiduals(r, kind, 200, 1.0, nominal) for r in recs]
-        old, new = PerRun(runs, kind, 0.1), trajectory._Residuals(runs, kind, 0.1)
+        old, new = PerRun(runs, kind, 0.1), trajectory.TrajectoryResiduals(runs, kind, 0.1)
         assert np.array_equal(old(p), new(p))
         t_old, t_new = interleaved(lambda o=old: o(p), lambda n=new: n(p), args.repeats)
         t_floor, _ = interleaved(lambda r=runs: floor(r, p), lambda: None, args.repeats)
@@ -110,22 +111,22 @@ def main(argv=None) -> int:
             f"floor (cos, sin, cumsum) {1e3 * t_floor:.2f} ms"
         )
 
-    batched = trajectory._Residuals
+    batched = trajectory.TrajectoryResiduals
     results = {}
 
     def fit(cls):
-        trajectory._Residuals = cls
+        trajectory.TrajectoryResiduals = cls
         try:
             results[cls] = trajectory.fit_trajectory(recs, nominal=nominal)
         finally:
-            trajectory._Residuals = batched
+            trajectory.TrajectoryResiduals = batched
 
     t_old, t_new = interleaved(lambda: fit(PerRun), lambda: fit(batched), args.fits)
     evaluations = PerRun.calls // args.fits
     a, b = results[PerRun], results[batched]
-    assert a.geometry == b.geometry and a.extras == b.extras and a.per_run == b.per_run
+    assert a.geometry == b.geometry and a.trajectory == b.trajectory and a.per_run == b.per_run
     print(
-        f"fit_trajectory ({evaluations} residual evaluations, {b.extras['starts_tried']} "
+        f"fit_trajectory ({evaluations} residual evaluations, {b.trajectory.starts_tried} "
         f"starts): per run {t_old:.3f} s, "
         f"all at once {t_new:.3f} s ({t_old / t_new:.2f}x); the same fit"
     )

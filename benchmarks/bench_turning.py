@@ -86,7 +86,7 @@ def mean_error(runs, geometry: WheelGeometry) -> float:
 
 
 def banded_error(runs, fit) -> float:
-    g, bands = fit.geometry, fit.extras["band_wheelbase_m"]
+    g, bands = fit.geometry, fit.banded.band_wheelbase_m
     errs = []
     for r in runs:
         b = wheelbase_per_increment(r, bands, g)
@@ -148,16 +148,14 @@ def evaluate_split(sets, train_pred, test_pred) -> dict:
         banded = fit_banded(train, const.geometry, nominal=NOMINAL)
         out["banded"] = banded_error(test, banded)
         out["banded, mix of the calibration runs"] = mean_error(test, banded.geometry)
-        per_band = {
-            n: banded.extras["band_wheelbase_m"][banded.extras["band_uses"][n]] for n in BANDS
-        }
+        per_band = {n: banded.banded.band_wheelbase_m[banded.banded.band_uses[n]] for n in BANDS}
         mix = rotation_mix(test, const.geometry)
         b = wheelbase_for_mix(per_band, mix).wheelbase_m
         g = banded.geometry
         out["banded, mix of the validation runs"] = mean_error(
             test, WheelGeometry(g.diameter_right_m, g.diameter_left_m, b)
         )
-        out["band_wheelbase_m"] = banded.extras["band_wheelbase_m"]
+        out["band_wheelbase_m"] = banded.banded.band_wheelbase_m
     except CalibrationError as exc:
         out["banded"] = f"refused: {str(exc)[:90]}..."
     for side in (0.75, 1.7):

@@ -461,9 +461,9 @@ def read_husky_once(monkeypatch):
     which it does not change. What the Husky fits vary (axis, bias, mounting, exports) acts after
     the read; the first fit of each bag reads it for real, and test_bag_decode checks the read
     itself message by message."""
-    import odocal.app.fit as fit_module
+    import odocal.io.bag_gyro as gyro_reader
 
-    real = fit_module.read_bag
+    real = gyro_reader.read_bag
 
     def read_once(path, topics, *, fast=True):
         key = (str(path), fast)
@@ -477,7 +477,7 @@ def read_husky_once(monkeypatch):
             return real(path, topics, fast=fast)
         return replace(bag, messages={t: bag.messages[t] for t in wanted}, picked=picked)
 
-    monkeypatch.setattr(fit_module, "read_bag", read_once)
+    monkeypatch.setattr(gyro_reader, "read_bag", read_once)
 
 
 @pytest.fixture

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 import yaml
 
+from odocal.calibration.fit_settings import TrajectorySettings
 from odocal.calibration.linear import fit_linear, linear_geometry_trials
 from odocal.calibration.squares import fit_recorded_squares
 from odocal.calibration.trajectory import fit_trajectory, fit_trajectory_trials
@@ -86,8 +87,8 @@ def test_linear_is_exact_on_noise_free_data():
     fit = fit_linear(mixed_runs(), NOMINAL)
     # exact up to floating point: the estimator is linear and the data noise-free
     np.testing.assert_allclose(values(fit.geometry), values(TRUE), rtol=1e-9)
-    assert fit.extras["wheelbase_from_right_m"] == pytest.approx(TRUE.wheelbase_m, rel=1e-9)
-    assert fit.extras["wheelbase_from_left_m"] == pytest.approx(TRUE.wheelbase_m, rel=1e-9)
+    assert fit.linear.wheelbase_from_right_m == pytest.approx(TRUE.wheelbase_m, rel=1e-9)
+    assert fit.linear.wheelbase_from_left_m == pytest.approx(TRUE.wheelbase_m, rel=1e-9)
 
 
 def test_linear_needs_independent_runs():
@@ -98,7 +99,9 @@ def test_linear_needs_independent_runs():
 
 @pytest.mark.parametrize("residual", ["pose", "segment"])
 def test_trajectory_is_exact_on_noise_free_data(residual):
-    fit = fit_trajectory(mixed_runs(), nominal=NOMINAL, residual=residual)
+    fit = fit_trajectory(
+        mixed_runs(), nominal=NOMINAL, settings=TrajectorySettings(residual=residual)
+    )
     # the optimiser stops at xtol 1e-12 relative; the fit is exact
     np.testing.assert_allclose(values(fit.geometry), values(TRUE), rtol=1e-8)
     assert not fit.outliers
@@ -117,9 +120,9 @@ def test_trajectory_reports_every_residual_evaluation(monkeypatch):
 
     monkeypatch.setattr(scipy.optimize, "least_squares", spy)
     fit = fit_trajectory(mixed_runs(), NOMINAL, nominal=NOMINAL)  # one start: one solve
-    report = fit.extras["optimizer"]
-    assert fit.extras["starts_tried"] == 1
-    assert report["evaluations"] == len(calls) > report["nfev"]
+    report = fit.trajectory.optimizer
+    assert fit.trajectory.starts_tried == 1
+    assert report.evaluations == len(calls) > report.nfev
 
 
 def test_trajectory_noise_stderr_and_outlier():
@@ -156,13 +159,13 @@ def test_trajectory_noise_stderr_and_outlier():
     )
     flagged = fit_trajectory(runs, nominal=NOMINAL)
     assert flagged.outliers == ["run3"] and flagged.warnings
-    dropped = fit_trajectory(runs, nominal=NOMINAL, drop_outliers=True)
+    dropped = fit_trajectory(runs, nominal=NOMINAL, settings=TrajectorySettings(drop_outliers=True))
     assert dropped.excluded == ["run3"] and "run3" not in dropped.runs
     assert np.all(np.abs(values(dropped.geometry) - values(TRUE)) < 5 * se)
-    excluded = fit_trajectory(runs, nominal=NOMINAL, exclude=["run3"])
+    excluded = fit_trajectory(runs, nominal=NOMINAL, settings=TrajectorySettings(exclude=["run3"]))
     np.testing.assert_allclose(values(excluded.geometry), values(dropped.geometry), rtol=1e-9)
     with pytest.raises(CalibrationError, match="matches no run"):
-        fit_trajectory(runs, nominal=NOMINAL, exclude=["nope"])
+        fit_trajectory(runs, nominal=NOMINAL, settings=TrajectorySettings(exclude=["nope"]))
 
 
 def test_batched_fits_of_many_trials_match_the_fits_of_each_trial():

@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 
+from odocal.calibration.fit_settings import TrajectorySettings
 from odocal.calibration.identifiability import (
     CheckThresholds,
     NoiseModel,
@@ -18,7 +19,8 @@ from odocal.calibration.identifiability import (
     describe_direction,
     summarize_motion,
 )
-from odocal.calibration.trajectory import RunResiduals, fit_trajectory, relative_poses
+from odocal.calibration.trajectory import fit_trajectory
+from odocal.calibration.trajectory_residuals import RunResiduals, relative_poses
 from odocal.core import tracks as T
 from odocal.core.covariance import propagate
 from odocal.core.model import MeasurementNoise, NonSystematicError, WheelGeometry
@@ -285,7 +287,7 @@ def test_predicted_stderr_matches_repeated_fits(residual):
         # started at nominal: the fit's segment layout is computed with its starting geometry,
         # and a start that varies from repeat to repeat (the default linear estimate) adds
         # spread of its own (about +20 % in b for segment residuals, docs/check.md)
-        g = fit_trajectory(recs, NOMINAL, residual=residual).geometry
+        g = fit_trajectory(recs, NOMINAL, settings=TrajectorySettings(residual=residual)).geometry
         est.append([g.diameter_right_m, g.diameter_left_m, g.wheelbase_m])
     observed = np.std(est, axis=0, ddof=1)
     predicted = np.array(list(chk.stderr.values()))

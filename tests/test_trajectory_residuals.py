@@ -1,9 +1,9 @@
 """The trajectory fit's residual of all runs at once equals the per-run definition bit for bit.
 
 ``core.odometry.dead_reckon_rows`` (runs as zero-padded rows) against ``dead_reckon``, and
-``calibration.trajectory._Residuals`` (runs packed into blocks of similar length) against
-``_run_residual`` run by run: np.array_equal, not a tolerance, because every fit, report and
-figure must stay byte-identical.
+``calibration.trajectory_residuals.TrajectoryResiduals`` (runs packed into blocks of similar
+length) against ``run_residual`` run by run: np.array_equal, not a tolerance, because every
+fit, report and figure must stay byte-identical.
 """
 
 from __future__ import annotations
@@ -11,8 +11,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from odocal.calibration import trajectory
-from odocal.calibration.trajectory import RunResiduals, _Residuals, _run_residual
+from odocal.calibration import trajectory_residuals
+from odocal.calibration.trajectory_residuals import (
+    RunResiduals,
+    TrajectoryResiduals,
+    run_residual,
+)
 from odocal.core.model import WheelGeometry
 from odocal.core.odometry import dead_reckon, dead_reckon_rows
 from odocal.core.recording import Recording
@@ -44,7 +48,7 @@ def _recordings(rng, lengths=(2, 3, 4, 40, 41, 200, 1500, 1600, 3000), spins=(3,
 
 def _per_run(runs, p, kind, w_head, weighted=True):
     return np.concatenate(
-        [(r.weight if weighted else 1.0) * _run_residual(r, p, kind, w_head) for r in runs]
+        [(r.weight if weighted else 1.0) * run_residual(r, p, kind, w_head) for r in runs]
     )
 
 
@@ -79,26 +83,26 @@ def test_residuals_equal_the_per_run_definition(kind, run_weight):
     recs = _recordings(rng)
     runs = [RunResiduals(r, kind, 60, 0.4, NOMINAL, run_weight) for r in recs]
     for w_head in (0.0, 0.1, 7.3):
-        batched = _Residuals(runs, kind, w_head)
+        batched = TrajectoryResiduals(runs, kind, w_head)
         assert len(batched.blocks) < len(runs)  # runs do share blocks
         for p in PARAMETERS:
             assert np.array_equal(batched(p), _per_run(runs, p, kind, w_head)), (w_head, p)
     # unweighted, cut per run (the outlier statistic)
-    unweighted = _Residuals(runs, kind, 0.1, weighted=False)
+    unweighted = TrajectoryResiduals(runs, kind, 0.1, weighted=False)
     parts = unweighted.per_run(unweighted(PARAMETERS[1]))
     assert len(parts) == len(runs)
     for r, part in zip(runs, parts, strict=True):
-        assert np.array_equal(part, _run_residual(r, PARAMETERS[1], kind, 0.1))
+        assert np.array_equal(part, run_residual(r, PARAMETERS[1], kind, 0.1))
 
 
 def test_blocks_bound_the_padding(monkeypatch):
-    """Every block pads at most _MAX_PADDING of its runs' increments (or holds one run), and
+    """Every block pads at most MAX_PADDING of its runs' increments (or holds one run), and
     holds at most _MAX_BLOCK increments unless it is one run."""
     rng = np.random.default_rng(2)
     recs = _recordings(rng, lengths=tuple(rng.integers(2, 400, 60)), spins=(5, 9))
-    monkeypatch.setattr(trajectory, "_MAX_BLOCK", 2000)
+    monkeypatch.setattr(trajectory_residuals, "MAX_BLOCK", 2000)
     runs = [RunResiduals(r, "pose", 30, 1.0, NOMINAL) for r in recs]
-    batched = _Residuals(runs, "pose", 0.1)
+    batched = TrajectoryResiduals(runs, "pose", 0.1)
     increments = sorted((len(r.phi_r) - 1 for r in runs), reverse=True)
     at = 0
     for inc_r, _, _ in batched.blocks:
@@ -106,7 +110,7 @@ def test_blocks_bound_the_padding(monkeypatch):
         used = increments[at : at + rows]
         assert used[0] == width
         if rows > 1:
-            assert rows * width <= min(2000, (1 + trajectory._MAX_PADDING) * sum(used))
+            assert rows * width <= min(2000, (1 + trajectory_residuals.MAX_PADDING) * sum(used))
         at += rows
     assert at == len(runs)
     assert np.array_equal(batched(PARAMETERS[2]), _per_run(runs, PARAMETERS[2], "pose", 0.1))
@@ -120,6 +124,6 @@ def test_residuals_on_the_optiodom_runs(realdata):
     assert len(recs) == 110
     for kind in ("pose", "segment"):
         runs = [RunResiduals(r, kind, 200, 1.0, NOMINAL) for r in recs]
-        batched = _Residuals(runs, kind, 0.1)
+        batched = TrajectoryResiduals(runs, kind, 0.1)
         for p in PARAMETERS[:2]:
             assert np.array_equal(batched(p), _per_run(runs, p, kind, 0.1)), (kind, p)

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from odocal.calibration.banded import fit_banded
+from odocal.calibration.fit_settings import TrajectorySettings
 from odocal.calibration.turning import (
     BANDS,
     effective_wheelbase,
@@ -126,17 +127,19 @@ def test_tracker_noise_widens_the_interval_but_not_the_estimate(runs):
 
 def test_banded_fit_recovers_the_bands_and_exports_the_mix(runs):
     fit = fit_banded(runs, WheelGeometry(0.0838, 0.0841, 0.2005), nominal=REFERENCE)
-    bw = fit.extras["band_wheelbase_m"]
+    bw = fit.banded.band_wheelbase_m
     assert set(bw) == {"spot", "tight", "wide"}
     for name, value in bw.items():
         assert value == pytest.approx(TRUE_BANDS[name], rel=1e-6)
     assert fit.geometry.diameter_right_m == pytest.approx(D, rel=1e-6)
     # the exported single value is the runs' own mix of the three bands
-    mix = fit.extras["motion_mix"]
+    mix = fit.motion_mix
     assert min(bw.values()) < fit.geometry.wheelbase_m < max(bw.values())
-    assert fit.geometry.wheelbase_m == pytest.approx(mix["wheelbase_m"])
+    assert fit.geometry.wheelbase_m == pytest.approx(mix.wheelbase_m)
     # a stated mix: all on arcs -> between the arcs' values
-    arcs = fit_banded(runs, REFERENCE, mix={"tight": 0.5, "wide": 0.5})
+    arcs = fit_banded(
+        runs, REFERENCE, settings=TrajectorySettings(motion_mix={"tight": 0.5, "wide": 0.5})
+    )
     assert TRUE_BANDS["wide"] < arcs.geometry.wheelbase_m < TRUE_BANDS["tight"]
 
 

@@ -12,7 +12,7 @@ from ..calibration.bcpt import calibrate_bcpt
 from ..calibration.heading import calibrate_heading
 from ..calibration.result import CalibrationResult, check_physical
 from ..calibration.umbmark import calibrate_umbmark
-from ..core.model import Robot
+from ..core.model import Robot, WheelGeometry
 from ..core.plausibility import (
     end_distance_problem,
     end_error_bounds,
@@ -61,7 +61,7 @@ class CalibrateResult:
     warnings: tuple[str, ...] = ()
     written: tuple[Path, ...] = ()
     track_source: str = "arguments"
-    nominal: object = None
+    nominal: WheelGeometry | None = None
 
     def as_dict(self) -> dict:
         """The JSON of ``odocal calibrate --json``: the result, its uncertainty, the inputs it
@@ -244,8 +244,6 @@ def calibrate(
         out,
         ros2,
         controller_name,
-        method=result.method,
-        E_b=result.E_b,
-        E_d=result.E_d,
+        record={"method": result.method, "E_b": result.E_b, "E_d": result.E_d},
     )
     return CalibrateResult(result, track, tuple(notes), written, source, r.nominal)

@@ -5,14 +5,22 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
-from ..calibration.identifiability import LogCheck, NoiseModel, check_recordings
-from ..core.model import Robot
+from ..calibration.fit_settings import DEFAULT_TRAJECTORY, TrajectorySettings
+from ..calibration.identifiability import (
+    MAX_BLOCKS_PER_RUN,
+    LogCheck,
+    NoiseModel,
+    check_recordings,
+)
+from ..core.model import Robot, WheelGeometry
 from ..core.recording import Recording
 from ..errors import InputError
-from ..io.bag_slam import load_slam_bag
-from ..io.recordings import load_recordings, refuse_repeated
-from .common import nominal_geometry, optional_robot
+from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
+from ..io.bag_slam import load_slam_bags
+from ..io.recordings import load_recordings
+from .common import RobotSpec, load_warnings, nominal_geometry, optional_robot
 
 __all__ = ["CheckResult", "check", "check_loaded", "noise_model"]
 
@@ -26,7 +34,7 @@ class CheckResult:
     recordings: int
     load_warnings: tuple[str, ...] = ()
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         return self.check.as_dict() | {
             "noise_source": self.noise_source,
             "load_warnings": list(self.load_warnings),
@@ -50,49 +58,61 @@ def noise_model(r: Robot | None) -> tuple[NoiseModel, str]:
 
 def check_loaded(
     recordings: Sequence[Recording],
-    geometry,
+    geometry: WheelGeometry,
     robot: Robot | None = None,
     *,
+    settings: TrajectorySettings = DEFAULT_TRAJECTORY,
     mounting: bool = False,
-    **settings,
+    max_blocks_per_run: int = MAX_BLOCKS_PER_RUN,
 ) -> CheckResult:
-    """The check of loaded recordings, linearised at ``geometry``, with ``robot``'s noise."""
+    """The check of loaded recordings, linearised at ``geometry``, with ``robot``'s noise, for
+    the trajectory fit of ``settings`` (its residual, segment length, heading weight, samples
+    and run weight)."""
     noise, source = noise_model(robot)
-    chk = check_recordings(list(recordings), geometry, noise=noise, mounting=mounting, **settings)
+    chk = check_recordings(
+        list(recordings),
+        geometry,
+        noise=noise,
+        residual=settings.residual,
+        segment_m=settings.segment_m,
+        heading_weight_m=settings.heading_weight_m,
+        samples_per_run=settings.samples_per_run,
+        run_weight=settings.run_weight,
+        mounting=mounting,
+        max_blocks_per_run=max_blocks_per_run,
+    )
     return CheckResult(chk, source, len(recordings))
 
 
 def check(
-    paths: Sequence[str | Path],
+    paths: str | Path | Sequence[str | Path],
     *,
-    robot=None,
+    robot: RobotSpec = None,
     ticks_per_rev: float | None = None,
-    bag_options: dict | None = None,
+    bag: BagOptions = NO_BAG_OPTIONS,
     truth_frames: tuple[str, str] | None = None,
+    slam_stamp_offset_s: float = 0.0,
     mounting: bool = False,
-    **settings,
+    settings: TrajectorySettings = DEFAULT_TRAJECTORY,
 ) -> CheckResult:
     """Load the runs in ``paths`` (ground truth optional) and check what they let a trajectory
-    fit see (``settings``: its residual, segment length, heading weight, run weight), at the
-    nominal geometry (``robot``, else the recordings' metadata)."""
+    fit with ``settings`` see, at the nominal geometry (``robot``, else the recordings'
+    metadata). ``truth_frames``: bags whose truth is a SLAM pose on /tf (its stamps
+    ``slam_stamp_offset_s`` late)."""
     if isinstance(paths, (str, Path)):
         paths = [paths]
-    opts = {k: v for k, v in (bag_options or {}).items() if k != "scan_topic"}
     notes: list[str] = []
     if truth_frames is not None:
-        recordings = [
-            load_slam_bag(
-                p,
-                truth_frames,
-                joint_topic=opts.get("joint_topic"),
-                right_joint=opts.get("right_joint"),
-                left_joint=opts.get("left_joint"),
-                ticks_per_rev=ticks_per_rev,
-            ).recording
-            for p in refuse_repeated(paths)
-        ]
+        slam = load_slam_bags(
+            paths,
+            truth_frames,
+            bag,
+            ticks_per_rev=ticks_per_rev,
+            stamp_offset_s=slam_stamp_offset_s,
+        )
+        recordings = [b.recording for b in slam]
     else:
-        recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, warnings=notes, **opts)
+        recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, warnings=notes, bag=bag)
     r = optional_robot(robot)
     geometry = nominal_geometry(r, recordings)
     if geometry is None:
@@ -100,8 +120,5 @@ def check(
             "the check needs the robot's nominal geometry: give --robot ROBOT.yaml (the "
             "recordings carry no firmware parameters)"
         )
-    res = check_loaded(recordings, geometry, r, mounting=mounting, **settings)
-    loaded = tuple(
-        f"{x.name}: {w}" for x in recordings for w in (x.meta.get("warnings", ()) if x.meta else ())
-    )
-    return replace(res, load_warnings=tuple(notes) + loaded)
+    res = check_loaded(recordings, geometry, r, settings=settings, mounting=mounting)
+    return replace(res, load_warnings=tuple(notes) + load_warnings(recordings))

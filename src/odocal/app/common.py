@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +28,9 @@ __all__ = [
     "write_exports",
     "make_robot",
     "refuse_absurd",
+    "load_warnings",
+    "Exports",
+    "NO_EXPORTS",
 ]
 
 #: A robot as a command takes it: a Robot, a built-in name, a ROBOT.yaml path, or None (default).
@@ -119,6 +123,13 @@ def nominal_geometry(robot: Robot | None, recordings: Sequence[Recording]) -> Wh
     return counts.most_common(1)[0][0] if counts else None
 
 
+def load_warnings(recordings: Sequence[Recording]) -> tuple[str, ...]:
+    """What the readers said about each run (its ``meta['warnings']``), named by run."""
+    return tuple(
+        f"{r.name}: {w}" for r in recordings for w in (r.meta.get("warnings", ()) if r.meta else ())
+    )
+
+
 def refuse_absurd(geometry: WheelGeometry, nominal: WheelGeometry | None, force: bool) -> list[str]:
     """A calibration far (> 25 %) from ``nominal`` is refused (CalibrationError, nothing
     written) unless ``force``; then its messages are returned as warnings."""
@@ -132,7 +143,9 @@ def refuse_absurd(geometry: WheelGeometry, nominal: WheelGeometry | None, force:
     return problems
 
 
-def register_exports(plan: OutputPlan, out=None, ros2=None) -> None:
+def register_exports(
+    plan: OutputPlan, out: str | Path | None = None, ros2: str | Path | None = None
+) -> None:
     """Register the PARAMS.yaml (``out``) and ros2_control (``ros2``) files a calibration writes,
     before the work (checked against the inputs)."""
     if out is not None:
@@ -145,22 +158,63 @@ def write_exports(
     plan: OutputPlan,
     geometry: WheelGeometry,
     nominal: WheelGeometry | None,
-    out=None,
-    ros2=None,
+    out: str | Path | None = None,
+    ros2: str | Path | None = None,
     controller_name: str = DEFAULT_CONTROLLER,
-    files: dict | None = None,
-    **record: Any,
+    *,
+    files: Mapping[Path, Any] | None = None,
+    record: Mapping[str, str | float] | None = None,
 ) -> tuple[Path, ...]:
     """The one export path of every calibration: PARAMS.yaml (``out``) and the ros2_control
     ``diff_drive_controller`` file (``ros2``; nominal base values, the calibration in the
     multipliers), written all or none with the command's other ``files`` (path -> content, e.g.
     figures). ``record`` (method, E_b, ...) goes beside the values."""
-    contents: dict = dict(files or {})
+    record = dict(record or {})
+    contents: dict[Path, Any] = dict(files or {})
     if ros2 is not None:
         if nominal is None:
             raise InputError("--ros2 needs the nominal geometry: give --robot ROBOT.yaml")
         text = {k: v for k, v in record.items() if isinstance(v, str)}
-        contents[Path(ros2)] = ros2_params_yaml(geometry, nominal, controller_name, **text)
+        contents[Path(ros2)] = ros2_params_yaml(geometry, nominal, controller_name, None, **text)
     if out is not None:
         contents[Path(out)] = params_yaml(geometry, **record)
     return tuple(plan.commit(contents)) if contents else ()
+
+
+@dataclass(frozen=True)
+class Exports:
+    """Where a calibration goes: PARAMS.yaml (``out``) and the ros2_control
+    ``diff_drive_controller`` file (``ros2``, its controller named ``controller_name``)."""
+
+    out: str | Path | None = None
+    ros2: str | Path | None = None
+    controller_name: str = DEFAULT_CONTROLLER
+
+    def register(self, plan: OutputPlan) -> None:
+        """Register the files in ``plan`` before the work (:func:`register_exports`)."""
+        register_exports(plan, self.out, self.ros2)
+
+    def write(
+        self,
+        plan: OutputPlan,
+        geometry: WheelGeometry,
+        nominal: WheelGeometry | None,
+        *,
+        files: Mapping[Path, Any] | None = None,
+        record: Mapping[str, str | float] | None = None,
+    ) -> tuple[Path, ...]:
+        """Write them, with the command's other ``files``, all or none (:func:`write_exports`)."""
+        return write_exports(
+            plan,
+            geometry,
+            nominal,
+            self.out,
+            self.ros2,
+            self.controller_name,
+            files=files,
+            record=record,
+        )
+
+
+#: No file to write.
+NO_EXPORTS = Exports()

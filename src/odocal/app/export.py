@@ -57,4 +57,4 @@ def export(
         raise InputError("nothing to export: give ros2=FILE.yaml and/or out=PARAMS.yaml")
     plan = OutputPlan([])
     register_exports(plan, out, ros2)
-    return write_exports(plan, geometry, nom, out, ros2, controller_name, method=method)
+    return write_exports(plan, geometry, nom, out, ros2, controller_name, record={"method": method})

@@ -6,21 +6,23 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..calibration.noise import NoiseEstimate, estimate_k
 from ..core.covariance import OdometryCovariance, odometry_covariance
-from ..core.model import MeasurementNoise, WheelGeometry
+from ..core.model import MeasurementNoise, Robot, WheelGeometry
 from ..core.recording import Recording
 from ..design.metrics import leg_heading_systematic_rad
 from ..errors import InputError
+from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
 from ..io.outputs import OutputPlan
 from ..io.recordings import load_recordings, require_ground_truth
 from ..io.robot_file import load_robot, robot_yaml
 from ..io.ros2_export import DEFAULT_CONTROLLER, ros2_params_yaml
 from ..io.runs_csv import read_runs
-from .common import RobotSpec, input_paths, resolve_robot
+from .common import RobotSpec, input_paths, load_warnings, resolve_robot
 from .measured import MeasuredRobot, measure_robot
 
 __all__ = ["noise", "noise_recordings", "RecordedNoiseResult", "cruise_speed_m_s"]
@@ -30,7 +32,7 @@ def noise(
     runs_csv: str | Path,
     robot: RobotSpec = None,
     *,
-    params=None,
+    params: str | Path | WheelGeometry | None = None,
     track: str = "out-and-back",
     distance_m: float,
     force: bool = False,
@@ -89,7 +91,7 @@ class RecordedNoiseResult:
     def warnings(self) -> tuple[str, ...]:
         return tuple(self.measured.noise.warnings) + tuple(self.measured.fit.warnings)
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         """The JSON of ``odocal noise RUN_OR_DIR... --json``: the k estimate (as for RUNS.csv:
         ``k_sum_m``, ``k_sum_ci95``, ``k_r_m``, ``k_l_m``, ...) plus ``robot`` (the measured
         robot) and ``ros2_covariance`` when written."""
@@ -100,10 +102,56 @@ class RecordedNoiseResult:
         return out
 
 
+def _nominal(robot: Robot | None, recordings: Sequence[Recording]) -> WheelGeometry:
+    """The robot's nominal geometry, else the runs' most common ran-with parameters."""
+    if robot is not None:
+        return robot.nominal
+    known = [r.ran_with for r in recordings if r.ran_with is not None]
+    if not known:
+        raise InputError(
+            "the nominal geometry is unknown (no metadata in the recordings): give --robot"
+        )
+    return max(set(known), key=known.count)
+
+
+def _instrument(
+    robot: Robot | None, sigma_xy_m: float | None, sigma_theta_deg: float | None
+) -> MeasurementNoise | None:
+    """The instrument: the sigmas given, else the robot's measurement, else None (the tracker's
+    jitter)."""
+    if sigma_xy_m is not None or sigma_theta_deg is not None:
+        return MeasurementNoise.from_degrees(sigma_xy_m or 0.0, sigma_theta_deg or 0.0)
+    if robot is not None and not robot.measurement.is_zero:
+        return robot.measurement
+    return None
+
+
+def _covariance(
+    measured: MeasuredRobot,
+    recordings: Sequence[Recording],
+    speed_m_s: float | None,
+    distance_m: float,
+    window_s: float,
+) -> OdometryCovariance:
+    """The controller's covariances from the measured wheel noise, at ``speed_m_s`` (default:
+    the runs' cruise speed)."""
+    geometry = measured.robot.true_geometry
+    k = measured.robot.nonsystematic
+    speed = speed_m_s if speed_m_s is not None else cruise_speed_m_s(recordings, geometry)
+    return odometry_covariance(
+        k.k_r_m,
+        k.k_l_m,
+        float(geometry.wheelbase_m),
+        speed_m_s=speed,
+        distance_m=distance_m,
+        window_s=window_s,
+    )
+
+
 def noise_recordings(
-    paths: Sequence[str | Path],
+    paths: str | Path | Sequence[str | Path],
     *,
-    robot=None,
+    robot: RobotSpec = None,
     sigma_xy_m: float | None = None,
     sigma_theta_deg: float | None = None,
     force: bool = False,
@@ -114,9 +162,10 @@ def noise_recordings(
     distance_m: float = 1.0,
     window_s: float = 0.2,
     ticks_per_rev: float | None = None,
-    bag_options: dict | None = None,
+    bag: BagOptions = NO_BAG_OPTIONS,
 ) -> RecordedNoiseResult:
-    """k_r, k_l from recorded runs of repeated tracks (OptiOdom folders, run CSVs, bags).
+    """k_r, k_l from recorded runs of repeated tracks (OptiOdom folders, run CSVs, bags; the
+    topics and joints of bags from ``bag``).
 
     ``robot``: ROBOT.yaml for the nominal geometry (default: the recordings' metadata) and the
     instrument (its ``measurement``); ``sigma_xy_m``/``sigma_theta_deg`` give the instrument
@@ -125,52 +174,30 @@ def noise_recordings(
     measured robot to ``robot_out`` (ROBOT.yaml) and a ros2_control file with covariances to
     ``ros2`` (speed ``speed_m_s``, default the runs' cruise speed; pose after ``distance_m``;
     velocity over ``window_s``)."""
-    if isinstance(paths, (str, Path)):
-        paths = [paths]
+    paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
     plan = OutputPlan([*map(Path, paths), *input_paths(robot)])
     if robot_out is not None:
         plan.file(robot_out, "--robot-out")
     if ros2 is not None:
         plan.file(ros2, "--ros2")
-    recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, **(bag_options or {}))
+    recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, bag=bag)
     require_ground_truth(recordings, "odocal noise on recorded runs")
     rob = load_robot(robot) if robot else None
-    if rob is not None:
-        nominal = rob.nominal
-    else:
-        known = [r.ran_with for r in recordings if r.ran_with is not None]
-        if not known:
-            raise InputError(
-                "the nominal geometry is unknown (no metadata in the recordings): give --robot"
-            )
-        nominal = max(set(known), key=known.count)
-    measurement = None
-    if sigma_xy_m is not None or sigma_theta_deg is not None:
-        measurement = MeasurementNoise.from_degrees(sigma_xy_m or 0.0, sigma_theta_deg or 0.0)
-    elif rob is not None and not rob.measurement.is_zero:
-        measurement = rob.measurement
+    nominal = _nominal(rob, recordings)
+    measurement = _instrument(rob, sigma_xy_m, sigma_theta_deg)
     measured = measure_robot(recordings, nominal, measurement=measurement, force=force)
-    geometry = measured.robot.true_geometry
     covariance = None
     contents: dict[Path, str] = {}
     if ros2 is not None:
-        k = measured.robot.nonsystematic
-        speed = speed_m_s if speed_m_s is not None else cruise_speed_m_s(recordings, geometry)
-        covariance = odometry_covariance(
-            k.k_r_m,
-            k.k_l_m,
-            float(geometry.wheelbase_m),
-            speed_m_s=speed,
-            distance_m=distance_m,
-            window_s=window_s,
-        )
+        covariance = _covariance(measured, recordings, speed_m_s, distance_m, window_s)
         contents[Path(ros2)] = ros2_params_yaml(
-            geometry, nominal, controller_name, covariance=covariance, method="odocal noise"
+            measured.robot.true_geometry,
+            nominal,
+            controller_name,
+            covariance=covariance,
+            method="odocal noise",
         )
     if robot_out is not None:
         contents[Path(robot_out)] = robot_yaml(measured.robot, measured.describe())
     written = tuple(plan.commit(contents)) if contents else ()
-    load_warnings = tuple(
-        f"{r.name}: {w}" for r in recordings for w in (r.meta.get("warnings", ()) if r.meta else ())
-    )
-    return RecordedNoiseResult(measured, nominal, covariance, load_warnings, written)
+    return RecordedNoiseResult(measured, nominal, covariance, load_warnings(recordings), written)

@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -13,10 +14,12 @@ from ..core.model import WheelGeometry
 from ..core.odometry import dead_reckon, evaluate
 from ..core.recording import Recording
 from ..errors import InputError
-from ..io.bag_slam import load_slam_bag
+from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
+from ..io.bag_slam import load_slam_bags
 from ..io.outputs import OutputPlan
-from ..io.recordings import load_recordings, refuse_repeated, require_ground_truth
+from ..io.recordings import load_recordings, require_ground_truth
 from ..io.robot_file import load_params, load_robot
+from .common import RobotSpec, load_warnings
 
 __all__ = ["NOMINAL_SOURCES", "Validation", "validate", "validate_recordings"]
 
@@ -35,19 +38,19 @@ class Validation:
         Each run's row names the geometry used as ``nominal_params``.
     """
 
-    runs: list
+    runs: list[dict[str, Any]]
     params: WheelGeometry
     nominal_known: bool
     nominal_source: str = "firmware"
     load_warnings: tuple[str, ...] = ()
     written: tuple[Path, ...] = ()
 
-    def as_dict(self) -> dict:
-        def mean(key):
+    def as_dict(self) -> dict[str, Any]:
+        def mean(key: str) -> float | None:
             vals = [r[key] for r in self.runs if r[key] is not None]
             return float(np.mean(vals)) if vals else None
 
-        out = {
+        out: dict[str, Any] = {
             "runs": self.runs,
             "mean_final_error_m": mean("final_error_m"),
             "mean_max_error_m": mean("max_error_m"),
@@ -111,30 +114,8 @@ def _plot_names(recordings: Sequence[Recording]) -> list[str]:
     return names
 
 
-def validate(
-    paths: Sequence[str | Path],
-    params: str | Path | WheelGeometry,
-    *,
-    robot=None,
-    nominal: str | None = None,
-    plot: str | Path | None = None,
-    ticks_per_rev: float | None = None,
-    bag_options: dict | None = None,
-    truth_frames: tuple[str, str] | None = None,
-    slam_stamp_offset_s: float = 0.0,
-) -> Validation:
-    """Dead-reckon the runs in ``paths`` with ``params`` (PARAMS.yaml or a geometry) and with the
-    nominal geometry; with ``plot``, one PNG per run in that folder.
-
-    ``nominal`` chooses the "nominal" column: 'robot' (ROBOT.yaml's nominal geometry; needs
-    ``robot``), 'firmware' (each run's own ran-with parameters, e.g. an OptiOdom data set's
-    firmware values; every run must carry them), or None: 'robot' when ``robot`` is given, else
-    each run's firmware values where it has them (the result's ``nominal_source`` says which:
-    'robot', 'firmware' or 'unknown'). With ``truth_frames`` (bags whose truth is a SLAM pose on
-    /tf), the errors are measured at the SLAM's update instants only (docs/slam-truth.md)."""
-    if isinstance(paths, (str, Path)):
-        paths = [paths]
-    chosen = nominal is not None
+def _nominal_source(nominal: str | None, robot: RobotSpec) -> str:
+    """The source of the "nominal" column, checked against ``robot`` (validate's docstring)."""
     if nominal is None:
         nominal = "robot" if robot else "firmware"
     if nominal not in NOMINAL_SOURCES:
@@ -149,6 +130,79 @@ def validate(
             "--nominal firmware compares with each run's own parameters: --robot is not used; "
             "leave it out, or choose --nominal robot"
         )
+    return nominal
+
+
+def _require_firmware(recordings: Sequence[Recording]) -> None:
+    """Every run says which parameters it ran with (``--nominal firmware`` chosen)."""
+    missing = [r.name for r in recordings if r.ran_with is None]
+    if missing:
+        raise InputError(
+            "--nominal firmware: this run does not say which parameters it ran with (give "
+            "them in its header, or --robot ROBOT.yaml with --nominal robot)",
+            missing[0],
+        )
+
+
+def _load(
+    paths: Sequence[str | Path],
+    bag: BagOptions,
+    ticks_per_rev: float | None,
+    truth_frames: tuple[str, str] | None,
+    slam_stamp_offset_s: float,
+    notes: list[str],
+) -> list[Recording]:
+    """The runs; with ``truth_frames``, the SLAM bags' runs (truth at the updates only)."""
+    if truth_frames is None:
+        return load_recordings(paths, ticks_per_rev=ticks_per_rev, warnings=notes, bag=bag)
+    slam = load_slam_bags(
+        paths, truth_frames, bag, ticks_per_rev=ticks_per_rev, stamp_offset_s=slam_stamp_offset_s
+    )
+    return [b.recording for b in slam]
+
+
+def _figure(r: Recording, geometry: WheelGeometry, nominal: WheelGeometry | None) -> Any:
+    """One run: its ground truth against its dead reckoning with the nominal geometry (given,
+    else the run's own) and with ``geometry``."""
+    from ..plot.trajectory import run_figure
+
+    assert r.ground_truth is not None  # validate requires it
+    trajs = {}
+    nom = nominal or r.ran_with
+    if nom is not None:
+        trajs["nominal"] = dead_reckon(r.wheel_angle_right_rad, r.wheel_angle_left_rad, nom)
+    trajs["calibrated"] = dead_reckon(r.wheel_angle_right_rad, r.wheel_angle_left_rad, geometry)
+    title = Path(r.name).name + (f" ({r.label})" if r.label else "")
+    valid = r.meta.get("truth_samples") if r.meta else None
+    if valid is not None:  # truth only at these samples (a SLAM pose at its updates)
+        return run_figure(title, r.ground_truth[valid], trajs, truth_marker="o")
+    return run_figure(title, r.ground_truth, trajs)
+
+
+def validate(
+    paths: str | Path | Sequence[str | Path],
+    params: str | Path | WheelGeometry,
+    *,
+    robot: RobotSpec = None,
+    nominal: str | None = None,
+    plot: str | Path | None = None,
+    ticks_per_rev: float | None = None,
+    bag: BagOptions = NO_BAG_OPTIONS,
+    truth_frames: tuple[str, str] | None = None,
+    slam_stamp_offset_s: float = 0.0,
+) -> Validation:
+    """Dead-reckon the runs in ``paths`` with ``params`` (PARAMS.yaml or a geometry) and with the
+    nominal geometry; with ``plot``, one PNG per run in that folder.
+
+    ``nominal`` chooses the "nominal" column: 'robot' (ROBOT.yaml's nominal geometry; needs
+    ``robot``), 'firmware' (each run's own ran-with parameters, e.g. an OptiOdom data set's
+    firmware values; every run must carry them), or None: 'robot' when ``robot`` is given, else
+    each run's firmware values where it has them (the result's ``nominal_source`` says which:
+    'robot', 'firmware' or 'unknown'). ``bag``: the topics and joints of bags. With
+    ``truth_frames`` (bags whose truth is a SLAM pose on /tf), the errors are measured at the
+    SLAM's update instants only (docs/slam-truth.md)."""
+    paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
+    source = _nominal_source(nominal, robot)
     inputs = [*map(Path, paths)]
     for extra in (params, robot):
         if isinstance(extra, (str, Path)) and Path(extra).exists():
@@ -161,61 +215,17 @@ def validate(
         plan.folder(plot, "--plot")
     geometry = params if isinstance(params, WheelGeometry) else load_params(params)
     notes: list[str] = []
-    if truth_frames is not None:
-        opts = bag_options or {}
-        recordings = [
-            load_slam_bag(
-                p,
-                truth_frames,
-                joint_topic=opts.get("joint_topic"),
-                right_joint=opts.get("right_joint"),
-                left_joint=opts.get("left_joint"),
-                ticks_per_rev=ticks_per_rev,
-                stamp_offset_s=slam_stamp_offset_s,
-            ).recording
-            for p in refuse_repeated(paths)
-        ]
-    else:
-        recordings = load_recordings(
-            paths, ticks_per_rev=ticks_per_rev, warnings=notes, **(bag_options or {})
-        )
-    nominal_geometry = load_robot(robot).nominal if nominal == "robot" else None
+    recordings = _load(paths, bag, ticks_per_rev, truth_frames, slam_stamp_offset_s, notes)
+    nominal_geometry = load_robot(robot).nominal if source == "robot" else None
     require_ground_truth(recordings, "validate")
-    if nominal == "firmware" and chosen:
-        missing = [r.name for r in recordings if r.ran_with is None]
-        if missing:
-            raise InputError(
-                "--nominal firmware: this run does not say which parameters it ran with (give "
-                "them in its header, or --robot ROBOT.yaml with --nominal robot)",
-                missing[0],
-            )
+    if source == "firmware" and nominal is not None:
+        _require_firmware(recordings)
     result = validate_recordings(recordings, geometry, nominal_geometry)
-    warnings = tuple(notes) + tuple(
-        f"{r.name}: {w}" for r in recordings for w in (r.meta.get("warnings", ()) if r.meta else ())
-    )
     written: tuple[Path, ...] = ()
     if plot is not None:
-        from ..plot.trajectory import run_figure
-
-        def figure(r: Recording):
-            trajs = {}
-            nom = nominal_geometry or r.ran_with
-            if nom is not None:
-                trajs["nominal"] = dead_reckon(r.wheel_angle_right_rad, r.wheel_angle_left_rad, nom)
-            trajs["calibrated"] = dead_reckon(
-                r.wheel_angle_right_rad, r.wheel_angle_left_rad, geometry
-            )
-            title = Path(r.name).name + (f" ({r.label})" if r.label else "")
-            valid = r.meta.get("truth_samples") if r.meta else None
-            if valid is not None:  # truth only at these samples (a SLAM pose at its updates)
-                return run_figure(title, r.ground_truth[valid], trajs, truth_marker="o")
-            return run_figure(title, r.ground_truth, trajs)
-
         figures = {
-            Path(plot) / name: (lambda r=r: figure(r))
+            Path(plot) / name: (lambda r=r: _figure(r, geometry, nominal_geometry))
             for r, name in zip(recordings, _plot_names(recordings), strict=True)
         }
         written = tuple(plan.commit(figures))
-    return Validation(
-        result.runs, geometry, result.nominal_known, result.nominal_source, warnings, written
-    )
+    return replace(result, load_warnings=tuple(notes) + load_warnings(recordings), written=written)

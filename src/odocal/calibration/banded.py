@@ -15,20 +15,25 @@ silently.
 
 For a controller that takes one wheelbase (ros2_control's ``wheel_separation_multiplier``), the
 result's ``geometry`` holds the single value that is best for the motion mix (default: the mix of
-the fitted runs; :func:`odocal.calibration.turning.wheelbase_for_mix`), and ``extras`` say what it
-costs per band.
+the fitted runs; :func:`odocal.calibration.turning.wheelbase_for_mix`), and ``motion_mix`` says what
+it costs per band.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
 from ..core.model import WheelGeometry
 from ..core.odometry import dead_reckon
+from ..core.recording import Recording
 from ..errors import CalibrationError
-from .result import GeometryFit, check_physical
+from .fit_settings import DEFAULT_TRAJECTORY, TrajectorySettings
+from .result import BandedDetails, GeometryFit, check_physical
 from .trajectory import optimizer_report, solve_lm
 from .turning import (
     BANDS,
@@ -41,11 +46,18 @@ from .turning import (
     wheelbase_for_mix,
 )
 
-__all__ = ["fit_banded"]
+__all__ = ["fit_banded", "banded_after_constant"]
 
 
 class _Run:
-    def __init__(self, rec, start: WheelGeometry, samples: int, band_param: np.ndarray, window_s):
+    def __init__(
+        self,
+        rec: Recording,
+        start: WheelGeometry,
+        samples: int,
+        band_param: np.ndarray,
+        window_s: float,
+    ) -> None:
         self.name = rec.name
         self.phi_r = np.asarray(rec.wheel_angle_right_rad, dtype=float)
         self.phi_l = np.asarray(rec.wheel_angle_left_rad, dtype=float)
@@ -62,7 +74,7 @@ class _Run:
         )
         self.weight = math.sqrt(max(travel, 1e-9) / len(self.idx))
 
-    def residual(self, p, w_head):
+    def residual(self, p: Any, w_head: float) -> np.ndarray:
         b = np.asarray(p[2:])[self.param]
         odo = dead_reckon(self.phi_r, self.phi_l, WheelGeometry.unchecked(p[0], p[1], b))
         e = self.gt[self.idx] - odo[self.idx]
@@ -71,13 +83,11 @@ class _Run:
 
 
 def fit_banded(
-    recordings,
+    recordings: Sequence[Recording],
     start: WheelGeometry,
     *,
     nominal: WheelGeometry | None = None,
-    mix: dict[str, float] | None = None,
-    heading_weight_m: float = 0.1,
-    samples_per_run: int = 200,
+    settings: TrajectorySettings = DEFAULT_TRAJECTORY,
     window_s: float = 0.5,
     min_rotation_rad: float = 0.3,
 ) -> GeometryFit:
@@ -90,9 +100,11 @@ def fit_banded(
     start : WheelGeometry
         Starting point and reference (e.g. the constant-wheelbase trajectory fit of the same
         runs): its diameters classify the motion and its band table decides what is excited.
-    mix : dict, optional
-        Band -> share of the rotation for the single exported wheelbase; default the runs' own.
+    settings : TrajectorySettings
+        The heading weight and samples per run of the residual, and ``motion_mix`` (band ->
+        share of the rotation) for the single exported wheelbase (default the runs' own).
     """
+    heading_weight_m, samples_per_run = settings.heading_weight_m, settings.samples_per_run
     runs = [r for r in recordings]
     if not runs:
         raise CalibrationError("banded wheelbase: no runs")
@@ -116,7 +128,7 @@ def fit_banded(
     band_param = np.array([excited.index(nearest[i]) for i in range(len(BANDS))])
     prepared = [_Run(r, start, samples_per_run, band_param, window_s) for r in runs]
 
-    def fun(p):
+    def fun(p: np.ndarray) -> np.ndarray:
         return np.concatenate([r.residual(p, heading_weight_m) for r in prepared])
 
     x0 = np.array(
@@ -126,7 +138,7 @@ def fit_banded(
     sol = solve_lm(fun, x0, xtol=1e-12, ftol=1e-12)
     if not np.all(np.isfinite(sol.x)):
         raise CalibrationError("banded wheelbase: the fit did not converge")
-    warnings = []
+    warnings: list[str] = []
     for b in sol.x[2:]:
         warnings += check_physical([sol.x[0], sol.x[1], b], nominal, "banded wheelbase")
     m = len(sol.fun)
@@ -140,7 +152,7 @@ def fit_banded(
             warnings.append("the band wheelbases are not all identifiable from these runs")
     fitted = {BANDS[i]: float(sol.x[2 + excited.index(i)]) for i in excited}
     used_by = {name: BANDS[nearest[i]] for i, name in enumerate(BANDS)}
-    mix = table.motion_mix if mix is None else dict(mix)
+    mix = table.motion_mix if settings.motion_mix is None else dict(settings.motion_mix)
     for name, share in mix.items():
         if share > 0 and name not in fitted:
             warnings.append(
@@ -160,16 +172,33 @@ def fit_banded(
         covariance=None,
         runs=[r.name for r in runs],
         warnings=warnings,
-        extras={
-            "wheelbase_model": "banded",
-            "band_wheelbase_m": fitted,
-            "band_wheelbase_stderr_m": {BANDS[i]: stderr[2 + k] for k, i in enumerate(excited)},
-            "band_uses": used_by,
-            "motion_mix": choice.as_dict(),
-            "effective_wheelbase": table.as_dict(),
-            "residual_rms": float(math.sqrt(2.0 * sol.cost / max(m, 1))),
-            "optimizer": optimizer_report(sol),
-            "note": "wheelbase_m is the single value for the motion mix; the model itself uses "
-            "band_wheelbase_m per band of motion",
-        },
+        banded=BandedDetails(
+            band_wheelbase_m=fitted,
+            band_wheelbase_stderr_m={BANDS[i]: stderr[2 + k] for k, i in enumerate(excited)},
+            band_uses=used_by,
+            residual_rms=float(math.sqrt(2.0 * sol.cost / max(m, 1))),
+            optimizer=optimizer_report(sol),
+        ),
+        effective_wheelbase=table,
+        motion_mix=choice,
+    )
+
+
+def banded_after_constant(
+    constant: GeometryFit,
+    runs: Sequence[Recording],
+    nominal: WheelGeometry | None,
+    settings: TrajectorySettings,
+) -> GeometryFit:
+    """The banded fit of ``runs`` (the runs the constant-wheelbase trajectory fit ``constant``
+    used), started from that fit, with its exclusions, outliers, per-run statistics and warnings
+    and the constant fit's geometry (``constant_fit``)."""
+    banded = fit_banded(runs, constant.geometry, nominal=nominal, settings=settings)
+    return replace(
+        banded,
+        excluded=constant.excluded,
+        outliers=constant.outliers,
+        per_run=constant.per_run,
+        warnings=list(constant.warnings) + list(banded.warnings),
+        constant_fit=constant.geometry,
     )

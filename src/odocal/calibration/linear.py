@@ -27,7 +27,7 @@ import numpy as np
 
 from ..core.model import WheelGeometry
 from ..errors import CalibrationError
-from .result import GeometryFit, check_physical, stderr_dict
+from .result import GeometryFit, LinearDetails, check_physical, stderr_dict
 
 __all__ = ["fit_linear", "linear_coefficients", "coefficients_trials", "linear_geometry_trials"]
 
@@ -177,15 +177,10 @@ def fit_linear(recordings, nominal: WheelGeometry | None = None) -> GeometryFit:
         runs=[r.name for r in recordings],
         per_run=per_run,
         warnings=warnings,
-        extras={
-            "coefficients": {
-                "c_R1": float(c[0]),
-                "c_L1": float(c[1]),
-                "c_R2": float(c[2]),
-                "c_L2": float(c[3]),
-            },
-            "heading_step_condition_number": cond,
-            "wheelbase_from_right_m": float(values[0] / 2 / c[2]),
-            "wheelbase_from_left_m": float(-values[1] / 2 / c[3]),
-        },
+        linear=LinearDetails(
+            coefficients=(float(c[0]), float(c[1]), float(c[2]), float(c[3])),
+            heading_step_condition_number=cond,
+            wheelbase_from_right_m=float(values[0] / 2 / c[2]),
+            wheelbase_from_left_m=float(-values[1] / 2 / c[3]),
+        ),
     )

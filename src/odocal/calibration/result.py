@@ -4,17 +4,29 @@ and geometries fitted to recorded runs (``GeometryFit``)."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..core.model import WheelGeometry
 from ..errors import CalibrationError
+from .fit_methods import HeadingSource, UmbmarkForm, WheelbaseModel
+from .fit_settings import TrajectorySettings
 from .uncertainty import CalibrationUncertainty
+
+if TYPE_CHECKING:  # turning imports this module
+    from .turning import EffectiveWheelbase, MixChoice
 
 __all__ = [
     "ABSURD_FRACTION",
     "CalibrationResult",
     "GeometryFit",
+    "OptimizerReport",
+    "LinearDetails",
+    "DataSetCalibration",
+    "SquaresDetails",
+    "TrajectoryDetails",
+    "BandedDetails",
     "check_physical",
     "far_from_nominal",
     "stderr_dict",
@@ -89,14 +101,160 @@ class CalibrationResult:
 
 
 @dataclass(frozen=True)
+class OptimizerReport:
+    """What a fit reports of its Levenberg-Marquardt solution
+    (:func:`odocal.calibration.trajectory.solve_lm`): scipy's ``nfev``, every residual
+    evaluation (its finite-difference Jacobian's too) and scipy's status."""
+
+    nfev: int
+    evaluations: int
+    status: int
+
+    def as_dict(self) -> dict[str, int]:
+        return {"nfev": self.nfev, "evaluations": self.evaluations, "status": self.status}
+
+
+@dataclass(frozen=True)
+class LinearDetails:
+    """What the linear estimator (:mod:`odocal.calibration.linear`) adds to its fit.
+
+    Attributes
+    ----------
+    coefficients : tuple of float
+        (c_R1, c_L1, c_R2, c_L2): c_R1 = D_R / 4, c_L1 = D_L / 4 (m), c_R2 = D_R / (2 b),
+        c_L2 = -D_L / (2 b).
+    heading_step_condition_number : float
+        cond(Phi^T Phi) of the heading step.
+    wheelbase_from_right_m, wheelbase_from_left_m : float
+        The wheelbase each wheel's coefficients give alone (m).
+    """
+
+    coefficients: tuple[float, float, float, float]
+    heading_step_condition_number: float
+    wheelbase_from_right_m: float
+    wheelbase_from_left_m: float
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "coefficients": dict(
+                zip(("c_R1", "c_L1", "c_R2", "c_L2"), self.coefficients, strict=True)
+            ),
+            "heading_step_condition_number": self.heading_step_condition_number,
+            "wheelbase_from_right_m": self.wheelbase_from_right_m,
+            "wheelbase_from_left_m": self.wheelbase_from_left_m,
+        }
+
+
+@dataclass(frozen=True)
+class DataSetCalibration:
+    """One data set of a fit on recorded squares: its runs and its own calibration (relative to
+    the parameters it ran with)."""
+
+    data_set: str
+    runs: int
+    runs_cw: int
+    runs_ccw: int
+    calibration: CalibrationResult
+
+    def as_dict(self) -> dict[str, Any]:
+        res = self.calibration
+        return {
+            "data_set": self.data_set,
+            "runs": self.runs,
+            "runs_cw": self.runs_cw,
+            "runs_ccw": self.runs_ccw,
+            "E_b": float(res.E_b),
+            "E_d": float(res.E_d),
+            "ran_with": res.ran_with.as_dict(),
+            **{f"calibrated_{k}": v for k, v in res.corrected.as_dict().items()},
+        }
+
+
+#: How a fit on recorded squares pools its data sets.
+SQUARES_POOLING = (
+    "per data set, composed with its own ran-with parameters; pooled by run count through "
+    "D_R/D_L and b/D, at the nominal mean diameter (scale not observable)"
+)
+
+
+@dataclass(frozen=True)
+class SquaresDetails:
+    """What UMBmark and the heading method on recorded squares
+    (:mod:`odocal.calibration.squares`) add to their fit: each data set's own calibration and the
+    settings used (``umbmark_form`` None for the heading method)."""
+
+    data_sets: tuple[DataSetCalibration, ...]
+    heading_source: HeadingSource
+    sides: int
+    umbmark_form: UmbmarkForm | None = None
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "data_sets": [d.as_dict() for d in self.data_sets],
+            "pooling": SQUARES_POOLING,
+            **({"umbmark_form": self.umbmark_form} if self.umbmark_form is not None else {}),
+            "heading_source": self.heading_source,
+            "sides": self.sides,
+        }
+
+
+@dataclass(frozen=True)
+class TrajectoryDetails:
+    """What the trajectory fit (:mod:`odocal.calibration.trajectory`) adds to its fit: its
+    settings, the RMS of its residual (m) at the solution, the optimizer's report, how many
+    starting points it tried and what became of the linear estimate as one."""
+
+    settings: TrajectorySettings
+    residual_rms: float
+    optimizer: OptimizerReport
+    starts_tried: int
+    linear_start: str
+
+    def as_dict(self) -> dict[str, Any]:
+        s = self.settings
+        return {
+            "residual": s.residual,
+            "segment_m": s.segment_m if s.residual == "segment" else None,
+            "heading_weight_m": s.heading_weight_m,
+            "run_weight": s.run_weight,
+            "residual_rms": self.residual_rms,
+            "optimizer": self.optimizer.as_dict(),
+            "starts_tried": self.starts_tried,
+            "linear_start": self.linear_start,
+        }
+
+
+#: What a banded fit's ``wheelbase_m`` is.
+BANDED_NOTE = (
+    "wheelbase_m is the single value for the motion mix; the model itself uses band_wheelbase_m "
+    "per band of motion"
+)
+
+
+@dataclass(frozen=True)
+class BandedDetails:
+    """The banded model (:mod:`odocal.calibration.banded`): one wheelbase per excited band (m),
+    their standard errors (m; None where not estimable), the band whose wheelbase each band
+    uses, the residual RMS (m) and the optimizer's report."""
+
+    band_wheelbase_m: dict[str, float]
+    band_wheelbase_stderr_m: dict[str, float | None]
+    band_uses: dict[str, str]
+    residual_rms: float
+    optimizer: OptimizerReport
+
+
+@dataclass(frozen=True)
 class GeometryFit:
     """A calibrated geometry from recorded runs.
 
     Attributes
     ----------
     method : str
+        'trajectory', 'linear', 'umbmark' or 'heading'.
     geometry : WheelGeometry
-        Calibrated D_R, D_L (m), b (m).
+        Calibrated D_R, D_L (m), b (m). With a motion mix or the banded model, the wheelbase is
+        the single value for the mix (``motion_mix``).
     stderr : dict
         Standard errors (m) of ``wheel_diameter_right_m``, ``wheel_diameter_left_m``,
         ``wheelbase_m`` (None where not estimable).
@@ -109,25 +267,47 @@ class GeometryFit:
     outliers, excluded : list of str
         Runs flagged as outliers; runs left out of the fit (by request or --drop-outliers).
     warnings : list of str
-    extras : dict
-        Method-specific facts (residual kind, iterations, cost ...).
+    linear, squares, trajectory : LinearDetails, SquaresDetails, TrajectoryDetails or None
+        What the method that made the fit adds.
+    banded : BandedDetails or None
+        The banded wheelbase model's values (``wheelbase_model`` 'banded').
+    effective_wheelbase : EffectiveWheelbase or None
+        The effective wheelbase per band of motion of the runs used (trajectory fits).
+    motion_mix : MixChoice or None
+        The single wheelbase for a motion mix, and what it costs per band.
+    constant_fit : WheelGeometry or None
+        The constant-wheelbase fit behind a motion mix or a banded model.
     """
 
     method: str
     geometry: WheelGeometry
-    stderr: dict
+    stderr: dict[str, float | None]
     covariance: np.ndarray | None
-    runs: list
-    per_run: list = field(default_factory=list)
-    outliers: list = field(default_factory=list)
-    excluded: list = field(default_factory=list)
-    warnings: list = field(default_factory=list)
-    extras: dict = field(default_factory=dict)
+    runs: list[str]
+    per_run: list[dict[str, Any]] = field(default_factory=list)
+    outliers: list[str] = field(default_factory=list)
+    excluded: list[str] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+    linear: LinearDetails | None = None
+    squares: SquaresDetails | None = None
+    trajectory: TrajectoryDetails | None = None
+    banded: BandedDetails | None = None
+    effective_wheelbase: EffectiveWheelbase | None = None
+    motion_mix: MixChoice | None = None
+    constant_fit: WheelGeometry | None = None
 
-    def as_dict(self) -> dict:
-        """The JSON contract of ``odocal fit --json`` (plus extras)."""
+    @property
+    def wheelbase_model(self) -> WheelbaseModel | None:
+        """'banded', 'constant' (a trajectory fit with its band table) or None (no bands)."""
+        if self.banded is not None:
+            return "banded"
+        return "constant" if self.effective_wheelbase is not None else None
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON contract of ``odocal fit --json``: the geometry and its uncertainty, the
+        runs, then what the method adds."""
         cov = None if self.covariance is None else _finite_or_none(self.covariance)
-        return {
+        out: dict[str, Any] = {
             "method": self.method,
             **self.geometry.as_dict(),
             "stderr": self.stderr,
@@ -143,8 +323,36 @@ class GeometryFit:
             "outliers": list(self.outliers),
             "excluded": list(self.excluded),
             "warnings": list(self.warnings),
-            **self.extras,
         }
+        for part in (self.linear, self.squares, self.trajectory):
+            if part is not None:
+                out.update(part.as_dict())
+        return out | self._wheelbase_dict()
+
+    def _wheelbase_dict(self) -> dict[str, Any]:
+        """The wheelbase model, the band table and the motion mix, in the JSON's order."""
+        out: dict[str, Any] = {}
+        table = None if self.effective_wheelbase is None else self.effective_wheelbase.as_dict()
+        mix = None if self.motion_mix is None else self.motion_mix.as_dict()
+        if self.banded is not None:
+            b = self.banded
+            out["wheelbase_model"] = "banded"
+            out["band_wheelbase_m"] = b.band_wheelbase_m
+            out["band_wheelbase_stderr_m"] = b.band_wheelbase_stderr_m
+            out["band_uses"] = b.band_uses
+            out["motion_mix"] = mix
+            out["effective_wheelbase"] = table
+            out["residual_rms"] = b.residual_rms
+            out["optimizer"] = b.optimizer.as_dict()
+            out["note"] = BANDED_NOTE
+        elif table is not None:
+            out["wheelbase_model"] = "constant"
+            out["effective_wheelbase"] = table
+            if mix is not None:
+                out["motion_mix"] = mix
+        if self.constant_fit is not None:
+            out["constant_fit"] = self.constant_fit.as_dict()
+        return out
 
 
 def _finite_or_none(a):

@@ -30,7 +30,9 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..core.model import WheelGeometry
 from ..errors import CalibrationError, ModelError
+from .relative_motions import RelativeMotions, wheel_increments
 
 if TYPE_CHECKING:
     from scipy.spatial import cKDTree
@@ -43,7 +45,10 @@ __all__ = [
     "prepare_scan",
     "match_scans",
     "match_intervals",
+    "ScanIntervals",
+    "scan_interval_motions",
     "MIN_POINTS",
+    "MIN_MATCHED_INTERVALS",
 ]
 
 MIN_POINTS = 20
@@ -593,4 +598,84 @@ def match_intervals(
         iterations,
         inliers,
         rms,
+    )
+
+
+#: Fewest matched scan intervals a relative-motion fit takes from one drive.
+MIN_MATCHED_INTERVALS = 10
+
+
+@dataclass(frozen=True)
+class ScanIntervals:
+    """The scan-matched laser motions over intervals of one drive.
+
+    Attributes
+    ----------
+    motions : RelativeMotions
+        The matched intervals: wheel rotations, laser motion, wheel increments within each.
+    interval_scans : int
+        Scans from the start to the end of an interval.
+    intervals, matched, not_converged, degenerate : int
+        Intervals matched; usable ones; those whose match did not converge; degenerate ones.
+    """
+
+    motions: RelativeMotions
+    interval_scans: int
+    intervals: int
+    matched: int
+    not_converged: int
+    degenerate: int
+
+
+def scan_interval_motions(
+    scan_time_s: np.ndarray,
+    scan_points_m: Sequence[np.ndarray],
+    joint_time_s: np.ndarray,
+    right_rad: np.ndarray,
+    left_rad: np.ndarray,
+    nominal: WheelGeometry,
+    mount: np.ndarray,
+    interval_s: float,
+) -> ScanIntervals:
+    """Cut a drive into intervals between scans about ``interval_s`` apart (within the wheel
+    joints' time span; intervals where the wheels hardly turn are left out) and match the scans
+    at each interval's ends, starting from the motion the odometry of ``nominal`` predicts for
+    the laser at ``mount`` (x_m, y_m, yaw_rad on the base).
+
+    ``scan_time_s`` (N,) and ``scan_points_m`` (N arrays (n_i, 2), m) are the scans; the wheel
+    angles ``right_rad``, ``left_rad`` (rad) are sampled at ``joint_time_s`` (s, same clock).
+    CalibrationError when scans and joints hardly overlap or fewer than
+    :data:`MIN_MATCHED_INTERVALS` intervals match."""
+    from .censi import predict_sensor_motion
+
+    t_j = joint_time_s
+    inside = np.flatnonzero((scan_time_s >= t_j[0]) & (scan_time_s <= t_j[-1]))
+    if len(inside) < 2:
+        raise CalibrationError("the laser scans and the wheel joints hardly overlap in time")
+    t_s = scan_time_s[inside]
+    stride = max(1, int(round(interval_s / float(np.median(np.diff(t_s))))))
+    starts = np.arange(0, len(inside) - stride, stride)
+    iv = np.column_stack([inside[starts], inside[starts + stride]])
+    wr, wl = np.interp(scan_time_s, t_j, right_rad), np.interp(scan_time_s, t_j, left_rad)
+    phi_r, phi_l = wr[iv[:, 1]] - wr[iv[:, 0]], wl[iv[:, 1]] - wl[iv[:, 0]]
+    moving = np.maximum(np.abs(phi_r), np.abs(phi_l)) > 1e-3
+    iv, phi_r, phi_l = iv[moving], phi_r[moving], phi_l[moving]
+    guesses = predict_sensor_motion(nominal, mount, phi_r, phi_l)
+    matches = match_intervals(scan_time_s, scan_points_m, iv, guesses)
+    ok = matches.usable
+    if ok.sum() < MIN_MATCHED_INTERVALS:
+        raise CalibrationError(
+            f"only {int(ok.sum())} of {len(ok)} scan intervals matched; record a longer drive "
+            "in a room with walls the laser sees"
+        )
+    inc = wheel_increments(
+        t_j, right_rad, left_rad, matches.start_time_s[ok], matches.end_time_s[ok]
+    )
+    return ScanIntervals(
+        RelativeMotions(phi_r[ok], phi_l[ok], matches.motion[ok], inc),
+        int(stride),
+        int(len(ok)),
+        int(ok.sum()),
+        int((~matches.converged).sum()),
+        int(matches.degenerate.sum()),
     )

@@ -54,6 +54,7 @@ from __future__ import annotations
 import math
 import numbers
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -307,6 +308,92 @@ def slam_relative_motions(
         Fewer than ``limits.min_intervals`` usable intervals (the message gives the counts).
     """
     lim = limits if limits is not None else SlamLimits()
+    p = _prepared(
+        stamp_s,
+        wheel_angle_right_rad,
+        wheel_angle_left_rad,
+        correction_pose,
+        odometry_pose,
+        truth_pose,
+    )
+    u = _update_instants(p, lim, first_is_update)
+    iv = _intervals(p, u.idx)
+    reason = _gate(iv, lim)
+    used = reason == ""
+    segment = np.cumsum(reason == "jump")  # for a used interval: the jumps before it
+    n_by = {r: int((reason == r).sum()) for r in REASONS}
+    counts = IntervalCounts(
+        messages=p.m,
+        unchanged=u.unchanged,
+        first_unknown=int(p.m > 0 and not u.first),
+        superseded=u.superseded,
+        updates=len(u.idx),
+        intervals=len(iv.a),
+        used=int(used.sum()),
+        **n_by,
+    )
+    dropped = tuple(
+        DroppedInterval(
+            float(p.t[iv.a[k]]),
+            float(p.t[iv.b[k]]),
+            str(reason[k]),
+            None
+            if iv.disc is None
+            else (float(iv.disc[k, 0]), float(iv.disc[k, 1]), float(iv.disc[k, 2])),
+        )
+        for k in np.flatnonzero(~used)
+    )
+    warnings = u.warnings + iv.warnings + _interval_warnings(counts, dropped, iv.dt, lim)
+
+    def pick(x: np.ndarray | None) -> np.ndarray | None:
+        return None if x is None else _readonly(np.array(x[used], dtype=float))
+
+    return SlamMotions(
+        mode=p.mode,
+        start_s=_readonly(np.array(p.t[iv.a][used], dtype=float)),
+        end_s=_readonly(np.array(p.t[iv.b][used], dtype=float)),
+        phi_right_rad=_readonly(np.array((p.phi_r[iv.b] - p.phi_r[iv.a])[used], dtype=float)),
+        phi_left_rad=_readonly(np.array((p.phi_l[iv.b] - p.phi_l[iv.a])[used], dtype=float)),
+        sensor_motion=_readonly(np.array(iv.true_motion[used], dtype=float)),
+        odometry_motion=pick(iv.odo_motion),
+        discrepancy=pick(iv.disc),
+        segment=_readonly(np.asarray(segment[used], dtype=int)),
+        counts=counts,
+        dropped=dropped,
+        limits=lim,
+        warnings=tuple(warnings),
+    )
+
+
+@dataclass(frozen=True)
+class _Prepared:
+    """The checked inputs, sorted by stamp, headings unwrapped: ``truth`` the composed (or
+    direct) SLAM pose, ``odo`` the odometry (None in direct mode without it), ``source`` the
+    poses whose changes are the update instants."""
+
+    mode: str
+    t: np.ndarray
+    phi_r: np.ndarray
+    phi_l: np.ndarray
+    truth: np.ndarray
+    odo: np.ndarray | None
+    source: np.ndarray
+    correction: bool
+
+    @property
+    def m(self) -> int:
+        return len(self.t)
+
+
+def _prepared(
+    stamp_s: Any,
+    wheel_angle_right_rad: Any,
+    wheel_angle_left_rad: Any,
+    correction_pose: Any,
+    odometry_pose: Any,
+    truth_pose: Any,
+) -> _Prepared:
+    """The inputs checked (shapes, finite values, the combination of poses) and sorted."""
     t = _vector(stamp_s, "stamp_s", None)
     m = len(t)
     phi_r = _vector(wheel_angle_right_rad, "wheel_angle_right_rad", m)
@@ -327,7 +414,7 @@ def slam_relative_motions(
             raise ModelError("give correction_pose (map -> odom) or truth_pose (map -> base_link)")
     order = np.argsort(t, kind="stable")
     t, phi_r, phi_l = t[order], phi_r[order], phi_l[order]
-    corr, odo, truth = (None if p is None else p[order] for p in (corr, odo, truth))
+    corr, odo, truth = (None if x is None else x[order] for x in (corr, odo, truth))
     if corr is not None:
         corr = _unwrapped(corr)
         if odo is None:
@@ -340,10 +427,25 @@ def slam_relative_motions(
         truth = _unwrapped(truth)
         odo = None if odo is None else _unwrapped(odo)
         source = truth
+    return _Prepared(mode, t, phi_r, phi_l, truth, odo, source, corr is not None)
 
-    # 1. update instants: messages that change the value
+
+@dataclass(frozen=True)
+class _Updates:
+    """The update instants (indices into the sorted messages) and how they were found."""
+
+    idx: np.ndarray
+    unchanged: int
+    superseded: int
+    first: bool
+    warnings: list[str]
+
+
+def _update_instants(p: _Prepared, lim: SlamLimits, first_is_update: bool | None) -> _Updates:
+    """Step 1 of the module docstring: the messages that change the value."""
+    t, m, odo = p.t, p.m, p.odo
     if m >= 2:
-        step = se2_relative(source[:-1], source[1:])
+        step = se2_relative(p.source[:-1], p.source[1:])
         changed = (np.hypot(step[:, 0], step[:, 1]) > lim.unchanged_translation_m) | (
             np.abs(step[:, 2]) > lim.unchanged_rotation_rad
         )
@@ -380,18 +482,38 @@ def slam_relative_motions(
     if len(idx) < 2:
         raise CalibrationError(
             f"{len(idx)} SLAM update instant(s) in {m} messages of the "
-            f"{'correction' if corr is not None else 'pose'} ({unchanged} repeat the previous "
+            f"{'correction' if p.correction else 'pose'} ({unchanged} repeat the previous "
             "value): no interval between two updates; was the SLAM running and the robot moving?"
         )
+    return _Updates(idx, unchanged, superseded, first, warnings)
 
-    # 2. intervals between consecutive update instants
-    a, b = idx[:-1], idx[1:]
-    dt = t[b] - t[a]
-    true_motion = se2_relative(truth[a], truth[b], wrap=False)
+
+@dataclass(frozen=True)
+class _Intervals:
+    """Step 2 of the module docstring: the intervals between consecutive update instants."""
+
+    a: np.ndarray
+    b: np.ndarray
+    dt: np.ndarray
+    true_motion: np.ndarray
     odo_motion: np.ndarray | None
     disc: np.ndarray | None
-    if odo is not None:
-        odo_motion = se2_relative(odo[a], odo[b], wrap=False)
+    dist: np.ndarray
+    rot: np.ndarray
+    warnings: list[str]
+
+
+def _intervals(p: _Prepared, idx: np.ndarray) -> _Intervals:
+    """The true and odometric motion over each interval, their discrepancy, and the distance
+    and rotation along the path."""
+    a, b = idx[:-1], idx[1:]
+    dt = p.t[b] - p.t[a]
+    true_motion = se2_relative(p.truth[a], p.truth[b], wrap=False)
+    odo_motion: np.ndarray | None
+    disc: np.ndarray | None
+    warnings = []
+    if p.odo is not None:
+        odo_motion = se2_relative(p.odo[a], p.odo[b], wrap=False)
         disc = se2_relative(odo_motion, true_motion)
     else:
         odo_motion = disc = None
@@ -401,54 +523,47 @@ def slam_relative_motions(
         )
     # how far the robot went and how much it turned: along the odometry (else the SLAM pose) at
     # every message, so that a curved or back-and-forth interval counts its whole path
-    path = odo if odo is not None else truth
-    if m >= 2:
+    path = p.odo if p.odo is not None else p.truth
+    if p.m >= 2:
         steps = se2_relative(path[:-1], path[1:], wrap=False)
         cum_dist = np.r_[0.0, np.cumsum(np.hypot(steps[:, 0], steps[:, 1]))]
         cum_rot = np.r_[0.0, np.cumsum(np.abs(steps[:, 2]))]
     else:
-        cum_dist = cum_rot = np.zeros(m)
+        cum_dist = cum_rot = np.zeros(p.m)
     dist = cum_dist[b] - cum_dist[a]
     rot = cum_rot[b] - cum_rot[a]
+    return _Intervals(a, b, dt, true_motion, odo_motion, disc, dist, rot, warnings)
 
-    # 3. and 4. gates, in order of precedence
-    reason = np.full(len(a), "", dtype=object)
+
+def _gate(iv: _Intervals, lim: SlamLimits) -> np.ndarray:
+    """Steps 3 and 4 of the module docstring, in order of precedence: the reason each interval
+    is dropped ('' for a used one)."""
+    reason = np.full(len(iv.a), "", dtype=object)
+    disc = iv.disc
     if disc is not None:
         jump = (
-            np.hypot(disc[:, 0], disc[:, 1]) > lim.jump_translation_m + lim.jump_fraction * dist
-        ) | (np.abs(disc[:, 2]) > lim.jump_rotation_rad + lim.jump_fraction * rot)
+            np.hypot(disc[:, 0], disc[:, 1]) > lim.jump_translation_m + lim.jump_fraction * iv.dist
+        ) | (np.abs(disc[:, 2]) > lim.jump_rotation_rad + lim.jump_fraction * iv.rot)
         reason[jump] = "jump"
-    reason[(reason == "") & (dt > lim.max_interval_s)] = "too_long"
-    short = (dist < lim.min_travel_m) & (rot < lim.min_rotation_rad)
+    reason[(reason == "") & (iv.dt > lim.max_interval_s)] = "too_long"
+    short = (iv.dist < lim.min_travel_m) & (iv.rot < lim.min_rotation_rad)
     reason[(reason == "") & short] = "too_short"
-    used = reason == ""
-    segment = np.cumsum(reason == "jump")  # for a used interval: the jumps before it
+    return reason
 
-    n_by = {r: int((reason == r).sum()) for r in REASONS}
-    counts = IntervalCounts(
-        messages=m,
-        unchanged=unchanged,
-        first_unknown=int(m > 0 and not first),
-        superseded=superseded,
-        updates=len(idx),
-        intervals=len(a),
-        used=int(used.sum()),
-        **n_by,
-    )
-    dropped = tuple(
-        DroppedInterval(
-            float(t[a[k]]),
-            float(t[b[k]]),
-            str(reason[k]),
-            None if disc is None else (float(disc[k, 0]), float(disc[k, 1]), float(disc[k, 2])),
-        )
-        for k in np.flatnonzero(~used)
-    )
-    if n_by["jump"]:
+
+def _interval_warnings(
+    counts: IntervalCounts,
+    dropped: tuple[DroppedInterval, ...],
+    dt: np.ndarray,
+    lim: SlamLimits,
+) -> list[str]:
+    """Jumps, a SLAM value that changes too often, and too few usable intervals (an error)."""
+    warnings = []
+    if counts.jump:
         at = ", ".join(f"{d.start_s:.2f}-{d.end_s:.2f} s" for d in dropped if d.reason == "jump")
         warnings.append(
-            f"{n_by['jump']} jump(s) of the SLAM pose (loop closure or relocalisation) at {at}: "
-            f"those intervals are dropped, the run is split into {n_by['jump'] + 1} segments"
+            f"{counts.jump} jump(s) of the SLAM pose (loop closure or relocalisation) at {at}: "
+            f"those intervals are dropped, the run is split into {counts.jump + 1} segments"
         )
     period = float(np.median(dt))
     if period < 0.1:
@@ -460,31 +575,14 @@ def slam_relative_motions(
     if counts.used < lim.min_intervals:
         raise CalibrationError(
             f"only {counts.used} usable SLAM intervals (need {lim.min_intervals}): "
-            f"{counts.updates} updates in {m} messages, {counts.intervals} intervals, "
-            f"{n_by['jump']} jumps, {n_by['too_long']} too long (> {lim.max_interval_s:g} s), "
-            f"{n_by['too_short']} too short (< {lim.min_travel_m:g} m and "
-            f"< {math.degrees(lim.min_rotation_rad):g} deg); record a longer drive"
+            f"{counts.updates} updates in {counts.messages} messages, {counts.intervals} "
+            f"intervals, {counts.jump} jumps, {counts.too_long} too long "
+            f"(> {lim.max_interval_s:g} s), {counts.too_short} too short "
+            f"(< {lim.min_travel_m:g} m and < {math.degrees(lim.min_rotation_rad):g} deg); "
+            "record a longer drive"
         )
     if counts.used < 0.5 * counts.intervals:
         warnings.append(
             f"only {counts.used} of {counts.intervals} intervals between SLAM updates are usable"
         )
-
-    def pick(x):
-        return None if x is None else _readonly(np.array(x[used], dtype=float))
-
-    return SlamMotions(
-        mode=mode,
-        start_s=pick(t[a]),
-        end_s=pick(t[b]),
-        phi_right_rad=pick(phi_r[b] - phi_r[a]),
-        phi_left_rad=pick(phi_l[b] - phi_l[a]),
-        sensor_motion=pick(true_motion),
-        odometry_motion=pick(odo_motion),
-        discrepancy=pick(disc),
-        segment=_readonly(np.asarray(segment[used], dtype=int)),
-        counts=counts,
-        dropped=dropped,
-        limits=lim,
-        warnings=tuple(warnings),
-    )
+    return warnings

@@ -25,16 +25,19 @@ from __future__ import annotations
 
 import math
 from collections import Counter
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from ..core.model import WheelGeometry, wheel_factors
 from ..core.odometry import dead_reckon
+from ..core.recording import Recording
 from ..core.runs import EndPoseRuns
 from ..errors import CalibrationError
+from .fit_methods import HEADING_SOURCES, HeadingSource, UmbmarkForm
 from .heading import calibrate_heading
-from .result import GeometryFit
+from .result import DataSetCalibration, GeometryFit, SquaresDetails
 from .umbmark import calibrate_umbmark
 
 __all__ = ["recorded_end_errors", "direction_from_data", "fit_recorded_squares"]
@@ -51,12 +54,11 @@ def direction_from_data(total_rotation_rad: float) -> str | None:
     return None
 
 
-HEADING_SOURCES = ("truth", "gyro")
-
-
 def recorded_end_errors(
-    recordings, ran_with: WheelGeometry | None = None, heading_source: str = "truth"
-):
+    recordings: Sequence[Recording],
+    ran_with: WheelGeometry | None = None,
+    heading_source: str = "truth",
+) -> tuple[EndPoseRuns, list[str]]:
     """EndPoseRuns (directions from the data) and warnings, for closed polygon runs.
 
     ``heading_source``: 'truth' (the ground truth's final pose) or 'gyro' (the integrated gyro
@@ -97,29 +99,31 @@ def recorded_end_errors(
         odo = dead_reckon(r.wheel_angle_right_rad, r.wheel_angle_left_rad, geo)
         if heading_source == "gyro":
             gyro = r.gyro_yaw_rad
+            assert gyro is not None  # checked above
             errs.append([math.nan, math.nan, (gyro[-1] - gyro[0]) - odo[-1, 2]])
         else:
+            assert r.ground_truth is not None  # checked above
             errs.append(r.ground_truth[-1] - odo[-1])
         dirs.append(d)
     return EndPoseRuns(tuple(dirs), np.array(errs)), warnings
 
 
-def _group(recordings):
-    groups: dict[str, list] = {}
+def _group(recordings: Sequence[Recording]) -> dict[str, list[Recording]]:
+    groups: dict[str, list[Recording]] = {}
     for r in recordings:
         groups.setdefault(r.dataset, []).append(r)
     return groups
 
 
 def fit_recorded_squares(
-    recordings,
+    recordings: Sequence[Recording],
     method: str,
     *,
     side_m: float | None = None,
     ran_with: WheelGeometry | None = None,
     nominal: WheelGeometry | None = None,
-    umbmark_form: str = "mean",
-    heading_source: str = "truth",
+    umbmark_form: UmbmarkForm = "mean",
+    heading_source: HeadingSource = "truth",
     sides: int = 4,
 ) -> GeometryFit:
     """UMBmark (``method='umbmark'``) or the heading method (``'heading'``) on recorded squares
@@ -135,7 +139,7 @@ def fit_recorded_squares(
         )
     per_set, warnings = [], []
     for key, runs in _group(recordings).items():
-        ends, w = recorded_end_errors(runs, ran_with, heading_source)
+        ends, set_warnings = recorded_end_errors(runs, ran_with, heading_source)
         side = side_m or runs[0].meta.get("side_m")
         if not side:
             raise CalibrationError(
@@ -144,7 +148,7 @@ def fit_recorded_squares(
         geo = runs[0].ran_with or ran_with
         if geo is None:  # recorded_end_errors has refused such runs already
             raise CalibrationError(f"{runs[0].name}: the parameters the robot ran with are unknown")
-        warnings += w
+        warnings += set_warnings
         try:
             if method == "umbmark":
                 res = calibrate_umbmark(ends, side, geo, umbmark_form)
@@ -169,20 +173,10 @@ def fit_recorded_squares(
     d_mean = float(nominal.mean_diameter_m)
     c_r, c_l = wheel_factors(e_d)
     geometry = WheelGeometry(d_mean * c_r, d_mean * c_l, k * d_mean)
-    data_sets = []
-    for key, n, res, ends in per_set:
-        data_sets.append(
-            {
-                "data_set": key,
-                "runs": n,
-                "runs_cw": ends.count("cw"),
-                "runs_ccw": ends.count("ccw"),
-                "E_b": float(res.E_b),
-                "E_d": float(res.E_d),
-                "ran_with": res.ran_with.as_dict(),
-                **{f"calibrated_{k2}": v for k2, v in res.corrected.as_dict().items()},
-            }
-        )
+    data_sets = tuple(
+        DataSetCalibration(key, n, ends.count("cw"), ends.count("ccw"), res)
+        for key, n, res, ends in per_set
+    )
     stderr = dict.fromkeys(("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m"))
     if len(per_set) > 1:
         # spread of the per-data-set results (rescaled to the pooled mean diameter)
@@ -216,12 +210,10 @@ def fit_recorded_squares(
         covariance=None,
         runs=[r.name for r in recordings],
         warnings=warnings,
-        extras={
-            "data_sets": data_sets,
-            "pooling": "per data set, composed with its own ran-with parameters; pooled by run "
-            "count through D_R/D_L and b/D, at the nominal mean diameter (scale not observable)",
-            **({"umbmark_form": umbmark_form} if method == "umbmark" else {}),
-            "heading_source": heading_source,
-            "sides": sides,
-        },
+        squares=SquaresDetails(
+            data_sets,
+            heading_source,
+            sides,
+            umbmark_form if method == "umbmark" else None,
+        ),
     )

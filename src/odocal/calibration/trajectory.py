@@ -39,31 +39,50 @@ are flagged. ``drop_outliers=True`` refits once without them; ``exclude`` leaves
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..core.model import WheelGeometry
-from ..core.odometry import dead_reckon, dead_reckon_rows
+from ..core.recording import Recording
 from ..errors import CalibrationError
+from .fit_methods import RESIDUALS, RUN_WEIGHTS, RunWeight
+from .fit_settings import DEFAULT_TRAJECTORY, MAX_HEADING_WEIGHT_M, TrajectorySettings
 from .linear import fit_linear
-from .result import GeometryFit, check_physical, stderr_dict
+from .result import (
+    GeometryFit,
+    OptimizerReport,
+    TrajectoryDetails,
+    check_physical,
+    stderr_dict,
+)
+from .trajectory_residuals import (
+    RunResiduals,
+    TrajectoryResiduals,
+    block_weight,
+    cumulative_travel,
+    pose_samples,
+    relative_poses,
+)
 
 __all__ = [
     "fit_trajectory",
+    "fit_trajectory_trials",
     "RESIDUALS",
     "RUN_WEIGHTS",
+    "MAX_HEADING_WEIGHT_M",
     "RunResiduals",
     "relative_poses",
     "robust_z",
     "match_runs",
+    "solve_lm",
+    "optimizer_report",
 ]
 
-RESIDUALS = ("pose", "segment")
-RUN_WEIGHTS = ("travel", "equal")
 
-
-def robust_z(values) -> np.ndarray:
+def robust_z(values: Any) -> np.ndarray:
     """Robust z-scores 0.6745 (v - median) / MAD (0 where MAD is 0), shape like ``values``."""
     v = np.asarray(values, dtype=float)
     med = np.median(v)
@@ -73,9 +92,10 @@ def robust_z(values) -> np.ndarray:
     return 0.6745 * (v - med) / mad
 
 
-def match_runs(names, patterns) -> list[str]:
+def match_runs(names: Iterable[str], patterns: Iterable[str]) -> list[str]:
     """Names matched by any pattern: the full name, its file name, or a substring of it."""
     out = []
+    patterns = list(patterns)
     for n in names:
         for p in patterns:
             if p == n or p == Path(n).name or p in n:
@@ -84,161 +104,7 @@ def match_runs(names, patterns) -> list[str]:
     return out
 
 
-def _travel(phi_r, phi_l, geometry: WheelGeometry) -> np.ndarray:
-    """Cumulative mean absolute wheel travel (m) at every sample, shape (K,): spins count too."""
-    step = 0.25 * (
-        np.abs(np.diff(phi_r)) * geometry.diameter_right_m
-        + np.abs(np.diff(phi_l)) * geometry.diameter_left_m
-    )
-    return np.concatenate([[0.0], np.cumsum(step)])
-
-
-def _pose_samples(n: int, samples: int) -> np.ndarray:
-    """Indices of the (at most ``samples``) evenly spaced samples of a run of ``n`` samples that
-    the 'pose' residual compares (the start, 0 = 0, is left out)."""
-    return np.unique(np.linspace(1, n - 1, min(samples, n - 1)).round().astype(int))
-
-
-def _block_weight(travel_m: float, count: int, run_weight: str) -> float:
-    """Scale of a run's residual rows: total weight 1 ('equal') or its travel in m ('travel'),
-    however many rows it has."""
-    total = 1.0 if run_weight == "equal" else max(travel_m, 1e-9)
-    return float(np.sqrt(total / count))
-
-
-class RunResiduals:
-    """Pre-computed arrays of one run for fast residual evaluation."""
-
-    def __init__(self, rec, kind, samples, segment_m, start: WheelGeometry, run_weight="travel"):
-        self.name = rec.name
-        self.phi_r = np.asarray(rec.wheel_angle_right_rad, dtype=float)
-        self.phi_l = np.asarray(rec.wheel_angle_left_rad, dtype=float)
-        self.gt = np.asarray(rec.ground_truth, dtype=float)
-        n = len(self.gt)
-        travel = _travel(self.phi_r, self.phi_l, start)
-        self.travel_m = float(travel[-1])
-        if kind == "pose":
-            self.idx = _pose_samples(n, samples)
-            count = len(self.idx)
-        else:
-            if travel[-1] / segment_m > 10 * n:
-                # segments shorter than the samples: every sample that moved starts one (what the
-                # grid below gives in that limit, without a grid of billions of points)
-                marks = np.r_[0, np.flatnonzero(np.diff(travel) > 0) + 1]
-            else:
-                marks = np.searchsorted(travel, np.arange(0.0, travel[-1], segment_m))
-            marks = np.unique(np.append(marks, n - 1))
-            if len(marks) < 2:
-                marks = np.array([0, n - 1])
-            self.i0, self.i1 = marks[:-1], marks[1:]
-            self.gt_rel = relative_poses(self.gt, self.i0, self.i1)
-            count = len(self.i0)
-        self.weight = _block_weight(self.travel_m, count, run_weight)
-
-
-def relative_poses(P, i0, i1):
-    d = P[i1, :2] - P[i0, :2]
-    c, s = np.cos(P[i0, 2]), np.sin(P[i0, 2])
-    return np.column_stack(
-        [c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1], P[i1, 2] - P[i0, 2]]
-    )
-
-
-def _run_residual(run: RunResiduals, p, kind, w_head) -> np.ndarray:
-    """One run's (unweighted) residual at geometry ``p`` = (D_R, D_L, b): the definition that
-    :class:`_Residuals` evaluates for many runs at once."""
-    odo = dead_reckon(run.phi_r, run.phi_l, WheelGeometry.unchecked(*p))
-    if kind == "pose":
-        e = run.gt[run.idx] - odo[run.idx]
-    else:
-        e = run.gt_rel - relative_poses(odo, run.i0, run.i1)
-    e = e.copy()
-    e[:, 2] *= w_head
-    return e.ravel()
-
-
-# Blocks of runs dead-reckoned at once: at most this share of zero padding (extra work) and
-# this many increments (temporaries of 128 KiB that stay in the cache; larger blocks are slower)
-_MAX_PADDING = 0.1
-_MAX_BLOCK = 2**14
-
-
-class _Residuals:
-    """The residual of ``runs`` at a geometry, bit for bit ``np.concatenate([r.weight *
-    _run_residual(r, p, kind, w_head) for r in runs])`` (``weighted=False``: without r.weight).
-
-    The runs are sorted by length and packed into blocks of similar length, each dead-reckoned
-    at once by :func:`~odocal.core.odometry.dead_reckon_rows` (the operations of
-    ``dead_reckon`` on every element); the compared samples are gathered per block and put back
-    in the runs' order with one precomputed permutation.
-    """
-
-    def __init__(self, runs: list[RunResiduals], kind: str, w_head: float, weighted=True):
-        self.kind, self.w_head = kind, w_head
-        if kind == "pose":
-            samples = [r.idx for r in runs]
-            truth = [r.gt[r.idx] for r in runs]
-        else:  # the starts, then the ends of a run's segments
-            samples = [np.concatenate([r.i0, r.i1]) for r in runs]
-            truth = [r.gt_rel for r in runs]
-        self.truth = np.concatenate(truth)
-        counts = [len(t) for t in truth]
-        self.splits = 3 * np.cumsum(counts)[:-1]  # where each run's part of the residual starts
-        self.weight = np.repeat([r.weight if weighted else 1.0 for r in runs], counts)[:, None]
-        # where every run's samples go in self.poses
-        sizes = [len(t) for t in samples]
-        where = np.split(np.arange(sum(sizes)), np.cumsum(sizes)[:-1])
-        if kind == "segment":
-            self.i0 = np.concatenate([w[:n] for w, n in zip(where, counts, strict=True)])
-            self.i1 = np.concatenate([w[n:] for w, n in zip(where, counts, strict=True)])
-        lengths = [len(r.phi_r) - 1 for r in runs]
-        by_length = sorted(range(len(runs)), key=lambda j: -lengths[j])
-        self.blocks = []
-        gathered = []
-        while by_length:
-            width = lengths[by_length[0]]
-            n, work = 1, width
-            while (
-                n < len(by_length)
-                and (n + 1) * width <= _MAX_BLOCK
-                and (n + 1) * width <= (1 + _MAX_PADDING) * (work + lengths[by_length[n]])
-            ):
-                work += lengths[by_length[n]]
-                n += 1
-            block, by_length = by_length[:n], by_length[n:]
-            inc_r = np.zeros((n, width))
-            inc_l = np.zeros((n, width))
-            for i, j in enumerate(block):
-                inc_r[i, : lengths[j]] = np.diff(runs[j].phi_r)
-                inc_l[i, : lengths[j]] = np.diff(runs[j].phi_l)
-            flat = np.concatenate([i * (width + 1) + samples[j] for i, j in enumerate(block)])
-            self.blocks.append((inc_r, inc_l, flat))
-            gathered += [where[j] for j in block]
-        gathered_at = np.concatenate(gathered)
-        self.order = np.empty_like(gathered_at)
-        self.order[gathered_at] = np.arange(len(gathered_at))
-
-    def poses(self, p) -> np.ndarray:
-        """Dead-reckoned poses at the compared samples, shape (samples, 3), in the runs' order."""
-        g = WheelGeometry.unchecked(*p)
-        parts = [dead_reckon_rows(ri, li, g).reshape(3, -1)[:, k] for ri, li, k in self.blocks]
-        return np.concatenate(parts, axis=1)[:, self.order].T
-
-    def __call__(self, p) -> np.ndarray:
-        odo = self.poses(p)
-        if self.kind == "pose":
-            e = self.truth - odo
-        else:
-            e = self.truth - relative_poses(odo, self.i0, self.i1)
-        e[:, 2] *= self.w_head
-        return (self.weight * e).ravel()
-
-    def per_run(self, residual: np.ndarray) -> list[np.ndarray]:
-        """A residual of __call__ cut into the runs' parts."""
-        return np.split(residual, self.splits)
-
-
-def solve_lm(fun, x0, **tolerances):
+def solve_lm(fun: Callable[[np.ndarray], np.ndarray], x0: np.ndarray, **tolerances: float) -> Any:
     """scipy's Levenberg-Marquardt (``least_squares``, parameters scaled by 1 % of |x0|) from
     ``x0``; ``sol.evaluations`` counts every evaluation of ``fun`` (scipy's ``nfev`` leaves out
     those of its finite-difference Jacobian). The trajectory and banded fits use it."""
@@ -258,14 +124,11 @@ def solve_lm(fun, x0, **tolerances):
     return sol
 
 
-def optimizer_report(sol) -> dict:
+def optimizer_report(sol: Any) -> OptimizerReport:
     """What a fit reports of its :func:`solve_lm` solution: scipy's ``nfev``, every residual
     evaluation (its Jacobian's too) and scipy's status."""
-    return {"nfev": int(sol.nfev), "evaluations": int(sol.evaluations), "status": int(sol.status)}
+    return OptimizerReport(int(sol.nfev), int(sol.evaluations), int(sol.status))
 
-
-# Largest heading weight (m of residual per rad): 1 km/rad already ignores the positions.
-MAX_HEADING_WEIGHT_M = 1e3
 
 # The linear estimate is a starting point only if its largest relative standard error is below
 # this: it is 0.2-2 % on open arcs and 6-360 % on closed squares, where its position step is
@@ -276,43 +139,14 @@ MAX_LINEAR_START_STDERR = 0.05
 def _relative_stderr(fit: GeometryFit) -> float:
     """Largest standard error of a fit relative to its value (0 when it has none)."""
     g = fit.geometry.as_dict()
-    rel = [fit.stderr[k] / abs(g[k]) for k in g if fit.stderr.get(k) is not None]
+    rel = [e / abs(g[k]) for k in g if (e := fit.stderr.get(k)) is not None]
     return max(rel, default=0.0)
 
 
-def fit_trajectory(
-    recordings,
-    start: WheelGeometry | None = None,
-    *,
-    nominal: WheelGeometry | None = None,
-    residual: str = "pose",
-    segment_m: float = 1.0,
-    heading_weight_m: float = 0.1,
-    samples_per_run: int = 200,
-    exclude=(),
-    drop_outliers: bool = False,
-    outlier_z: float = 3.5,
-    run_weight: str = "travel",
-) -> GeometryFit:
-    """Fit (D_R, D_L, b) to the ground truth of ``recordings`` (module docstring).
-
-    start : starting point (default: both the linear estimate and ``nominal``, the better fit
-        kept; the linear estimate only where its standard errors are below
-        MAX_LINEAR_START_STDERR of its values, as they are not on closed tracks).
-    heading_weight_m : metres of residual per radian of heading error (0 = position only).
-    exclude : run names (or file names, or substrings) to leave out.
-    """
-    if run_weight not in RUN_WEIGHTS:
-        raise CalibrationError(
-            f"run_weight must be one of {', '.join(RUN_WEIGHTS)}, got {run_weight!r}"
-        )
-    if residual not in RESIDUALS:
-        raise CalibrationError(f"residual must be one of {', '.join(RESIDUALS)}, got {residual!r}")
-    if not 0.0 <= heading_weight_m <= MAX_HEADING_WEIGHT_M:  # also rejects NaN
-        raise CalibrationError(
-            f"heading_weight_m must be between 0 and {MAX_HEADING_WEIGHT_M:g} m/rad (beyond, the "
-            f"position no longer counts and the squares overflow), got {heading_weight_m!r}"
-        )
+def _runs_to_fit(
+    recordings: Sequence[Recording], exclude: Sequence[str]
+) -> tuple[list[Recording], list[str]]:
+    """The runs to fit and the names of those ``exclude`` leaves out."""
     names = [r.name for r in recordings]
     excluded = match_runs(names, list(exclude))
     unmatched = [p for p in exclude if not match_runs(names, [p])]
@@ -321,87 +155,99 @@ def fit_trajectory(
     use = [r for r in recordings if r.name not in excluded]
     if not use:
         raise CalibrationError("trajectory: every run is excluded")
-    warnings: list[str] = []
-    starts = []
-    linear_start = "not used (start given)"
+    return use, excluded
+
+
+def _starting_points(
+    use: Sequence[Recording], start: WheelGeometry | None, nominal: WheelGeometry | None
+) -> tuple[list[WheelGeometry], str]:
+    """The geometries the fit starts from (``start``; else the informative linear estimate and
+    ``nominal``) and what became of the linear estimate."""
     if start is not None:
-        starts.append(start)
-    else:
-        try:
-            lin = fit_linear(use, nominal)
-            spread = _relative_stderr(lin)
-            if nominal is not None and spread > MAX_LINEAR_START_STDERR:
-                # Closed tracks (squares, circles) leave the linear position step singular: the
-                # estimate is noise (standard errors of 6 % to 360 % on the OptiOdom squares),
-                # a start far away that costs iterations and can end in a wrong minimum.
-                linear_start = f"not used: degenerate (standard error {100 * spread:.0f} %)"
-            else:
-                starts.append(lin.geometry)
-                linear_start = "used"
-        except CalibrationError as exc:
-            # Closed tracks (squares, spins) leave the linear estimator singular; that is no
-            # problem for this fit, which then starts from nominal, so it is recorded, not warned.
-            linear_start = f"unavailable: {exc}"
-        if nominal is not None:
-            starts.append(nominal)
-        if not starts:
-            raise CalibrationError(
-                f"trajectory: no starting point (linear {linear_start}); give the nominal "
-                "geometry (--robot)"
-            )
+        return [start], "not used (start given)"
+    starts = []
+    try:
+        lin = fit_linear(use, nominal)
+        spread = _relative_stderr(lin)
+        if nominal is not None and spread > MAX_LINEAR_START_STDERR:
+            # Closed tracks (squares, circles) leave the linear position step singular: the
+            # estimate is noise (standard errors of 6 % to 360 % on the OptiOdom squares),
+            # a start far away that costs iterations and can end in a wrong minimum.
+            linear_start = f"not used: degenerate (standard error {100 * spread:.0f} %)"
+        else:
+            starts.append(lin.geometry)
+            linear_start = "used"
+    except CalibrationError as exc:
+        # Closed tracks (squares, spins) leave the linear estimator singular; that is no
+        # problem for this fit, which then starts from nominal, so it is recorded, not warned.
+        linear_start = f"unavailable: {exc}"
+    if nominal is not None:
+        starts.append(nominal)
+    if not starts:
+        raise CalibrationError(
+            f"trajectory: no starting point (linear {linear_start}); give the nominal "
+            "geometry (--robot)"
+        )
+    return starts, linear_start
 
-    # travel (run weights, segments) is measured with the first start: the informative linear
-    # estimate, else nominal
-    gauge = starts[0]
 
-    def fit(rs):
-        # every start is tried and the lowest cost kept: the linear estimate is usually best,
-        # but it can be far off when the runs' end poses alone condition it badly
-        best = None
-        runs = [
-            RunResiduals(r, residual, samples_per_run, segment_m, gauge, run_weight) for r in rs
-        ]
-        fun = _Residuals(runs, residual, heading_weight_m)
-        for g in starts:
-            x0 = np.array([g.diameter_right_m, g.diameter_left_m, g.wheelbase_m], float)
-            sol = solve_lm(fun, x0, xtol=1e-12, ftol=1e-12, gtol=1e-15)
-            if np.all(np.isfinite(sol.x)) and np.all(sol.x > 0):
-                if best is None or sol.cost < best[1].cost:
-                    best = (runs, sol, x0)
-            elif best is None:
+def _best_fit(
+    rs: Sequence[Recording],
+    starts: Sequence[WheelGeometry],
+    gauge: WheelGeometry,
+    s: TrajectorySettings,
+) -> tuple[list[RunResiduals], Any]:
+    """The runs' residual rows and the solution of the lowest cost over ``starts``."""
+    # every start is tried and the lowest cost kept: the linear estimate is usually best,
+    # but it can be far off when the runs' end poses alone condition it badly
+    best = None
+    runs = [
+        RunResiduals(r, s.residual, s.samples_per_run, s.segment_m, gauge, s.run_weight) for r in rs
+    ]
+    fun = TrajectoryResiduals(runs, s.residual, s.heading_weight_m)
+    for g in starts:
+        x0 = np.array([g.diameter_right_m, g.diameter_left_m, g.wheelbase_m], float)
+        sol = solve_lm(fun, x0, xtol=1e-12, ftol=1e-12, gtol=1e-15)
+        if np.all(np.isfinite(sol.x)) and np.all(sol.x > 0):
+            if best is None or sol.cost < best[1].cost:
                 best = (runs, sol, x0)
-        return best[0], best[1]
+        elif best is None:
+            best = (runs, sol, x0)
+    assert best is not None  # at least one start
+    return best[0], best[1]
 
-    runs, sol = fit(use)
+
+def _outlier_runs(
+    use: Sequence[Recording],
+    runs: Sequence[RunResiduals],
+    sol: Any,
+    gauge: WheelGeometry,
+    s: TrajectorySettings,
+) -> tuple[list[str], list[dict[str, Any]]]:
+    """The runs whose segment residuals stand out (robust z > ``s.outlier_z``) and every run's
+    statistics."""
     # outlier statistic: RMS of the SEGMENT residuals whatever residual the fit used, because
     # segments have the same travel in every run, so short and long runs are comparable
-    seg_runs = [RunResiduals(r, "segment", samples_per_run, segment_m, gauge) for r in use]
-    segments = _Residuals(seg_runs, "segment", heading_weight_m, weighted=False)
+    seg_runs = [RunResiduals(r, "segment", s.samples_per_run, s.segment_m, gauge) for r in use]
+    segments = TrajectoryResiduals(seg_runs, "segment", s.heading_weight_m, weighted=False)
     rms = np.array([np.sqrt(np.mean(e**2)) for e in segments.per_run(segments(sol.x))])
     z = robust_z(rms) if len(rms) >= 3 else np.zeros(len(rms))
-    outliers = [r.name for r, zi in zip(runs, z, strict=True) if zi > outlier_z]
+    outliers = [r.name for r, zi in zip(runs, z, strict=True) if zi > s.outlier_z]
     per_run = [
         {
             "name": r.name,
             "segment_rms": float(v),
             "robust_z": float(zi),
-            "outlier": bool(zi > outlier_z),
+            "outlier": bool(zi > s.outlier_z),
         }
         for r, v, zi in zip(runs, rms, z, strict=True)
     ]
-    if drop_outliers and outliers:
-        kept = [r for r in use if r.name not in outliers]
-        if kept:
-            excluded = excluded + outliers
-            use = kept
-            runs, sol = fit(use)
-    elif outliers:
-        warnings.append(
-            f"{len(outliers)} run(s) fit much worse than the rest (robust z > {outlier_z:g}): "
-            + ", ".join(Path(n).name for n in outliers)
-            + "; refit with --drop-outliers or --exclude RUN"
-        )
-    warnings += check_physical(sol.x, nominal, "trajectory")
+    return outliers, per_run
+
+
+def _covariance(sol: Any, warnings: list[str]) -> np.ndarray | None:
+    """cov = s^2 (J^T J)^-1 at the solution (module docstring); None without redundancy or when
+    singular (then a warning)."""
     m = len(sol.fun)
     cov = None
     if m > 3:
@@ -411,6 +257,49 @@ def fit_trajectory(
             cov = s2 * np.linalg.inv(JtJ)
         except np.linalg.LinAlgError:
             warnings.append("the parameters are not all identifiable from these runs")
+    return cov
+
+
+def fit_trajectory(
+    recordings: Sequence[Recording],
+    start: WheelGeometry | None = None,
+    *,
+    nominal: WheelGeometry | None = None,
+    settings: TrajectorySettings = DEFAULT_TRAJECTORY,
+) -> GeometryFit:
+    """Fit (D_R, D_L, b) to the ground truth of ``recordings`` (module docstring).
+
+    start : starting point (default: both the linear estimate and ``nominal``, the better fit
+        kept; the linear estimate only where its standard errors are below
+        MAX_LINEAR_START_STDERR of its values, as they are not on closed tracks).
+    settings : the residual, its weights, the runs excluded and the outlier rule
+        (:class:`~odocal.calibration.fit_settings.TrajectorySettings`; its wheelbase model and
+        motion mix are for :mod:`odocal.calibration.banded` and :mod:`.turning`).
+    """
+    s = settings
+    use, excluded = _runs_to_fit(recordings, s.exclude)
+    warnings: list[str] = []
+    starts, linear_start = _starting_points(use, start, nominal)
+    # travel (run weights, segments) is measured with the first start: the informative linear
+    # estimate, else nominal
+    gauge = starts[0]
+    runs, sol = _best_fit(use, starts, gauge, s)
+    outliers, per_run = _outlier_runs(use, runs, sol, gauge, s)
+    if s.drop_outliers and outliers:
+        kept = [r for r in use if r.name not in outliers]
+        if kept:
+            excluded = excluded + outliers
+            use = kept
+            runs, sol = _best_fit(use, starts, gauge, s)
+    elif outliers:
+        warnings.append(
+            f"{len(outliers)} run(s) fit much worse than the rest (robust z > {s.outlier_z:g}): "
+            + ", ".join(Path(n).name for n in outliers)
+            + "; refit with --drop-outliers or --exclude RUN"
+        )
+    warnings += check_physical(sol.x, nominal, "trajectory")
+    cov = _covariance(sol, warnings)
+    m = len(sol.fun)
     return GeometryFit(
         method="trajectory",
         geometry=WheelGeometry(*sol.x),
@@ -421,16 +310,13 @@ def fit_trajectory(
         outliers=outliers,
         excluded=excluded,
         warnings=warnings,
-        extras={
-            "residual": residual,
-            "segment_m": segment_m if residual == "segment" else None,
-            "heading_weight_m": heading_weight_m,
-            "run_weight": run_weight,
-            "residual_rms": float(np.sqrt(2.0 * sol.cost / max(m, 1))),
-            "optimizer": optimizer_report(sol),
-            "starts_tried": len(starts),
-            "linear_start": linear_start,
-        },
+        trajectory=TrajectoryDetails(
+            settings=s,
+            residual_rms=float(np.sqrt(2.0 * sol.cost / max(m, 1))),
+            optimizer=optimizer_report(sol),
+            starts_tried=len(starts),
+            linear_start=linear_start,
+        ),
     )
 
 
@@ -486,7 +372,9 @@ class _TrialGroup:
     """One group of runs with the same wheel angles: increments, samples, weight and the
     (weighted) mean ground truth at the samples over the group's runs, per trial."""
 
-    def __init__(self, angles, truth, start: WheelGeometry, samples: int, run_weight: str):
+    def __init__(
+        self, angles: Any, truth: Any, start: WheelGeometry, samples: int, run_weight: RunWeight
+    ) -> None:
         angles = np.asarray(angles, dtype=float)
         truth = np.asarray(truth, dtype=float)
         if angles.ndim != 2 or angles.shape[1] != 2 or len(angles) < 2:
@@ -497,11 +385,11 @@ class _TrialGroup:
             )
         self.dphi_r = np.diff(angles[:, 0])
         self.dphi_l = np.diff(angles[:, 1])
-        self.idx = _pose_samples(len(angles), samples)
-        travel = float(_travel(angles[:, 0], angles[:, 1], start)[-1])
+        self.idx = pose_samples(len(angles), samples)
+        travel = float(cumulative_travel(angles[:, 0], angles[:, 1], start)[-1])
         runs = truth.shape[1]
         # sum over the runs of w^2 |g_j - o|^2 = runs w^2 |mean g - o|^2 + const
-        self.weight = _block_weight(travel, len(self.idx), run_weight) * np.sqrt(runs)
+        self.weight = block_weight(travel, len(self.idx), run_weight) * np.sqrt(runs)
         self.truth = np.moveaxis(truth[:, :, self.idx, :].mean(axis=1), -1, 0)  # (3, M, S)
 
 
@@ -537,7 +425,7 @@ def fit_trajectory_trials(
     *,
     heading_weight_m: float = 0.1,
     samples_per_run: int = 200,
-    run_weight: str = "travel",
+    run_weight: RunWeight = "travel",
     max_iterations: int = 100,
 ) -> np.ndarray:
     """The 'pose' fit of :func:`fit_trajectory` for many Monte-Carlo trials at once.

@@ -51,13 +51,17 @@ band and overall (see its docstring).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from ..core.model import WheelGeometry
+from ..core.recording import Recording
 from ..core.stats import student_t_quantile
-from ..errors import CalibrationError
+from ..errors import CalibrationError, InputError
+from .fit_methods import BANDS
+from .result import GeometryFit
 
 __all__ = [
     "BANDS",
@@ -74,10 +78,10 @@ __all__ = [
     "MixChoice",
     "wheelbase_for_mix",
     "parse_motion_mix",
+    "with_bands",
 ]
 
-#: Band names, from the tightest turning to straight driving.
-BANDS = ("spot", "tight", "wide", "straight")
+# BANDS (odocal.calibration.fit_methods): the band names, from the tightest turning to straight.
 #: Lower spin-fraction edge of each band in :data:`BANDS` (the last band starts at 0).
 BAND_EDGES = (0.8, 0.2, 0.04, 0.0)
 #: Excitation: segments, runs and total odometric rotation (rad) a band needs to be estimated.
@@ -472,3 +476,69 @@ def wheelbase_for_mix(wheelbases_m: dict[str, float], mix: dict[str, float]) -> 
     errors = {k: 360.0 * (1.0 - wheelbases_m[k] / b) for k in w}
     rms = math.sqrt(sum(w[k] * errors[k] ** 2 for k in w))
     return MixChoice(float(b), w, errors, float(rms), unused)
+
+
+def _disagreeing_bands(table: EffectiveWheelbase) -> list[str]:
+    """A warning for every two excited bands whose 95 % intervals do not overlap."""
+    warnings = []
+    excited = [(b, b.ci95_m) for b in table.bands if b.excited and b.ci95_m is not None]
+    for i, (x, cx) in enumerate(excited):
+        for y, cy in excited[i + 1 :]:
+            if cx[1] < cy[0] or cy[1] < cx[0]:
+                warnings.append(
+                    f"the robot turns differently in band '{x.band}' (effective wheelbase "
+                    f"{x.wheelbase_m:.5g} m) and band '{y.band}' ({y.wheelbase_m:.5g} m; 95 % "
+                    "intervals apart): one wheelbase is a compromise; see --wheelbase-model "
+                    "banded and --motion-mix"
+                )
+    return warnings
+
+
+def _mix_from_bands(
+    table: EffectiveWheelbase, motion_mix: Mapping[str, float]
+) -> tuple[MixChoice, list[str]]:
+    """The single wheelbase for ``motion_mix`` from the band estimates of ``table`` (a band the
+    runs do not excite takes the nearest excited band's value, with a warning)."""
+    known = {b.band: b.wheelbase_m for b in table.bands if b.excited and b.wheelbase_m is not None}
+    if not known:
+        raise InputError(
+            "--motion-mix: no band of motion is excited by these runs, so no band has an "
+            "effective wheelbase to mix",
+            field="motion-mix",
+        )
+    idx = [BANDS.index(k) for k in known]
+    nearest = nearest_estimated_band(idx)
+    per_band = {n: known[BANDS[nearest[i]]] for i, n in enumerate(BANDS)}
+    warnings = []
+    for name, share in motion_mix.items():
+        if share > 0 and name not in known:
+            warnings.append(
+                f"the motion mix turns {100 * share:.0f} % in band '{name}', which these "
+                f"runs do not excite: its wheelbase is taken from band "
+                f"'{BANDS[nearest[BANDS.index(name)]]}'"
+            )
+    return wheelbase_for_mix(per_band, dict(motion_mix)), warnings
+
+
+def with_bands(
+    fit: GeometryFit, runs: Sequence[Recording], motion_mix: Mapping[str, float] | None = None
+) -> GeometryFit:
+    """A constant-wheelbase trajectory ``fit`` of ``runs`` with its effective wheelbase per band
+    of motion (``effective_wheelbase``), a warning when excited bands disagree, and (with
+    ``motion_mix``, band -> share of the rotation) the single wheelbase for the mix from the
+    band estimates as the fit's wheelbase (``motion_mix``; the fit's own geometry kept as
+    ``constant_fit``)."""
+    table = effective_wheelbase(runs, fit.geometry)
+    warnings = list(fit.warnings) + _disagreeing_bands(table)
+    if not motion_mix:
+        return replace(fit, warnings=warnings, effective_wheelbase=table)
+    choice, mix_warnings = _mix_from_bands(table, motion_mix)
+    g = fit.geometry
+    return replace(
+        fit,
+        geometry=WheelGeometry(g.diameter_right_m, g.diameter_left_m, choice.wheelbase_m),
+        warnings=warnings + mix_warnings,
+        effective_wheelbase=table,
+        motion_mix=choice,
+        constant_fit=g,
+    )

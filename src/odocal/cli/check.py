@@ -2,17 +2,24 @@
 
 from __future__ import annotations
 
+import argparse
+from typing import Any
+
+from ..calibration.fit_methods import RESIDUALS
 from .common import (
     add_recording_args,
     add_slam_args,
     bag_options,
+    print_check,
     print_json,
-    print_table,
     print_warnings,
+    truth_frames,
 )
 
+__all__ = ["add_parser", "run", "print_check"]
 
-def add_parser(sub) -> None:
+
+def add_parser(sub: Any) -> None:
     p = sub.add_parser(
         "check",
         description="From the motion actually recorded (wheel angles; ground truth optional): "
@@ -31,7 +38,7 @@ def add_parser(sub) -> None:
     )
     p.add_argument(
         "--residual",
-        choices=("pose", "segment"),
+        choices=RESIDUALS,
         default="pose",
         help="the trajectory fit's residual (default pose)",
     )
@@ -45,59 +52,19 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
-def print_check(res, indent: str = "") -> None:
-    """The human-readable check (also the 'Is this log enough?' section of fit)."""
-    c = res.check
-    d = c.motion.as_dict()
-    print(
-        f"{indent}{'enough' if c.ok else 'NOT enough'} for "
-        f"{', '.join(c.parameters)}: condition number {c.condition_number:.3g}; weakest: "
-        f"{c.weakest_direction}"
-    )
-    rows = [("", "value", "predicted std. error")]
-    for name, value in zip(c.parameters, c.values, strict=True):
-        se = c.stderr[name]
-        rows.append(
-            (
-                indent + name,
-                f"{value:.6g}",
-                "not identifiable" if se == float("inf") else f"{se:.2e}",
-            )
-        )
-    print_table(rows)
-    print(f"{indent}  motion: {_motion_line(d)}")
-    for g in c.degeneracies:
-        print(f"{indent}  {g.severity}: {g.message}")
-    for s in c.suggestions:
-        print(f"{indent}  suggestion: {s}")
-    print(f"{indent}  noise: {res.noise_source}")
-
-
-def _motion_line(d: dict) -> str:
-    return (
-        f"{d['travel_m']:.1f} m driven, {d['rotation_deg']:.0f} deg turned "
-        f"({d['rotation_left_deg']:.0f} left, {d['rotation_right_deg']:.0f} right); wheel "
-        f"travel {100 * d['share_straight']:.0f} % straight, {100 * d['share_spot']:.0f} % spot "
-        f"turns, {100 * d['share_arc']:.0f} % arcs"
-    )
-
-
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from ..app.check import check
+    from ..calibration.fit_settings import TrajectorySettings
 
-    truth_frames = None
-    if args.truth_frames:
-        from ..io.bag_slam import parse_truth_frames
-
-        truth_frames = parse_truth_frames(args.truth_frames)
     res = check(
         args.paths,
         robot=args.robot,
         ticks_per_rev=args.ticks_per_rev,
-        bag_options=bag_options(args),
-        truth_frames=truth_frames,
+        bag=bag_options(args),
+        truth_frames=truth_frames(args),
+        slam_stamp_offset_s=args.slam_stamp_offset,
         mounting=args.mounting,
-        residual=args.residual,
+        settings=TrajectorySettings(residual=args.residual),
     )
     print_warnings(res.load_warnings)
     if args.json:

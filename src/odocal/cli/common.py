@@ -11,6 +11,7 @@ import time
 from collections.abc import Callable, Iterable
 from typing import Any
 
+from ..io.bag_options import BagOptions
 from ..io.limits import HEADING_WEIGHT_MAX_M, TICKS_PER_REV, TRACK_LENGTH_MAX_M
 
 __all__ = [
@@ -35,9 +36,11 @@ __all__ = [
     "add_bag_args",
     "add_slam_args",
     "bag_options",
+    "truth_frames",
     "print_json",
     "print_warnings",
     "print_table",
+    "print_check",
     "format_topics",
     "ProgressBar",
 ]
@@ -253,12 +256,27 @@ def add_slam_args(p: argparse.ArgumentParser) -> None:
     )
 
 
-def bag_options(args: argparse.Namespace) -> dict:
-    return {
-        k: getattr(args, k, None)
-        for k in ("joint_topic", "truth_topic", "imu_topic", "right_joint", "left_joint")
-        if getattr(args, k, None) is not None
-    }
+def bag_options(args: argparse.Namespace) -> BagOptions:
+    """The bag topics, joints and IMU axis of the parsed flags (those the command has)."""
+    return BagOptions(
+        joint_topic=getattr(args, "joint_topic", None),
+        truth_topic=getattr(args, "truth_topic", None),
+        imu_topic=getattr(args, "imu_topic", None),
+        odom_topic=getattr(args, "odom_topic", None),
+        scan_topic=getattr(args, "scan_topic", None),
+        right_joint=getattr(args, "right_joint", None),
+        left_joint=getattr(args, "left_joint", None),
+        imu_axis=getattr(args, "imu_axis", None),
+    )
+
+
+def truth_frames(args: argparse.Namespace) -> tuple[str, str] | None:
+    """The ``--truth-frames PARENT:CHILD`` of the parsed flags, or None."""
+    if not getattr(args, "truth_frames", None):
+        return None
+    from ..io.bag_slam import parse_truth_frames
+
+    return parse_truth_frames(args.truth_frames)
 
 
 def print_warnings(warnings: Iterable[str], prefix: str = "") -> None:
@@ -308,6 +326,43 @@ def print_table(rows: list[tuple], title: str | None = None) -> None:
     for r in cells:
         parts = [r[0].ljust(widths[0])] + [c.rjust(widths[i + 1]) for i, c in enumerate(r[1:])]
         print("  " + "  ".join(parts).rstrip())
+
+
+def print_check(res: Any, indent: str = "") -> None:
+    """The human-readable check (also the 'Is this log enough?' section of fit)."""
+    c = res.check
+    d = c.motion.as_dict()
+    print(
+        f"{indent}{'enough' if c.ok else 'NOT enough'} for "
+        f"{', '.join(c.parameters)}: condition number {c.condition_number:.3g}; weakest: "
+        f"{c.weakest_direction}"
+    )
+    rows = [("", "value", "predicted std. error")]
+    for name, value in zip(c.parameters, c.values, strict=True):
+        se = c.stderr[name]
+        rows.append(
+            (
+                indent + name,
+                f"{value:.6g}",
+                "not identifiable" if se == float("inf") else f"{se:.2e}",
+            )
+        )
+    print_table(rows)
+    print(f"{indent}  motion: {_motion_line(d)}")
+    for g in c.degeneracies:
+        print(f"{indent}  {g.severity}: {g.message}")
+    for s in c.suggestions:
+        print(f"{indent}  suggestion: {s}")
+    print(f"{indent}  noise: {res.noise_source}")
+
+
+def _motion_line(d: dict[str, Any]) -> str:
+    return (
+        f"{d['travel_m']:.1f} m driven, {d['rotation_deg']:.0f} deg turned "
+        f"({d['rotation_left_deg']:.0f} left, {d['rotation_right_deg']:.0f} right); wheel "
+        f"travel {100 * d['share_straight']:.0f} % straight, {100 * d['share_spot']:.0f} % spot "
+        f"turns, {100 * d['share_arc']:.0f} % arcs"
+    )
 
 
 def format_topics(topics) -> str:

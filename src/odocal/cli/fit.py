@@ -2,9 +2,20 @@
 
 from __future__ import annotations
 
+import argparse
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
+from ..calibration.fit_methods import (
+    FIT_METHODS,
+    HEADING_SOURCES,
+    RESIDUALS,
+    RUN_WEIGHTS,
+    UMBMARK_FORMS,
+    WHEELBASE_MODELS,
+    methods_help,
+)
 from ..errors import InputError
 from .common import (
     add_export_args,
@@ -16,16 +27,21 @@ from .common import (
     length_m,
     motion_mix,
     number,
+    print_check,
     print_json,
     print_table,
     print_warnings,
     sides_int,
+    truth_frames,
 )
 
-METHODS = ("trajectory", "linear", "umbmark", "heading", "gyro", "relative", "scan")  # as app.fit
+if TYPE_CHECKING:
+    from ..app.fit import FitResult, GyroFitResult, RelativeFitResult
+    from ..calibration.result import GeometryFit
+    from ..calibration.turning import EffectiveWheelbase
 
 
-def add_parser(sub) -> None:
+def add_parser(sub: Any) -> None:
     p = sub.add_parser(
         "fit",
         description="Calibrate D_R, D_L and b from recorded runs: generic run CSVs, OptiOdom "
@@ -40,16 +56,7 @@ def add_parser(sub) -> None:
         help="nominal geometry (and, for runs without metadata, the parameters they ran with: "
         "its 'believed', else nominal); default: the recordings' metadata",
     )
-    p.add_argument(
-        "--method",
-        choices=METHODS,
-        default=None,
-        help="trajectory (nonlinear least squares, default), linear (Antonelli et al. 2005), "
-        "umbmark / heading (recorded CW and CCW squares), gyro (IMU vs wheel rotation, bags), "
-        "relative (Censi et al. 2013: relative motions with the sensor's mounting; the default "
-        "for .tuple files and --truth-frames), scan (bags with a 2D laser: scan matching, then "
-        "relative; the laser's mounting too)",
-    )
+    p.add_argument("--method", choices=FIT_METHODS, default=None, help=methods_help())
     add_export_args(p, "write the calibrated parameters")
     p.add_argument(
         "--force",
@@ -58,10 +65,32 @@ def add_parser(sub) -> None:
         "default an error, and nothing is written)",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object")
+    _add_trajectory_args(p)
+    _add_square_args(p)
+    add_slam_args(p)
+    sc = p.add_argument_group("scan method (bags with a 2D laser)")
+    sc.add_argument(
+        "--scan-interval",
+        type=number(float, above=0, at_most=60, hint=" s"),
+        default=0.5,
+        metavar="S",
+        help="time between the two scans matched for one interval (default 0.5 s)",
+    )
+    g = p.add_argument_group("gyro method (bags)")
+    g.add_argument("--odom-topic", metavar="T", help="nav_msgs/Odometry wheel odometry")
+    g.add_argument("--imu-axis", metavar="A", help="IMU axis carrying the yaw rate (e.g. y, -z)")
+    p.add_argument(
+        "--list-topics", action="store_true", help="print the topics of the given bag(s) and exit"
+    )
+    p.set_defaults(run=run)
+
+
+def _add_trajectory_args(p: argparse.ArgumentParser) -> None:
+    """The trajectory fit's settings (TrajectorySettings), the measured robot and the figure."""
     t = p.add_argument_group("trajectory method")
     t.add_argument(
         "--residual",
-        choices=("pose", "segment"),
+        choices=RESIDUALS,
         default="pose",
         help="pose: sampled pose errors, each run weighted equally (default); segment: relative "
         "displacement over path segments (OptiOdom)",
@@ -82,7 +111,7 @@ def add_parser(sub) -> None:
     )
     t.add_argument(
         "--run-weight",
-        choices=("travel", "equal"),
+        choices=RUN_WEIGHTS,
         default="travel",
         help="weight of each run: its travel in m (default) or equal",
     )
@@ -98,7 +127,7 @@ def add_parser(sub) -> None:
     )
     t.add_argument(
         "--wheelbase-model",
-        choices=("constant", "banded"),
+        choices=WHEELBASE_MODELS,
         default="constant",
         help="constant: one wheelbase (default); banded: one per band of motion (spot turns, "
         "tight arcs, wide arcs, near-straight) where the runs excite at least two bands "
@@ -124,6 +153,10 @@ def add_parser(sub) -> None:
         metavar="DIR",
         help="write the effective wheelbase per band of motion (effective_wheelbase.png)",
     )
+
+
+def _add_square_args(p: argparse.ArgumentParser) -> None:
+    """UMBmark's and the heading method's settings (SquareSettings)."""
     s = p.add_argument_group("umbmark / heading methods")
     s.add_argument(
         "--side-length",
@@ -133,7 +166,7 @@ def add_parser(sub) -> None:
     )
     s.add_argument(
         "--umbmark-form",
-        choices=("x", "y", "mean"),
+        choices=UMBMARK_FORMS,
         default="mean",
         help="UMBmark equations from x, y or their mean (default mean)",
     )
@@ -146,217 +179,212 @@ def add_parser(sub) -> None:
     )
     s.add_argument(
         "--heading-source",
-        choices=("truth", "gyro"),
+        choices=HEADING_SOURCES,
         default="truth",
         help="heading method: each run's final heading error from the ground truth (default) or "
         "from the integrated gyro (an IMU topic in the bag, or a gyro_yaw_rad column): no "
         "position ground truth needed",
     )
-    add_slam_args(p)
-    sc = p.add_argument_group("scan method (bags with a 2D laser)")
-    sc.add_argument(
-        "--scan-interval",
-        type=number(float, above=0, at_most=60, hint=" s"),
-        default=0.5,
-        metavar="S",
-        help="time between the two scans matched for one interval (default 0.5 s)",
-    )
-    g = p.add_argument_group("gyro method (bags)")
-    g.add_argument("--odom-topic", metavar="T", help="nav_msgs/Odometry wheel odometry")
-    g.add_argument("--imu-axis", metavar="A", help="IMU axis carrying the yaw rate (e.g. y, -z)")
-    p.add_argument(
-        "--list-topics", action="store_true", help="print the topics of the given bag(s) and exit"
-    )
-    p.set_defaults(run=run)
 
 
-def _run_gyro(args) -> int:
-    from ..app.fit import fit_gyro
-
-    if len(args.paths) != 1:
-        raise InputError("--method gyro takes exactly one bag", field="paths")
-    res = fit_gyro(
-        args.paths[0],
-        robot=args.robot,
-        out=args.out,
-        ros2=args.ros2,
-        controller_name=args.controller_name,
-        odom_topic=args.odom_topic,
-        imu_topic=args.imu_topic,
-        joint_topic=args.joint_topic,
-        imu_axis=args.imu_axis,
-        force=args.force,
-    )
-    out = res.as_dict()
+def _print_gyro(res: GyroFitResult, as_json: bool) -> int:
     print_warnings(res.warnings)
-    if args.json:
-        print_json(out)
+    if as_json:
+        print_json(res.as_dict())
         return 0
-    print(f"gyro calibration of {out['bag']} ({out['imu_topic']} vs {out['odom_topic']})")
+    g, meta = res.gyro, res.gyro.meta
+    print(f"gyro calibration of {meta['bag']} ({meta['imu_topic']} vs {meta['odom_topic']})")
     print_table(
         [
-            ("rotation_ratio (gyro / odometry)", f"{out['rotation_ratio']:.5f}"),
-            ("  its standard error from the bias", f"{out['rotation_ratio_stderr']:.5f}"),
-            ("wheelbase_multiplier", f"{out['wheelbase_multiplier']:.5f}"),
-            ("gyro rotation (deg)", f"{math.degrees(out['gyro_rotation_rad']):+.2f}"),
-            ("odometry rotation (deg)", f"{math.degrees(out['odometry_rotation_rad']):+.2f}"),
-            ("IMU yaw axis", f"{out['axis']} ({out['mounting_source']})"),
-            ("gyro bias removed (rad/s)", f"{out['bias_rad_s']:.3g} ({out['bias_source']})"),
+            ("rotation_ratio (gyro / odometry)", f"{g.rotation_ratio:.5f}"),
+            ("  its standard error from the bias", f"{g.rotation_ratio_stderr:.5f}"),
+            ("wheelbase_multiplier", f"{g.wheelbase_multiplier:.5f}"),
+            ("gyro rotation (deg)", f"{math.degrees(g.gyro_rotation_rad):+.2f}"),
+            ("odometry rotation (deg)", f"{math.degrees(g.odometry_rotation_rad):+.2f}"),
+            ("IMU yaw axis", f"{g.axis} ({g.mounting_source})"),
+            ("gyro bias removed (rad/s)", f"{g.bias_rad_s:.3g} ({g.bias_source})"),
         ]
     )
-    if "calibrated_wheelbase_m" in out:
-        print(f"  calibrated wheelbase_m: {out['calibrated_wheelbase_m']:.6f}")
-    for f in res.written:
-        print(f"wrote {f}")
+    if res.geometry is not None:
+        print(f"  calibrated wheelbase_m: {float(res.geometry.wheelbase_m):.6f}")
+    _print_written(res.written)
     return 0
 
 
-def run(args) -> int:
+def _list_topics(paths: list[str]) -> int:
+    from ..app.bag_info import bag_info
+    from ..io.bags import is_bag
+
+    for path in paths:
+        if not is_bag(path):
+            raise InputError("--list-topics needs a ROS bag (.bag, .db3, .mcap)", path)
+    for path in paths:
+        if len(paths) > 1:
+            print(f"{path}:")
+        print(format_topics(bag_info(path).topics))
+    return 0
+
+
+def run(args: argparse.Namespace) -> int:
     if args.list_topics:
-        from ..app.bag_info import bag_info
-        from ..io.bags import is_bag
+        return _list_topics(args.paths)
+    from ..app.fit import GyroFitResult, RelativeFitResult, fit
+    from ..calibration.fit_settings import SquareSettings, TrajectorySettings
 
-        for path in args.paths:
-            if not is_bag(path):
-                raise InputError("--list-topics needs a ROS bag (.bag, .db3, .mcap)", path)
-        for path in args.paths:
-            if len(args.paths) > 1:
-                print(f"{path}:")
-            print(format_topics(bag_info(path).topics))
-        return 0
-    if args.method == "gyro":
-        return _run_gyro(args)
-    from ..app.fit import fit
-
-    truth_frames = None
-    if args.truth_frames:
-        from ..io.bag_slam import parse_truth_frames
-
-        truth_frames = parse_truth_frames(args.truth_frames)
     res = fit(
         args.paths,
         args.method,
-        truth_frames=truth_frames,
+        robot=args.robot,
+        settings=TrajectorySettings(
+            residual=args.residual,
+            segment_m=args.segment_length,
+            heading_weight_m=args.heading_weight,
+            run_weight=args.run_weight,
+            exclude=tuple(args.exclude),
+            drop_outliers=args.drop_outliers,
+            wheelbase_model=args.wheelbase_model,
+            motion_mix=args.motion_mix,
+        ),
+        squares=SquareSettings(
+            side_m=args.side_length,
+            umbmark_form=args.umbmark_form,
+            heading_source=args.heading_source,
+            sides=args.sides,
+        ),
+        bag=bag_options(args),
+        ticks_per_rev=args.ticks_per_rev,
+        truth_frames=truth_frames(args),
         slam_stamp_offset_s=args.slam_stamp_offset,
         scan_interval_s=args.scan_interval,
-        robot=args.robot,
         out=args.out,
         ros2=args.ros2,
         controller_name=args.controller_name,
-        ticks_per_rev=args.ticks_per_rev,
-        bag_options={**bag_options(args), "scan_topic": args.scan_topic},
-        residual=args.residual,
-        segment_m=args.segment_length,
-        heading_weight_m=args.heading_weight,
-        exclude=args.exclude,
-        drop_outliers=args.drop_outliers,
-        run_weight=args.run_weight,
-        side_m=args.side_length,
-        umbmark_form=args.umbmark_form,
-        heading_source=args.heading_source,
-        sides=args.sides,
-        force=args.force,
-        wheelbase_model=args.wheelbase_model,
-        motion_mix=args.motion_mix,
         plot=args.plot,
         robot_out=args.robot_out,
+        force=args.force,
     )
+    if isinstance(res, GyroFitResult):
+        return _print_gyro(res, args.json)
     print_warnings(res.load_warnings)
-    result, nominal = res.fit, res.nominal
     print_warnings(res.warnings)
     if args.json:
         print_json(res.as_dict())
-        return 0
-    if result.method == "relative":
+    elif isinstance(res, RelativeFitResult):
         _print_relative(res)
-        return 0
+    else:
+        _print_runs(res)
+    return 0
+
+
+def _print_written(written: tuple[Path, ...]) -> None:
+    for f in written:
+        print(f"wrote {f}")
+
+
+def _print_runs(res: FitResult) -> None:
+    """A fit of runs with ground truth: the geometry against nominal, then what the method adds
+    and the log check."""
+    result, nominal = res.fit, res.nominal
     print(f"{result.method} fit from {len(result.runs)} run(s)")
-    g, se = result.geometry, result.stderr
+    g, se = result.geometry.as_dict(), result.stderr
+    nom = None if nominal is None else nominal.as_dict()
     rows = [("", "nominal", "calibrated", "std. error")]
     for key in ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m"):
-        nom = "-" if nominal is None else f"{nominal.as_dict()[key]:.6f}"
-        err = "-" if se.get(key) is None else f"{se[key]:.2e}"
-        rows.append((key, nom, f"{g.as_dict()[key]:.6f}", err))
+        err = se.get(key)
+        rows.append(
+            (
+                key,
+                "-" if nom is None else f"{nom[key]:.6f}",
+                f"{g[key]:.6f}",
+                "-" if err is None else f"{err:.2e}",
+            )
+        )
     print_table(rows)
-    if "data_sets" in result.extras:
+    if result.squares is not None:
         print(
-            f"pooled from {len(result.extras['data_sets'])} data set(s): per data set, "
+            f"pooled from {len(result.squares.data_sets)} data set(s): per data set, "
             "composed with its ran-with parameters; scale = nominal mean diameter"
         )
     if result.excluded:
         print("excluded: " + ", ".join(Path(n).name for n in result.excluded))
-    if "residual_rms" in result.extras:
-        print(
-            f"residual RMS {result.extras['residual_rms']:.3g} "
-            f"({result.extras.get('residual', 'pose')})"
-        )
-    _print_bands(result.extras)
+    rms = _residual_rms(result)
+    if rms is not None:
+        print(f"residual RMS {rms:.3g} ({_residual_kind(result)})")
+    _print_bands(result)
     if res.log_check is not None:
-        from .check import print_check
-
         print("Is this log enough? (odocal check)")
         print_check(res.log_check, indent="  ")
-    for f in res.written:
-        print(f"wrote {f}")
-    return 0
+    _print_written(res.written)
 
 
-def _print_bands(extras: dict) -> None:
-    """The effective wheelbase per band of motion, the banded fit and the motion mix."""
-    table = extras.get("effective_wheelbase")
-    if table:
-        rows = [
+def _residual_rms(fit: GeometryFit) -> float | None:
+    if fit.trajectory is not None:
+        return fit.trajectory.residual_rms
+    return None if fit.banded is None else fit.banded.residual_rms
+
+
+def _residual_kind(fit: GeometryFit) -> str:
+    return "pose" if fit.trajectory is None else fit.trajectory.settings.residual
+
+
+def _radius(lo: float, hi: float | None) -> str:
+    if lo == 0:
+        return f"< {hi:.3g}"
+    return f"> {lo:.3g}" if hi is None else f"{lo:.3g}-{hi:.3g}"
+
+
+def _print_band_table(table: EffectiveWheelbase) -> None:
+    rows = [
+        (
+            "band",
+            "turn radius (m)",
+            "eff. wheelbase (m)",
+            "95 % interval",
+            "segments",
+            "share of rotation",
+        )
+    ]
+    for b in table.bands:
+        est, ci = "not excited", ""
+        if b.excited and b.wheelbase_m is not None and b.ci95_m is not None:
+            est = f"{b.wheelbase_m:.6f}"
+            ci = f"{b.ci95_m[0]:.6f}-{b.ci95_m[1]:.6f}"
+        rows.append(
             (
-                "band",
-                "turn radius (m)",
-                "eff. wheelbase (m)",
-                "95 % interval",
-                "segments",
-                "share of rotation",
+                b.band,
+                _radius(*b.radius_range_m),
+                est,
+                ci,
+                f"{b.segments} ({b.runs} runs)",
+                f"{100 * b.rotation_share:.0f} %",
             )
-        ]
-        for b in table["bands"]:
-            lo, hi = b["radius_range_m"]
-            radius = (
-                f"< {hi:.3g}"
-                if lo == 0
-                else (f"> {lo:.3g}" if hi is None else f"{lo:.3g}-{hi:.3g}")
-            )
-            est = "not excited"
-            ci = ""
-            if b["excited"]:
-                est = f"{b['wheelbase_m']:.6f}"
-                ci = f"{b['ci95_m'][0]:.6f}-{b['ci95_m'][1]:.6f}"
-            rows.append(
-                (
-                    b["band"],
-                    radius,
-                    est,
-                    ci,
-                    f"{b['segments']} ({b['runs']} runs)",
-                    f"{100 * b['rotation_share']:.0f} %",
-                )
-            )
-        print_table(rows, "effective wheelbase per band of motion (at the fitted diameters):")
-    if extras.get("wheelbase_model") == "banded":
-        fitted = ", ".join(f"{k} {v:.6f} m" for k, v in extras["band_wheelbase_m"].items())
+        )
+    print_table(rows, "effective wheelbase per band of motion (at the fitted diameters):")
+
+
+def _print_bands(fit: GeometryFit) -> None:
+    """The effective wheelbase per band of motion, the banded fit and the motion mix."""
+    if fit.effective_wheelbase is not None:
+        _print_band_table(fit.effective_wheelbase)
+    if fit.banded is not None:
+        fitted = ", ".join(f"{k} {v:.6f} m" for k, v in fit.banded.band_wheelbase_m.items())
         print(f"banded model: {fitted}")
-    mix = extras.get("motion_mix")
-    if mix:
-        shares = ", ".join(f"{k} {100 * v:.0f} %" for k, v in mix["mix"].items())
-        errs = ", ".join(f"{k} {v:+.2f}" for k, v in mix["heading_error_deg_per_turn"].items())
+    mix = fit.motion_mix
+    if mix is not None:
+        shares = ", ".join(f"{k} {100 * v:.0f} %" for k, v in mix.mix.items())
+        errs = ", ".join(f"{k} {v:+.2f}" for k, v in mix.heading_error_deg_per_turn.items())
         print(
-            f"single wheelbase for the motion mix ({shares}): {mix['wheelbase_m']:.6f} m; "
+            f"single wheelbase for the motion mix ({shares}): {mix.wheelbase_m:.6f} m; "
             f"heading error per full turn (deg): {errs}; RMS "
-            f"{mix['rms_heading_error_deg_per_turn']:.2f} deg per turn"
+            f"{mix.rms_heading_error_deg_per_turn:.2f} deg per turn"
         )
 
 
-def _print_relative(res) -> None:
+def _print_relative(res: RelativeFitResult) -> None:
     r, nominal = res.fit, res.nominal
     print(
         f"relative-motion fit (Censi et al. 2013) from {r.tuples_used} of {r.tuples_total} "
-        f"intervals ({r.tuples_total - r.tuples_used} dropped as outliers)"
+        f"intervals ({r.tuples_dropped} dropped as outliers)"
     )
     d = r.as_dict()
     rows = [("", "nominal", "calibrated", "std. error")]
@@ -381,15 +409,13 @@ def _print_relative(res) -> None:
             )
         )
     print_table(rows)
-    for s in res.extra.get("slam", ()):
-        print(f"  {s['bag']}: {s['chain']}: {s['summary']}")
-    for s in res.extra.get("scan", ()):
-        g = s["mount_guess"]
+    for b in res.slam_bags:
+        print(f"  {b.path}: {b.chain}: {b.motions.summary()}")
+    for s in res.scans:
+        x, y, yaw = s.mount_guess
         print(
-            f"  {s['bag']}: {s['matched']} of {s['intervals']} scan intervals matched "
-            f"({s['scans']} scans on {s['scan_topic']}, {s['interval_scans']} apart); laser "
-            f"mounting from {s['mount_source']}: x {g['x_m']:.4f} m, y {g['y_m']:.4f} m, "
-            f"yaw {g['yaw_rad']:.4f} rad"
+            f"  {s.bag}: {s.intervals.matched} of {s.intervals.intervals} scan intervals matched "
+            f"({s.scans} scans on {s.scan_topic}, {s.intervals.interval_scans} apart); laser "
+            f"mounting from {s.mount_source}: x {x:.4f} m, y {y:.4f} m, yaw {yaw:.4f} rad"
         )
-    for f in res.written:
-        print(f"wrote {f}")
+    _print_written(res.written)

@@ -163,7 +163,7 @@ def run(args) -> int:
         distance_m=args.pose_distance,
         window_s=args.twist_window,
         ticks_per_rev=args.ticks_per_rev,
-        bag_options=bag_options(args),
+        bag=bag_options(args),
     )
     print_warnings(res.load_warnings)
     print_warnings(res.warnings)

@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import argparse
 import math
 from pathlib import Path
+from typing import Any
 
 from .common import (
     add_recording_args,
@@ -12,10 +14,11 @@ from .common import (
     print_json,
     print_table,
     print_warnings,
+    truth_frames,
 )
 
 
-def add_parser(sub) -> None:
+def add_parser(sub: Any) -> None:
     p = sub.add_parser(
         "validate",
         description="Dead-reckon recorded runs with the given parameters and with the nominal "
@@ -42,14 +45,9 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from ..app.validate import validate
 
-    truth_frames = None
-    if args.truth_frames:
-        from ..io.bag_slam import parse_truth_frames
-
-        truth_frames = parse_truth_frames(args.truth_frames)
     result = validate(
         args.paths,
         args.params,
@@ -57,8 +55,8 @@ def run(args) -> int:
         nominal=args.nominal,
         plot=args.plot,
         ticks_per_rev=args.ticks_per_rev,
-        bag_options=bag_options(args),
-        truth_frames=truth_frames,
+        bag=bag_options(args),
+        truth_frames=truth_frames(args),
         slam_stamp_offset_s=args.slam_stamp_offset,
     )
     print_warnings(result.load_warnings)
@@ -67,10 +65,10 @@ def run(args) -> int:
         print_json(d)
         return 0
 
-    def mm(v):
+    def mm(v: float | None) -> str:
         return "-" if v is None else f"{1000 * v:.1f}"
 
-    def deg(v):
+    def deg(v: float | None) -> str:
         return "-" if v is None else f"{math.degrees(v):.2f}"
 
     col = {"robot": "robot", "firmware": "firmware"}.get(result.nominal_source, "nominal")

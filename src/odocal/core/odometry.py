@@ -81,3 +81,25 @@ def evaluate(recording, geometry: WheelGeometry) -> dict:
         "final_heading_error_rad": float(head[-1]),
         "max_heading_error_rad": float(head.max()),
     }
+
+
+def wheel_heading(
+    time_s: np.ndarray,
+    angle_right_rad: np.ndarray,
+    angle_left_rad: np.ndarray,
+    geometry: WheelGeometry,
+    *,
+    invert_right: bool = False,
+    invert_left: bool = False,
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """The heading (rad) the wheel angles give, and the forward speed (m/s), shape (K,) each.
+
+    With the wheel travel s = angle D / 2 (a joint negated with ``invert_*``): heading =
+    (s_R - s_L) / b (the heading of :func:`dead_reckon`, summed at once instead of per
+    increment), speed = the time derivative of (s_R + s_L) / 2 (``numpy.gradient`` over
+    ``time_s``, s; None with fewer than 3 samples). Cumulative angles (rad) at ``time_s``."""
+    s_r = angle_right_rad * (0.5 * geometry.diameter_right_m * (-1.0 if invert_right else 1.0))
+    s_l = angle_left_rad * (0.5 * geometry.diameter_left_m * (-1.0 if invert_left else 1.0))
+    heading = (s_r - s_l) / geometry.wheelbase_m
+    speed = np.gradient(0.5 * (s_r + s_l), time_s) if len(time_s) > 2 else None
+    return heading, speed

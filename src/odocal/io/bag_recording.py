@@ -183,7 +183,8 @@ def load_bag_recording(
         return {"joints": jt, "truth": gt, "imu": it, "tf_static": present(info, "/tf_static")}
 
     bag = read_bag(p, choose)
-    jt, gt_topic, it = (bag.picked.get(k) for k in ("joints", "truth", "imu"))
+    jt: str = bag.picked["joints"]  # required: chosen or an error
+    gt_topic, it = bag.picked.get("truth"), bag.picked.get("imu")
     joints = joint_series(bag, jt, right_joint, left_joint, ticks_per_rev)
     t = joints.time_s
     right = joints.values["right"] * (-1.0 if invert_right else 1.0)

@@ -10,17 +10,22 @@ only the update instants, and relative motions, can be trusted).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from ..calibration.relative_motions import RelativeMotions, wheel_increments
 from ..calibration.slam import SlamLimits, SlamMotions, slam_relative_motions
 from ..core.recording import Recording
 from ..core.transforms import RigidTransforms, planar_pose
 from ..errors import InputError
+from .bag_options import BagOptions
 from .bags import (
     JOINT_STATE,
+    EdgeMessages,
     check_bag_path,
     joint_series,
     pick_topic,
@@ -30,7 +35,7 @@ from .bags import (
     transform_buffer,
 )
 
-__all__ = ["SlamBag", "parse_truth_frames", "load_slam_bag"]
+__all__ = ["SlamBag", "parse_truth_frames", "load_slam_bag", "load_slam_bags", "wheel_increments"]
 
 
 def parse_truth_frames(text: str) -> tuple[str, str]:
@@ -62,9 +67,78 @@ class SlamBag:
     increments: tuple[np.ndarray, np.ndarray]
     meta: dict = field(default_factory=dict)
 
+    @property
+    def relative_motions(self) -> RelativeMotions:
+        """The intervals as the relative-motion calibration takes them (the truth frame is the
+        base itself)."""
+        m = self.motions
+        return RelativeMotions(m.phi_right_rad, m.phi_left_rad, m.sensor_motion, self.increments)
+
+    def as_dict(self) -> dict[str, Any]:
+        """What ``odocal fit --truth-frames --json`` reports of this bag (its ``slam`` entry)."""
+        m = self.motions
+        return {
+            "bag": self.path,
+            "chain": self.chain,
+            "correction_edge": self.correction,
+            **asdict(m.counts),
+            "dropped": m.counts.dropped,
+            "segments": m.segments,
+            "summary": m.summary(),
+            "warnings": list(m.warnings),
+        }
+
 
 def _span(t: np.ndarray, lo: float, hi: float) -> np.ndarray:
     return (t >= lo) & (t <= hi)
+
+
+def _truth_chain(buf: Any, parent: str, child: str, p: Path) -> tuple[list[Any], str]:
+    """The moving steps of the chain from ``parent`` to ``child`` on /tf and /tf_static, and
+    the chain in words; InputError when a frame is missing or the chain does not move."""
+    for frame in (parent, child):
+        if frame not in buf.frames:
+            raise InputError(
+                f"frame '{frame}' never appears on /tf or /tf_static (frames: "
+                f"{', '.join(buf.frames) or 'none'})",
+                p,
+                None,
+                "--truth-frames",
+            )
+    chain = buf.chain(parent, child)  # InputError when the trees do not connect
+    dynamic = [s for s in chain if not s.static]
+    chain_text = " -> ".join([chain[0].frm] + [s.to for s in chain]) if chain else parent
+    if not dynamic:
+        raise InputError(
+            f"the chain {chain_text} is static: it holds no SLAM pose", p, None, "--truth-frames"
+        )
+    return dynamic, chain_text
+
+
+def _edge_key(step: Any) -> tuple[str, str]:
+    """The (parent, child) of the /tf edge a chain step follows (either way)."""
+    return (step.to, step.frm) if step.inverted else (step.frm, step.to)
+
+
+def _correction_edge(
+    edges: dict[tuple[str, str], EdgeMessages],
+    dynamic: list[Any],
+    parent: str,
+    child: str,
+    p: Path,
+) -> EdgeMessages:
+    """The SLAM correction: the moving edge of the chain published least often; InputError
+    when it points from the child towards the parent."""
+    key, step = min(((_edge_key(s), s) for s in dynamic), key=lambda ks: len(edges[ks[0]].time_s))
+    if step.inverted:
+        raise InputError(
+            f"the SLAM edge {key[0]} -> {key[1]} points from {child} towards {parent}; "
+            f"give the truth frames as {child}:{parent}'s parent first",
+            p,
+            None,
+            "--truth-frames",
+        )
+    return edges[key]
 
 
 def load_slam_bag(
@@ -98,40 +172,9 @@ def load_slam_bag(
     jt = bag.picked["joints"]
     joints = joint_series(bag, jt, right_joint, left_joint, ticks_per_rev)
     buf = transform_buffer(bag)
-    for frame in (parent, child):
-        if frame not in buf.frames:
-            raise InputError(
-                f"frame '{frame}' never appears on /tf or /tf_static (frames: "
-                f"{', '.join(buf.frames) or 'none'})",
-                p,
-                None,
-                "--truth-frames",
-            )
-    chain = buf.chain(parent, child)  # InputError when the trees do not connect
-    dynamic = [s for s in chain if not s.static]
-    chain_text = " -> ".join([chain[0].frm] + [s.to for s in chain]) if chain else parent
-    if not dynamic:
-        raise InputError(
-            f"the chain {chain_text} is static: it holds no SLAM pose", p, None, "--truth-frames"
-        )
+    dynamic, chain_text = _truth_chain(buf, parent, child, p)
     edges = tf_messages(bag)
-
-    def messages(step):
-        key = (step.to, step.frm) if step.inverted else (step.frm, step.to)
-        return key, edges[key]
-
-    counted = [messages(s) for s in dynamic]
-    (ce_key, ce), ce_step = min(
-        zip(counted, dynamic, strict=True), key=lambda x: len(x[0][1].time_s)
-    )
-    if ce_step.inverted:
-        raise InputError(
-            f"the SLAM edge {ce_key[0]} -> {ce_key[1]} points from {child} towards {parent}; "
-            f"give the truth frames as {child}:{parent}'s parent first",
-            p,
-            None,
-            "--truth-frames",
-        )
+    ce = _correction_edge(edges, dynamic, parent, child, p)
     stamps = ce.time_s - float(stamp_offset_s)
     t_j = joints.time_s
     keep = _span(stamps, t_j[0], t_j[-1])
@@ -151,7 +194,7 @@ def load_slam_bag(
         below = buf.chain(ce.child, child)
         for s in below:
             if not s.static:
-                k, e = messages(s)
+                e = edges[_edge_key(s)]
                 keep &= _span(stamps, e.time_s[0], e.time_s[-1])
         stamps = stamps[keep]
         above = buf.chain(parent, ce.parent) if ce.parent != parent else ()
@@ -201,23 +244,6 @@ def load_slam_bag(
     return SlamBag(str(p), motions, recording, chain_text, correction, increments, meta)
 
 
-def wheel_increments(t, right, left, start_s, end_s) -> tuple[np.ndarray, np.ndarray]:
-    """The wheel rotations of each interval [start_s, end_s] as sampled: the differences of the
-    wheel angles at the interval's ends and at every wheel sample between them. Two arrays of
-    shape (n, K), rows zero padded; each row sums to the interval's rotation."""
-    rows_r, rows_l = [], []
-    for a, b in zip(start_s, end_s, strict=True):
-        inside = t[(t > a) & (t < b)]
-        tt = np.r_[a, inside, b]
-        rows_r.append(np.diff(np.interp(tt, t, right)))
-        rows_l.append(np.diff(np.interp(tt, t, left)))
-    k = max((len(x) for x in rows_r), default=1)
-    out_r, out_l = np.zeros((len(rows_r), k)), np.zeros((len(rows_r), k))
-    for i, (x, y) in enumerate(zip(rows_r, rows_l, strict=True)):
-        out_r[i, : len(x)], out_l[i, : len(y)] = x, y
-    return out_r, out_l
-
-
 def _recording(p: Path, jt, t, right, left, stamps, motions, corr, odo, truth, meta) -> Recording:
     """The wheel-rate run with the SLAM truth at the update instants used (other samples are
     not truth: ``meta['truth_samples']`` lists the valid indices)."""
@@ -247,3 +273,29 @@ def _recording(p: Path, jt, t, right, left, stamps, motions, corr, odo, truth, m
         ground_truth=gt,
         meta={**meta, "truth": "slam", "truth_samples": [int(i) for i in idx]},
     )
+
+
+def load_slam_bags(
+    paths: Sequence[str | Path],
+    truth_frames: tuple[str, str],
+    bag: BagOptions,
+    *,
+    ticks_per_rev: float | None = None,
+    stamp_offset_s: float = 0.0,
+) -> list[SlamBag]:
+    """:func:`load_slam_bag` of every bag of ``paths`` with the joints of ``bag``; InputError
+    when a path is given twice (its runs would count twice)."""
+    from .recordings import refuse_repeated
+
+    return [
+        load_slam_bag(
+            p,
+            truth_frames,
+            joint_topic=bag.joint_topic,
+            right_joint=bag.right_joint,
+            left_joint=bag.left_joint,
+            ticks_per_rev=ticks_per_rev,
+            stamp_offset_s=stamp_offset_s,
+        )
+        for p in refuse_repeated(paths)
+    ]

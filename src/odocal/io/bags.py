@@ -25,6 +25,7 @@ import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -426,7 +427,7 @@ def _pose_of(msg, msgtype: str):
 
 def pose_series(bag: BagContents, topic: str) -> TopicSeries:
     """x_m, y_m, yaw_rad (unwrapped) of a pose or odometry topic."""
-    msgs, mt = bag.messages[topic], bag.msgtype(topic)
+    msgs, mt = bag.messages[topic], bag.msgtype(topic) or ""
     _need(msgs, bag.path, topic)
     rows = []
     for _, m in msgs:
@@ -532,7 +533,8 @@ def joint_series(
             )
     if right == left:
         raise InputError(f"the right and left joints are both '{right}'", path, None, topic)
-    kept, rows = [], []
+    kept: list[tuple[int, Any]] = []
+    rows: list[tuple[float, float]] = []
     for item in msgs:
         m = item[1]
         nm = list(m.name)

@@ -23,12 +23,14 @@ from __future__ import annotations
 import hashlib
 import os
 import re
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
 from ..core.recording import Recording
 from ..errors import InputError
+from .bag_options import NO_BAG_OPTIONS, BagOptions
 from .bags import BAG_SUFFIXES, is_bag
 from .textfile import read_text
 
@@ -40,14 +42,26 @@ _OPTI_RUN = re.compile(r"^(?P<id>.+)_run-(?P<n>\d+)\.csv$")
 MAX_WALK_DEPTH = 4
 
 
-def _load_bag(path: Path, bag_options: dict) -> list[Recording]:
+def _load_bag(path: Path, bag: BagOptions, ticks_per_rev: float | None) -> list[Recording]:
     from .bag_recording import load_bag_recording
 
-    opts = {k: v for k, v in bag_options.items() if v is not None}
-    return [load_bag_recording(path, **opts)]
+    return [
+        load_bag_recording(
+            path,
+            joint_topic=bag.joint_topic,
+            truth_topic=bag.truth_topic,
+            imu_topic=bag.imu_topic,
+            right_joint=bag.right_joint,
+            left_joint=bag.left_joint,
+            ticks_per_rev=ticks_per_rev,
+            invert_right=bag.invert_right,
+            invert_left=bag.invert_left,
+            imu_axis=bag.imu_axis,
+        )
+    ]
 
 
-def _load_file(path: Path, ticks_per_rev) -> list[Recording]:
+def _load_file(path: Path, ticks_per_rev: float | None) -> list[Recording]:
     from .generic_csv import load_generic_csv, looks_like_generic_csv
     from .optiodom import is_optiodom_dataset, load_optiodom_dataset
 
@@ -100,7 +114,9 @@ def _holds_runs(folder: Path, depth: int) -> bool:
     return any(d.is_dir() and _holds_runs(d, depth + 1) for d in entries)
 
 
-def _load_folder(path: Path, ticks_per_rev, skipped: list[str], depth: int = 0):
+def _load_folder(
+    path: Path, ticks_per_rev: float | None, skipped: list[str], depth: int = 0
+) -> list[Recording]:
     """The runs in folder ``path``; what holds none is appended to ``skipped`` (relative)."""
     from .generic_csv import load_generic_csv
     from .optiodom import is_optiodom_dataset, load_optiodom_dataset
@@ -142,7 +158,7 @@ def _load_folder(path: Path, ticks_per_rev, skipped: list[str], depth: int = 0):
     return out
 
 
-def _identity(path: Path):
+def _identity(path: Path) -> tuple[int, int] | None:
     try:
         st = os.stat(path)
     except OSError:
@@ -163,19 +179,18 @@ def _fingerprint(r: Recording) -> str:
 
 
 def load_recordings(
-    paths,
+    paths: str | Path | Sequence[str | Path],
     *,
     ticks_per_rev: float | None = None,
     warnings: list[str] | None = None,
-    **bag_options,
+    bag: BagOptions = NO_BAG_OPTIONS,
 ) -> list[Recording]:
     """Every run found in ``paths`` (files, bags, folders; see module docstring), in order.
 
-    ``ticks_per_rev`` applies to generic CSVs with tick columns whose header does not give it.
-    ``bag_options`` (joint_topic, truth_topic, imu_topic, right_joint, left_joint,
-    ticks_per_rev) are passed to ``odocal.io.bag_recording.load_bag_recording``; None values are
-    dropped. ``warnings``: a list that receives what the reader has to say (folder entries
-    skipped, runs with identical data).
+    ``ticks_per_rev`` applies to generic CSVs with tick columns whose header does not give it,
+    and to the joint positions of bags. ``bag``: the topics, joints and IMU axis of the bags
+    (:func:`odocal.io.bag_recording.load_bag_recording`). ``warnings``: a list that receives
+    what the reader has to say (folder entries skipped, runs with identical data).
 
     Raises InputError when a run is given twice (see module docstring) or none is found.
     """
@@ -183,13 +198,13 @@ def load_recordings(
         paths = [paths]
     out: list[Recording] = []
     notes: list[str] = []
-    seen: dict = {}
+    seen: dict[tuple[int, int], str | Path] = {}
     for p in paths:
         path = Path(p)
         if not path.exists():
             raise InputError("no such file or folder", path)
         if is_bag(path):
-            found = _load_bag(path, {**bag_options, "ticks_per_rev": ticks_per_rev})
+            found = _load_bag(path, bag, ticks_per_rev)
         elif path.is_dir():
             skipped: list[str] = []
             found = _load_folder(path, ticks_per_rev, skipped)
@@ -225,7 +240,7 @@ def load_recordings(
     return out
 
 
-def refuse_repeated(paths) -> list[Path]:
+def refuse_repeated(paths: Sequence[str | Path]) -> list[Path]:
     """``paths`` as Paths; InputError if two of them are the same file or folder (also through
     a link): the runs would count twice."""
     seen: dict = {}
@@ -244,7 +259,7 @@ def refuse_repeated(paths) -> list[Path]:
     return out
 
 
-def require_ground_truth(recordings: list[Recording], purpose: str) -> None:
+def require_ground_truth(recordings: Sequence[Recording], purpose: str) -> None:
     """InputError naming the first run without ground truth (``purpose`` says who needs it)."""
     for r in recordings:
         if r.ground_truth is None:

@@ -1,0 +1,261 @@
+"""``odocal fit BAG --method gyro``: the gyro-only heading calibration, the IMU's rotation against
+the wheel odometry's (:mod:`odocal.calibration.gyro`).
+
+:func:`gyro_fit` is the route itself, I/O-free over a loaded bag (as evo's ``main_ape.ape()``);
+:func:`fit_gyro_bag` reads the bag and calls it; :func:`fit_gyro` adds the nominal geometry, the
+absurd-result check and the exports. The router :func:`odocal.app.fit.fit` chooses this route.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..calibration.gyro import GyroResult, gyro_calibration, integrate_rate
+from ..calibration.result import ABSURD_FRACTION
+from ..core.model import WheelGeometry
+from ..core.odometry import wheel_heading
+from ..errors import CalibrationError, InputError
+from ..io.bag_gyro import GyroBag, read_gyro_bag
+from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
+from ..io.outputs import OutputPlan
+from ..io.robot_file import load_robot
+from .common import NO_EXPORTS, Exports, RobotSpec
+
+__all__ = ["GyroFitResult", "gyro_fit", "fit_gyro_bag", "fit_gyro"]
+
+
+@dataclass(frozen=True)
+class GyroFitResult:
+    """A gyro-only calibration from a bag, with the calibrated geometry when the nominal one is
+    known (effective wheelbase = nominal b x wheelbase_multiplier; diameters unchanged)."""
+
+    gyro: GyroResult
+    nominal: WheelGeometry | None
+    geometry: WheelGeometry | None
+    written: tuple[Path, ...] = ()
+
+    method = "gyro"
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        return tuple(self.gyro.warnings)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON of ``odocal fit BAG --method gyro --json``."""
+        out = self.gyro.as_dict()
+        if self.geometry is not None:
+            out.update({f"calibrated_{k}": v for k, v in self.geometry.as_dict().items()})
+        return out
+
+
+def _odometry_heading(
+    loaded: GyroBag,
+    wheel_geometry: WheelGeometry | None,
+    invert_right: bool,
+    invert_left: bool,
+    meta: dict[str, Any],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+    """Time (s), heading (rad) and speed (m/s, or None) of the wheel odometry; its source goes
+    into ``meta``. JointState: the wheel-angle heading with ``wheel_geometry``; Odometry: the
+    pose yaw (unwrapped), its twist's yaw rate integrated only if the pose never turns."""
+    od = loaded.odometry
+    if loaded.from_joints:
+        assert wheel_geometry is not None  # read_gyro_bag refuses joints without it
+        yaw, speed = wheel_heading(
+            od.time_s,
+            od.values["right"],
+            od.values["left"],
+            wheel_geometry,
+            invert_right=invert_right,
+            invert_left=invert_left,
+        )
+        meta.update(odometry_source="joint_states", **od.meta)
+        return od.time_s, yaw, speed
+    yaw = od.values["yaw"]
+    meta["odometry_source"] = "pose_yaw"
+    if np.ptp(yaw) < 1e-9 and np.any(np.abs(od.values["yaw_rate"]) > 1e-6):
+        yaw = integrate_rate(od.time_s, od.values["yaw_rate"])
+        meta["odometry_source"] = "twist_integrated"
+    return od.time_s, yaw, od.values["speed"]
+
+
+def _mounting(
+    loaded: GyroBag, imu_rotation: np.ndarray | None, meta: dict[str, Any]
+) -> tuple[np.ndarray | None, str | None]:
+    """The IMU's mounting (R_base_imu) and where it came from: ``imu_rotation`` if given, else
+    the bag's ``/tf_static`` chain (then ``meta['tf_chain']``), else none (detected later)."""
+    if imu_rotation is not None:
+        return imu_rotation, "rotation"
+    if loaded.mounting is None:
+        return None, None
+    frame = loaded.imu.frame_id
+    same = loaded.mounting_parent == frame.lstrip("/")
+    meta["tf_chain"] = f"{loaded.mounting_parent} -> {frame}"
+    return loaded.mounting, ("imu frame_id is the base frame" if same else "tf_static")
+
+
+def gyro_fit(
+    loaded: GyroBag,
+    *,
+    wheel_geometry: WheelGeometry | None = None,
+    imu_axis: str | None = None,
+    imu_rotation: np.ndarray | None = None,
+    invert_right: bool = False,
+    invert_left: bool = False,
+    bias: Any = "auto",
+    min_still_s: float = 1.0,
+) -> GyroResult:
+    """The gyro route, I/O-free: :func:`~odocal.calibration.gyro.gyro_calibration` of a loaded
+    bag (:func:`fit_gyro_bag` says what is read and how)."""
+    meta: dict[str, Any] = {
+        "bag": str(loaded.path),
+        "imu_topic": loaded.imu.topic,
+        "odom_topic": loaded.odometry.topic,
+    }
+    t_o, yaw, speed = _odometry_heading(loaded, wheel_geometry, invert_right, invert_left, meta)
+    rotation, source = _mounting(loaded, imu_rotation, meta)
+    try:
+        result = gyro_calibration(
+            loaded.imu.time_s,
+            loaded.imu.values["angular_velocity"],
+            t_o,
+            odom_yaw_rad=yaw,
+            odom_speed_m_s=speed,
+            rotation=rotation,
+            imu_axis=imu_axis,
+            mounting_source=source,
+            bias=bias,
+            min_still_s=min_still_s,
+            meta=meta,
+        )
+    except CalibrationError as exc:
+        hint = ""
+        if loaded.from_joints and "opposite directions" in str(exc):
+            hint = "; or the wheel joints are swapped"
+        raise InputError(
+            f"{exc}{hint} (IMU '{loaded.imu.topic}', odometry '{loaded.odometry.topic}')",
+            loaded.path,
+        ) from None
+    if wheel_geometry is not None:
+        b = float(wheel_geometry.wheelbase_m)
+        extra = {"wheelbase_used_m": b, "wheelbase_corrected_m": b * result.wheelbase_multiplier}
+        result = replace(result, meta={**result.meta, **extra})
+    return result
+
+
+def fit_gyro_bag(
+    path: str | Path,
+    *,
+    odom_topic: str | None = None,
+    imu_topic: str | None = None,
+    joint_topic: str | None = None,
+    imu_axis: str | None = None,
+    wheel_geometry: WheelGeometry | None = None,
+    imu_rotation: np.ndarray | None = None,
+    right_joint: str | None = None,
+    left_joint: str | None = None,
+    invert_right: bool = False,
+    invert_left: bool = False,
+    bias: Any = "auto",
+    min_still_s: float = 1.0,
+) -> GyroResult:
+    """Gyro-only heading calibration from a bag (see :mod:`odocal.calibration.gyro`).
+
+    The odometric rotation comes from a ``nav_msgs/Odometry`` topic (its POSE yaw, unwrapped:
+    the controller's own integrated heading, which also covers dropped messages and is not
+    smoothed like the twist; the twist's angular.z is integrated only if the pose never turns),
+    or from JointState wheel angles with ``wheel_geometry`` (nominal diameters and wheelbase).
+    Topic defaults: explicit topics win; else the only Odometry topic; else the JointState topic
+    (needs ``wheel_geometry``). IMU mounting: ``imu_axis`` if given, else ``/tf_static`` (base
+    frame = the odometry's child frame, or base_link / base_footprint), else detected.
+    With ``wheel_geometry`` the result's meta also holds ``wheelbase_used_m`` and
+    ``wheelbase_corrected_m`` (with an Odometry topic, pass the geometry the controller ran with).
+    ``imu_rotation`` (shape (3, 3), R_base_imu, e.g. from
+    :func:`~odocal.calibration.gyro.rotation_from_rpy`) overrides ``/tf_static``.
+    Returns a :class:`~odocal.calibration.gyro.GyroResult`. Bags only: reads it with
+    :func:`odocal.io.bag_gyro.read_gyro_bag`.
+    """
+    options = BagOptions(
+        joint_topic=joint_topic,
+        imu_topic=imu_topic,
+        odom_topic=odom_topic,
+        right_joint=right_joint,
+        left_joint=left_joint,
+    )
+    loaded = read_gyro_bag(
+        path,
+        options,
+        have_geometry=wheel_geometry is not None,
+        mounting=imu_axis is None and imu_rotation is None,
+    )
+    return gyro_fit(
+        loaded,
+        wheel_geometry=wheel_geometry,
+        imu_axis=imu_axis,
+        imu_rotation=imu_rotation,
+        invert_right=invert_right,
+        invert_left=invert_left,
+        bias=bias,
+        min_still_s=min_still_s,
+    )
+
+
+def fit_gyro(
+    bag: str | Path,
+    *,
+    robot: RobotSpec = None,
+    exports: Exports = NO_EXPORTS,
+    options: BagOptions = NO_BAG_OPTIONS,
+    force: bool = False,
+) -> GyroFitResult:
+    """``odocal fit BAG --method gyro``: the gyro's rotation against the wheel odometry's, with
+    the topics, joints and IMU axis of ``options``; the ``exports`` need the nominal geometry
+    (``robot``).
+
+    A wheelbase multiplier more than 25 % from 1 is absurd for a calibration: CalibrationError
+    (nothing written) unless ``force``."""
+    plan = OutputPlan([Path(bag), *_robot_file(robot)])
+    exports.register(plan)
+    nominal = load_robot(robot).nominal if robot else None
+    result = fit_gyro_bag(
+        bag,
+        odom_topic=options.odom_topic or None,
+        imu_topic=options.imu_topic or None,
+        joint_topic=options.joint_topic or None,
+        imu_axis=options.imu_axis or None,
+        wheel_geometry=nominal,
+        right_joint=options.right_joint or None,
+        left_joint=options.left_joint or None,
+        invert_right=options.invert_right,
+        invert_left=options.invert_left,
+    )
+    if (exports.out or exports.ros2) and nominal is None:
+        raise InputError("--out/--ros2 with --method gyro need the nominal geometry: --robot")
+    m = float(result.wheelbase_multiplier)
+    if abs(m - 1) > ABSURD_FRACTION and not force:
+        raise CalibrationError(
+            f"wheelbase_multiplier = {m:.6g} is {100 * (m - 1):+.0f} % from 1: absurd for a "
+            "calibration; check the IMU axis and the wheel joints; nothing written (--force "
+            "accepts the result anyway)"
+        )
+    geometry = None
+    written: tuple[Path, ...] = ()
+    if nominal is not None:
+        geometry = WheelGeometry(
+            nominal.diameter_right_m,
+            nominal.diameter_left_m,
+            nominal.wheelbase_m * result.wheelbase_multiplier,
+        )
+        written = exports.write(plan, geometry, nominal, record={"method": "gyro"})
+    return GyroFitResult(result, nominal, geometry, written)
+
+
+def _robot_file(robot: RobotSpec) -> list[Path]:
+    """``robot`` if it names an existing file (not a built-in robot or a Robot)."""
+    if isinstance(robot, (str, Path)) and robot and Path(robot).exists():
+        return [Path(robot)]
+    return []

@@ -1,0 +1,320 @@
+"""``odocal fit`` on relative motions: the relative-motion calibration (Censi et al. 2013) of the
+wheel geometry and the sensor's mounting, from ``.tuple`` files, from bags whose truth is a SLAM
+pose on /tf (``--truth-frames``) or from bags with a 2D laser (``--method scan``).
+
+:func:`fit_relative` is the route itself, I/O-free over loaded relative motions (as evo's
+``main_ape.ape()``); :func:`fit_tuple_files`, :func:`fit_slam_bags` and :func:`fit_scan_bags`
+load each kind of input, call it and write what was asked for. The router
+:func:`odocal.app.fit.fit` chooses among them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from ..calibration.censi import SensorOdometryFit, fit_censi
+from ..calibration.relative_motions import RelativeMotions, stack_motions
+from ..calibration.scan_matching import ScanIntervals, scan_interval_motions
+from ..core.model import WheelGeometry
+from ..errors import CalibrationError, InputError
+from ..io.bag_options import BagOptions
+from ..io.bag_scan import ScanBag, read_scan_bag
+from ..io.bag_slam import SlamBag, load_slam_bags
+from ..io.bags import is_bag
+from ..io.outputs import OutputPlan
+from ..io.robot_file import load_robot
+from ..io.tuples import read_tuples
+from .common import NO_EXPORTS, Exports, RobotSpec, refuse_absurd
+
+__all__ = [
+    "RelativeSource",
+    "TupleInput",
+    "ScanSummary",
+    "RelativeFitResult",
+    "fit_relative",
+    "is_tuple_file",
+    "fit_tuple_files",
+    "fit_slam_bags",
+    "fit_scan_bags",
+]
+
+#: Where the relative motions came from.
+RelativeSource = Literal["tuples", "slam", "scan"]
+
+
+@dataclass(frozen=True)
+class TupleInput:
+    """One ``.tuple`` file of a fit: its path and how many tuples it holds."""
+
+    path: str
+    tuples: int
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"path": self.path, "tuples": self.tuples}
+
+
+@dataclass(frozen=True)
+class ScanSummary:
+    """One bag of a scan-matching fit: the topics, the scans and intervals matched, and the
+    laser's mounting the matcher started from (x_m, y_m, yaw_rad on the base)."""
+
+    bag: str
+    scan_topic: str
+    joint_topic: str
+    scans: int
+    intervals: ScanIntervals
+    mount_guess: tuple[float, float, float]
+    mount_source: str
+    warnings: tuple[str, ...]
+
+    def as_dict(self) -> dict[str, Any]:
+        iv = self.intervals
+        x, y, yaw = self.mount_guess
+        return {
+            "bag": self.bag,
+            "scan_topic": self.scan_topic,
+            "joint_topic": self.joint_topic,
+            "scans": self.scans,
+            "interval_scans": iv.interval_scans,
+            "intervals": iv.intervals,
+            "matched": iv.matched,
+            "not_converged": iv.not_converged,
+            "degenerate": iv.degenerate,
+            "mount_guess": {"x_m": x, "y_m": y, "yaw_rad": yaw},
+            "mount_source": self.mount_source,
+            "warnings": list(self.warnings),
+        }
+
+
+@dataclass(frozen=True)
+class RelativeFitResult:
+    """A relative-motion fit, the nominal geometry it is compared with, its inputs and the files
+    written.
+
+    Attributes
+    ----------
+    fit : SensorOdometryFit
+        The geometry and the sensor's mounting.
+    nominal : WheelGeometry or None
+    recordings : int
+        Files or bags given.
+    source : {'tuples', 'slam', 'scan'}
+    tuple_files, slam_bags, scans : tuple
+        The inputs of each source (the others empty).
+    written : tuple of Path
+    forced : tuple of str
+        The absurd-result messages accepted with ``force``.
+    """
+
+    fit: SensorOdometryFit
+    nominal: WheelGeometry | None
+    recordings: int
+    source: RelativeSource
+    tuple_files: tuple[TupleInput, ...] = ()
+    slam_bags: tuple[SlamBag, ...] = ()
+    scans: tuple[ScanSummary, ...] = ()
+    written: tuple[Path, ...] = ()
+    forced: tuple[str, ...] = ()
+    load_warnings: tuple[str, ...] = ()
+
+    @property
+    def method(self) -> Literal["relative", "scan"]:
+        """The method, as ``odocal fit --method`` names it."""
+        return "scan" if self.source == "scan" else "relative"
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """The fit's warnings, and the absurd-result messages accepted with ``force``."""
+        own = tuple(self.fit.warnings)
+        return own + tuple(w for w in self.forced if w not in own)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON of ``odocal fit --json`` for relative motions."""
+        out = self.fit.as_dict()
+        out["warnings"] = list(self.load_warnings) + list(self.warnings)
+        out["nominal"] = None if self.nominal is None else self.nominal.as_dict()
+        if self.source == "tuples":
+            out["inputs"] = [t.as_dict() for t in self.tuple_files]
+        elif self.source == "slam":
+            out["slam"] = [b.as_dict() for b in self.slam_bags]
+        else:
+            out["method"] = "scan"
+            out["scan"] = [s.as_dict() for s in self.scans]
+        return out
+
+
+def fit_relative(
+    motions: Sequence[RelativeMotions],
+    nominal: WheelGeometry | None,
+    *,
+    sensor_pose: tuple[float, float, float] | None = None,
+    force: bool = False,
+) -> tuple[SensorOdometryFit, tuple[str, ...]]:
+    """The relative-motion route, I/O-free: the calibration of the intervals of every source in
+    ``motions`` together (``sensor_pose`` fixed, else estimated), and the absurd-result
+    messages accepted with ``force`` (without it a result more than 25 % from ``nominal`` is
+    a CalibrationError)."""
+    m = stack_motions(motions)
+    result = fit_censi(
+        m.phi_right_rad,
+        m.phi_left_rad,
+        m.sensor_motion,
+        sensor_pose=sensor_pose,
+        nominal=nominal,
+        wheel_increments=m.increments,
+    )
+    return result, tuple(refuse_absurd(result.geometry, nominal, force))
+
+
+def is_tuple_file(path: str | Path) -> bool:
+    """A ``.tuple`` file of relative motions, by its name."""
+    return Path(path).suffix.lower() == ".tuple"
+
+
+def _export(
+    plan: OutputPlan,
+    result: SensorOdometryFit,
+    nominal: WheelGeometry | None,
+    method: str,
+    exports: Exports,
+) -> tuple[Path, ...]:
+    """PARAMS.yaml and the ros2_control file of a relative-motion fit (the sensor's mounting
+    beside the values)."""
+    record: dict[str, str | float] = {
+        "method": method,
+        "sensor_x_m": result.sensor_x_m,
+        "sensor_y_m": result.sensor_y_m,
+        "sensor_yaw_rad": result.sensor_yaw_rad,
+    }
+    return exports.write(plan, result.geometry, nominal, record=record)
+
+
+def _nominal(robot: RobotSpec) -> WheelGeometry | None:
+    return load_robot(robot).nominal if robot else None
+
+
+def fit_tuple_files(
+    paths: Sequence[str | Path],
+    plan: OutputPlan,
+    *,
+    robot: RobotSpec = None,
+    exports: Exports = NO_EXPORTS,
+    force: bool = False,
+) -> RelativeFitResult:
+    """``fit FILE.tuple ...``: the relative motions of ``.tuple`` files (the sensor's mounting
+    estimated too)."""
+    nominal = _nominal(robot)
+    data = [read_tuples(p) for p in paths]
+    motions = [RelativeMotions(d.phi_right_rad, d.phi_left_rad, d.sensor_motion) for d in data]
+    result, forced = fit_relative(motions, nominal, force=force)
+    written = _export(plan, result, nominal, "relative", exports)
+    inputs = tuple(TupleInput(str(d.path), len(d.phi_right_rad)) for d in data)
+    return RelativeFitResult(
+        result, nominal, len(paths), "tuples", tuple_files=inputs, written=written, forced=forced
+    )
+
+
+def fit_slam_bags(
+    paths: Sequence[str | Path],
+    plan: OutputPlan,
+    truth_frames: tuple[str, str],
+    bag: BagOptions,
+    *,
+    robot: RobotSpec = None,
+    ticks_per_rev: float | None = None,
+    slam_stamp_offset_s: float = 0.0,
+    exports: Exports = NO_EXPORTS,
+    force: bool = False,
+) -> RelativeFitResult:
+    """``fit BAG ... --truth-frames PARENT:CHILD``: the relative motions between the SLAM's
+    updates (docs/slam-truth.md); the truth frame is the base itself (no mounting)."""
+    nominal = _nominal(robot)
+    for p in paths:
+        if not is_bag(p):
+            raise InputError("--truth-frames needs ROS bags", p)
+    bags = load_slam_bags(
+        paths, truth_frames, bag, ticks_per_rev=ticks_per_rev, stamp_offset_s=slam_stamp_offset_s
+    )
+    result, forced = fit_relative(
+        [b.relative_motions for b in bags], nominal, sensor_pose=(0.0, 0.0, 0.0), force=force
+    )
+    written = _export(plan, result, nominal, "relative", exports)
+    return RelativeFitResult(
+        result, nominal, len(paths), "slam", slam_bags=tuple(bags), written=written, forced=forced
+    )
+
+
+def _scan_summary(loaded: ScanBag, intervals: ScanIntervals) -> ScanSummary:
+    mount = loaded.mount
+    return ScanSummary(
+        str(loaded.path),
+        loaded.scans.topic,
+        loaded.joints.topic,
+        int(len(loaded.scans.time_s)),
+        intervals,
+        (float(mount[0]), float(mount[1]), float(mount[2])),
+        loaded.mount_source,
+        loaded.warnings,
+    )
+
+
+def scan_intervals(
+    loaded: ScanBag, nominal: WheelGeometry, interval_s: float
+) -> tuple[RelativeMotions, ScanSummary]:
+    """The scan-matched intervals of one loaded bag
+    (:func:`~odocal.calibration.scan_matching.scan_interval_motions`) and its summary;
+    InputError naming the bag and the scan topic when they cannot be matched."""
+    joints, scans = loaded.joints, loaded.scans
+    try:
+        intervals = scan_interval_motions(
+            scans.time_s,
+            scans.points_m,
+            joints.time_s,
+            joints.values["right"],
+            joints.values["left"],
+            nominal,
+            np.asarray(loaded.mount, dtype=float),
+            interval_s,
+        )
+    except CalibrationError as exc:
+        raise InputError(str(exc), loaded.path, None, scans.topic) from None
+    return intervals.motions, _scan_summary(loaded, intervals)
+
+
+def fit_scan_bags(
+    paths: Sequence[str | Path],
+    plan: OutputPlan,
+    bag: BagOptions,
+    *,
+    robot: RobotSpec = None,
+    ticks_per_rev: float | None = None,
+    scan_interval_s: float = 0.5,
+    exports: Exports = NO_EXPORTS,
+    force: bool = False,
+) -> RelativeFitResult:
+    """``fit BAG --method scan``: the laser's motion between scans ``scan_interval_s`` apart
+    from scan matching, then the relative-motion calibration (the laser's mounting too). Needs
+    the nominal geometry (``robot``) for the matcher's start."""
+    if not robot:
+        raise InputError(
+            "--method scan needs the nominal geometry (--robot ROBOT.yaml): the scan matcher "
+            "starts from the odometry's motion"
+        )
+    nominal = load_robot(robot).nominal
+    motions, summaries = [], []
+    for p in paths:
+        if not is_bag(p):
+            raise InputError("--method scan needs ROS bags with laser scans", p)
+        m, s = scan_intervals(read_scan_bag(p, bag, ticks_per_rev), nominal, scan_interval_s)
+        motions.append(m)
+        summaries.append(s)
+    result, forced = fit_relative(motions, nominal, force=force)
+    written = _export(plan, result, nominal, "scan", exports)
+    return RelativeFitResult(
+        result, nominal, len(paths), "scan", scans=tuple(summaries), written=written, forced=forced
+    )

@@ -1,0 +1,291 @@
+"""``odocal fit`` on runs with ground truth (or, for the heading method, a gyro heading): the
+trajectory fit and its relatives, the linear estimator and UMBmark and the heading method on
+recorded squares.
+
+:func:`fit_runs` is the route itself, I/O-free over loaded recordings (as evo's
+``main_ape.ape()``); :func:`fit_run_files` loads the runs, calls it and writes what was asked
+for. The router :func:`odocal.app.fit.fit` chooses this route.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from ..calibration.banded import banded_after_constant
+from ..calibration.fit_methods import FitMethod, HeadingSource
+from ..calibration.fit_settings import (
+    DEFAULT_SQUARES,
+    DEFAULT_TRAJECTORY,
+    SquareSettings,
+    TrajectorySettings,
+)
+from ..calibration.linear import fit_linear
+from ..calibration.result import GeometryFit
+from ..calibration.squares import fit_recorded_squares
+from ..calibration.trajectory import fit_trajectory
+from ..calibration.turning import with_bands
+from ..core.model import Robot, WheelGeometry
+from ..core.recording import Recording
+from ..errors import CalibrationError, InputError
+from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
+from ..io.outputs import OutputPlan
+from ..io.recordings import load_recordings, require_ground_truth
+from .check import CheckResult, check_loaded
+from .common import (
+    NO_EXPORTS,
+    Exports,
+    RobotSpec,
+    load_warnings,
+    nominal_geometry,
+    optional_robot,
+    refuse_absurd,
+)
+from .measured import MeasuredRobot, measure_robot
+
+__all__ = [
+    "FitResult",
+    "check_heading_source",
+    "fit_recordings",
+    "fit_runs",
+    "fit_run_files",
+    "CHECK_MAX_BLOCKS",
+]
+
+# The finest segment layout the log check follows within fit (its dense covariance grows as
+# blocks^2): beyond, the check is skipped with a warning.
+CHECK_MAX_BLOCKS = 300
+
+
+@dataclass(frozen=True)
+class FitResult:
+    """A fit from recorded runs, the nominal geometry it is compared with, the loaders'
+    warnings and the files written.
+
+    Attributes
+    ----------
+    fit : GeometryFit
+    nominal : WheelGeometry or None
+    recordings : int
+        Runs loaded.
+    load_warnings : tuple of str
+        What the readers said.
+    written : tuple of Path
+    log_check : CheckResult or None
+        Is this log enough? (trajectory fits; docs/check.md)
+    forced : tuple of str
+        The absurd-result messages accepted with ``force``.
+    measured : MeasuredRobot or None
+        The robot measured from the runs (``robot_out``).
+    """
+
+    fit: GeometryFit
+    nominal: WheelGeometry | None
+    recordings: int
+    load_warnings: tuple[str, ...] = ()
+    written: tuple[Path, ...] = ()
+    log_check: CheckResult | None = None
+    forced: tuple[str, ...] = ()
+    measured: MeasuredRobot | None = None
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """The fit's warnings, and the absurd-result messages accepted with ``force``."""
+        own = tuple(self.fit.warnings)
+        return own + tuple(w for w in self.forced if w not in own)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON of ``odocal fit --json``."""
+        out = self.fit.as_dict()
+        out["warnings"] = list(self.load_warnings) + list(self.warnings)
+        out["nominal"] = None if self.nominal is None else self.nominal.as_dict()
+        if self.log_check is not None:
+            out["log_check"] = self.log_check.as_dict()
+        return out
+
+
+def check_heading_source(method: str | None, heading_source: HeadingSource) -> None:
+    """The gyro heading is for the heading method only."""
+    if heading_source == "gyro" and method != "heading":
+        raise InputError(f"--heading-source gyro is for --method heading, not {method}")
+
+
+def _check_method_settings(
+    method: str, settings: TrajectorySettings, squares: SquareSettings
+) -> None:
+    """The settings that only some methods take."""
+    if method != "trajectory" and (settings.wheelbase_model != "constant" or settings.motion_mix):
+        raise InputError(
+            "--wheelbase-model banded and --motion-mix need the trajectory method "
+            "(--method trajectory)",
+            field="method",
+        )
+    check_heading_source(method, squares.heading_source)
+
+
+def _trajectory_fit(
+    recordings: Sequence[Recording], nominal: WheelGeometry | None, settings: TrajectorySettings
+) -> GeometryFit:
+    """The trajectory fit, with its effective wheelbase per band of motion (and the single
+    wheelbase for a motion mix), or the banded model started from it."""
+    fit = fit_trajectory(recordings, nominal=nominal, settings=settings)
+    used = [r for r in recordings if r.name in set(fit.runs)]
+    if settings.wheelbase_model == "banded":
+        return banded_after_constant(fit, used, nominal, settings)
+    return with_bands(fit, used, settings.motion_mix)
+
+
+def fit_recordings(
+    recordings: Sequence[Recording],
+    method: FitMethod = "trajectory",
+    *,
+    nominal: WheelGeometry | None = None,
+    ran_with: WheelGeometry | None = None,
+    settings: TrajectorySettings = DEFAULT_TRAJECTORY,
+    squares: SquareSettings = DEFAULT_SQUARES,
+) -> GeometryFit:
+    """Calibrate from loaded recordings (with ground truth, or for the heading method a gyro
+    heading: ``squares.heading_source='gyro'``); returns a ``GeometryFit``.
+
+    Trajectory fits also report the effective wheelbase per band of motion
+    (``effective_wheelbase``, :mod:`odocal.calibration.turning`). ``settings.wheelbase_model``
+    'banded' fits one wheelbase per excited band (:func:`~odocal.calibration.banded.fit_banded`;
+    refused with the reason when the runs excite fewer than two bands). ``settings.motion_mix``
+    (band -> share of the rotation) makes the result's wheelbase the single value that is best
+    for that mix, with what it costs (``motion_mix``)."""
+    _check_method_settings(method, settings, squares)
+    if squares.heading_source != "gyro":
+        require_ground_truth(recordings, f"--method {method}")
+    if method == "linear":
+        return fit_linear(recordings, nominal)
+    if method == "trajectory":
+        return _trajectory_fit(recordings, nominal, settings)
+    if method in ("umbmark", "heading"):
+        return fit_recorded_squares(
+            recordings,
+            method,
+            side_m=squares.side_m,
+            ran_with=ran_with,
+            nominal=nominal,
+            umbmark_form=squares.umbmark_form,
+            heading_source=squares.heading_source,
+            sides=squares.sides,
+        )
+    raise InputError(f"unknown method {method!r}", field="method")
+
+
+def _used(recordings: Sequence[Recording], fit: GeometryFit) -> list[Recording]:
+    """The recordings the fit used."""
+    names = set(fit.runs)
+    return [r for r in recordings if r.name in names]
+
+
+def _with_log_check(
+    recordings: Sequence[Recording],
+    fit: GeometryFit,
+    robot: Robot | None,
+    settings: TrajectorySettings,
+) -> tuple[GeometryFit, CheckResult | None]:
+    """Is this log enough? What the recorded motion let this fit see (docs/check.md); skipped
+    (a warning on the fit) for a segment layout too fine to check quickly."""
+    try:
+        check = check_loaded(
+            _used(recordings, fit),
+            fit.geometry,
+            robot,
+            settings=settings,
+            max_blocks_per_run=CHECK_MAX_BLOCKS,
+        )
+    except CalibrationError as exc:
+        return replace(fit, warnings=[*fit.warnings, f"log check skipped: {exc}"]), None
+    return fit, check
+
+
+def fit_runs(
+    recordings: Sequence[Recording],
+    method: FitMethod = "trajectory",
+    *,
+    robot: Robot | None = None,
+    settings: TrajectorySettings = DEFAULT_TRAJECTORY,
+    squares: SquareSettings = DEFAULT_SQUARES,
+    force: bool = False,
+    measure: bool = False,
+) -> FitResult:
+    """The route of runs with ground truth, I/O-free: calibrate ``recordings`` with ``method``
+    against the nominal geometry (``robot``'s, else the runs' most common ran-with parameters),
+    check the log (trajectory fits) and with ``measure`` measure the robot (this calibration's
+    systematic errors, k from the repeated runs, the tracker's jitter).
+
+    A result more than 25 % from nominal is absurd for a calibration: CalibrationError unless
+    ``force`` (then its messages are warnings)."""
+    nominal = nominal_geometry(robot, recordings)
+    ran_with = None if robot is None else robot.believed_geometry
+    fit = fit_recordings(
+        recordings, method, nominal=nominal, ran_with=ran_with, settings=settings, squares=squares
+    )
+    log_check = None
+    if method == "trajectory":
+        fit, log_check = _with_log_check(recordings, fit, robot, settings)
+    forced = refuse_absurd(fit.geometry, nominal, force)
+    measured = None
+    if measure:
+        if nominal is None:
+            raise InputError("--robot-out needs the nominal geometry: give --robot ROBOT.yaml")
+        measured = measure_robot(_used(recordings, fit), nominal, fit=fit, force=force)
+    return FitResult(
+        fit,
+        nominal,
+        len(recordings),
+        load_warnings(recordings),
+        (),
+        log_check,
+        tuple(forced),
+        measured,
+    )
+
+
+def fit_run_files(
+    paths: Sequence[str | Path],
+    method: FitMethod,
+    plan: OutputPlan,
+    *,
+    robot: RobotSpec = None,
+    settings: TrajectorySettings = DEFAULT_TRAJECTORY,
+    squares: SquareSettings = DEFAULT_SQUARES,
+    bag: BagOptions = NO_BAG_OPTIONS,
+    ticks_per_rev: float | None = None,
+    exports: Exports = NO_EXPORTS,
+    plot: str | Path | None = None,
+    robot_out: str | Path | None = None,
+    force: bool = False,
+) -> FitResult:
+    """Load the runs in ``paths``, :func:`fit_runs` them, and write (all or none, checked
+    against ``plan``'s inputs) the ``exports``, the effective-wheelbase figure into the folder
+    ``plot`` and the measured robot to ``robot_out``."""
+    notes: list[str] = []
+    recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, warnings=notes, bag=bag)
+    result = fit_runs(
+        recordings,
+        method,
+        robot=optional_robot(robot),  # read once: it may be a pipe
+        settings=settings,
+        squares=squares,
+        force=force,
+        measure=robot_out is not None,
+    )
+    files: dict[Path, Any] = {}
+    if plot is not None:
+        from ..plot.fit import fit_figures
+
+        files.update(fit_figures(result.fit, plot))
+    if robot_out is not None and result.measured is not None:
+        from ..io.robot_file import robot_yaml
+
+        measured = result.measured
+        files[Path(robot_out)] = robot_yaml(measured.robot, measured.describe())
+    written = exports.write(
+        plan, result.fit.geometry, result.nominal, files=files, record={"method": result.fit.method}
+    )
+    return replace(result, load_warnings=tuple(notes) + result.load_warnings, written=written)
