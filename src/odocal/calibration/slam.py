@@ -53,7 +53,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -201,6 +201,12 @@ class SlamMotions:
     limits : SlamLimits
         The thresholds used.
     warnings : tuple of str
+    every_start_s, every_end_s : ndarray, shape (N,)
+        All N intervals between consecutive update instants, dropped ones included (s).
+    every_motion : ndarray, shape (N, 3)
+        The SLAM's base motion over each of them (as ``sensor_motion``).
+    every_used : ndarray of bool, shape (N,)
+        Which of them are the n used intervals.
     """
 
     mode: str
@@ -216,6 +222,10 @@ class SlamMotions:
     dropped: tuple[DroppedInterval, ...]
     limits: SlamLimits
     warnings: tuple[str, ...]
+    every_start_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    every_end_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    every_motion: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    every_used: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=bool))
 
     def __len__(self) -> int:
         return len(self.start_s)
@@ -271,6 +281,7 @@ def slam_relative_motions(
     truth_pose=None,
     limits: SlamLimits | None = None,
     first_is_update: bool | None = None,
+    wheel_time_odometry_pose=None,
 ) -> SlamMotions:
     """Relative motions between consecutive SLAM update instants (module docstring).
 
@@ -297,6 +308,12 @@ def slam_relative_motions(
         Whether the first message is an update instant. Default: yes unless the value is repeated
         while the odometry moves (without odometry: repeated at all), which shows a publisher
         that republishes its last value; its first message was sent at an unknown time.
+    wheel_time_odometry_pose : ndarray, shape (m, 3), optional
+        When the SLAM's clock is offset from the wheels' (:mod:`odocal.calibration.time_offset`):
+        the odometry at the wheel-clock instant of each stamp (``stamp - offset``), for the jump
+        test and the distance and rotation of each interval; ``wheel_angle_*`` must then be
+        taken at those instants too. The truth is still composed at the stamps (a SLAM looks the
+        odometry up at its own stamp, so the composed pose there is the pose at its scan).
 
     Raises
     ------
@@ -317,7 +334,10 @@ def slam_relative_motions(
         truth_pose,
     )
     u = _update_instants(p, lim, first_is_update)
-    iv = _intervals(p, u.idx)
+    wheel_odo = _poses(wheel_time_odometry_pose, "wheel_time_odometry_pose", p.m)
+    if wheel_odo is not None:
+        wheel_odo = _unwrapped(wheel_odo[np.argsort(np.asarray(stamp_s, float), kind="stable")])
+    iv = _intervals(p, u.idx, wheel_odo)
     reason = _gate(iv, lim)
     used = reason == ""
     segment = np.cumsum(reason == "jump")  # for a used interval: the jumps before it
@@ -362,6 +382,10 @@ def slam_relative_motions(
         dropped=dropped,
         limits=lim,
         warnings=tuple(warnings),
+        every_start_s=_readonly(np.array(p.t[iv.a], dtype=float)),
+        every_end_s=_readonly(np.array(p.t[iv.b], dtype=float)),
+        every_motion=_readonly(np.array(iv.true_motion, dtype=float)),
+        every_used=_readonly(np.array(used, dtype=bool)),
     )
 
 
@@ -503,17 +527,18 @@ class _Intervals:
     warnings: list[str]
 
 
-def _intervals(p: _Prepared, idx: np.ndarray) -> _Intervals:
+def _intervals(p: _Prepared, idx: np.ndarray, wheel_odo: np.ndarray | None) -> _Intervals:
     """The true and odometric motion over each interval, their discrepancy, and the distance
-    and rotation along the path."""
+    and rotation along the path (the odometry at the wheel-clock instants where given)."""
     a, b = idx[:-1], idx[1:]
     dt = p.t[b] - p.t[a]
     true_motion = se2_relative(p.truth[a], p.truth[b], wrap=False)
     odo_motion: np.ndarray | None
     disc: np.ndarray | None
     warnings = []
-    if p.odo is not None:
-        odo_motion = se2_relative(p.odo[a], p.odo[b], wrap=False)
+    odo = wheel_odo if wheel_odo is not None else p.odo
+    if odo is not None:
+        odo_motion = se2_relative(odo[a], odo[b], wrap=False)
         disc = se2_relative(odo_motion, true_motion)
     else:
         odo_motion = disc = None
@@ -523,7 +548,7 @@ def _intervals(p: _Prepared, idx: np.ndarray) -> _Intervals:
         )
     # how far the robot went and how much it turned: along the odometry (else the SLAM pose) at
     # every message, so that a curved or back-and-forth interval counts its whole path
-    path = p.odo if p.odo is not None else p.truth
+    path = odo if odo is not None else p.truth
     if p.m >= 2:
         steps = se2_relative(path[:-1], path[1:], wrap=False)
         cum_dist = np.r_[0.0, np.cumsum(np.hypot(steps[:, 0], steps[:, 1]))]

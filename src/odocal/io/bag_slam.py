@@ -11,7 +11,7 @@ only the update instants, and relative motions, can be trusted).
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -19,16 +19,16 @@ import numpy as np
 
 from ..calibration.relative_motions import RelativeMotions, wheel_increments
 from ..calibration.slam import SlamLimits, SlamMotions, slam_relative_motions
+from ..calibration.time_offset import TimeOffset, estimate_time_offset
+from ..core.model import WheelGeometry
 from ..core.recording import Recording
 from ..core.transforms import RigidTransforms, planar_pose
-from ..errors import InputError
+from ..errors import CalibrationError, InputError
 from .bag_options import BagOptions
+from .bag_wheels import choose_wheels, wheel_series
 from .bags import (
-    JOINT_STATE,
     EdgeMessages,
     check_bag_path,
-    joint_series,
-    pick_topic,
     present,
     read_bag,
     tf_messages,
@@ -57,7 +57,11 @@ class SlamBag:
     is valid only at the update instants (for validation).
 
     ``chain`` describes the lookup (e.g. 'map -> odom -> base_link'); ``correction`` the edge
-    whose messages are the update instants, or None in direct mode."""
+    whose messages are the update instants, or None in direct mode. ``time_offset`` the SLAM's
+    clock against the wheels' (applied: the intervals' wheel rotations are taken at the wheel
+    clock); ``every_increments`` the wheel increments of every interval between updates,
+    dropped ones included (for the held-out check); ``wheels`` where the wheel rotations came
+    from."""
 
     path: str
     motions: SlamMotions
@@ -66,6 +70,10 @@ class SlamBag:
     correction: str | None
     increments: tuple[np.ndarray, np.ndarray]
     meta: dict = field(default_factory=dict)
+    time_offset: TimeOffset = field(default_factory=lambda: TimeOffset.given("slam", 0.0))
+    every_increments: tuple[np.ndarray, np.ndarray] | None = None
+    wheels: str = ""
+    wheel_warnings: tuple[str, ...] = ()
 
     @property
     def relative_motions(self) -> RelativeMotions:
@@ -144,93 +152,106 @@ def _correction_edge(
 def load_slam_bag(
     path,
     truth_frames: tuple[str, str] = ("map", "base_link"),
+    options: BagOptions | None = None,
     *,
-    joint_topic: str | None = None,
-    right_joint: str | None = None,
-    left_joint: str | None = None,
     ticks_per_rev: float | None = None,
     stamp_offset_s: float = 0.0,
+    ran_with: WheelGeometry | None = None,
+    time_offset_s: float | None = None,
     limits: SlamLimits | None = None,
 ) -> SlamBag:
     """The SLAM relative motions of one bag (module docstring).
 
     ``stamp_offset_s`` (s) is subtracted from the correction's stamps: slam_toolbox post-dates
     ``map -> odom`` by its ``transform_timeout`` (0.2 s by default), AMCL by its
-    ``transform_tolerance``."""
+    ``transform_tolerance``. ``time_offset_s``: how late the SLAM's clock runs behind the
+    wheels' (its pose stamped t is the robot's pose at wheel time t - offset); None estimates
+    it (:mod:`odocal.calibration.time_offset`). The wheels are the joint states, else the
+    controller's odometry inverted through ``ran_with`` (:mod:`odocal.io.bag_wheels`)."""
+    opts = options if options is not None else BagOptions()
     parent, child = truth_frames
     p = check_bag_path(path)
 
     def choose(info):
-        jt = pick_topic(info, joint_topic, (JOINT_STATE,), "wheel joints", p, "--joint-topic")
         if present(info, "/tf") is None:
             raise InputError(
                 f"no /tf topic: the truth frames {parent}:{child} need the SLAM pose on /tf", p
             )
-        return {"joints": jt, "tf": "/tf", "tf_static": present(info, "/tf_static")}
+        return {**choose_wheels(info, opts, p), "tf": "/tf",
+                "tf_static": present(info, "/tf_static")}  # fmt: skip
 
     bag = read_bag(p, choose)
-    jt = bag.picked["joints"]
-    joints = joint_series(bag, jt, right_joint, left_joint, ticks_per_rev)
+    wheels = wheel_series(bag, opts, ticks_per_rev, ran_with)
     buf = transform_buffer(bag)
     dynamic, chain_text = _truth_chain(buf, parent, child, p)
     edges = tf_messages(bag)
     ce = _correction_edge(edges, dynamic, parent, child, p)
     stamps = ce.time_s - float(stamp_offset_s)
-    t_j = joints.time_s
+    t_j = wheels.time_s
     keep = _span(stamps, t_j[0], t_j[-1])
     direct = len(dynamic) == 1
-    meta: dict = {"bag": str(p), "joint_topic": jt, "chain": chain_text}
-    correction_pose = odometry_pose = truth_pose = None
+    below: list[Any] = [] if direct else list(buf.chain(ce.child, child))
+    for s in below:
+        if not s.static:
+            e = edges[_edge_key(s)]
+            keep &= _span(stamps, e.time_s[0], e.time_s[-1])
+    meta: dict = {"bag": str(p), "joint_topic": wheels.topic, "chain": chain_text,
+                  "wheels": wheels.describe()}  # fmt: skip
+    meta.update(
+        correction_edge=None if direct else f"{ce.parent} -> {ce.child}",
+        slam_messages=int(len(ce.time_s)),
+        slam_messages_outside_joints=int((~keep).sum()),
+        stamp_offset_s=float(stamp_offset_s),
+    )
+    if int(keep.sum()) < 2:
+        raise InputError(
+            f"only {int(keep.sum())} SLAM message(s) on '{ce.parent} -> {ce.child}' fall within "
+            f"the wheel data's time span ({t_j[0]:.3f} to {t_j[-1]:.3f} s): the sources do not "
+            "overlap in time",
+            p,
+        )
+    stamps = stamps[keep]
     if direct:
         # the chain's only moving edge is the SLAM pose itself (e.g. map -> base_link)
-        stamps = stamps[keep]
         truth_pose = planar_pose(
             buf.lookup(parent, child, stamps, max_extrapolation_s=1e-9).transform
         )
-        correction = None
+        correction_pose = odometry_pose = None
     else:
         # the chain splits at the correction edge: parent -> ce.child (the correction, with any
         # static part above it) and ce.child -> child (the odometry, at the correction stamps)
-        below = buf.chain(ce.child, child)
-        for s in below:
-            if not s.static:
-                e = edges[_edge_key(s)]
-                keep &= _span(stamps, e.time_s[0], e.time_s[-1])
-        stamps = stamps[keep]
         above = buf.chain(parent, ce.parent) if ce.parent != parent else ()
         corr = RigidTransforms(ce.translation_m[keep], ce.quaternion_xyzw[keep])
         if above:
             corr = buf.lookup(parent, ce.parent, stamps).transform @ corr
         correction_pose = planar_pose(corr)
         odometry_pose = planar_pose(buf.lookup(ce.child, child, stamps).transform)
-        correction = f"{ce.parent} -> {ce.child}"
-    meta.update(
-        correction_edge=correction,
-        slam_messages=int(len(ce.time_s)),
-        slam_messages_outside_joints=int((~keep).sum()),
-        stamp_offset_s=float(stamp_offset_s),
-    )
-    if len(stamps) < 2:
-        raise InputError(
-            f"only {len(stamps)} SLAM message(s) on '{ce.parent} -> {ce.child}' fall within the "
-            f"wheel joints' time span ({t_j[0]:.3f} to {t_j[-1]:.3f} s)",
-            p,
-        )
-    right, left = joints.values["right"], joints.values["left"]
-    wr, wl = np.interp(stamps, t_j, right), np.interp(stamps, t_j, left)
-    motions = slam_relative_motions(
-        stamps,
-        wr,
-        wl,
-        correction_pose=correction_pose,
-        odometry_pose=odometry_pose,
-        truth_pose=truth_pose,
-        limits=limits,
-    )
+        truth_pose = None
+    right, left = wheels.right, wheels.left
+    lim = limits if limits is not None else SlamLimits()
+
+    def motions_at(offset: float, gate: SlamLimits) -> SlamMotions:
+        at = stamps - offset
+        wr, wl = np.interp(at, t_j, right), np.interp(at, t_j, left)
+        wheel_odo = None
+        if offset and odometry_pose is not None:
+            span = (at >= t_j[0]) & (at <= t_j[-1])
+            lo = max(float(at[span][0]), *(float(edges[_edge_key(s)].time_s[0]) for s in below
+                                            if not s.static))  # fmt: skip
+            hi = min(float(at[span][-1]), *(float(edges[_edge_key(s)].time_s[-1]) for s in below
+                                             if not s.static))  # fmt: skip
+            wheel_odo = planar_pose(buf.lookup(ce.child, child, np.clip(at, lo, hi)).transform)
+        return slam_relative_motions(
+            stamps, wr, wl, correction_pose=correction_pose, odometry_pose=odometry_pose,
+            truth_pose=truth_pose, limits=gate, wheel_time_odometry_pose=wheel_odo,
+        )  # fmt: skip
+
+    offset = _slam_offset(p, motions_at, lim, t_j, right, left, time_offset_s)
+    motions = motions_at(offset.offset_s, lim)
     recording = _recording(
         p,
-        jt,
-        joints.time_s,
+        wheels.topic,
+        t_j,
         right,
         left,
         stamps,
@@ -238,22 +259,56 @@ def load_slam_bag(
         correction_pose,
         odometry_pose,
         truth_pose,
-        meta | joints.meta,
+        meta | wheels.meta,
+        offset.offset_s,
     )
-    increments = wheel_increments(t_j, right, left, motions.start_s, motions.end_s)
-    return SlamBag(str(p), motions, recording, chain_text, correction, increments, meta)
+    d = offset.offset_s
+    increments = wheel_increments(t_j, right, left, motions.start_s - d, motions.end_s - d)
+    every = wheel_increments(t_j, right, left, motions.every_start_s - d, motions.every_end_s - d)
+    return SlamBag(
+        str(p), motions, recording, chain_text, meta["correction_edge"], increments, meta,
+        offset, every, wheels.describe(), wheels.warnings,
+    )  # fmt: skip
 
 
-def _recording(p: Path, jt, t, right, left, stamps, motions, corr, odo, truth, meta) -> Recording:
+def _slam_offset(
+    p: Path,
+    motions_at: Any,
+    lim: SlamLimits,
+    t_j: np.ndarray,
+    right: np.ndarray,
+    left: np.ndarray,
+    given: float | None,
+) -> TimeOffset:
+    """The SLAM's clock offset: given, else registered on the heading changes between every
+    pair of consecutive update instants (dropped intervals included: the estimator's robust
+    loss deals with real jumps, and a clock offset is what makes ordinary turns look like
+    jumps)."""
+    if given is not None:
+        return TimeOffset.given("slam", given)
+    try:
+        first = motions_at(0.0, replace(lim, min_intervals=1))
+        return estimate_time_offset(
+            t_j, right, left, first.every_start_s, first.every_end_s,
+            first.every_motion[:, 2], source="slam",
+        )  # fmt: skip
+    except CalibrationError as exc:
+        return TimeOffset("slam", 0.0, None, "not estimated", warnings=(f"{exc}; taken as 0",))
+
+
+def _recording(
+    p: Path, jt, t, right, left, stamps, motions, corr, odo, truth, meta, offset: float
+) -> Recording:
     """The wheel-rate run with the SLAM truth at the update instants used (other samples are
-    not truth: ``meta['truth_samples']`` lists the valid indices)."""
+    not truth: ``meta['truth_samples']`` lists the valid indices), placed at their wheel-clock
+    instants (``stamps - offset``)."""
     from ..core.transforms import se2_compose
 
     pose = np.array(truth if truth is not None else se2_compose(corr, odo), dtype=float)
     # the update instants the motions used (their starts and ends), as wheel-sample indices
     used_t = np.unique(np.r_[motions.start_s, motions.end_s])
     on = np.isin(stamps, used_t)
-    t_u, pose_u = stamps[on], pose[on]
+    t_u, pose_u = stamps[on] - offset, pose[on]
     pose_u[:, 2] = np.unwrap(pose_u[:, 2])  # less than half a turn between updates
     # insert the instants into the wheel-rate time base (angles interpolated there)
     tt = np.union1d(t[(t >= t_u[0]) & (t <= t_u[-1])], t_u)
@@ -282,8 +337,10 @@ def load_slam_bags(
     *,
     ticks_per_rev: float | None = None,
     stamp_offset_s: float = 0.0,
+    ran_with: WheelGeometry | None = None,
+    time_offset_s: float | None = None,
 ) -> list[SlamBag]:
-    """:func:`load_slam_bag` of every bag of ``paths`` with the joints of ``bag``; InputError
+    """:func:`load_slam_bag` of every bag of ``paths`` with the topics of ``bag``; InputError
     when a path is given twice (its runs would count twice)."""
     from .recordings import refuse_repeated
 
@@ -291,11 +348,11 @@ def load_slam_bags(
         load_slam_bag(
             p,
             truth_frames,
-            joint_topic=bag.joint_topic,
-            right_joint=bag.right_joint,
-            left_joint=bag.left_joint,
+            bag,
             ticks_per_rev=ticks_per_rev,
             stamp_offset_s=stamp_offset_s,
+            ran_with=ran_with,
+            time_offset_s=time_offset_s,
         )
         for p in refuse_repeated(paths)
     ]
