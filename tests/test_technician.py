@@ -254,7 +254,7 @@ def test_paired_tests_and_the_bootstrap_spread():
 
 
 def test_the_analytic_rule_compares_expected_values():
-    res = odocal.design(engine="analytic").result
+    res = odocal.design_track(engine="analytic").result
     assert res.trials is None and all(c.trials is None for c in res.candidates)
     rec = res.recommendation
     assert rec.test == "exact" and res.recommended.side_m == 1.5
@@ -357,10 +357,11 @@ def test_compare_reports_progress(monkeypatch):
 def test_import_odocal_is_light_and_gives_the_everyday_api():
     code = (
         "import sys, odocal; assert 'numpy' not in sys.modules, 'eager import'; "
-        "names = ['simulate', 'calibrate', 'fit', 'design', 'validate', 'export', 'make_robot', "
-        "'Robot', 'WheelGeometry', 'DesignSpec']; "
+        "names = ['simulate', 'calibrate', 'fit', 'design_track', 'validate', 'export', "
+        "'make_robot', 'Robot', 'WheelGeometry', 'DesignSpec']; "
         "assert all(callable(getattr(odocal, n)) for n in names); "
-        "import odocal.design.sweep as s; assert callable(odocal.design) and s.run_design"
+        "import odocal.design.sweep as s; assert odocal.design is sys.modules['odocal.design']; "
+        "assert callable(odocal.design_track) and s.run_design"
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
@@ -375,7 +376,7 @@ def test_the_readme_python_example_runs(tmp_path, monkeypatch):
     cal = odocal.calibrate("runs.csv", robot)
     assert abs(cal.calibration.E_b - 1.02) < 4 * cal.calibration.uncertainty.stderr[0]
     odocal.export(cal, ros2="diff_drive.yaml")
-    best = odocal.design(robot, odocal.DesignSpec(trials=200)).result.recommended
+    best = odocal.design_track(robot, odocal.DesignSpec(trials=200)).result.recommended
     assert 0.2 <= best.side_m <= 4.0
     with pytest.raises(odocal.InputError, match="different units"):
         odocal.make_robot(66, 0.16)

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .. import __version__
 from ..design.reproduce import Reproduction
 from ..design.reproduce import reproduce as reproduce_paper
 from ..design.sweep import Progress
@@ -163,7 +164,7 @@ def reproduce(
     names = {k: name for k, (name, _) in figures.items()}
     report = folder / "REPORT.md"
     contents: dict = {folder / name: fig for name, fig in figures.values()}
-    text = reproduce_markdown(rep, names) if rep is not None else ""
+    text = reproduce_markdown(rep, names, __version__) if rep is not None else ""
     if real is not None:
         text += ("\n" if text else "") + real_experiment_markdown(
             real, names, heading_level=2 if rep is not None else 1
