@@ -20,8 +20,8 @@ from odocal.core.runs import EndPoseRuns
 from odocal.core.simulate import drive, measure
 from odocal.core.tracks import polygon
 from odocal.design.recommend import recommend
-from odocal.design.result import scaled_sizes
 from odocal.design.robust import range_design
+from odocal.design.spec import DesignSpec, scaled_sizes
 from odocal.design.sweep import run_design
 from odocal.io.ros2_export import read_ros2_params
 from odocal.presets import PRESETS
@@ -227,7 +227,10 @@ def test_common_random_numbers_make_the_pick_stable_across_seeds():
     sides = [0.5, 1.0, 1.5, 2.0, 4.0, 8.0]
     picks = [
         run_design(
-            PRESETS["paper-fig5"], np.random.default_rng(s), side_lengths_m=sides, resamples=0
+            PRESETS["paper-fig5"],
+            DesignSpec(side_lengths_m=tuple(sides), trials=800),
+            np.random.default_rng(s),
+            resamples=0,
         ).recommended.side_m
         for s in range(6)
     ]
@@ -236,8 +239,8 @@ def test_common_random_numbers_make_the_pick_stable_across_seeds():
 
 def test_paired_tests_and_the_bootstrap_spread():
     r = run_design(
-        PRESETS["paper-fig5"], np.random.default_rng(0), side_lengths_m=[0.5, 1.0, 2.0],
-        trials=300, resamples=50,
+        PRESETS["paper-fig5"], DesignSpec(side_lengths_m=(0.5, 1.0, 2.0), trials=300),
+        np.random.default_rng(0), resamples=50,
     )  # fmt: skip
     assert r.paired and r.recommendation.test == "paired"
     a, b = (c.post_errors_m for c in r.candidates[1:])
@@ -246,8 +249,8 @@ def test_paired_tests_and_the_bootstrap_spread():
     shares = dict(r.recommendation.spread)
     assert sum(shares.values()) == pytest.approx(1.0) and r.recommendation.resamples == 50
     indep = run_design(
-        PRESETS["paper-fig5"], np.random.default_rng(0), side_lengths_m=[1.0, 2.0], trials=300,
-        common_random_numbers=False, resamples=0,
+        PRESETS["paper-fig5"], DesignSpec(side_lengths_m=(1.0, 2.0), trials=300),
+        np.random.default_rng(0), common_random_numbers=False, resamples=0,
     )  # fmt: skip
     assert not indep.paired and indep.recommendation.test == "welch"
     assert abs(np.corrcoef(*(c.post_errors_m for c in indep.candidates))[0, 1]) < 0.2
@@ -306,7 +309,8 @@ def test_the_range_design_holds_for_every_plausible_robot():
     robot = Robot(TB3_TRUE.nominal, measurement=TB3_TRUE.measurement)
     lengths, validation = scaled_sizes(0.16)
     levels = {"E_b": (0.97, 1.03), "E_d": (0.995, 1.005), "k_m": (1e-7, 3e-6)}
-    d = range_design(robot, side_lengths_m=lengths[::2], validation=validation, levels=levels)
+    spec = DesignSpec(side_lengths_m=lengths[::2], validation=validation)
+    d = range_design(robot, spec, levels=levels)
     assert len(d.scenarios) == 8
     i = d.index
     E = d.errors

@@ -49,7 +49,7 @@ _API: dict[str, tuple[str, str | None]] = {
     "SystematicError": ("odocal.core.model", "SystematicError"),
     "NonSystematicError": ("odocal.core.model", "NonSystematicError"),
     "MeasurementNoise": ("odocal.core.model", "MeasurementNoise"),
-    "DesignSpec": ("odocal.design.result", "DesignSpec"),
+    "DesignSpec": ("odocal.design.spec", "DesignSpec"),
     "ValidationTrack": ("odocal.design.result", "ValidationTrack"),
     "CalibrateResult": ("odocal.app.calibrate", "CalibrateResult"),
     "FitResult": ("odocal.app.fit", "FitResult"),
@@ -139,7 +139,8 @@ if TYPE_CHECKING:  # for type checkers and IDEs; never executed
         SystematicError,
         WheelGeometry,
     )
-    from .design.result import DesignSpec, ValidationTrack
+    from .design.result import ValidationTrack
+    from .design.spec import DesignSpec
     from .errors import CalibrationError, InputError, ModelError, OdocalError
     from .io.robot_file import load_params, load_robot
     from .presets import PRESETS

@@ -3,6 +3,7 @@
 Pure numpy/scipy (no plotting or argparse). See docs/design.md.
 
 - :mod:`.metrics`: closed-form leg heading errors and the systematic share (Figs. 3, 4).
+- :mod:`.spec`: what a design is asked (:class:`DesignSpec`; methods, criteria, engines).
 - :mod:`.result`: candidates, error summaries, the validation track.
 - :mod:`.sweep`: the Monte-Carlo design procedure (Figs. 5, 6, 9) and its JSON.
 - :mod:`.recommend`: the size-selection rule on candidate summaries.
@@ -18,17 +19,20 @@ from .metrics import (
     leg_heading_systematic_rad,
     systematic_share,
 )
-from .recommend import Comparison, Recommendation, recommend
+from .recommend import Comparison, Recommendation, Stability, recommend
 from .result import Candidate, ErrorSummary, ValidationTrack
+from .spec import DesignSpec
 from .sweep import DesignResult, SimulationSettings, design_json, run_design
 
 __all__ = [
     "Candidate",
     "Comparison",
     "DesignResult",
+    "DesignSpec",
     "ErrorSummary",
     "Recommendation",
     "SimulationSettings",
+    "Stability",
     "ValidationTrack",
     "design_json",
     "leg_heading_noise_rad",

@@ -6,8 +6,6 @@ import math
 
 import numpy as np
 
-from ..design.sweep import stability
-
 __all__ = ["reproduce_markdown", "claim_checks"]
 
 
@@ -135,7 +133,7 @@ def reproduce_markdown(rep, figures: dict, version: str) -> str:
     fi = rep.instrument
     ci = claim_checks(fi, PAPER["chosen_side_m"])
     for c, res in ((c5, f5), (c6, f6), (c9, f9), (ci, fi)):
-        c["stability"] = stability(res)
+        c["stability"] = res.stability
     s4 = rep.fig3.share_at(4.0)
     s8 = rep.fig8.share_at(4.0)
     exp = rep.experiment
@@ -152,9 +150,9 @@ def reproduce_markdown(rep, figures: dict, version: str) -> str:
         beaten = "" if acc else f" (by the {c['beaten_by'].side_m:g} m side)"
         st = c.get("stability")
         spread = ""
-        if st is not None and st["range_m"][0] != st["range_m"][1]:
+        if st is not None and st.indistinguishable:
             spread = (
-                f"; {st['range_m'][0]:g}-{st['range_m'][1]:g} m indistinguishable at "
+                f"; {st.range_m[0]:g}-{st.range_m[1]:g} m indistinguishable at "
                 f"{rep.trials} trials, bootstrap"
             )
         return (

@@ -4,11 +4,16 @@ from __future__ import annotations
 
 import math
 from functools import partial
+from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..design.result import rounded
 from ._figure import method_style, shape_colour
 from ._figure import new_figure as _new_figure
+
+if TYPE_CHECKING:
+    from ..design.sweep import DesignResult
 
 __all__ = [
     "leg_heading_figure",
@@ -239,14 +244,13 @@ def _how(result) -> str:
     return f"{result.trials} Monte-Carlo trials{crn}"
 
 
-def _indistinguishable(result, x: str):
-    from ..design.sweep import stability
-
-    st = stability(result)
+def _indistinguishable(result: DesignResult, x: str) -> tuple[float, float] | None:
+    """The sizes the bootstrap cannot tell apart on the x axis, as the JSON reports them."""
+    st = result.stability
     if st is None:
         return None
-    key = "range_m" if x == "side" else "range_travel_m"
-    return tuple(st[key])
+    lo, hi = st.range_m if x == "side" else st.range_travel_m
+    return rounded(lo), rounded(hi)
 
 
 def design_figures(result) -> dict:
@@ -333,11 +337,10 @@ def range_figures(design) -> dict:
     ax.set_ylim(0.99, 1.15 * top)
     ax.set_xlabel(f"side length of the {shape_name(cands[0].sides)} test track (m)")
     ax.set_ylabel("error after calibration above the best size's")
-    ranges = design.as_dict()["error_range"]["ranges"]
+    eb, ed, k = (design.level_range(key) for key in ("E_b", "E_d", "k_m"))
     ax.set_title(
         f"Design over plausible errors ({len(design.scenarios)} robots, first-order analytic)\n"
-        f"E_b {ranges['E_b'][0]:g}-{ranges['E_b'][1]:g}, E_d {ranges['E_d'][0]:g}-"
-        f"{ranges['E_d'][1]:g}, k {ranges['k_m'][0]:.2g}-{ranges['k_m'][1]:.2g} m"
+        f"E_b {eb[0]:g}-{eb[1]:g}, E_d {ed[0]:g}-{ed[1]:g}, k {k[0]:.2g}-{k[1]:.2g} m"
     )
     ax.grid(alpha=0.3)
     fig.legend(loc="outside lower center", ncol=2, fontsize=8)
