@@ -120,16 +120,16 @@ def comparison_figure(sim: SimulatedComparison | None, real: RealComparison | No
     if real is not None:
         ax = axes.pop(0)
         names, means, lo, hi, colours = [], [], [], [], []
-        for m in real.methods:
-            s = m.summary()["heldout_mean_final_error_m"]
-            if s["mean"] is None:
+        for rm in real.methods:
+            s = rm.heldout
+            if s.mean is None or s.min is None or s.max is None:
                 continue
-            colour, label = method_style(m.name)
-            names.append(f"{label} (n={len(m.per_dataset)})")
+            colour, label = method_style(rm.name)
+            names.append(f"{label} (n={len(rm.per_dataset)})")
             colours.append(colour)
-            means.append(1e3 * s["mean"])
-            lo.append(1e3 * (s["mean"] - s["min"]))
-            hi.append(1e3 * (s["max"] - s["mean"]))
+            means.append(1e3 * s.mean)
+            lo.append(1e3 * (s.mean - s.min))
+            hi.append(1e3 * (s.max - s.mean))
             legend.setdefault(label, None)
         x = np.arange(len(names))
         bars = ax.bar(x, means, yerr=[lo, hi], capsize=3, color=colours, alpha=0.8)
@@ -141,7 +141,7 @@ def comparison_figure(sim: SimulatedComparison | None, real: RealComparison | No
         h = ax.axhline(nominal, color=method_style("nominal")[0], ls="--")
         legend[f"real: nominal ({nominal:.0f} mm)"] = h
         if real.published is not None:
-            pe = 1e3 * real.published["heldout_mean_final_error_m"]
+            pe = 1e3 * real.published.heldout_mean_final_error_m
             legend[f"real: published OptiOdom ({pe:.0f} mm)"] = ax.axhline(pe, color="k", ls=":")
         ax.set_xticks(x, names, rotation=35, ha="right")
         ax.set_ylim(0, 1.15 * max(max(np.add(means, hi)), nominal))
