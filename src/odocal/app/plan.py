@@ -100,7 +100,9 @@ def plan(
         side_m, note = suggested_side(r, sides, progress)
         notes.append(note)
     b = float(r.believed_geometry.wheelbase_m)
-    problem = track_size_problem(b, noise_track[1] if noise_track else side_m)
+    side = noise_track[1] if noise_track else side_m
+    assert side is not None  # given, suggested above, or the noise track's
+    problem = track_size_problem(b, side)
     if problem:
         raise InputError(problem)
     n = runs_per_direction or (DEFAULT_NOISE_RUNS if noise_track else 5)

@@ -15,7 +15,8 @@ from ..design.reproduce import Reproduction
 from ..design.reproduce import reproduce as reproduce_paper
 from ..design.sweep import Progress
 from ..io.outputs import OutputPlan
-from ..io.report import real_experiment_markdown, reproduce_markdown
+from ..io.real_experiment_report import experiment_dict, real_experiment_markdown
+from ..io.report import reproduce_markdown
 
 if TYPE_CHECKING:
     from ..design.real_experiment import RealExperiment
@@ -54,8 +55,6 @@ class ReproduceResult:
                 for name, c in (("fig5", rep.fig5), ("fig6", rep.fig6), ("fig9", rep.fig9))
             }
         if self.real is not None:
-            from ..design.real_experiment import experiment_dict
-
             out["real_experiment"] = experiment_dict(self.real)
         out["written"] = [str(p) for p in ([self.report] if self.report else [])] + [
             str(p) for p in self.figures.values()

@@ -3,6 +3,7 @@ real robot."""
 
 from __future__ import annotations
 
+import argparse
 import sys
 
 from ..errors import InputError
@@ -43,7 +44,7 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from ..app.reproduce import reproduce
 
     if args.out is None and not args.json:
@@ -69,10 +70,10 @@ def run(args) -> int:
                 f"{r.post_error_mean_m:.4f} m (floor {c.floor.mean_m:.4f} m)"
             )
     if res.real is not None:
-        from ..design.real_experiment import verdict
+        from ..design.verdict import judge_experiment
 
         real = res.real
-        v = verdict(real)
+        v = judge_experiment(real)
         print(f"real robot ({len(real.heldout_names)} held-out runs):")
         for s in real.sides_m:
             c = real.calibration(s)
@@ -82,12 +83,12 @@ def run(args) -> int:
                 f"error {c.heldout_error_m * 1000:.1f} mm (design predicted "
                 f"{p.post_error_mean_m * 1000:.1f} mm)"
             )
-        t = real.ttests["heading"]["paired"]
+        t = real.ttests["heading"].paired
         print(
             f"  paired t = {t.t:.2f}, p = {t.p_two_sided:.2g}; design prefers "
-            f"{v['preferred_side_m']:g} m; ordering predicted: "
-            f"{'yes' if v['ordering_predicted'] else 'no'}; difference within the prediction: "
-            f"{'yes' if v['difference_within_prediction'] else 'no'}"
+            f"{v.preferred_side_m:g} m; ordering predicted: "
+            f"{'yes' if v.ordering_predicted else 'no'}; difference within the prediction: "
+            f"{'yes' if v.difference_within_prediction else 'no'}"
         )
     for path in res.figures.values():
         print(f"wrote {path}")

@@ -219,7 +219,7 @@ def real_figures(exp) -> dict[str, tuple[str, object]]:
             "real_effective_wheelbase.png",
             partial(
                 wheelbase_bands_figure,
-                exp.turning,
+                exp.turning.named(),
                 "Effective wheelbase per band of motion (at the diameters of odocal's fit)",
             ),
         ),
