@@ -69,18 +69,15 @@ def run(args: argparse.Namespace) -> int:
                 f"  {name}: recommended side {r.side_m:g} m ({r.travel_m:g} m travel), error "
                 f"{r.post_error_mean_m:.4f} m (floor {c.floor.mean_m:.4f} m)"
             )
-    if res.real is not None:
-        from ..design.verdict import judge_experiment
-
-        real = res.real
-        v = judge_experiment(real)
+    if res.real is not None and res.verdict is not None:
+        real, v = res.real, res.verdict
         print(f"real robot ({len(real.heldout_names)} held-out runs):")
         for s in real.sides_m:
-            c = real.calibration(s)
+            cal = real.calibration(s)
             p = real.prediction.real[s]
             print(
-                f"  heading on the {s:g} m squares: E_b {c.E_b:.5f}, E_d {c.E_d:.6f}, held-out "
-                f"error {c.heldout_error_m * 1000:.1f} mm (design predicted "
+                f"  heading on the {s:g} m squares: E_b {cal.E_b:.5f}, E_d {cal.E_d:.6f}, "
+                f"held-out error {cal.heldout_error_m * 1000:.1f} mm (design predicted "
                 f"{p.post_error_mean_m * 1000:.1f} mm)"
             )
         t = real.ttests["heading"].paired

@@ -108,6 +108,13 @@ def _final_positions(recording: Recording, d_r, d_l, b) -> np.ndarray:
     return np.column_stack([(ds * np.cos(mid)).sum(axis=1), (ds * np.sin(mid)).sum(axis=1)])
 
 
+def _final_truth(recording: Recording) -> np.ndarray:
+    """The ground-truth final pose (x_m, y_m, theta_rad) of a recording."""
+    if recording.ground_truth is None:
+        raise CalibrationError(f"{recording.name}: no ground truth to validate against")
+    return recording.ground_truth[-1]
+
+
 def heldout_errors(heldout: Sequence[Recording], geometry: WheelGeometry) -> np.ndarray:
     """Final position error (m) of every held-out run dead-reckoned with ``geometry`` (scalar
     or batched of shape (B,)); shape (runs,) or (runs, B)."""
@@ -119,7 +126,8 @@ def heldout_errors(heldout: Sequence[Recording], geometry: WheelGeometry) -> np.
     out = []
     for r in heldout:
         p = _final_positions(r, d_r, d_l, b)
-        out.append(np.hypot(r.ground_truth[-1, 0] - p[:, 0], r.ground_truth[-1, 1] - p[:, 1]))
+        end = _final_truth(r)
+        out.append(np.hypot(end[0] - p[:, 0], end[1] - p[:, 1]))
     arr = np.array(out)
     return arr if batched else arr[:, 0]
 
@@ -229,7 +237,8 @@ def _linear_heldout_errors(
         p = _final_positions(r, probes[:, 0], probes[:, 1], probes[:, 2])
         jac = (p[1:4] - p[4:7]) / (2 * h[:, None])  # (3, 2): d position / d parameter
         pos = p[0] + (g - c) @ jac
-        out.append(np.hypot(r.ground_truth[-1, 0] - pos[:, 0], r.ground_truth[-1, 1] - pos[:, 1]))
+        end = _final_truth(r)
+        out.append(np.hypot(end[0] - pos[:, 0], end[1] - pos[:, 1]))
     return np.array(out)
 
 
@@ -807,6 +816,9 @@ class RealExperiment:
         raise KeyError((side_m, method, scope))
 
 
+_GAIN_POINT_NAMES: tuple[tuple[Method, str], ...] = (("heading", "heading"), ("umbmark", "UMBmark"))
+
+
 def _gain_points(
     pooled: dict[tuple[float, Method], SquareCalibration],
     sides: tuple[float, float],
@@ -822,7 +834,7 @@ def _gain_points(
             pooled[(s, method)].heldout_error_m,
             True,
         )
-        for method, name in (("heading", "heading"), ("umbmark", "UMBmark"))
+        for method, name in _GAIN_POINT_NAMES
         for s in sides
     ]
     if default_fit is not None:

@@ -136,8 +136,9 @@ def _evidence_dicts(exp: RealExperiment) -> dict:
     }
 
 
-def experiment_dict(exp: RealExperiment) -> dict:
-    """The ``real_experiment`` object of ``odocal reproduce --realdata --json``."""
+def experiment_dict(exp: RealExperiment, verdict: Verdict | None = None) -> dict:
+    """The ``real_experiment`` object of ``odocal reproduce --realdata --json`` (``verdict``:
+    the experiment's, when already judged)."""
     a, b = exp.sides_m
     heading, umbmark = exp.ttests["heading"], exp.ttests["umbmark"]
     return {
@@ -165,7 +166,7 @@ def experiment_dict(exp: RealExperiment) -> dict:
             **_ttest_dict(umbmark.paired),
             "student": _ttest_dict(umbmark.student),
         },
-        "verdict": verdict_dict(exp, judge_experiment(exp)),
+        "verdict": verdict_dict(exp, judge_experiment(exp) if verdict is None else verdict),
         **_evidence_dicts(exp),
     }
 
@@ -291,8 +292,11 @@ class _Section:
     """What every part of the section needs: the experiment, the heading prefix and the
     figures (key -> file name, relative links)."""
 
-    def __init__(self, exp: RealExperiment, figures: dict[str, str], heading_level: int) -> None:
+    def __init__(
+        self, exp: RealExperiment, figures: dict[str, str], heading_level: int, verdict: Verdict
+    ) -> None:
         self.exp, self.figures, self.h = exp, figures, "#" * heading_level
+        self.verdict = verdict
 
     def img(self, key: str, alt: str) -> str:
         return f"![{alt}]({self.figures[key]})" if key in self.figures else ""
@@ -465,7 +469,7 @@ def _verdict(s: _Section) -> list[str]:
         "",
         f"{s.h}# Verdict",
         "",
-        verdict_text(exp),
+        verdict_text(exp, s.verdict),
         "",
         s.img("real_gain", "Held-out error against the turning gain"),
         "",
@@ -539,12 +543,15 @@ def _turning(s: _Section) -> list[str]:
 
 
 def real_experiment_markdown(
-    exp: RealExperiment, figures: dict[str, str], heading_level: int = 2
+    exp: RealExperiment,
+    figures: dict[str, str],
+    heading_level: int = 2,
+    verdict: Verdict | None = None,
 ) -> str:
     """The report section of the real experiment (``odocal reproduce --realdata``): its
     Tables 1-3, the design's prediction, the verdict and the evidence. ``figures``: key ->
-    file name (relative links)."""
-    s = _Section(exp, figures, heading_level)
+    file name (relative links); ``verdict``: the experiment's, when already judged."""
+    s = _Section(exp, figures, heading_level, judge_experiment(exp) if verdict is None else verdict)
     lines = [
         *_introduction(s),
         *_table1(s),
