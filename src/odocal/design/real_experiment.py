@@ -21,12 +21,16 @@ Real part (no randomness except the bootstrap intervals):
   (the same runs replayed with two parameter sets; the paper's Student test of independent
   validation drives is given beside it).
 
-Predicted part (Monte Carlo): the robot model (nominal, systematic errors, wheel noise k and the
-instrument, measured from the runs) runs the paper's procedure: n CW + n CCW runs on each
-candidate square, heading calibration, validation by replaying the held-out runs' recorded wheel
-rotations through the model (:mod:`odocal.core.replay`), which is exactly what the real validation
-does with the real robot. Candidates: a sweep of sizes (equal runs per direction; the design's
-preference) and the two real configurations (their real run counts; the predicted errors).
+Predicted part (Monte Carlo; :mod:`odocal.design.real_prediction`): the robot model (nominal,
+systematic errors, wheel noise k and the instrument, measured from the runs) runs the paper's
+procedure: n CW + n CCW runs on each candidate square, heading calibration, validation by
+replaying the held-out runs' recorded wheel rotations through the model
+(:mod:`odocal.core.replay`), which is exactly what the real validation does with the real robot.
+Candidates: a sweep of sizes (equal runs per direction; the design's preference) and the two real
+configurations (their real run counts; the predicted errors).
+
+Evidence: how the runs drove (:mod:`odocal.design.real_motion`), the held-out error against the
+turning gain, and the effective wheelbase per band of motion.
 
 The verdict (:mod:`odocal.design.verdict`) compares the predicted ordering and difference with
 the real ones; the JSON and the words are :mod:`odocal.io.real_experiment_report`'s.
@@ -47,37 +51,28 @@ from ..calibration.umbmark import calibrate_umbmark, umbmark_factors
 from ..core.model import Robot, WheelGeometry
 from ..core.odometry import dead_reckon
 from ..core.recording import Recording
-from ..core.replay import chunk_rotations, replay_final_errors
 from ..core.runs import EndPoseRuns
 from ..core.stats import TTest, circular_mean, ttest_paired, ttest_samples
 from ..errors import CalibrationError
-from .metrics import leg_heading_noise_rad, leg_heading_systematic_rad, systematic_share
-from .recommend import Recommendation, recommend
-from .result import Candidate, ErrorSummary, rounded
+from .real_motion import ClosingHeading, MotionProfile, closing_heading_split, motion_profile
+from .real_prediction import Prediction, predict
+from .result import rounded
 from .spec import Method
-from .sweep import FAST, SimulationSettings, calibrate_trials
+from .sweep import FAST, SimulationSettings
 
 __all__ = [
     "SquareCalibration",
     "SizeTTests",
-    "PredictedTTest",
-    "Prediction",
-    "MotionProfile",
-    "ClosingHeading",
     "GainPoint",
     "Turning",
     "RealExperiment",
     "run_real_experiment",
     "square_end_errors",
     "heldout_errors",
-    "motion_profile",
-    "closing_heading_split",
+    "calibrate_squares",
     "gain_curve",
 ]
 
-#: Wheel travel of one replay chunk (m): the deterministic part is exact at any size, the noise
-#: covariance off by O(1/K^2).
-REPLAY_CHUNK_M = 0.05
 BOOTSTRAP = 300
 
 
@@ -96,7 +91,7 @@ def square_end_errors(recordings: Sequence[Recording], geometry: WheelGeometry) 
     return EndPoseRuns(tuple(dirs), np.array(errs))
 
 
-def _final_positions(recording: Recording, d_r, d_l, b) -> np.ndarray:
+def _final_positions(recording, d_r, d_l, b) -> np.ndarray:
     """Dead-reckoned final positions for geometries given as arrays of shape (B,): (B, 2)."""
     dpr = np.diff(recording.wheel_angle_right_rad)
     dpl = np.diff(recording.wheel_angle_left_rad)
@@ -398,310 +393,6 @@ def size_ttests(a: SquareCalibration, b: SquareCalibration) -> SizeTTests:
         ttest_samples(a.heldout_errors_m, b.heldout_errors_m, equal_var=True),
         ttest_samples(a.heldout_errors_m, b.heldout_errors_m),
     )
-
-
-@dataclass(frozen=True)
-class PredictedTTest:
-    """The predicted paired t-test of the two real configurations (first side minus second)
-    over the simulated experiments: median t and p, the shares of experiments with p < 0.05
-    (either way, the first side better, the second better), the share where the first side is
-    worse, and the mean difference (m) with its central 95 % range."""
-
-    first_side_m: float
-    second_side_m: float
-    median_t: float
-    median_p: float
-    fraction_significant: float
-    fraction_first_significantly_better: float
-    fraction_second_significantly_better: float
-    fraction_first_worse: float
-    mean_difference_m: float
-    difference_ci95_m: tuple[float, float]
-    kind: str = "paired"
-
-    def as_dict(self) -> dict:
-        return {
-            "first_side_m": self.first_side_m,
-            "second_side_m": self.second_side_m,
-            "kind": self.kind,
-            "median_t": self.median_t,
-            "median_p": self.median_p,
-            "fraction_significant": self.fraction_significant,
-            "fraction_first_significantly_better": self.fraction_first_significantly_better,
-            "fraction_second_significantly_better": self.fraction_second_significantly_better,
-            "fraction_first_worse": self.fraction_first_worse,
-            "mean_difference_m": self.mean_difference_m,
-            "difference_ci95_m": list(self.difference_ci95_m),
-        }
-
-
-@dataclass(frozen=True)
-class Prediction:
-    """What the design (the model with the measured robot) predicts.
-
-    Attributes
-    ----------
-    robot : Robot
-        The model robot (nominal, systematic errors, k, instrument), running with ``reference``.
-    sweep : tuple of Candidate
-        Candidate squares with ``runs_per_direction`` runs each; validation error = mean
-        held-out error of a replay (module docstring).
-    recommendation : Recommendation
-        The design's rule over ``sweep``.
-    real : dict of float to Candidate
-        Side (m) -> Candidate with the real run counts.
-    floor, uncalibrated : ErrorSummary
-        Mean held-out error with the TRUE geometry, and with the reference (uncalibrated).
-    ttest : PredictedTTest
-        Predicted paired t-test of the two real configurations (first side minus second).
-    trials, runs_per_direction : int
-    """
-
-    robot: Robot
-    sweep: tuple[Candidate, ...]
-    recommendation: Recommendation
-    real: dict[float, Candidate]
-    floor: ErrorSummary
-    uncalibrated: ErrorSummary
-    ttest: PredictedTTest
-    trials: int
-    runs_per_direction: int
-
-    @property
-    def preferred(self) -> Candidate:
-        return self.sweep[self.recommendation.index]
-
-
-def _candidates(
-    robot: Robot,
-    sides_m,
-    n: int,
-    trials: int,
-    rng: np.random.Generator,
-    chunks: Sequence[np.ndarray],
-    settings: SimulationSettings,
-) -> tuple[list[Candidate], np.ndarray]:
-    """Simulated calibrations on squares of ``sides_m`` (n runs per direction) validated by
-    replaying the held-out chunks; returns candidates and per-run errors (C, runs, T)."""
-    sides_m = np.asarray(sides_m, dtype=float)
-    E_b, E_d = calibrate_trials(robot, 4, sides_m, n, trials, "heading", rng, settings)
-    ok = np.isfinite(E_b) & np.isfinite(E_d)
-    geos = robot.believed_geometry.corrected(np.where(ok, E_b, 1.0), np.where(ok, E_d, 1.0))
-    per_run = np.stack(
-        [
-            replay_final_errors(c, robot.true_geometry, robot.nonsystematic, geos, rng)
-            for c in chunks
-        ],
-        axis=1,
-    )  # (C, runs, T)
-    per_run[np.broadcast_to(~ok[:, None, :], per_run.shape)] = np.nan
-    mean = per_run.mean(axis=1)  # (C, T)
-    beta = np.abs(leg_heading_systematic_rad(robot, sides_m))
-    sigma = leg_heading_noise_rad(robot, sides_m)
-    share = systematic_share(beta, sigma, n)
-    out = []
-    for i, L in enumerate(sides_m):
-        s = ErrorSummary.from_samples(mean[i])
-        eb, ed = E_b[i][ok[i]], E_d[i][ok[i]]
-        out.append(
-            Candidate(
-                sides=4,
-                side_m=float(L),
-                travel_m=float(4 * L),
-                systematic_share=float(share[i]),
-                post_error_mean_m=s.mean_m,
-                post_error_std_m=s.std_m,
-                post_error_ci95_m=s.ci95_m,
-                E_b_mean=float(eb.mean()),
-                E_b_std=float(eb.std(ddof=1)),
-                E_d_mean=float(ed.mean()),
-                E_d_std=float(ed.std(ddof=1)),
-                trials=s.n,
-                leg_heading_systematic_rad=float(beta[i]),
-                leg_heading_noise_rad=float(sigma[i]),
-                failed_trials=int(trials - s.n),
-                post_errors_m=mean[i].copy(),
-            )
-        )
-    return out, per_run
-
-
-def _predicted_ttest(a: float, b: float, d: np.ndarray) -> PredictedTTest:
-    """The paired t-test of sides ``a`` against ``b`` in every simulated experiment, from the
-    per-run differences ``d`` of their held-out errors, shape (runs, T)."""
-    n_runs = d.shape[0]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        t = d.mean(axis=0) / (d.std(axis=0, ddof=1) / math.sqrt(n_runs))
-    from scipy.special import stdtr
-
-    p = 2.0 * stdtr(n_runs - 1, -np.abs(t))
-    diff = d.mean(axis=0)
-    fin = np.isfinite(t)
-    lo, hi = (float(v) for v in np.percentile(diff[fin], [2.5, 97.5]))
-    return PredictedTTest(
-        a,
-        b,
-        float(np.median(t[fin])),
-        float(np.median(p[fin])),
-        float(np.mean(p[fin] < 0.05)),
-        float(np.mean((p[fin] < 0.05) & (diff[fin] < 0))),
-        float(np.mean((p[fin] < 0.05) & (diff[fin] > 0))),
-        float(np.mean(diff[fin] > 0)),
-        float(np.mean(diff[fin])),
-        (lo, hi),
-    )
-
-
-def predict(
-    robot: Robot,
-    heldout: Sequence[Recording],
-    real_runs_per_direction: dict[float, int],
-    sweep_sides_m,
-    runs_per_direction: int,
-    trials: int,
-    rng: np.random.Generator,
-    settings: SimulationSettings = FAST,
-    alpha: float = 0.05,
-    tolerance: float = 0.05,
-) -> Prediction:
-    """The design's prediction (module docstring). ``real_runs_per_direction``: side (m) ->
-    runs per direction of the real configuration (two sides, compared in that order)."""
-    chunk_rad = REPLAY_CHUNK_M / (0.5 * float(robot.nominal.mean_diameter_m))
-    chunks = [
-        chunk_rotations(r.wheel_angle_right_rad, r.wheel_angle_left_rad, chunk_rad) for r in heldout
-    ]
-
-    def replayed(geometry: WheelGeometry) -> np.ndarray:
-        """Mean over the held-out runs of their replayed final errors with ``geometry``."""
-        batch = _batch(geometry, trials)
-        return np.mean(
-            [
-                replay_final_errors(c, robot.true_geometry, robot.nonsystematic, batch, rng)[0]
-                for c in chunks
-            ],
-            axis=0,
-        )
-
-    floor = replayed(robot.true_geometry)  # in this order: they share the stream
-    uncal = replayed(robot.believed_geometry)
-    sweep, _ = _candidates(robot, sweep_sides_m, runs_per_direction, trials, rng, chunks, settings)
-    rec = recommend(sweep, alpha, tolerance, "error")
-    real: dict[float, Candidate] = {}
-    per_run: dict[float, np.ndarray] = {}
-    for side, n in real_runs_per_direction.items():
-        cands, pr = _candidates(robot, [side], n, trials, rng, chunks, settings)
-        real[side] = cands[0]
-        per_run[side] = pr[0]  # (runs, T)
-    (a, b) = list(real_runs_per_direction)[:2]
-    ttest = _predicted_ttest(a, b, per_run[a] - per_run[b])
-    return Prediction(
-        robot,
-        tuple(sweep),
-        rec,
-        real,
-        ErrorSummary.from_samples(floor),
-        ErrorSummary.from_samples(uncal),
-        ttest,
-        trials,
-        runs_per_direction,
-    )
-
-
-def _batch(g: WheelGeometry, n: int) -> WheelGeometry:
-    return WheelGeometry.unchecked(
-        np.full((1, n), float(g.diameter_right_m)),
-        np.full((1, n), float(g.diameter_left_m)),
-        np.full((1, n), float(g.wheelbase_m)),
-    )
-
-
-@dataclass(frozen=True)
-class MotionProfile:
-    """How runs drive: 90th percentiles of the forward speed on straight stretches (m/s) and of
-    the turn rate in spot turns (rad/s); None where fewer than 20 samples drive so."""
-
-    straight_speed_m_s: float | None
-    spot_turn_rate_rad_s: float | None
-
-    def as_dict(self) -> dict:
-        return {
-            "straight_speed_m_s": self.straight_speed_m_s,
-            "spot_turn_rate_rad_s": self.spot_turn_rate_rad_s,
-        }
-
-
-def motion_profile(recordings: Sequence[Recording], geometry: WheelGeometry) -> MotionProfile:
-    """How the runs drive (:class:`MotionProfile`), from the wheel rotations."""
-    v_straight, w_spot = [], []
-    for r in recordings:
-        dt = np.diff(np.asarray(r.time_s, dtype=float))
-        vr = np.diff(r.wheel_angle_right_rad) * (0.5 * geometry.diameter_right_m) / dt
-        vl = np.diff(r.wheel_angle_left_rad) * (0.5 * geometry.diameter_left_m) / dt
-        k = np.ones(9) / 9
-        sr, sl = np.convolve(vr, k, "same"), np.convolve(vl, k, "same")
-        tot = np.abs(sr) + np.abs(sl)
-        moving = tot > 0.01
-        with np.errstate(invalid="ignore", divide="ignore"):
-            s = np.abs(sr - sl) / tot
-        v_straight.append(np.abs(0.5 * (sr + sl))[moving & (s < 0.04)])
-        w_spot.append(np.abs((sr - sl) / geometry.wheelbase_m)[moving & (s >= 0.8)])
-
-    def p90(parts: list[np.ndarray]) -> float | None:
-        a = np.concatenate(parts) if parts else np.zeros(0)
-        return float(np.percentile(a, 90)) if a.size >= 20 else None
-
-    return MotionProfile(p90(v_straight), p90(w_spot))
-
-
-@dataclass(frozen=True)
-class ClosingHeading:
-    """Where a square's closing heading error comes from, for one direction: the mean odometric
-    rotation (rad) and the mean heading error actual - odometric (rad) of the samples in spot
-    turns and of all the others (legs, and the arcs that start or finish a turn)."""
-
-    spot_rotation_rad: float
-    spot_error_rad: float
-    other_rotation_rad: float
-    other_error_rad: float
-
-    def as_dict(self) -> dict:
-        return {
-            "spot_rotation_rad": self.spot_rotation_rad,
-            "spot_error_rad": self.spot_error_rad,
-            "other_rotation_rad": self.other_rotation_rad,
-            "other_error_rad": self.other_error_rad,
-        }
-
-
-def closing_heading_split(
-    recordings: Sequence[Recording], reference: WheelGeometry
-) -> dict[str, ClosingHeading]:
-    """Direction ('cw', 'ccw'; those the runs drove) -> :class:`ClosingHeading` of the squares;
-    bands from :func:`odocal.calibration.turning.band_of_increments` with the reference's
-    diameters."""
-    from ..calibration.turning import band_of_increments
-
-    acc: dict[str, list] = {"cw": [], "ccw": []}
-    for r in recordings:
-        gt = np.asarray(r.ground_truth, dtype=float)
-        d = direction_from_data(float(gt[-1, 2] - gt[0, 2]))
-        if d is None:
-            continue
-        band = band_of_increments(
-            r.wheel_angle_right_rad, r.wheel_angle_left_rad, r.time_s, reference
-        )
-        dr = np.diff(r.wheel_angle_right_rad) * (0.5 * reference.diameter_right_m)
-        dl = np.diff(r.wheel_angle_left_rad) * (0.5 * reference.diameter_left_m)
-        dth = (dr - dl) / reference.wheelbase_m
-        err = np.diff(gt[:, 2]) - dth
-        spot = band == 0
-        acc[d].append([dth[spot].sum(), err[spot].sum(), dth[~spot].sum(), err[~spot].sum()])
-    out = {}
-    for d, rows in acc.items():
-        if rows:
-            m = np.mean(rows, axis=0)
-            out[d] = ClosingHeading(float(m[0]), float(m[1]), float(m[2]), float(m[3]))
-    return out
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,8 @@ from typing import Literal
 
 import numpy as np
 
-from .real_experiment import ClosingHeading, RealExperiment
+from .real_experiment import RealExperiment
+from .real_motion import ClosingHeading
 from .recommend import Stability, compare
 from .reproduce import PAPER, Reproduction, residual_recommendation
 from .result import Candidate
