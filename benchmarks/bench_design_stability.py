@@ -25,24 +25,25 @@ import os
 import platform
 import sys
 import time
+from dataclasses import replace
 
 import numpy as np
 
 from odocal.app.common import make_robot
 from odocal.design.analytic import analytic_design_result
 from odocal.design.reproduce import INSTRUMENT_LEVELS, precision_sweep
-from odocal.design.result import scaled_sizes
 from odocal.design.robust import range_design
-from odocal.design.sweep import run_design, stability
+from odocal.design.spec import DesignSpec, scaled_sizes
+from odocal.design.sweep import run_design
 from odocal.presets import PRESETS
 
 
 def _pick(result) -> str:
-    st = stability(result)
+    st = result.stability
     side = f"{result.recommended.side_m:g}"
-    if st is None or st["range_m"][0] == st["range_m"][1]:
+    if st is None or not st.indistinguishable:
         return side
-    return f"{side} ({st['range_m'][0]:g}-{st['range_m'][1]:g})"
+    return f"{side} ({st.range_m[0]:g}-{st.range_m[1]:g})"
 
 
 def seeds_table(seeds: int) -> list[str]:
@@ -62,8 +63,8 @@ def seeds_table(seeds: int) -> list[str]:
         for s in range(seeds):
             res = run_design(
                 robot,
+                DesignSpec(trials=v["trials"]),
                 np.random.default_rng(s),
-                trials=v["trials"],
                 common_random_numbers=v["crn"],
                 resamples=200,
             )
@@ -72,7 +73,7 @@ def seeds_table(seeds: int) -> list[str]:
         dt = (time.perf_counter() - t0) / seeds
         distinct = ", ".join(f"{p:g} m" for p in sorted(set(picks)))
         rows.append(f"| {label} ({dt:.1f} s each) | " + " | ".join(cells) + f" | {distinct} |")
-    an = analytic_design_result(robot).recommended.side_m
+    an = analytic_design_result(robot, DesignSpec()).recommended.side_m
     rows.append(
         "| analytic, expected values (no seed) | "
         + " | ".join(f"{an:g}" for _ in range(seeds))
@@ -82,17 +83,17 @@ def seeds_table(seeds: int) -> list[str]:
 
 
 def default_line() -> list[str]:
-    res = run_design(PRESETS["paper-fig5"], np.random.default_rng(0), trials=2000)
+    res = run_design(PRESETS["paper-fig5"], DesignSpec(trials=2000), np.random.default_rng(0))
     r = res.recommended
-    gain = res.uncalibrated.mean_m - r.post_error_mean_m
-    st = stability(res)
+    gain = res.gain_m
+    st = res.stability
+    assert st is not None
     return [
         f"Recommended: square, side {r.side_m:g} m ({r.travel_m:g} m travel per run): error "
         f"{r.post_error_mean_m:.4f} m after calibration, residual "
         f"{r.residual_error_mean_m:.4f} m (uncalibrated {res.uncalibrated.mean_m:.4f} m, gain "
         f"{gain:.4f} m; floor {res.floor.mean_m:.4f} m)",
-        "bootstrap picks: "
-        + ", ".join(f"{p['side_m']:g} m {100 * p['share']:.0f} %" for p in st["picks"]),
+        "bootstrap picks: " + ", ".join(f"{p.side_m:g} m {100 * p.share:.0f} %" for p in st.picks),
     ]
 
 
@@ -123,16 +124,14 @@ def turtlebot() -> list[str]:
     bare = make_robot(0.066, 0.160, **tape)
     lengths, validation = scaled_sizes(0.160)
     t0 = time.perf_counter()
-    rd = range_design(bare, side_lengths_m=lengths, validation=validation)
+    spec = DesignSpec(side_lengths_m=lengths, validation=validation)
+    rd = range_design(bare, spec)
     dt = time.perf_counter() - t0
     known = make_robot(0.066, 0.160, E_b=1.02, E_d=1.004, k_r_m=1e-6, **tape)
-    an = analytic_design_result(known, side_lengths_m=lengths, validation=validation)
-    mc = [
-        run_design(known, np.random.default_rng(s), side_lengths_m=lengths, validation=validation)
-        for s in range(4)
-    ]
+    an = analytic_design_result(known, spec)
+    mc = [run_design(known, replace(spec, trials=800), np.random.default_rng(s)) for s in range(4)]
     perfect = make_robot(0.066, 0.160)
-    rp = range_design(perfect, side_lengths_m=lengths, validation=validation)
+    rp = range_design(perfect, spec)
     return [
         f"- candidates {lengths[0]:g} .. {lengths[-1]:g} m, validation {validation.label}",
         f"- errors unknown, tape measure and protractor ({len(rd.scenarios)} plausible robots, "

@@ -28,7 +28,8 @@ from odocal.app.noise import cruise_speed_m_s, noise_recordings
 from odocal.app.reproduce import real_experiment
 from odocal.calibration.noise import estimate_k_from_recordings, tracker_noise
 from odocal.core.covariance import odometry_covariance
-from odocal.design.real_experiment import experiment_dict, verdict
+from odocal.design.verdict import judge_experiment
+from odocal.io.real_experiment_report import experiment_dict
 from odocal.io.recordings import load_recordings
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -82,7 +83,7 @@ def main(argv=None) -> int:
     squares = load_recordings([args.data / "square"])
     m = noise["measured"]
     k = m["nonsystematic"]
-    speed = cruise_speed_m_s(squares, exp.turning_reference)
+    speed = cruise_speed_m_s(squares, exp.turning.reference)
     cov = odometry_covariance(
         k["k_r_m"], k["k_l_m"], m["calibrated"]["wheelbase_m"], speed_m_s=speed
     )
@@ -96,7 +97,7 @@ def main(argv=None) -> int:
         json.dump(out, sys.stdout, indent=2)
         print()
         return 0
-    v = verdict(exp)
+    v = judge_experiment(exp)
     print(
         f"machine: {platform.processor() or platform.machine()}, python {platform.python_version()}"
     )
@@ -138,8 +139,8 @@ def main(argv=None) -> int:
                 + " |"
             )
     for method, tests in exp.ttests.items():
-        t = tests["paired"]
-        st = tests["student"]
+        t = tests.paired
+        st = tests.student
         print(
             f"\n{method}: paired t = {t.t:.2f} (df {t.df:.0f}), p = {t.p_two_sided:.2g}, mean "
             f"difference {t.mean_difference * 1000:+.1f} mm; Student t = {st.t:.2f}, p = "
@@ -147,15 +148,15 @@ def main(argv=None) -> int:
         )
     pt = exp.prediction.ttest
     print(
-        f"\ndesign: prefers {v['preferred_side_m']:g} m; predicted difference "
-        f"{pt['mean_difference_m'] * 1000:+.1f} mm (95 %: {pt['difference_ci95_m'][0] * 1000:+.1f} "
-        f"to {pt['difference_ci95_m'][1] * 1000:+.1f}), significant in "
-        f"{100 * pt['fraction_significant']:.0f} %; floor {exp.prediction.floor.mean_m * 1000:.1f}"
+        f"\ndesign: prefers {v.preferred_side_m:g} m; predicted difference "
+        f"{pt.mean_difference_m * 1000:+.1f} mm (95 %: {pt.difference_ci95_m[0] * 1000:+.1f} "
+        f"to {pt.difference_ci95_m[1] * 1000:+.1f}), significant in "
+        f"{100 * pt.fraction_significant:.0f} %; floor {exp.prediction.floor.mean_m * 1000:.1f}"
         f" mm, uncalibrated {exp.prediction.uncalibrated.mean_m * 1000:.1f} mm"
     )
     print(
-        f"verdict: ordering predicted {v['ordering_predicted']}, difference within the "
-        f"prediction {v['difference_within_prediction']}"
+        f"verdict: ordering predicted {v.ordering_predicted}, difference within the "
+        f"prediction {v.difference_within_prediction}"
     )
     print("\nturning gain and held-out error:")
     for g in sorted(exp.gains, key=lambda g: g.heldout_error_m):

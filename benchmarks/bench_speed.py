@@ -150,6 +150,7 @@ def section_sim() -> None:
 def section_design(ref_trials: int) -> None:
     from reference_design import design_loop
 
+    from odocal.design.spec import DesignSpec
     from odocal.design.sweep import run_design
     from odocal.presets import PRESETS
 
@@ -158,7 +159,7 @@ def section_design(ref_trials: int) -> None:
     res = {}
 
     def ours():
-        res["r"] = run_design(robot, np.random.default_rng(0), trials=800)
+        res["r"] = run_design(robot, DesignSpec(trials=800), np.random.default_rng(0))
 
     ours()  # warm up
     t_ours = best_of(ours)

@@ -379,7 +379,7 @@ def test_sigterm_in_library_use_cleans_up_then_terminates(tmp_path):
 import os, signal
 from odocal.io import outputs
 from odocal.app.design import design
-from odocal.design.result import DesignSpec
+from odocal.design.spec import DesignSpec
 real, calls = outputs._stage, []
 def stage(path, content):
     calls.append(path)

@@ -14,6 +14,7 @@ from odocal.core.simulate import drive
 from odocal.core.tracks import straight_line
 from odocal.design import (
     Candidate,
+    DesignSpec,
     SimulationSettings,
     ValidationTrack,
     design_json,
@@ -172,9 +173,10 @@ def test_rule_skips_unusable_candidates_and_rejects_bad_parameters():
 
 def test_sweep_same_seed_same_json_and_contract_keys():
     kw = dict(side_lengths_m=[0.5, 2.0, 4.0], trials=60)
-    a = design_json(run_design(FIG5, np.random.default_rng(5), **kw), seed=5)
-    b = design_json(run_design(FIG5, np.random.default_rng(5), **kw), seed=5)
-    c = design_json(run_design(FIG5, np.random.default_rng(6), **kw), seed=6)
+    spec = DesignSpec(**kw)
+    a = design_json(run_design(FIG5, spec, np.random.default_rng(5)), seed=5)
+    b = design_json(run_design(FIG5, spec, np.random.default_rng(5)), seed=5)
+    c = design_json(run_design(FIG5, spec, np.random.default_rng(6)), seed=6)
     assert json.dumps(a) == json.dumps(b)
     assert a["candidates"] != c["candidates"]
     keys = {
@@ -192,7 +194,7 @@ def test_sweep_calibrates_without_bias_and_spreads_as_predicted():
     """E_b, E_d are unbiased; std(E_b) follows methods-notes 2.5:
     sigma(E_b) ~ E_b^2 (2/pi) sigma_run / (4 sqrt(2n)), sigma_run^2 = (k_r+k_l)(4L + pi b)/b^2."""
     trials, n, L = 1500, 5, 4.0
-    res = run_design(FIG5, np.random.default_rng(2), side_lengths_m=[L], trials=trials)
+    res = run_design(FIG5, DesignSpec(side_lengths_m=(L,), trials=trials), np.random.default_rng(2))
     c = res.candidates[0]
     s = FIG5.systematic
     b = FIG5.true_geometry.wheelbase_m
@@ -219,8 +221,9 @@ def test_fast_simulation_matches_the_1cm_midpoint_reference():
     difference (sqrt(2) / sqrt(2 (trials - 1)) each)."""
     trials = 1500
     kw = dict(side_lengths_m=[0.5, 3.0], trials=trials)
-    fast = run_design(FIG5, np.random.default_rng(11), **kw)
-    ref = run_design(FIG5, np.random.default_rng(12), settings=SimulationSettings.reference(), **kw)
+    spec = DesignSpec(**kw)
+    fast = run_design(FIG5, spec, np.random.default_rng(11))
+    ref = run_design(FIG5, spec, np.random.default_rng(12), settings=SimulationSettings.reference())
     rel_sd = 4 * math.sqrt(2) / math.sqrt(2 * (trials - 1))
 
     def close(m1, s1, m2, s2):
@@ -237,25 +240,23 @@ def test_fast_simulation_matches_the_1cm_midpoint_reference():
 
 def test_sweep_umbmark_and_measurement_noise():
     noisy = dataclasses.replace(FIG5, measurement=MeasurementNoise.from_degrees(0.01, 0.5))
-    res = run_design(
-        noisy, np.random.default_rng(0), side_lengths_m=[1.0, 4.0], trials=200, method="umbmark"
-    )
+    spec = DesignSpec(side_lengths_m=(1.0, 4.0), trials=200, method="umbmark")
+    res = run_design(noisy, spec, np.random.default_rng(0))
     assert all(abs(c.E_b_mean - 1.028) < 0.005 for c in res.candidates)
     # a heading instrument of 0.5 deg adds std(beta_hat) = 0.5 deg sqrt(2/5) / 8 per leg, i.e.
     # about 2.7e-4 to std(E_d) on a 1 m square: 3.4e-4 -> 4.4e-4 (ratio 1.28); each std has a
     # relative standard error of 1/sqrt(2 * 300) = 4 %, so 1.15 is a safe lower bound
     kw = dict(side_lengths_m=[1.0], trials=300)
-    clean = run_design(FIG5, np.random.default_rng(0), **kw).candidates[0]
-    h = run_design(noisy, np.random.default_rng(0), **kw).candidates[0]
+    clean = run_design(FIG5, DesignSpec(**kw), np.random.default_rng(0)).candidates[0]
+    h = run_design(noisy, DesignSpec(**kw), np.random.default_rng(0)).candidates[0]
     assert h.E_d_std > 1.15 * clean.E_d_std
     with pytest.raises(ModelError, match="squares"):
-        run_design(FIG5, np.random.default_rng(0), sides=(8,), trials=10, method="umbmark")
+        DesignSpec(sides=(8,), trials=10, method="umbmark")
 
 
 def test_equal_travel_for_several_shapes():
-    res = run_design(
-        FIG5, np.random.default_rng(0), sides=(4, 8), side_lengths_m=[1.0, 2.0], trials=20
-    )
+    spec = DesignSpec(sides=(4, 8), side_lengths_m=(1.0, 2.0), trials=20)
+    res = run_design(FIG5, spec, np.random.default_rng(0))
     travel = [(c.sides, c.side_m, c.travel_m) for c in res.candidates]
     assert travel == [(4, 1.0, 4.0), (4, 2.0, 8.0), (8, 0.5, 4.0), (8, 1.0, 8.0)]
 

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from odocal.design.analytic import analytic_design_result
+from odocal.design.spec import DesignSpec
 from odocal.design.sweep import run_design
 from odocal.presets import PRESETS
 
@@ -44,8 +45,9 @@ def test_analytic_json_has_the_monte_carlo_contract(cli):
 def test_analytic_agrees_with_monte_carlo_candidate_by_candidate():
     robot = PRESETS["paper-fig5"]
     lengths = [0.5, 2.0, 6.0]
-    mc = run_design(robot, np.random.default_rng(5), side_lengths_m=lengths, trials=3000)
-    an = analytic_design_result(robot, side_lengths_m=lengths, trials=3000)
+    spec = DesignSpec(side_lengths_m=tuple(lengths), trials=3000)
+    mc = run_design(robot, spec, np.random.default_rng(5))
+    an = analytic_design_result(robot, spec)
     for m, a in zip(mc.candidates, an.candidates, strict=True):
         # Monte-Carlo standard errors at 3000 trials: ~1.1 % of the mean error, ~1.3 % of a std
         assert a.post_error_mean_m == pytest.approx(m.post_error_mean_m, rel=0.05)

@@ -13,7 +13,8 @@ SRC = Path(__file__).resolve().parents[1] / "src" / "odocal"
 
 # The layers from the top; a layer may import the layers below it, never one above it or a
 # sibling (io and plot; comparison and design). presets (built-in robots) sits just above core;
-# __version__ (the package itself) is everyone's.
+# the package root (its __version__) is imported by the command layers only (cli, app), which
+# pass the version down where it is written.
 LAYERS = [
     ("cli",),
     ("app",),
@@ -24,8 +25,10 @@ LAYERS = [
     ("core",),
     ("errors",),
 ]
+ROOT_USERS = ("cli", "app")
 ALLOWED = {
-    name: {below for lower in LAYERS[i + 1 :] for below in lower} | {"__version__"}
+    name: {below for lower in LAYERS[i + 1 :] for below in lower}
+    | ({"__version__"} if name in ROOT_USERS else set())
     for i, layer in enumerate(LAYERS)
     for name in layer
 }
@@ -40,15 +43,41 @@ def test_the_rule_is_the_readme_s():
     assert ALLOWED["cli"] >= {"app", "io", "core"} and "cli" not in ALLOWED["app"]
     assert "io" not in ALLOWED["plot"] and "plot" not in ALLOWED["io"]
     assert "design" not in ALLOWED["comparison"] and "comparison" not in ALLOWED["design"]
-    assert ALLOWED["core"] == {"errors", "__version__"}
+    assert ALLOWED["core"] == {"errors"} and "__version__" not in ALLOWED["io"]
+    assert "__version__" in ALLOWED["app"]
+
+
+def _import_module_target(node: ast.Call, package: list[str]) -> str | None:
+    """The module a call ``importlib.import_module("odocal.x")`` (or ``import_module(".x",
+    __package__)``, ``__import__("odocal.x")``) imports, when it is a string written in the
+    code; None for any other call (or a name computed at run time)."""
+    func = node.func
+    name = func.attr if isinstance(func, ast.Attribute) else getattr(func, "id", None)
+    if name not in ("import_module", "__import__") or not node.args:
+        return None
+    arg = node.args[0]
+    if not (isinstance(arg, ast.Constant) and isinstance(arg.value, str)):
+        return None
+    target = arg.value
+    if target.startswith("."):  # relative to the module's own package
+        level = len(target) - len(target.lstrip("."))
+        base = package[: len(package) - level + 1]
+        target = ".".join(base + ([target.lstrip(".")] if target.lstrip(".") else []))
+    return target
 
 
 def _imports(path: Path) -> list[tuple[int, str]]:
+    """Every module ``path`` imports: import statements, and calls of ``import_module`` or
+    ``__import__`` with a string written in the code (an import the statements would hide)."""
     rel = path.relative_to(SRC.parent).with_suffix("")
     package = list(rel.parts[:-1]) if rel.name != "__init__" else list(rel.parts[:-1])
     out = []
     for node in ast.walk(ast.parse(path.read_text())):
-        if isinstance(node, ast.ImportFrom):
+        if isinstance(node, ast.Call):
+            target = _import_module_target(node, package)
+            if target is not None:
+                out.append((node.lineno, target))
+        elif isinstance(node, ast.ImportFrom):
             if node.level:
                 base = package[: len(package) - node.level + 1]
                 mod = ".".join(base + ([node.module] if node.module else []))
@@ -104,3 +133,21 @@ for package in {MATH!r}:
     res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert res.returncode == 0 and res.stderr == "", res.stderr
     assert res.stdout.split() == list(MATH), res.stderr
+
+
+def test_import_module_strings_are_seen():
+    """An upward import through ``importlib.import_module("odocal....")`` is an import too."""
+    f = SRC / "design" / "_probe.py"  # only parsed, never imported or written
+    code = (
+        "import importlib\n"
+        "x = importlib.import_module('odocal.app.design')\n"
+        "y = importlib.import_module('.sweep', __package__)\n"
+        "z = importlib.import_module(name)\n"
+    )
+    tree = ast.parse(code)
+    calls = [n for n in ast.walk(tree) if isinstance(n, ast.Call)]
+    rel = f.relative_to(SRC.parent).with_suffix("")
+    package = list(rel.parts[:-1])
+    found = [t for t in (_import_module_target(c, package) for c in calls) if t is not None]
+    assert found == ["odocal.app.design", "odocal.design.sweep"]
+    assert _layer(found[0]) not in ALLOWED["design"]

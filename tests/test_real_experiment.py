@@ -84,24 +84,18 @@ def test_paired_ttest_matches_scipy():
 
 @pytest.fixture(scope="module")
 def produced(realdata, tmp_path_factory):
-    import contextlib
-    import io
-
-    from odocal.cli.main import main
+    """``odocal reproduce --realdata ... --out ... --json`` as the app runs it: the JSON (through
+    the same finite-only encoding as the CLI), the output folder and the typed result."""
+    from odocal.app.reproduce import reproduce
 
     out = tmp_path_factory.mktemp("real")
-    buf = io.StringIO()
-    with contextlib.redirect_stdout(buf):
-        status = main(
-            ["reproduce", "--realdata", str(realdata / "optiodom_diff"), "--trials", "40",
-             "--out", str(out / "rep"), "--json"]
-        )  # fmt: skip
-    assert status == 0
-    return json.loads(buf.getvalue()), out / "rep"
+    res = reproduce(out / "rep", trials=40, realdata=realdata / "optiodom_diff")
+    doc = json.loads(json.dumps(res.as_dict(), allow_nan=False))
+    return doc, out / "rep", res
 
 
 def test_json_contract(produced):
-    d, _ = produced
+    d, _, _ = produced
     r = d["real_experiment"]
     assert [s["side_m"] for s in r["squares"]] == [0.75, 1.7]
     for s in r["squares"]:
@@ -150,8 +144,33 @@ def test_the_verdict_says_no(produced):
     assert "0.057 m/s" in v["text"] and "1.01 rad/s" in v["text"]
 
 
+def test_the_verdict_is_typed(produced):
+    """The verdict the JSON and the words come from: typed fields, judged once in app."""
+    doc, _, res = produced
+    exp, v = res.real, res.verdict
+    assert v is not None and exp is not None
+    assert v.sides_m == exp.sides_m == (0.75, 1.7)
+    assert v.answer == "No" and not v.ordering_predicted
+    assert v.real_outcome == 1.7 and v.predicted_outcome is None
+    small, large = (exp.calibration(s) for s in exp.sides_m)
+    assert v.real_difference_m == small.heldout_error_m - large.heldout_error_m
+    assert v.real_error_m == (small.heldout_error_m, large.heldout_error_m)
+    assert v.predicted_difference_ci95_m == exp.prediction.ttest.difference_ci95_m
+    j = doc["real_experiment"]["verdict"]
+    assert j["real_outcome"] == "1.7 m better" and j["ordering_predicted"] is False
+    # the evidence behind the words: the sizes were not driven alike, spot turns and arcs differ
+    e = v.evidence
+    assert not e.driven_alike and e.spot_wheelbase_m and e.arc_wheelbase_m
+    assert e.best_gain == pytest.approx(float(exp.gain_grid[np.nanargmin(exp.gain_curve_m)]))
+    # typed evidence, keyed by side (not by formatted text)
+    assert set(exp.profiles) == set(exp.closing) == set(exp.turning.squares) == {0.75, 1.7}
+    assert list(exp.turning.named()) == ["0.75 m squares", "1.7 m squares", "held-out runs"]
+    assert exp.ttests["heading"].paired.t == pytest.approx(doc["real_experiment"]["ttest"]["t"])
+    assert set(doc["real_experiment"]["motion"]) == {"0.75", "1.7", "heldout"}
+
+
 def test_report_and_figures(produced):
-    _, folder = produced
+    _, folder, _ = produced
     text = (folder / "REPORT.md").read_text()
     assert "The experiment on a real robot (OptiOdom)" in text
     assert "### Verdict" in text and "paired t" in text

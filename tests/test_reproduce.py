@@ -152,3 +152,21 @@ def test_a_noisy_heading_instrument_moves_the_choice_to_larger_tracks(produced):
         > clean.candidates[residual_recommendation(clean)].side_m
     )
     assert "fig5_instrument" in produced[1].figures
+
+
+def test_the_papers_claims_are_judged_in_design(produced):
+    """The verdict the report words: typed checks of every sweep against the paper's choice."""
+    from odocal.design.verdict import judge_reproduction
+
+    rep = produced[1].reproduction
+    v = judge_reproduction(rep)
+    assert v.share_fig4_agrees and v.share_fig4 == rep.fig3.share_at(4.0)
+    for check, result in ((v.fig5, rep.fig5), (v.fig6, rep.fig6), (v.fig9, rep.fig9)):
+        assert check.worst_is_smallest and check.worst is result.candidates[0]
+        assert check.recommended is result.recommended
+        assert check.paper_accepted and check.beaten_by is None
+        assert check.stability == result.stability
+        assert 0 <= check.spread_beyond < 1
+    assert v.E_b_2m_sigmas > 10  # the paper's 2 m E_b is far outside the model's spread
+    lo, hi = v.with_paper_params_m
+    assert 0 < lo <= hi < 1

@@ -20,8 +20,8 @@ from odocal.core.runs import EndPoseRuns
 from odocal.core.simulate import drive, measure
 from odocal.core.tracks import polygon
 from odocal.design.recommend import recommend
-from odocal.design.result import scaled_sizes
 from odocal.design.robust import range_design
+from odocal.design.spec import DesignSpec, scaled_sizes
 from odocal.design.sweep import run_design
 from odocal.io.ros2_export import read_ros2_params
 from odocal.presets import PRESETS
@@ -227,7 +227,10 @@ def test_common_random_numbers_make_the_pick_stable_across_seeds():
     sides = [0.5, 1.0, 1.5, 2.0, 4.0, 8.0]
     picks = [
         run_design(
-            PRESETS["paper-fig5"], np.random.default_rng(s), side_lengths_m=sides, resamples=0
+            PRESETS["paper-fig5"],
+            DesignSpec(side_lengths_m=tuple(sides), trials=800),
+            np.random.default_rng(s),
+            resamples=0,
         ).recommended.side_m
         for s in range(6)
     ]
@@ -236,8 +239,8 @@ def test_common_random_numbers_make_the_pick_stable_across_seeds():
 
 def test_paired_tests_and_the_bootstrap_spread():
     r = run_design(
-        PRESETS["paper-fig5"], np.random.default_rng(0), side_lengths_m=[0.5, 1.0, 2.0],
-        trials=300, resamples=50,
+        PRESETS["paper-fig5"], DesignSpec(side_lengths_m=(0.5, 1.0, 2.0), trials=300),
+        np.random.default_rng(0), resamples=50,
     )  # fmt: skip
     assert r.paired and r.recommendation.test == "paired"
     a, b = (c.post_errors_m for c in r.candidates[1:])
@@ -246,15 +249,15 @@ def test_paired_tests_and_the_bootstrap_spread():
     shares = dict(r.recommendation.spread)
     assert sum(shares.values()) == pytest.approx(1.0) and r.recommendation.resamples == 50
     indep = run_design(
-        PRESETS["paper-fig5"], np.random.default_rng(0), side_lengths_m=[1.0, 2.0], trials=300,
-        common_random_numbers=False, resamples=0,
+        PRESETS["paper-fig5"], DesignSpec(side_lengths_m=(1.0, 2.0), trials=300),
+        np.random.default_rng(0), common_random_numbers=False, resamples=0,
     )  # fmt: skip
     assert not indep.paired and indep.recommendation.test == "welch"
     assert abs(np.corrcoef(*(c.post_errors_m for c in indep.candidates))[0, 1]) < 0.2
 
 
 def test_the_analytic_rule_compares_expected_values():
-    res = odocal.design(engine="analytic").result
+    res = odocal.design_track(engine="analytic").result
     assert res.trials is None and all(c.trials is None for c in res.candidates)
     rec = res.recommendation
     assert rec.test == "exact" and res.recommended.side_m == 1.5
@@ -306,7 +309,8 @@ def test_the_range_design_holds_for_every_plausible_robot():
     robot = Robot(TB3_TRUE.nominal, measurement=TB3_TRUE.measurement)
     lengths, validation = scaled_sizes(0.16)
     levels = {"E_b": (0.97, 1.03), "E_d": (0.995, 1.005), "k_m": (1e-7, 3e-6)}
-    d = range_design(robot, side_lengths_m=lengths[::2], validation=validation, levels=levels)
+    spec = DesignSpec(side_lengths_m=lengths[::2], validation=validation)
+    d = range_design(robot, spec, levels=levels)
     assert len(d.scenarios) == 8
     i = d.index
     E = d.errors
@@ -357,10 +361,11 @@ def test_compare_reports_progress(monkeypatch):
 def test_import_odocal_is_light_and_gives_the_everyday_api():
     code = (
         "import sys, odocal; assert 'numpy' not in sys.modules, 'eager import'; "
-        "names = ['simulate', 'calibrate', 'fit', 'design', 'validate', 'export', 'make_robot', "
-        "'Robot', 'WheelGeometry', 'DesignSpec']; "
+        "names = ['simulate', 'calibrate', 'fit', 'design_track', 'validate', 'export', "
+        "'make_robot', 'Robot', 'WheelGeometry', 'DesignSpec']; "
         "assert all(callable(getattr(odocal, n)) for n in names); "
-        "import odocal.design.sweep as s; assert callable(odocal.design) and s.run_design"
+        "import odocal.design.sweep as s; assert odocal.design is sys.modules['odocal.design']; "
+        "assert callable(odocal.design_track) and s.run_design"
     )
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
@@ -375,7 +380,7 @@ def test_the_readme_python_example_runs(tmp_path, monkeypatch):
     cal = odocal.calibrate("runs.csv", robot)
     assert abs(cal.calibration.E_b - 1.02) < 4 * cal.calibration.uncertainty.stderr[0]
     odocal.export(cal, ros2="diff_drive.yaml")
-    best = odocal.design(robot, odocal.DesignSpec(trials=200)).result.recommended
+    best = odocal.design_track(robot, odocal.DesignSpec(trials=200)).result.recommended
     assert 0.2 <= best.side_m <= 4.0
     with pytest.raises(odocal.InputError, match="different units"):
         odocal.make_robot(66, 0.16)

@@ -10,10 +10,11 @@ files and in names that say so, ROBOT.yaml / RUNS.csv / PARAMS.yaml)::
     odocal.simulate(robot, sides=4, side_m=1.0, runs=5, seed=1, out="runs.csv")
     cal = odocal.calibrate("runs.csv", robot)          # the track is read from the run sheet
     odocal.export(cal, ros2="diff_drive.yaml")
-    best = odocal.design(robot).result.recommended
+    best = odocal.design_track(robot).result.recommended
 
-Each function is the command of the same name (``odocal.app.<command>``) and returns a frozen
-result with ``as_dict()`` (the ``--json``). Names are imported on first use, so ``import odocal``
+Each function is the command of the same name (``odocal.app.<command>``; ``design_track`` is
+``odocal design``, since ``odocal.design`` is the design subpackage) and returns a frozen result
+with ``as_dict()`` (the ``--json``). Names are imported on first use, so ``import odocal``
 (and ``odocal --help``) stays fast.
 """
 
@@ -24,15 +25,16 @@ from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
 
-# name -> (module, attribute): resolved on first access (PEP 562). ``design`` is the subpackage
-# odocal.design itself, which is callable as the command (a function of that name would be
-# replaced by the subpackage the moment anything imports it).
+# name -> (module, attribute): resolved on first access (PEP 562). The design command is
+# ``design_track``: a function named ``design`` would be replaced by the subpackage odocal.design
+# the moment anything imports it.
 _API: dict[str, tuple[str, str | None]] = {
     # commands
     "simulate": ("odocal.app.simulate", "simulate"),
     "calibrate": ("odocal.app.calibrate", "calibrate"),
     "fit": ("odocal.app.fit", "fit"),
-    "design": ("odocal.design", None),  # the package, callable as the command
+    "design_track": ("odocal.app.design", "design"),
+    "design": ("odocal.design", None),  # the subpackage (the command is design_track)
     "validate": ("odocal.app.validate", "validate"),
     "export": ("odocal.app.export", "export"),
     "plan": ("odocal.app.plan", "plan"),
@@ -47,7 +49,7 @@ _API: dict[str, tuple[str, str | None]] = {
     "SystematicError": ("odocal.core.model", "SystematicError"),
     "NonSystematicError": ("odocal.core.model", "NonSystematicError"),
     "MeasurementNoise": ("odocal.core.model", "MeasurementNoise"),
-    "DesignSpec": ("odocal.design.result", "DesignSpec"),
+    "DesignSpec": ("odocal.design.spec", "DesignSpec"),
     "ValidationTrack": ("odocal.design.result", "ValidationTrack"),
     "CalibrateResult": ("odocal.app.calibrate", "CalibrateResult"),
     "FitResult": ("odocal.app.fit", "FitResult"),
@@ -69,7 +71,7 @@ __all__ = [
     "simulate",
     "calibrate",
     "fit",
-    "design",
+    "design_track",
     "validate",
     "export",
     "plan",
@@ -121,6 +123,7 @@ if TYPE_CHECKING:  # for type checkers and IDEs; never executed
     from .app.common import make_robot
     from .app.compare import compare
     from .app.design import DesignRun
+    from .app.design import design as design_track
     from .app.export import export
     from .app.fit import FitResult, fit
     from .app.noise import noise
@@ -136,7 +139,8 @@ if TYPE_CHECKING:  # for type checkers and IDEs; never executed
         SystematicError,
         WheelGeometry,
     )
-    from .design.result import DesignSpec, ValidationTrack
+    from .design.result import ValidationTrack
+    from .design.spec import DesignSpec
     from .errors import CalibrationError, InputError, ModelError, OdocalError
     from .io.robot_file import load_params, load_robot
     from .presets import PRESETS

@@ -10,8 +10,8 @@ from ..core.model import Robot
 from ..core.plausibility import track_size_problem
 from ..design.analytic import analytic_design_result
 from ..design.plan import FloorPlan, build_plan
-from ..design.result import scaled_sizes
 from ..design.robust import range_design, unknown_errors
+from ..design.spec import DesignSpec
 from ..errors import InputError
 from ..io.outputs import OutputPlan
 from ..io.table import read_table
@@ -100,7 +100,9 @@ def plan(
         side_m, note = suggested_side(r, sides, progress)
         notes.append(note)
     b = float(r.believed_geometry.wheelbase_m)
-    problem = track_size_problem(b, noise_track[1] if noise_track else side_m)
+    side = noise_track[1] if noise_track else side_m
+    assert side is not None  # given, suggested above, or the noise track's
+    problem = track_size_problem(b, side)
     if problem:
         raise InputError(problem)
     n = runs_per_direction or (DEFAULT_NOISE_RUNS if noise_track else 5)
@@ -127,24 +129,16 @@ def plan(
 def suggested_side(robot: Robot, sides: int = 4, progress=None) -> tuple[float, str]:
     """The side (m) the analytic design recommends for ``robot`` (over plausible errors when it
     gives none), and a note saying so."""
-    lengths, validation = scaled_sizes(float(robot.nominal.wheelbase_m))
+    spec = DesignSpec(sides=(sides,)).for_wheelbase(float(robot.nominal.wheelbase_m))
     unknown = unknown_errors(robot)
     if unknown:
-        d = range_design(
-            robot,
-            sides=(sides,),
-            side_lengths_m=lengths,
-            validation=validation,
-            progress=progress,
-        )
+        d = range_design(robot, spec, progress=progress)
         return d.recommended.side_m, (
             f"side {d.recommended.side_m:g} m: the design's recommendation over the typical "
             f"ranges of the robot's {' and '.join(unknown)} errors (within "
             f"{100 * d.within:.1f} % of the best size; 'odocal design --robot ...' shows it)"
         )
-    res = analytic_design_result(
-        robot, sides=(sides,), side_lengths_m=lengths, validation=validation
-    )
+    res = analytic_design_result(robot, spec)
     return res.recommended.side_m, (
         f"side {res.recommended.side_m:g} m: what 'odocal design --analytic' recommends for "
         "this robot (give --side-length to choose another)"

@@ -10,24 +10,28 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .. import __version__
 from ..design.reproduce import Reproduction
 from ..design.reproduce import reproduce as reproduce_paper
 from ..design.sweep import Progress
-from ..io.outputs import OutputPlan
-from ..io.report import real_experiment_markdown, reproduce_markdown
+from ..design.verdict import judge_experiment
+from ..io.outputs import Content, OutputPlan
+from ..io.real_experiment_report import experiment_dict, real_experiment_markdown
+from ..io.report import reproduce_markdown
 
 if TYPE_CHECKING:
     from ..design.real_experiment import RealExperiment
+    from ..design.verdict import Verdict
 
 __all__ = ["ReproduceResult", "reproduce", "real_experiment"]
 
 
 @dataclass(frozen=True)
 class ReproduceResult:
-    """The reproduction (None when only the real experiment ran), the real experiment (None
-    without ``realdata``), the files written (REPORT.md and figures, by key; None/empty without
-    ``out``) and the time the computation took (s; reported on the terminal, never inside the
-    report)."""
+    """The reproduction (None when only the real experiment ran), the real experiment and its
+    verdict (None without ``realdata``), the files written (REPORT.md and figures, by key;
+    None/empty without ``out``) and the time the computation took (s; reported on the terminal,
+    never inside the report)."""
 
     reproduction: Reproduction | None
     report: Path | None
@@ -36,6 +40,7 @@ class ReproduceResult:
     real: RealExperiment | None = None
     trials: int = 800
     seed: int = 0
+    verdict: Verdict | None = None
 
     def as_dict(self) -> dict:
         """The JSON of ``odocal reproduce --json``: ``paper`` (the recommended sizes of Figs. 5,
@@ -53,9 +58,7 @@ class ReproduceResult:
                 for name, c in (("fig5", rep.fig5), ("fig6", rep.fig6), ("fig9", rep.fig9))
             }
         if self.real is not None:
-            from ..design.real_experiment import experiment_dict
-
-            out["real_experiment"] = experiment_dict(self.real)
+            out["real_experiment"] = experiment_dict(self.real, self.verdict)
         out["written"] = [str(p) for p in ([self.report] if self.report else [])] + [
             str(p) for p in self.figures.values()
         ]
@@ -152,8 +155,22 @@ def reproduce(
     rep = reproduce_paper(trials, seed, progress=progress, meanwhile=warm_up) if paper else None
     real = real_experiment(realdata, trials=trials, seed=seed) if realdata is not None else None
     elapsed = time.perf_counter() - start
+    verdict = judge_experiment(real) if real is not None else None
     if folder is None:
-        return ReproduceResult(rep, None, {}, elapsed, real, trials, seed)
+        return ReproduceResult(rep, None, {}, elapsed, real, trials, seed, verdict)
+    report, figures = _write(plan, folder, rep, real, verdict)
+    return ReproduceResult(rep, report, figures, elapsed, real, trials, seed, verdict)
+
+
+def _write(
+    plan: OutputPlan,
+    folder: Path,
+    rep: Reproduction | None,
+    real: RealExperiment | None,
+    verdict: Verdict | None,
+) -> tuple[Path, dict[str, Path]]:
+    """Draw the figures and write them with REPORT.md into ``folder`` (all or none); the report
+    and the figures written, by key."""
     from ..plot.design import reproduce_figures
     from ..plot.real_experiment import real_figures
 
@@ -162,14 +179,12 @@ def reproduce(
         figures.update(real_figures(real))
     names = {k: name for k, (name, _) in figures.items()}
     report = folder / "REPORT.md"
-    contents: dict = {folder / name: fig for name, fig in figures.values()}
-    text = reproduce_markdown(rep, names) if rep is not None else ""
+    contents: dict[Path, Content] = {folder / name: fig for name, fig in figures.values()}
+    text = reproduce_markdown(rep, names, __version__) if rep is not None else ""
     if real is not None:
         text += ("\n" if text else "") + real_experiment_markdown(
-            real, names, heading_level=2 if rep is not None else 1
+            real, names, heading_level=2 if rep is not None else 1, verdict=verdict
         )
     contents[report] = text
     plan.commit(contents)
-    return ReproduceResult(
-        rep, report, {k: folder / n for k, n in names.items()}, elapsed, real, trials, seed
-    )
+    return report, {k: folder / n for k, n in names.items()}

@@ -8,7 +8,58 @@ from pathlib import Path
 from ..core.stats import TTest, ttest_samples
 from ..io.table import ColumnSample, read_column, read_table
 
-__all__ = ["TTestResult", "ttest"]
+__all__ = ["SampleInfo", "TTestStatistics", "TTestResult", "ttest"]
+
+
+def _finite(v: float | None) -> float | None:
+    return v if v is not None and v == v and abs(v) != float("inf") else None
+
+
+@dataclass(frozen=True)
+class SampleInfo:
+    """Where one sample came from: the file, the column and how many values it holds."""
+
+    path: str
+    column: str
+    n: int
+
+    @classmethod
+    def of(cls, sample: ColumnSample) -> SampleInfo:
+        return cls(sample.path, sample.column, int(sample.values.size))
+
+    def as_dict(self) -> dict:
+        return {"path": self.path, "column": self.column, "n": self.n}
+
+
+@dataclass(frozen=True)
+class TTestStatistics:
+    """One t-test's statistic, degrees of freedom and p-values (None where not finite, e.g. t of
+    two samples without spread)."""
+
+    t: float | None
+    df: float | None
+    p_two_sided: float | None
+    p_less: float | None
+    p_greater: float | None
+
+    @classmethod
+    def of(cls, test: TTest) -> TTestStatistics:
+        return cls(
+            _finite(test.t),
+            _finite(test.df),
+            _finite(test.p_two_sided),
+            _finite(test.p_less),
+            _finite(test.p_greater),
+        )
+
+    def as_dict(self) -> dict:
+        return {
+            "t": self.t,
+            "df": self.df,
+            "p_two_sided": self.p_two_sided,
+            "p_less": self.p_less,
+            "p_greater": self.p_greater,
+        }
 
 
 @dataclass(frozen=True)
@@ -25,33 +76,16 @@ class TTestResult:
         """The JSON of ``odocal ttest --json`` (non-finite statistics as null)."""
         s = self.student
         return {
-            "a": {"path": self.a.path, "column": self.a.column, "n": int(self.a.values.size)},
-            "b": {"path": self.b.path, "column": self.b.column, "n": int(self.b.values.size)},
+            "a": SampleInfo.of(self.a).as_dict(),
+            "b": SampleInfo.of(self.b).as_dict(),
             "mean_a": s.mean_a,
             "mean_b": s.mean_b,
             "std_a": s.std_a,
             "std_b": s.std_b,
             "mean_difference": s.mean_difference,
-            "student": _test_dict(self.student),
-            "welch": _test_dict(self.welch),
+            "student": TTestStatistics.of(self.student).as_dict(),
+            "welch": TTestStatistics.of(self.welch).as_dict(),
         }
-
-
-def _finite(v):
-    return v if v is not None and v == v and abs(v) != float("inf") else None
-
-
-def _test_dict(t: TTest) -> dict:
-    return {
-        k: _finite(v)
-        for k, v in {
-            "t": t.t,
-            "df": t.df,
-            "p_two_sided": t.p_two_sided,
-            "p_less": t.p_less,
-            "p_greater": t.p_greater,
-        }.items()
-    }
 
 
 def ttest(a_csv: str | Path, b_csv: str | Path, column: str | None = None) -> TTestResult:

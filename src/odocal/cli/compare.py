@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import argparse
 import math
-import statistics
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 from ..presets import DEFAULT_ROBOT
 from .common import (
@@ -15,6 +17,10 @@ from .common import (
     print_table,
     seed_int,
 )
+
+if TYPE_CHECKING:
+    from ..comparison.real import AgreementSummary, RealComparison
+    from ..comparison.simulated import MethodStats, SimulatedComparison
 
 
 def add_parser(sub) -> None:
@@ -82,11 +88,16 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
-def _fmt(v, scale=1.0, f=".2f"):
+def _fmt(v: float | None, scale: float = 1.0, f: str = ".2f") -> str:
     return "-" if v is None or (isinstance(v, float) and math.isnan(v)) else format(v * scale, f)
 
 
-def run(args) -> int:
+def _pm(centre: float | None, std: float | None, scale: float, f: str) -> str:
+    """'mean +- std' (or bias +- std), scaled; ``f`` formats the centre (the std unsigned)."""
+    return f"{_fmt(centre, scale, f)} +- {_fmt(std, scale, f.lstrip('+'))}"
+
+
+def run(args: argparse.Namespace) -> int:
     from ..app.compare import compare, comparison_document
 
     bar = ProgressBar("odocal compare", enabled=not (args.quiet or args.json))
@@ -106,25 +117,38 @@ def run(args) -> int:
         )
     finally:
         bar.close()
-    real = comparison.real
     png = comparison.written[0] if comparison.written else None
-    doc = comparison_document(
-        comparison,
-        robot=args.robot or DEFAULT_ROBOT,
-        seed=args.seed,
-        plot=None if png is None else str(png),
-    )
+    robot = args.robot or DEFAULT_ROBOT
     if args.json:
+        doc = comparison_document(
+            comparison, robot=robot, seed=args.seed, plot=None if png is None else str(png)
+        )
         print_json(doc)
         return 0
-    s = doc["simulated"]
-    nom = s["nominal"]
-    print(
-        f"Simulated robot {doc['robot']}: {s['trials']} trials, seed {s['seed']}; budget "
-        f"{s['budget']['runs']} runs and {s['budget']['travel_m']:.1f} m wheel travel per "
-        f"method; validation {s['validation_track']}"
+    print_simulated(comparison.simulated, robot)
+    if comparison.real is not None:
+        print_real(comparison.real, comparison.agreement, args.realdata)
+    if png:
+        print(f"wrote {png}")
+    return 0
+
+
+def _sizes(m: MethodStats) -> str:
+    return ", ".join(
+        f"{k.replace('_m', '')} {float(v):.2f} m" if k.endswith("_m") else f"{k} {float(v):g}"
+        for k, v in m.sizes.items()
+        if k != "spin_deg"
     )
-    rows = [
+
+
+def print_simulated(sim: SimulatedComparison, robot: str) -> None:
+    """The table of the simulated comparison."""
+    print(
+        f"Simulated robot {robot}: {sim.trials} trials, seed {sim.seed}; budget "
+        f"{sim.budget_runs} runs and {sim.budget_travel_m:.1f} m wheel travel per "
+        f"method; validation {sim.validation}"
+    )
+    rows: list[tuple[str, ...]] = [
         (
             "method",
             "drives",
@@ -138,28 +162,23 @@ def run(args) -> int:
             "noise-free mm",
         )
     ]
-    for m in s["methods"]:
-        size = ", ".join(
-            f"{k.replace('_m', '')} {v:.2f} m" if k.endswith("_m") else f"{k} {v:g}"
-            for k, v in m["sizes"].items()
-            if k != "spin_deg"
-        )
-        eb, ed, fe = m["E_b_error"], m["E_d_error"], m["final_error_m"]
+    for m in sim.methods:
+        fe = m.final_error
         rows.append(
             (
-                m["name"] + (f" ({m['failed_trials']} failed)" if m["failed_trials"] else ""),
-                m["drives"],
-                size,
-                f"{m['travel_m']:.0f}",
-                f"{m['footprint_m']:.1f}",
-                f"{_fmt(eb['bias'], 100, '+.3f')} +- {_fmt(eb['std'], 100, '.3f')}",
-                f"{_fmt(ed['bias'], 100, '+.4f')} +- {_fmt(ed['std'], 100, '.4f')}",
-                f"{_fmt(fe['mean'], 1e3, '.1f')} +- {_fmt(fe['std'], 1e3, '.1f')}",
-                _fmt(fe["p95"], 1e3, ".1f"),
-                _fmt(m["systematic_final_error_m"]["mean"], 1e3, ".1f"),
+                m.name + (f" ({m.failed} failed)" if m.failed else ""),
+                m.drives,
+                _sizes(m),
+                f"{m.travel_m:.0f}",
+                f"{m.footprint_m:.1f}",
+                _pm(m.E_b_stats.bias, m.E_b_stats.std, 100, "+.3f"),
+                _pm(m.E_d_stats.bias, m.E_d_stats.std, 100, "+.4f"),
+                _pm(fe.mean, fe.std, 1e3, ".1f"),
+                _fmt(fe.p95, 1e3, ".1f"),
+                _fmt(m.systematic_error.mean, 1e3, ".1f"),
             )
         )
-    fe = nom["final_error_m"]
+    fe = sim.nominal_final_error
     rows.append(
         (
             "nominal",
@@ -169,52 +188,46 @@ def run(args) -> int:
             "",
             "",
             "",
-            f"{_fmt(fe['mean'], 1e3, '.1f')} +- {_fmt(fe['std'], 1e3, '.1f')}",
-            _fmt(fe["p95"], 1e3, ".1f"),
-            _fmt(nom["systematic_final_error_m"], 1e3, ".1f"),
+            _pm(fe.mean, fe.std, 1e3, ".1f"),
+            _fmt(fe.p95, 1e3, ".1f"),
+            _fmt(sim.nominal_systematic_error_m, 1e3, ".1f"),
         )
     )
     print_table(rows)
-    if real is not None:
-        r = doc["realdata"]
-        print(
-            f"\nReal OptiOdom runs ({args.realdata}): validated on {len(r['heldout_runs'])} "
-            "held-out runs (free/ and the circle data sets BCPT does not calibrate on)"
+
+
+def print_real(
+    real: RealComparison, agreement: Sequence[AgreementSummary], realdata: str | None
+) -> None:
+    """The table of the real-data comparison and the agreement with the published methods."""
+    print(
+        f"\nReal OptiOdom runs ({realdata}): validated on {len(real.heldout)} "
+        "held-out runs (free/ and the circle data sets BCPT does not calibrate on)"
+    )
+    rows = [("method", "calibrations", "held-out mean final err mm (mean, min-max)")]
+    for m in real.methods:
+        h = m.heldout
+        rows.append(
+            (
+                m.name,
+                str(len(m.per_dataset)),
+                f"{_fmt(h.mean, 1e3, '.1f')} ({_fmt(h.min, 1e3, '.1f')}-{_fmt(h.max, 1e3, '.1f')})",
+            )
         )
-        rows = [("method", "calibrations", "held-out mean final err mm (mean, min-max)")]
-        for m in r["methods"]:
-            h = m["heldout_mean_final_error_m"]
-            rows.append(
-                (
-                    m["name"],
-                    m["calibrations"],
-                    f"{_fmt(h['mean'], 1e3, '.1f')} ({_fmt(h['min'], 1e3, '.1f')}-"
-                    f"{_fmt(h['max'], 1e3, '.1f')})",
-                )
+    rows.append(("nominal", "", _fmt(real.nominal_mean_final_error_m, 1e3, ".1f")))
+    if real.published is not None:
+        rows.append(
+            (
+                "published OptiOdom (all data)",
+                "",
+                _fmt(real.published.heldout_mean_final_error_m, 1e3, ".1f"),
             )
-        rows.append(("nominal", "", _fmt(r["nominal_mean_final_error_m"], 1e3, ".1f")))
-        if r["published"] is not None:
-            rows.append(
-                (
-                    "published OptiOdom (all data)",
-                    "",
-                    _fmt(r["published"]["heldout_mean_final_error_m"], 1e3, ".1f"),
-                )
-            )
-        print_table(rows)
-        for f in r["failures"]:
-            print(f"  {f['method']}: not calibrated: {f['error']}")
-        agree: dict = {}
-        for a in r["published_same_method"]:
-            agree.setdefault((a["method"], a["published_method"]), []).append(
-                a["max_abs_difference_m"]
-            )
-        for (ours, theirs), diffs in agree.items():
-            print(
-                f"  {ours} vs published {theirs}: {len(diffs)} data sets, largest parameter "
-                f"difference {1e6 * max(diffs):.1f} um "
-                f"(median {1e6 * statistics.median(diffs):.1f})"
-            )
-    if png:
-        print(f"wrote {png}")
-    return 0
+        )
+    print_table(rows)
+    for f in real.failures:
+        print(f"  {f.method}: not calibrated: {f.error}")
+    for a in agreement:
+        print(
+            f"  {a.method} vs published {a.published_method}: {a.datasets} data sets, largest "
+            f"parameter difference {1e6 * a.largest_m:.1f} um (median {1e6 * a.median_m:.1f})"
+        )

@@ -24,6 +24,13 @@ from .common import (
 if TYPE_CHECKING:
     import numpy as np
 
+    from ..app.measured import MeasuredRobot
+    from ..core.model import MeasurementNoise
+    from ..design.recommend import Recommendation
+    from ..design.result import Candidate, ValidationTrack
+    from ..design.robust import RangeDesign
+    from ..design.sweep import DesignResult
+
 
 def parse_side_lengths(text: str) -> np.ndarray:
     """'START:STOP:STEP' (m, STOP inclusive within float tolerance) or one length 'L'."""
@@ -62,7 +69,7 @@ def parse_side_lengths(text: str) -> np.ndarray:
     return lengths
 
 
-def parse_validation(text: str):
+def parse_validation(text: str) -> ValidationTrack:
     """'SIDES:LENGTH:DIRECTION', e.g. '4:4:ccw' (the paper's 4 m x 4 m square CCW)."""
     from ..core.tracks import MAX_POLYGON_SIDES
     from ..design.result import ValidationTrack
@@ -215,10 +222,10 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from ..app.design import design
-    from ..design.result import DesignSpec
     from ..design.robust import RangeDesign
+    from ..design.spec import DesignSpec
 
     spec = DesignSpec(
         sides=tuple(args.sides or [4]),
@@ -229,6 +236,9 @@ def run(args) -> int:
         trials=args.trials,
         method=args.method,
         validation=args.validate,
+        alpha=args.alpha,
+        tolerance=args.tolerance,
+        criterion=args.criterion,
     )
     bar = ProgressBar("odocal design", enabled=not (args.quiet or args.json))
     try:
@@ -238,9 +248,6 @@ def run(args) -> int:
             params=args.params,
             engine="analytic" if args.analytic else "monte-carlo",
             seed=args.seed,
-            alpha=args.alpha,
-            tolerance=args.tolerance,
-            criterion=args.criterion,
             reference_sim=args.reference_sim,
             plot=args.plot,
             progress=bar,
@@ -255,14 +262,7 @@ def run(args) -> int:
         print_json(res.as_dict())
         return 0
     if res.measured is not None:
-        m = res.measured.robot
-        print(
-            f"Robot measured from {len(res.measured.fit.runs)} run(s): E_b {m.systematic.E_b:.6f}, "
-            f"E_d {m.systematic.E_d:.6f} (relative to nominal), k_r + k_l "
-            f"{m.nonsystematic.k_sum_m:.3g} m, instrument {m.measurement.sigma_xy_m * 1000:.3g} mm "
-            f"/ {math.degrees(m.measurement.sigma_theta_rad):.3g} deg "
-            f"({res.measured.measurement_source})"
-        )
+        _print_measured(res.measured)
     for note in res.notes:
         print(f"Note: {note}")
     if isinstance(res.result, RangeDesign):
@@ -274,7 +274,18 @@ def run(args) -> int:
     return 0
 
 
-def _instrument(args):
+def _print_measured(measured: MeasuredRobot) -> None:
+    m = measured.robot
+    print(
+        f"Robot measured from {len(measured.fit.runs)} run(s): E_b {m.systematic.E_b:.6f}, "
+        f"E_d {m.systematic.E_d:.6f} (relative to nominal), k_r + k_l "
+        f"{m.nonsystematic.k_sum_m:.3g} m, instrument {m.measurement.sigma_xy_m * 1000:.3g} mm "
+        f"/ {math.degrees(m.measurement.sigma_theta_rad):.3g} deg "
+        f"({measured.measurement_source})"
+    )
+
+
+def _instrument(args: argparse.Namespace) -> MeasurementNoise | None:
     if args.sigma_xy_m is None and args.sigma_theta_deg is None:
         return None
     from ..core.model import MeasurementNoise
@@ -282,18 +293,25 @@ def _instrument(args):
     return MeasurementNoise.from_degrees(args.sigma_xy_m or 0.0, args.sigma_theta_deg or 0.0)
 
 
-def _f(v, fmt: str) -> str:
+def _f(v: float | None, fmt: str) -> str:
     return "-" if v is None or not math.isfinite(v) else format(v, fmt)
 
 
-def print_design(result, robot: str, seed: int | None = None) -> None:
+def print_design(result: DesignResult, robot: str, seed: int | None = None) -> None:
     """The human-readable design report."""
-    from ..design.result import shape_name
-    from ..design.sweep import other_criterion, stability
+    _print_header(result, robot, seed)
+    print()
+    _print_candidates(result)
+    print()
+    _print_recommendation(result)
+    _print_stability(result)
+    _print_alternatives(result)
+    if result.recommendation.neighbours:
+        print()
+        _print_neighbours(result)
 
-    cands = result.candidates
-    rec = result.recommendation
-    r = cands[rec.index]
+
+def _print_header(result: DesignResult, robot: str, seed: int | None) -> None:
     if result.trials is None:
         how = "first-order analytic (expected values, no trials)"
     else:
@@ -309,45 +327,52 @@ def print_design(result, robot: str, seed: int | None = None) -> None:
         f"{_f(result.uncalibrated.mean_m, '.3f')} m, floor with the true parameters "
         f"{_f(result.floor.mean_m, '.3f')} m ({mean_of})"
     )
-    print()
-    rows = [
-        (
-            "track",
-            "side_m",
-            "travel_m",
-            "share_%",
-            "|beta|_deg",
-            "sigma_deg",
-            "E_b mean",
-            "E_b std",
-            "E_d mean",
-            "E_d std",
-            "error_m",
-            "std_m",
-            "95%_range_m",
-            "residual_m",
-        )
-    ]
-    for i, c in enumerate(cands):
-        lo, hi = c.post_error_ci95_m
-        rows.append(
-            (
-                ("* " if i == rec.index else "  ") + shape_name(c.sides),
-                _f(c.side_m, "g"),
-                _f(c.travel_m, "g"),
-                _f(100 * c.systematic_share, ".1f"),
-                _f(math.degrees(c.leg_heading_systematic_rad), ".3f"),
-                _f(math.degrees(c.leg_heading_noise_rad), ".3f"),
-                _f(c.E_b_mean, ".5f"),
-                _f(c.E_b_std, ".5f"),
-                _f(c.E_d_mean, ".6f"),
-                _f(c.E_d_std, ".6f"),
-                _f(c.post_error_mean_m, ".4f"),
-                _f(c.post_error_std_m, ".4f"),
-                f"{_f(lo, '.3f')}-{_f(hi, '.3f')}",
-                _f(c.residual_error_mean_m, ".4f"),
-            )
-        )
+
+
+_CANDIDATE_COLUMNS = (
+    "track",
+    "side_m",
+    "travel_m",
+    "share_%",
+    "|beta|_deg",
+    "sigma_deg",
+    "E_b mean",
+    "E_b std",
+    "E_d mean",
+    "E_d std",
+    "error_m",
+    "std_m",
+    "95%_range_m",
+    "residual_m",
+)
+
+
+def _candidate_row(c: Candidate, recommended: bool) -> tuple[str, ...]:
+    from ..design.result import shape_name
+
+    lo, hi = c.post_error_ci95_m
+    return (
+        ("* " if recommended else "  ") + shape_name(c.sides),
+        _f(c.side_m, "g"),
+        _f(c.travel_m, "g"),
+        _f(100 * c.systematic_share, ".1f"),
+        _f(math.degrees(c.leg_heading_systematic_rad), ".3f"),
+        _f(math.degrees(c.leg_heading_noise_rad), ".3f"),
+        _f(c.E_b_mean, ".5f"),
+        _f(c.E_b_std, ".5f"),
+        _f(c.E_d_mean, ".6f"),
+        _f(c.E_d_std, ".6f"),
+        _f(c.post_error_mean_m, ".4f"),
+        _f(c.post_error_std_m, ".4f"),
+        f"{_f(lo, '.3f')}-{_f(hi, '.3f')}",
+        _f(c.residual_error_mean_m, ".4f"),
+    )
+
+
+def _print_candidates(result: DesignResult) -> None:
+    index = result.recommendation.index
+    rows: list[tuple[str, ...]] = [_CANDIDATE_COLUMNS]
+    rows += [_candidate_row(c, i == index) for i, c in enumerate(result.candidates)]
     print_table(rows)
     print(
         "  share: systematic share of the n-run-mean leg heading error; |beta|, sigma: "
@@ -355,19 +380,28 @@ def print_design(result, robot: str, seed: int | None = None) -> None:
         "  error: final position error on the validation track after calibration (mean, std, "
         "central 95 % of single calibrations); residual: the same without wheel noise"
     )
-    failed = sum(c.failed_trials for c in cands)
-    if failed:
-        print(f"  {failed} trial(s) gave no calibration (equations undefined) and are left out")
-    print()
-    gain = result.uncalibrated.mean_m - r.post_error_mean_m
+    if result.failed_trials:
+        print(
+            f"  {result.failed_trials} trial(s) gave no calibration (equations undefined) and "
+            "are left out"
+        )
+
+
+def _judged(rec: Recommendation) -> str:
+    return "error after calibration" if rec.criterion == "error" else "residual error"
+
+
+def _print_recommendation(result: DesignResult) -> None:
+    from ..design.result import shape_name
+
+    r, rec = result.recommended, result.recommendation
     print(
         f"Recommended: {shape_name(r.sides)}, side {r.side_m:g} m ({r.travel_m:g} m travel per "
         f"run): error {r.post_error_mean_m:.4f} m after calibration, residual "
         f"{_f(r.residual_error_mean_m, '.4f')} m "
-        f"(uncalibrated {result.uncalibrated.mean_m:.4f} m, gain {gain:.4f} m; floor "
+        f"(uncalibrated {result.uncalibrated.mean_m:.4f} m, gain {result.gain_m:.4f} m; floor "
         f"{result.floor.mean_m:.4f} m)"
     )
-    judged = "error after calibration" if rec.criterion == "error" else "residual error"
     test = {
         "exact": "expected values compared directly",
         "paired": f"one-sided paired t-test on common random numbers, alpha {rec.alpha:g}",
@@ -375,18 +409,21 @@ def print_design(result, robot: str, seed: int | None = None) -> None:
     }[rec.test]
     print(
         f"Rule: the smallest track that no larger track beats by more than "
-        f"{100 * rec.tolerance:g} % in {judged} ({test})."
+        f"{100 * rec.tolerance:g} % in {_judged(rec)} ({test})."
     )
-    st = stability(result)
+
+
+def _print_stability(result: DesignResult) -> None:
+    st = result.stability
     if st is not None:
-        lo, hi = st["range_m"]
-        picks = ", ".join(f"{p['side_m']:g} m {100 * p['share']:.0f} %" for p in st["picks"][:4])
-        if lo == hi:
+        lo, hi = st.range_m
+        picks = ", ".join(f"{p.side_m:g} m {100 * p.share:.0f} %" for p in st.picks[:4])
+        if not st.indistinguishable:
             verdict = f"stable: {lo:g} m in at least 90 % of them"
         else:
             verdict = f"{lo:g}-{hi:g} m hold 90 % of them: these sizes are indistinguishable"
         print(
-            f"Stability: the rule on {st['resamples']} bootstrap resamples of the trials picks "
+            f"Stability: the rule on {st.resamples} bootstrap resamples of the trials picks "
             f"{picks}; {verdict}."
         )
     elif result.trials is None:
@@ -394,104 +431,110 @@ def print_design(result, robot: str, seed: int | None = None) -> None:
             "Stability: expected values (no sampling error); the first-order approximation is "
             "checked by Monte Carlo ('odocal design' without --analytic)."
         )
-    other = other_criterion(result)
-    if other is not None:
-        o = cands[other.index]
+
+
+def _print_alternatives(result: DesignResult) -> None:
+    from ..design.result import shape_name
+
+    other, o = result.other, result.other_recommended
+    if other is not None and o is not None:
         what = "residual alone" if other.criterion == "residual" else "error after calibration"
         print(
             f"  judged on the {what} (--criterion {other.criterion}): side {o.side_m:g} m "
             f"({o.travel_m:g} m travel)"
         )
-    if len(rec.per_shape) > 1:
-        for s, i in rec.per_shape.items():
-            print(f"  best {shape_name(s)}: side {cands[i].side_m:g} m ({cands[i].travel_m:g} m)")
-    if rec.neighbours:
-        print()
-        tol = f"{100 * rec.tolerance:g} %"
-        if rec.test == "exact":
-            print(f"The recommended {r.side_m:g} m track against its neighbours (expected values):")
-            trows = [("track", "vs", "mean difference_m", "ratio", f"better by > {tol}")]
-            for comp in rec.neighbours:
-                o = cands[comp.other]
-                trows.append(
-                    (
-                        f"{o.side_m:g} m",
-                        f"{r.side_m:g} m",
-                        _f(comp.mean_difference, "+.4f"),
-                        _f(o.post_error_mean_m / r.post_error_mean_m, ".4f"),
-                        "yes" if comp.significant else "no",
-                    )
-                )
-        else:
-            kind = "paired" if rec.test == "paired" else "Welch"
-            print(
-                f"t-tests of the {judged} against the recommended {r.side_m:g} m track ({kind}; "
-                "as the paper's Tables 2 and 3): 'any difference' is the two-sided test, "
-                f"'better by > {tol}' the rule's one-sided test (H1: the other track's mean < "
-                f"{1 - rec.tolerance:g} x this one's)"
-            )
-            trows = [
+    picks = result.shape_picks
+    if len(picks) > 1:
+        for c in picks:
+            print(f"  best {shape_name(c.sides)}: side {c.side_m:g} m ({c.travel_m:g} m)")
+
+
+def _print_neighbours(result: DesignResult) -> None:
+    r, rec, cands = result.recommended, result.recommendation, result.candidates
+    tol = f"{100 * rec.tolerance:g} %"
+    rows: list[tuple[str, ...]]
+    if rec.test == "exact":
+        print(f"The recommended {r.side_m:g} m track against its neighbours (expected values):")
+        rows = [("track", "vs", "mean difference_m", "ratio", f"better by > {tol}")]
+        for comp in rec.neighbours:
+            rows.append(
                 (
-                    "track",
-                    "vs",
-                    "mean difference_m",
-                    "t (any difference)",
-                    "df",
-                    "p (any difference)",
-                    f"t (better by > {tol})",
-                    f"p (better by > {tol})",
-                    f"better by > {tol}",
+                    f"{cands[comp.other].side_m:g} m",
+                    f"{r.side_m:g} m",
+                    _f(comp.mean_difference, "+.4f"),
+                    _f(result.error_ratio(comp), ".4f"),
+                    "yes" if comp.significant else "no",
                 )
-            ]
-            for comp in rec.neighbours:
-                o = cands[comp.other]
-                trows.append(
-                    (
-                        f"{o.side_m:g} m",
-                        f"{r.side_m:g} m",
-                        _f(comp.mean_difference, "+.4f"),
-                        _f(comp.test.t, ".3f"),
-                        _f(comp.test.df, ".1f"),
-                        _f(comp.test.p_two_sided, ".3f"),
-                        _f(comp.rule.t, ".3f"),
-                        _f(comp.rule.p_less, ".3f"),
-                        "yes" if comp.significant else "no",
-                    )
+            )
+    else:
+        kind = "paired" if rec.test == "paired" else "Welch"
+        print(
+            f"t-tests of the {_judged(rec)} against the recommended {r.side_m:g} m track ({kind}; "
+            "as the paper's Tables 2 and 3): 'any difference' is the two-sided test, "
+            f"'better by > {tol}' the rule's one-sided test (H1: the other track's mean < "
+            f"{1 - rec.tolerance:g} x this one's)"
+        )
+        rows = [
+            (
+                "track",
+                "vs",
+                "mean difference_m",
+                "t (any difference)",
+                "df",
+                "p (any difference)",
+                f"t (better by > {tol})",
+                f"p (better by > {tol})",
+                f"better by > {tol}",
+            )
+        ]
+        for comp in rec.neighbours:
+            assert comp.test is not None and comp.rule is not None  # tests, not exact
+            rows.append(
+                (
+                    f"{cands[comp.other].side_m:g} m",
+                    f"{r.side_m:g} m",
+                    _f(comp.mean_difference, "+.4f"),
+                    _f(comp.test.t, ".3f"),
+                    _f(comp.test.df, ".1f"),
+                    _f(comp.test.p_two_sided, ".3f"),
+                    _f(comp.rule.t, ".3f"),
+                    _f(comp.rule.p_less, ".3f"),
+                    "yes" if comp.significant else "no",
                 )
-        print_table(trows)
+            )
+    print_table(rows)
 
 
-def print_range_design(design, robot: str) -> None:
+def print_range_design(design: RangeDesign, robot: str) -> None:
     """The report of a design over plausible errors."""
-    import numpy as np
-
     from ..design.result import shape_name
 
-    d = design.as_dict()
-    rg = d["error_range"]["ranges"]
+    eb, ed, k = (design.level_range(key) for key in ("E_b", "E_d", "k_m"))
     unknown = " and ".join(design.unknown)
     print(
         f"Test-track design for {robot}: its {unknown} errors are not given, so the design runs "
-        f"over {len(design.scenarios)} plausible robots (E_b {rg['E_b'][0]:g}-{rg['E_b'][1]:g}, "
-        f"E_d {rg['E_d'][0]:g}-{rg['E_d'][1]:g}, k {rg['k_m'][0]:.2g}-{rg['k_m'][1]:.2g} m; "
+        f"over {len(design.scenarios)} plausible robots (E_b {eb[0]:g}-{eb[1]:g}, "
+        f"E_d {ed[0]:g}-{ed[1]:g}, k {k[0]:.2g}-{k[1]:.2g} m; "
         "typical ranges, docs/design.md), first-order analytic, "
         f"{design.method} method, {design.runs_per_direction} runs per direction"
     )
+    uncal, floor = design.uncalibrated_range_m, design.floor_range_m
     print(
         f"Validation: {design.validation.label}; uncalibrated error "
-        f"{np.min(design.uncalibrated):.3f}-{np.max(design.uncalibrated):.3f} m, floor "
-        f"{np.min(design.floor):.3f}-{np.max(design.floor):.3f} m over the plausible robots"
+        f"{uncal[0]:.3f}-{uncal[1]:.3f} m, floor "
+        f"{floor[0]:.3f}-{floor[1]:.3f} m over the plausible robots"
     )
     print()
     rows = [("track", "side_m", "travel_m", "worst above best_%", "error range_m")]
-    for i, c in enumerate(d["candidates"]):
+    worst, lo, hi = design.worst_regret, design.error_min_m, design.error_max_m
+    for i, c in enumerate(design.candidates):
         rows.append(
             (
-                ("* " if i == design.index else "  ") + shape_name(c["sides"]),
-                _f(c["side_m"], "g"),
-                _f(c["travel_m"], "g"),
-                _f(100 * c["worst_regret"], ".1f"),
-                f"{_f(c['post_error_min_m'], '.4f')}-{_f(c['post_error_max_m'], '.4f')}",
+                ("* " if i == design.index else "  ") + shape_name(c.sides),
+                _f(c.side_m, "g"),
+                _f(c.travel_m, "g"),
+                _f(100 * worst[i], ".1f"),
+                f"{_f(lo[i], '.4f')}-{_f(hi[i], '.4f')}",
             )
         )
     print_table(rows)

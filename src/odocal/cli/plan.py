@@ -135,13 +135,13 @@ def run(args) -> int:
             "  (ROBOT.yaml gives no wheel noise k: the spread is the instrument's alone; a real "
             "robot's is larger)"
         )
-    c, r = plan.calibration, plan.reference
-    if c is not None and np.isfinite(c.post_error_mean_m):
+    c, r, v = plan.calibration, plan.reference, plan.validation
+    if c is not None and r is not None and v is not None and np.isfinite(c.post_error_mean_m):
         lo, hi = c.post_error_ci95_m
         print(
             f"  Calibration from these runs (heading-error method, first-order prediction): "
             f"E_b {c.E_b_mean:.4f} ± {c.E_b_std:.4f}, E_d {c.E_d_mean:.5f} ± {c.E_d_std:.5f}; "
-            f"then a {plan.validation.label} should end {c.post_error_mean_m:.3f} m from its start "
+            f"then a {v.label} should end {c.post_error_mean_m:.3f} m from its start "
             f"(95 %: {lo:.3f} .. {hi:.3f} m), against {r.uncalibrated_m:.3f} m uncalibrated and "
             f"{r.floor_m:.3f} m with perfect parameters. 'odocal design' compares track sizes."
         )

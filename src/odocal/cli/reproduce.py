@@ -3,6 +3,7 @@ real robot."""
 
 from __future__ import annotations
 
+import argparse
 import sys
 
 from ..errors import InputError
@@ -43,7 +44,7 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from ..app.reproduce import reproduce
 
     if args.out is None and not args.json:
@@ -68,26 +69,23 @@ def run(args) -> int:
                 f"  {name}: recommended side {r.side_m:g} m ({r.travel_m:g} m travel), error "
                 f"{r.post_error_mean_m:.4f} m (floor {c.floor.mean_m:.4f} m)"
             )
-    if res.real is not None:
-        from ..design.real_experiment import verdict
-
-        real = res.real
-        v = verdict(real)
+    if res.real is not None and res.verdict is not None:
+        real, v = res.real, res.verdict
         print(f"real robot ({len(real.heldout_names)} held-out runs):")
         for s in real.sides_m:
-            c = real.calibration(s)
+            cal = real.calibration(s)
             p = real.prediction.real[s]
             print(
-                f"  heading on the {s:g} m squares: E_b {c.E_b:.5f}, E_d {c.E_d:.6f}, held-out "
-                f"error {c.heldout_error_m * 1000:.1f} mm (design predicted "
+                f"  heading on the {s:g} m squares: E_b {cal.E_b:.5f}, E_d {cal.E_d:.6f}, "
+                f"held-out error {cal.heldout_error_m * 1000:.1f} mm (design predicted "
                 f"{p.post_error_mean_m * 1000:.1f} mm)"
             )
-        t = real.ttests["heading"]["paired"]
+        t = real.ttests["heading"].paired
         print(
             f"  paired t = {t.t:.2f}, p = {t.p_two_sided:.2g}; design prefers "
-            f"{v['preferred_side_m']:g} m; ordering predicted: "
-            f"{'yes' if v['ordering_predicted'] else 'no'}; difference within the prediction: "
-            f"{'yes' if v['difference_within_prediction'] else 'no'}"
+            f"{v.preferred_side_m:g} m; ordering predicted: "
+            f"{'yes' if v.ordering_predicted else 'no'}; difference within the prediction: "
+            f"{'yes' if v.difference_within_prediction else 'no'}"
         )
     for path in res.figures.values():
         print(f"wrote {path}")

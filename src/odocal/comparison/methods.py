@@ -250,7 +250,9 @@ def _ivanjko_estimate(data: dict, ran_with: WheelGeometry) -> GeometryBatch:
         ran_with,
     )
     g = fit.geometry
-    return GeometryBatch(g.diameter_right_m, g.diameter_left_m, g.wheelbase_m)
+    return GeometryBatch(
+        np.asarray(g.diameter_right_m), np.asarray(g.diameter_left_m), np.asarray(g.wheelbase_m)
+    )
 
 
 def _tracked_square_plan(budget: Budget, robot: Robot) -> tuple:

@@ -27,7 +27,56 @@ from ..core.tracks import Track, polygon
 from ..errors import CalibrationError
 from .methods import METHOD_REGISTRY, Budget, GroupData, MethodEntry, RunGroup
 
-__all__ = ["MethodStats", "SimulatedComparison", "compare_simulated", "simulate_group"]
+__all__ = [
+    "ErrorStats",
+    "Distribution",
+    "MethodStats",
+    "SimulatedComparison",
+    "compare_simulated",
+    "simulate_group",
+]
+
+
+@dataclass(frozen=True)
+class ErrorStats:
+    """Bias (mean) and spread (std, ddof = 1) of a relative error over the finite trials; None
+    where there are too few."""
+
+    bias: float | None
+    std: float | None
+
+    @classmethod
+    def of(cls, values: np.ndarray) -> ErrorStats:
+        v = values[np.isfinite(values)]
+        if len(v) == 0:
+            return cls(None, None)
+        return cls(float(v.mean()), float(v.std(ddof=1)) if len(v) > 1 else None)
+
+    def as_dict(self) -> dict:
+        return {"bias": self.bias, "std": self.std}
+
+
+@dataclass(frozen=True)
+class Distribution:
+    """Mean, std (ddof = 1) and 95th percentile of a sample (None where there are too few)."""
+
+    mean: float | None
+    std: float | None
+    p95: float | None
+
+    @classmethod
+    def of(cls, values: np.ndarray, finite_only: bool = True) -> Distribution:
+        v = values[np.isfinite(values)] if finite_only else values
+        if len(v) == 0:
+            return cls(None, None, None)
+        return cls(
+            float(v.mean()),
+            float(v.std(ddof=1)) if len(v) > 1 else None,
+            float(np.quantile(v, 0.95)),
+        )
+
+    def as_dict(self) -> dict:
+        return {"mean": self.mean, "std": self.std, "p95": self.p95}
 
 
 @dataclass(frozen=True)
@@ -41,7 +90,7 @@ class MethodStats:
 
     name: str
     drives: str
-    sizes: dict
+    sizes: dict[str, float]
     runs: int
     travel_m: float
     footprint_m: float
@@ -52,23 +101,29 @@ class MethodStats:
     final_error_m: np.ndarray
     systematic_error_m: np.ndarray
 
+    @property
+    def E_b_stats(self) -> ErrorStats:
+        return ErrorStats.of(self.E_b_error)
+
+    @property
+    def E_d_stats(self) -> ErrorStats:
+        return ErrorStats.of(self.E_d_error)
+
+    @property
+    def E_s_stats(self) -> ErrorStats:
+        return ErrorStats.of(self.E_s_error)
+
+    @property
+    def final_error(self) -> Distribution:
+        """The validation final position error over the trials (m)."""
+        return Distribution.of(self.final_error_m)
+
+    @property
+    def systematic_error(self) -> Distribution:
+        """The same without noise: the systematic residual of the calibration (m)."""
+        return Distribution.of(self.systematic_error_m)
+
     def summary(self) -> dict:
-        def ms(v):
-            v = v[np.isfinite(v)]
-            if len(v) == 0:
-                return {"bias": None, "std": None}
-            return {"bias": float(v.mean()), "std": float(v.std(ddof=1)) if len(v) > 1 else None}
-
-        def dist(v):
-            v = v[np.isfinite(v)]
-            if len(v) == 0:
-                return {"mean": None, "std": None, "p95": None}
-            return {
-                "mean": float(v.mean()),
-                "std": float(v.std(ddof=1)) if len(v) > 1 else None,
-                "p95": float(np.quantile(v, 0.95)),
-            }
-
         return {
             "name": self.name,
             "drives": self.drives,
@@ -77,16 +132,20 @@ class MethodStats:
             "travel_m": self.travel_m,
             "footprint_m": self.footprint_m,
             "failed_trials": self.failed,
-            "E_b_error": ms(self.E_b_error),
-            "E_d_error": ms(self.E_d_error),
-            "E_s_error": ms(self.E_s_error),
-            "final_error_m": dist(self.final_error_m),
-            "systematic_final_error_m": dist(self.systematic_error_m),
+            "E_b_error": self.E_b_stats.as_dict(),
+            "E_d_error": self.E_d_stats.as_dict(),
+            "E_s_error": self.E_s_stats.as_dict(),
+            "final_error_m": self.final_error.as_dict(),
+            "systematic_final_error_m": self.systematic_error.as_dict(),
         }
 
 
 @dataclass(frozen=True)
 class SimulatedComparison:
+    """Every method on one simulated robot: the trials and seed, the budget (runs, wheel travel
+    in m), the validation track's name, the uncalibrated (nominal) validation errors per trial
+    and without noise (m), and each method's :class:`MethodStats`."""
+
     robot: Robot
     trials: int
     seed: int
@@ -96,6 +155,11 @@ class SimulatedComparison:
     nominal_final_error_m: np.ndarray
     nominal_systematic_error_m: float
     methods: tuple[MethodStats, ...]
+
+    @property
+    def nominal_final_error(self) -> Distribution:
+        """The uncalibrated robot's validation final position error over the trials (m)."""
+        return Distribution.of(self.nominal_final_error_m, finite_only=False)
 
 
 def _method_rng(seed: int, name: str) -> np.random.Generator:
@@ -120,6 +184,7 @@ def simulate_group(
     res = simulate(group.track, robot, n, rng, steps_per_segment=steps, trajectory=idx)
     errors = measure(res.errors, robot, rng).reshape(trials, group.runs, 3)
     final = errors + np.asarray(odometric_pose(group.track))
+    assert res.trajectory is not None  # asked for with ``trajectory=idx``
     traj = measure_track(res.trajectory, robot, rng)
     traj = traj.reshape(trials, group.runs, len(idx), 3)
     return GroupData(group, final, errors, traj[..., :2], traj, angles[idx])

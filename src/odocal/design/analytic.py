@@ -33,6 +33,7 @@ import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -49,6 +50,10 @@ from .metrics import (
     true_factors,
 )
 from .result import Candidate
+from .spec import DesignSpec, Method
+
+if TYPE_CHECKING:
+    from .sweep import DesignResult
 
 __all__ = [
     "analytic_design_result",
@@ -150,7 +155,7 @@ def analytic_reference(
     return AnalyticReference(*out[0], *out[1])
 
 
-def _calibration_function(method: str, sides: int, side_m: np.ndarray, wheelbase_m, form: str):
+def _calibration_function(method: Method, sides: int, side_m: np.ndarray, wheelbase_m, form: str):
     """g(z) -> (E_b, E_d) for z = (mean CW error (3), mean CCW error (3)), shape (..., 6)."""
     if method == "heading":
         return lambda z: heading_factors(z[..., 2], z[..., 5], sides, side_m, wheelbase_m)
@@ -178,7 +183,7 @@ def analytic_design(
     sides: int | Sequence[int],
     side_lengths_m,
     runs_per_direction: int = 5,
-    method: str = "heading",
+    method: Method = "heading",
     validate_track: Track | None = None,
     *,
     umbmark_form: str = "mean",
@@ -323,54 +328,42 @@ def analytic_design(
     return out
 
 
-def analytic_design_result(
-    robot: Robot,
-    *,
-    sides=(4,),
-    side_lengths_m=None,
-    runs_per_direction: int = 5,
-    trials: int | None = None,
-    method: str = "heading",
-    validation=None,
-    alpha: float = 0.05,
-    tolerance: float = 0.05,
-    criterion: str = "error",
-):
+def analytic_design_result(robot: Robot, spec: DesignSpec) -> DesignResult:
     """The whole design (``odocal design --analytic``) by first-order propagation.
 
-    Same candidates (shapes compared at equal travel), recommendation rule, report and JSON as
-    :func:`odocal.design.sweep.run_design`, without Monte Carlo. The candidates are expected
-    values (``trials`` None: no sampling error), so the rule compares their means directly
-    ("exact"): the limit of the Monte-Carlo rule for infinitely many trials. ``trials`` is
-    accepted for symmetry with the Monte-Carlo engine and ignored; ``alpha`` plays no part.
+    Same candidates (shapes compared at equal travel; sizes ``spec`` leaves open scaled to the
+    robot), recommendation rule, report and JSON as :func:`odocal.design.sweep.run_design`,
+    without Monte Carlo. The candidates are expected values (``trials`` None: no sampling
+    error), so the rule compares their means directly ("exact"): the limit of the Monte-Carlo
+    rule for infinitely many trials. ``spec.trials`` is ignored; ``spec.alpha`` plays no part.
     """
-    from .recommend import recommend
-    from .result import ErrorSummary, ValidationTrack, check_design_inputs
+    from .recommend import other_criterion, recommend
+    from .result import ErrorSummary
     from .sweep import DesignResult, equal_travel_side_lengths, gain_warnings
 
-    check_design_inputs(runs_per_direction, 2 if trials is None else trials)
-    sides = [int(v) for v in dict.fromkeys(sides)]
-    if side_lengths_m is None:
-        side_lengths_m = np.arange(1, 21) * 0.5
-    validation = validation or ValidationTrack(4, 4.0, "ccw")
+    spec = spec.for_wheelbase(float(robot.nominal.wheelbase_m))
+    validation = spec.validation_track
     track = validation.track()
     candidates = []
-    for N, lengths in equal_travel_side_lengths(np.asarray(side_lengths_m, float), sides).items():
-        candidates += analytic_design(robot, N, lengths, runs_per_direction, method, track)
+    for N, lengths in equal_travel_side_lengths(spec.lengths_m, spec.sides).items():
+        candidates += analytic_design(
+            robot, N, lengths, spec.runs_per_direction, spec.method, track
+        )
     ref = analytic_reference(robot, track)
     floor = ErrorSummary(ref.floor_m, ref.floor_std_m, ref.floor_ci95_m, 0)
     uncal = ErrorSummary(ref.uncalibrated_m, ref.uncalibrated_std_m, ref.uncalibrated_ci95_m, 0)
-    rec = recommend(candidates, alpha, tolerance, criterion)
+    rec = recommend(candidates, spec.alpha, spec.tolerance, spec.criterion)
     result = DesignResult(
         tuple(candidates),
         floor,
         uncal,
         rec,
         validation,
-        method,
-        runs_per_direction,
+        spec.method,
+        spec.runs_per_direction,
         None,
         None,
         truth_factors=true_factors(robot),
+        other=other_criterion(candidates, rec),
     )
     return replace(result, warnings=gain_warnings(result))

@@ -17,8 +17,9 @@ from ..core.simulate import odometric_pose
 from ..core.tracks import Track, out_and_back, polygon, straight_line
 from ..errors import ModelError
 from .analytic import AnalyticReference, analytic_design, analytic_reference
-from .result import Candidate, ValidationTrack, scaled_sizes
+from .result import Candidate, ValidationTrack
 from .robust import plausible_robots, unknown_errors
+from .spec import scaled_sizes
 
 __all__ = ["FloorPlan", "build_plan"]
 

@@ -32,29 +32,34 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Literal, get_args
 
 import numpy as np
 
 from ..core.model import ModelError
 from ..core.stats import TTest, student_t_quantile, student_t_sf, ttest_from_stats, ttest_paired
+from .result import rounded
+from .spec import CRITERIA, Criterion
 
 __all__ = [
     "CRITERIA",
     "TESTS",
+    "Test",
     "Comparison",
     "Recommendation",
+    "Pick",
+    "Stability",
     "recommend",
+    "other_criterion",
     "compare",
     "pick_spread",
     "spread_range",
+    "stability_of",
 ]
 
-#: What the rule compares: the error after calibration on the validation track ('error', the
-#: paper's quantity) or the residual, the same drive without wheel noise ('residual').
-CRITERIA = ("error", "residual")
-
 #: How "better by more than the tolerance" is decided (module docstring).
-TESTS = ("exact", "paired", "welch")
+Test = Literal["exact", "paired", "welch"]
+TESTS: tuple[Test, ...] = get_args(Test)
 
 _TRAVEL_RTOL = 1e-9
 
@@ -74,7 +79,7 @@ class Comparison:
     test: TTest | None
     rule: TTest | None
     significant: bool
-    kind: str = "welch"
+    kind: Test = "welch"
     mean_difference: float = math.nan
 
 
@@ -110,10 +115,10 @@ class Recommendation:
     alpha: float
     tolerance: float
     neighbours: tuple[Comparison, ...]
-    beaten_by: dict
-    per_shape: dict
-    criterion: str = "error"
-    test: str = "welch"
+    beaten_by: dict[int, int]
+    per_shape: dict[int, int]
+    criterion: Criterion = "error"
+    test: Test = "welch"
     spread: tuple[tuple[int, float], ...] = ()
     resamples: int = 0
 
@@ -136,7 +141,7 @@ def _samples(c) -> np.ndarray | None:
     return None if x is None else np.asarray(x, dtype=float)
 
 
-def _kind(o, r, paired: bool) -> str:
+def _kind(o, r, paired: bool) -> Test:
     if o.trials is None or r.trials is None:
         return "exact"
     if paired and _samples(o) is not None and _samples(r) is not None:
@@ -237,7 +242,7 @@ def recommend(
     candidates,
     alpha: float = 0.05,
     tolerance: float = 0.05,
-    criterion: str = "error",
+    criterion: Criterion = "error",
     *,
     paired: bool = False,
 ) -> Recommendation:
@@ -278,8 +283,22 @@ def recommend(
     pos = same.index(index)
     around = same[max(pos - 1, 0) : pos] + same[pos + 1 : pos + 2]
     neighbours = tuple(comp(j, index) for j in around)
-    test = comp(around[0], index).kind if around else ("exact" if rec.trials is None else "welch")
+    test: Test = (
+        comp(around[0], index).kind if around else ("exact" if rec.trials is None else "welch")
+    )
     return Recommendation(index, alpha, tolerance, neighbours, beaten, per_shape, criterion, test)
+
+
+def other_criterion(
+    candidates, rec: Recommendation, *, paired: bool = False
+) -> Recommendation | None:
+    """The rule of ``rec`` under the other criterion ('error' <-> 'residual'), or None when the
+    candidates carry no usable statistics for it (e.g. no residuals)."""
+    other: Criterion = "residual" if rec.criterion == "error" else "error"
+    try:
+        return recommend(candidates, rec.alpha, rec.tolerance, other, paired=paired)
+    except ModelError:
+        return None
 
 
 def pick_spread(
@@ -287,7 +306,7 @@ def pick_spread(
     rng: np.random.Generator,
     alpha: float = 0.05,
     tolerance: float = 0.05,
-    criterion: str = "error",
+    criterion: Criterion = "error",
     *,
     paired: bool = False,
     resamples: int = 200,
@@ -393,3 +412,70 @@ def spread_range(candidates: Sequence, spread, coverage: float = 0.9) -> tuple[i
         chosen.append(i)
         total += share
     return tuple(sorted(chosen, key=lambda i: (candidates[i].travel_m, candidates[i].sides)))
+
+
+@dataclass(frozen=True)
+class Pick:
+    """One candidate the bootstrap resamples pick: its shape, side and travel (m) and the share
+    of the resamples that pick it."""
+
+    sides: int
+    side_m: float
+    travel_m: float
+    share: float
+
+    def as_dict(self) -> dict:
+        return {
+            "sides": self.sides,
+            "side_m": rounded(self.side_m),
+            "travel_m": rounded(self.travel_m),
+            "share": rounded(self.share, 4),
+        }
+
+
+@dataclass(frozen=True)
+class Stability:
+    """How stable a recommendation is (bootstrap of the trials; :func:`pick_spread`).
+
+    Attributes
+    ----------
+    resamples : int
+    picks : tuple of Pick
+        Most frequent first.
+    range_m, range_travel_m : (float, float)
+        Smallest and largest side (and travel, m) of the candidates that hold 90 % of the picks.
+    """
+
+    resamples: int
+    picks: tuple[Pick, ...]
+    range_m: tuple[float, float]
+    range_travel_m: tuple[float, float]
+
+    @property
+    def indistinguishable(self) -> bool:
+        """True when the sizes that hold 90 % of the picks are not one size."""
+        return self.range_m[0] != self.range_m[1]
+
+    def as_dict(self) -> dict:
+        return {
+            "resamples": self.resamples,
+            "picks": [p.as_dict() for p in self.picks],
+            "range_m": [rounded(v) for v in self.range_m],
+            "range_travel_m": [rounded(v) for v in self.range_travel_m],
+        }
+
+
+def stability_of(candidates: Sequence, rec: Recommendation) -> Stability | None:
+    """The stability of ``rec`` over ``candidates``, or None when it was not measured."""
+    if not rec.spread:
+        return None
+    held = spread_range(candidates, rec.spread)
+    return Stability(
+        rec.resamples,
+        tuple(
+            Pick(candidates[i].sides, candidates[i].side_m, candidates[i].travel_m, share)
+            for i, share in rec.spread
+        ),
+        (min(candidates[i].side_m for i in held), max(candidates[i].side_m for i in held)),
+        (min(candidates[i].travel_m for i in held), max(candidates[i].travel_m for i in held)),
+    )

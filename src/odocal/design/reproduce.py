@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -31,6 +31,7 @@ from ..presets import PRESETS
 from .metrics import LegHeadingCurve, leg_heading_curve
 from .recommend import recommend
 from .result import ValidationTrack
+from .spec import DesignSpec
 from .sweep import (
     FAST,
     DesignResult,
@@ -321,23 +322,24 @@ def reproduce(
     """Regenerate the paper's simulations and predict its experiment (module docstring).
     ``meanwhile``: other work for this process while worker processes compute (run once)."""
     streams = np.random.default_rng(seed).spawn(5)
-    squares: dict[str, Any] = {"sides": (4,), "side_lengths_m": SQUARE_SIDES_M, "trials": trials}
-    octagons: dict[str, Any] = {
-        "sides": (8,),
-        "side_lengths_m": SQUARE_SIDES_M * 4 / 8,
-        "trials": trials,
-    }
+    squares = DesignSpec(
+        sides=(4,),
+        side_lengths_m=tuple(SQUARE_SIDES_M),
+        trials=trials,
+        validation=ValidationTrack(4, 4.0, "ccw"),  # the paper's
+    )
+    octagons = replace(squares, sides=(8,), side_lengths_m=tuple(SQUARE_SIDES_M * 4 / 8))
     fig5_robot, experiment_robot = PRESETS["paper-fig5"], PRESETS["paper-experiment"]
     instrument_robot = with_heading_instrument(fig5_robot, INSTRUMENT_SIGMA_THETA_DEG)
     # independent pieces (each with its own stream, or none), on the cores there are
     tasks: dict[str, Callable[[], Any]] = {
         "precision": lambda: precision_sweep(fig5_robot),
-        "Fig. 5": lambda: run_design(fig5_robot, streams[0], **squares, settings=settings),
-        "Fig. 6": lambda: run_design(fig5_robot, streams[1], **octagons, settings=settings),
+        "Fig. 5": lambda: run_design(fig5_robot, squares, streams[0], settings=settings),
+        "Fig. 6": lambda: run_design(fig5_robot, octagons, streams[1], settings=settings),
         "instrument sensitivity": lambda: run_design(
-            instrument_robot, streams[4], **squares, settings=settings
+            instrument_robot, squares, streams[4], settings=settings
         ),
-        "Fig. 9": lambda: run_design(experiment_robot, streams[2], **squares, settings=settings),
+        "Fig. 9": lambda: run_design(experiment_robot, squares, streams[2], settings=settings),
         "Tables 1-3": lambda: predict_experiment(
             experiment_robot, streams[3], trials, settings=settings
         ),

@@ -12,21 +12,16 @@ candidates plus the floor and uncalibrated errors, whatever produced them (the M
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.model import ModelError
 from ..core.tracks import Track, direction_sign, polygon
 
 __all__ = [
     "ErrorSummary",
     "Candidate",
     "ValidationTrack",
-    "DesignSpec",
-    "DEFAULT_SIDE_LENGTHS_M",
-    "scaled_sizes",
-    "check_design_inputs",
     "shape_name",
     "rounded",
 ]
@@ -197,97 +192,3 @@ class ValidationTrack:
 
     def as_dict(self) -> dict:
         return {"sides": self.sides, "side_m": self.side_m, "direction": self.direction.lower()}
-
-
-def check_design_inputs(runs_per_direction: int, trials: int) -> None:
-    if runs_per_direction < 1:
-        raise ModelError(f"runs per direction must be >= 1, got {runs_per_direction}")
-    if trials < 2:
-        raise ModelError(f"trials must be >= 2 (a standard deviation is needed), got {trials}")
-
-
-#: Default candidate side lengths (m): 0.5, 1.0, ..., 10 m (the paper's sweep).
-DEFAULT_SIDE_LENGTHS_M = tuple(float(v) for v in np.arange(1, 21) * 0.5)
-
-#: Candidate sizes scaled to the robot: the step is about this many wheelbases (1.3 x 0.385 m =
-#: 0.5 m for the paper's robot), rounded to 1, 2, 2.5 or 5 x 10^k m; 20 candidates.
-STEP_PER_WHEELBASE = 1.3
-#: The validation square's side, in candidate steps (8 x 0.5 m = the paper's 4 m).
-VALIDATION_STEPS = 8
-_NICE = (1.0, 2.0, 2.5, 5.0)
-
-
-def _nice(x: float) -> float:
-    """``x`` rounded (in log scale) to 1, 2, 2.5 or 5 times a power of ten."""
-    e = math.floor(math.log10(x))
-    options = [m * 10.0**k for k in (e - 1, e, e + 1) for m in _NICE]
-    return min(options, key=lambda v: abs(math.log(v / x)))
-
-
-def scaled_sizes(wheelbase_m: float) -> tuple[tuple[float, ...], ValidationTrack]:
-    """Candidate side lengths and validation square for a robot of wheelbase ``wheelbase_m``
-    (m): 20 steps of about 1.3 wheelbases (rounded), and a square of 8 steps driven CCW. For the
-    paper's robot (b = 0.385 m) this is its sweep (0.5 .. 10 m) and its 4 m x 4 m square; for a
-    TurtleBot3 (b = 0.16 m) 0.2 .. 4 m and 1.6 m."""
-    step = _nice(STEP_PER_WHEELBASE * float(wheelbase_m))
-    lengths = tuple(float(round(step * k, 12)) for k in range(1, 21))
-    return lengths, ValidationTrack(4, round(VALIDATION_STEPS * step, 12), "ccw")
-
-
-@dataclass(frozen=True)
-class DesignSpec:
-    """What a track design compares: candidate shapes and sizes, runs and trials, the method and
-    the validation track.
-
-    Attributes
-    ----------
-    sides : tuple of int
-        Polygon shapes; shapes after the first are compared at equal travel.
-    side_lengths_m : tuple of float or None
-        Candidate side lengths of the first shape (m); None: scaled to the robot
-        (:func:`scaled_sizes`; the paper's 0.5 .. 10 m for the paper's robot).
-    runs_per_direction, trials : int
-        Test runs per direction; Monte-Carlo trials per candidate (2000 by default: with common
-        random numbers that makes the pick stable from seed to seed; docs/design.md).
-    method : str
-        'heading' or 'umbmark' (squares only).
-    validation : ValidationTrack or None
-        None: a square scaled to the robot (the paper's 4 m x 4 m CCW for the paper's robot).
-    """
-
-    sides: tuple[int, ...] = (4,)
-    side_lengths_m: tuple[float, ...] | None = None
-    runs_per_direction: int = 5
-    trials: int = 2000
-    method: str = "heading"
-    validation: ValidationTrack | None = None
-
-    def __post_init__(self) -> None:
-        check_design_inputs(self.runs_per_direction, self.trials)
-        if not self.sides:
-            raise ModelError("at least one polygon shape (sides) is needed")
-        if self.method not in ("heading", "umbmark"):
-            raise ModelError(f"method must be heading or umbmark, got {self.method!r}")
-        if self.method == "umbmark" and any(s != 4 for s in self.sides):
-            raise ModelError("UMBmark is defined for squares only (--sides 4)")
-        if self.side_lengths_m is not None:
-            lengths = np.asarray(self.side_lengths_m, dtype=float)
-            if lengths.ndim != 1 or lengths.size == 0:
-                raise ModelError("at least one candidate side length is needed")
-            if not np.all(np.isfinite(lengths) & (lengths > 0)):
-                raise ModelError(f"side lengths must be finite and > 0, got {lengths.tolist()}")
-
-    def for_wheelbase(self, wheelbase_m: float) -> DesignSpec:
-        """This spec with the sizes left open (None) scaled to a robot of ``wheelbase_m`` (m)."""
-        lengths, validation = scaled_sizes(wheelbase_m)
-        return replace(
-            self,
-            side_lengths_m=self.side_lengths_m if self.side_lengths_m is not None else lengths,
-            validation=self.validation if self.validation is not None else validation,
-        )
-
-    @property
-    def simulated_runs(self) -> int:
-        """Test runs per direction a Monte-Carlo design simulates (candidates x trials x runs)."""
-        n = len(self.side_lengths_m) if self.side_lengths_m is not None else 20
-        return n * self.trials * self.runs_per_direction * len(self.sides)

@@ -32,6 +32,7 @@ import numpy as np
 from ..core.model import NonSystematicError, Robot
 from .analytic import analytic_design, analytic_reference
 from .result import Candidate, ValidationTrack, rounded, shape_name
+from .spec import DesignSpec, Method
 
 __all__ = [
     "TYPICAL_E_B",
@@ -130,7 +131,7 @@ class RangeDesign:
     unknown: tuple[str, ...]
     tolerance: float
     validation: ValidationTrack
-    method: str
+    method: Method
     runs_per_direction: int
 
     @property
@@ -141,6 +142,35 @@ class RangeDesign:
     def regret(self) -> np.ndarray:
         """error / best error - 1, shape (scenarios, candidates)."""
         return self.errors / np.nanmin(self.errors, axis=1, keepdims=True) - 1.0
+
+    @property
+    def worst_regret(self) -> np.ndarray:
+        """Each candidate's largest regret over the scenarios, shape (candidates,)."""
+        return np.nanmax(self.regret, axis=0)
+
+    @property
+    def error_min_m(self) -> np.ndarray:
+        """Each candidate's smallest expected error over the scenarios (m), shape (candidates,)."""
+        return np.nanmin(self.errors, axis=0)
+
+    @property
+    def error_max_m(self) -> np.ndarray:
+        """Each candidate's largest expected error over the scenarios (m), shape (candidates,)."""
+        return np.nanmax(self.errors, axis=0)
+
+    @property
+    def uncalibrated_range_m(self) -> tuple[float, float]:
+        """Smallest and largest uncalibrated error over the scenarios (m)."""
+        return float(np.min(self.uncalibrated)), float(np.max(self.uncalibrated))
+
+    @property
+    def floor_range_m(self) -> tuple[float, float]:
+        """Smallest and largest floor (true parameters) over the scenarios (m)."""
+        return float(np.min(self.floor)), float(np.max(self.floor))
+
+    def level_range(self, key: str) -> tuple[float, float]:
+        """Smallest and largest level of ``key`` ('E_b', 'E_d' or 'k_m') over the scenarios."""
+        return min(s[key] for s in self.scenarios), max(s[key] for s in self.scenarios)
 
     @property
     def no_gain(self) -> np.ndarray:
@@ -168,8 +198,8 @@ class RangeDesign:
 
     def as_dict(self) -> dict:
         r = self.recommended
-        ranges = {k: [min(s[k] for s in self.scenarios), max(s[k] for s in self.scenarios)]
-                  for k in ("E_b", "E_d", "k_m")}  # fmt: skip
+        ranges = {k: self.level_range(k) for k in ("E_b", "E_d", "k_m")}
+        worst, lo, hi = self.worst_regret, self.error_min_m, self.error_max_m
         return {
             "error_range": {
                 "unknown": list(self.unknown),
@@ -182,9 +212,9 @@ class RangeDesign:
                     "sides": c.sides,
                     "side_m": rounded(c.side_m),
                     "travel_m": rounded(c.travel_m),
-                    "worst_regret": rounded(float(np.nanmax(self.regret[:, i]))),
-                    "post_error_min_m": rounded(float(np.nanmin(self.errors[:, i]))),
-                    "post_error_max_m": rounded(float(np.nanmax(self.errors[:, i]))),
+                    "worst_regret": rounded(float(worst[i])),
+                    "post_error_min_m": rounded(float(lo[i])),
+                    "post_error_max_m": rounded(float(hi[i])),
                 }
                 for i, c in enumerate(self.candidates)
             ],
@@ -220,25 +250,26 @@ class RangeDesign:
 
 def range_design(
     robot: Robot,
+    spec: DesignSpec,
     *,
-    sides: Sequence[int] = (4,),
-    side_lengths_m=(),
-    runs_per_direction: int = 5,
-    method: str = "heading",
-    validation: ValidationTrack,
-    tolerance: float = 0.05,
     unknown: Sequence[str] | None = None,
     progress: Callable[[int, int, str], None] | None = None,
     levels: dict | None = None,
 ) -> RangeDesign:
-    """The design over plausible robots (module docstring), by the analytic engine.
-    ``levels`` replaces the typical levels (see :func:`plausible_robots`)."""
+    """The design over plausible robots (module docstring), by the analytic engine, over the
+    candidates of ``spec`` (sizes it leaves open scaled to the robot; its rule's tolerance;
+    ``spec.trials``, ``alpha`` and ``criterion`` play no part). ``unknown``: the error classes
+    designed over (default :func:`unknown_errors`); ``levels`` replaces the typical levels (see
+    :func:`plausible_robots`)."""
     from .sweep import equal_travel_side_lengths
 
+    spec = spec.for_wheelbase(float(robot.nominal.wheelbase_m))
+    validation, tolerance = spec.validation_track, spec.tolerance
+    runs_per_direction, method = spec.runs_per_direction, spec.method
     unknown = tuple(unknown_errors(robot) if unknown is None else unknown)
     grid = plausible_robots(robot, unknown, levels)
     track = validation.track()
-    shapes = equal_travel_side_lengths(np.asarray(side_lengths_m, float), [int(s) for s in sides])
+    shapes = equal_travel_side_lengths(spec.lengths_m, spec.sides)
     errors, uncal, floor = [], [], []
     candidates: list[Candidate] = []
     for k, (levels, r) in enumerate(grid):

@@ -44,8 +44,17 @@ from .metrics import (
     systematic_share,
     true_factors,
 )
-from .recommend import Recommendation, pick_spread, recommend
-from .result import Candidate, ErrorSummary, ValidationTrack, check_design_inputs, rounded
+from .recommend import (
+    Comparison,
+    Recommendation,
+    Stability,
+    other_criterion,
+    pick_spread,
+    recommend,
+    stability_of,
+)
+from .result import Candidate, ErrorSummary, ValidationTrack, rounded
+from .spec import METHODS, DesignSpec, Method
 
 __all__ = [
     "METHODS",
@@ -62,8 +71,6 @@ __all__ = [
     "gain_warnings",
     "design_json",
 ]
-
-METHODS = ("heading", "umbmark")
 
 #: progress callback: (stages done, stages in all, label of the stage just finished)
 Progress = Callable[[int, int, str], None]
@@ -102,7 +109,7 @@ class SimulationSettings:
             "max_step_m": self.max_step_m,
         }
 
-    def for_tests(self, method: str) -> SimulationSettings:
+    def for_tests(self, method: Method) -> SimulationSettings:
         if method == "heading" and self.single_step_heading_tests:
             return replace(self, steps_per_segment=1)
         return self
@@ -127,7 +134,7 @@ class DesignResult:
         during the test (m).
     recommendation : Recommendation
     validation : ValidationTrack
-    method : str
+    method : Method
         Calibration method ('heading' or 'umbmark').
     runs_per_direction : int
     trials : int or None
@@ -141,6 +148,9 @@ class DesignResult:
         E.g. when calibrating on the recommended track would not beat the uncalibrated robot.
     truth_factors : (float, float) or None
         The E_b, E_d a perfect calibration finds (relative to the parameters the robot ran with).
+    other : Recommendation or None
+        The rule under the other criterion ('error' <-> 'residual'); None when the candidates
+        carry no statistics for it.
     """
 
     candidates: tuple[Candidate, ...]
@@ -148,17 +158,50 @@ class DesignResult:
     uncalibrated: ErrorSummary
     recommendation: Recommendation
     validation: ValidationTrack
-    method: str
+    method: Method
     runs_per_direction: int
     trials: int | None
     settings: SimulationSettings | None = None
     paired: bool = False
     warnings: tuple[str, ...] = ()
     truth_factors: tuple[float, float] | None = None
+    other: Recommendation | None = None
 
     @property
     def recommended(self) -> Candidate:
         return self.candidates[self.recommendation.index]
+
+    @property
+    def other_recommended(self) -> Candidate | None:
+        """The candidate the rule picks under the other criterion (see ``other``)."""
+        return None if self.other is None else self.candidates[self.other.index]
+
+    @property
+    def stability(self) -> Stability | None:
+        """How stable the recommendation is (bootstrap of the trials), or None when not
+        measured (analytic candidates, or no resamples)."""
+        return stability_of(self.candidates, self.recommendation)
+
+    @property
+    def gain_m(self) -> float:
+        """Uncalibrated minus the recommended track's mean error after calibration (m)."""
+        return self.uncalibrated.mean_m - self.recommended.post_error_mean_m
+
+    @property
+    def failed_trials(self) -> int:
+        """Trials, over all candidates, that gave no calibration (equations undefined)."""
+        return sum(c.failed_trials for c in self.candidates)
+
+    def error_ratio(self, comparison: Comparison) -> float:
+        """Mean error after calibration of the compared candidate over the recommended one's."""
+        return (
+            self.candidates[comparison.other].post_error_mean_m / self.recommended.post_error_mean_m
+        )
+
+    @property
+    def shape_picks(self) -> tuple[Candidate, ...]:
+        """The candidate the rule picks among each shape alone, fewest sides first."""
+        return tuple(self.candidates[i] for i in self.recommendation.per_shape.values())
 
 
 # Largest number of test runs per direction simulated in one block of candidates.
@@ -179,7 +222,7 @@ def calibrate_trials(
     side_lengths_m,
     runs_per_direction: int,
     trials: int,
-    method: str,
+    method: Method,
     rng: np.random.Generator,
     settings: SimulationSettings = FAST,
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -282,7 +325,7 @@ def simulate_candidates(
     side_lengths_m,
     runs_per_direction: int,
     trials: int,
-    method: str,
+    method: Method,
     validation: ValidationTrack,
     rng: np.random.Generator,
     settings: SimulationSettings = FAST,
@@ -382,86 +425,92 @@ def equal_travel_side_lengths(side_lengths_m, sides: Sequence[int]) -> dict[int,
     return {int(s): (base if i == 0 else travel / s) for i, s in enumerate(sides)}
 
 
+class _Steps:
+    """Progress of a design: stages done out of ``total``, reported to ``progress``."""
+
+    def __init__(self, total: int, progress: Progress | None) -> None:
+        self.total, self.done, self.progress = total, 0, progress
+
+    def __call__(self, label: str) -> None:
+        self.done += 1
+        if self.progress is not None:
+            self.progress(self.done, self.total, label)
+
+
+def _blocks(spec: DesignSpec, common_random_numbers: bool) -> list[tuple[int, np.ndarray]]:
+    """(sides, side lengths) of every block of candidates simulated at once.
+
+    Candidates are simulated in blocks of at most _BLOCK_RUNS test runs per direction: this
+    bounds memory and paces the progress bar. The blocks depend only on the spec, so the random
+    stream (and the result) is the same on every machine. With common random numbers every
+    candidate draws from its own freshly seeded generators (one block per candidate)."""
+    per_candidate = spec.trials * spec.runs_per_direction
+    block = 1 if common_random_numbers else max(1, _BLOCK_RUNS // per_candidate)
+    shapes = equal_travel_side_lengths(spec.lengths_m, spec.sides)
+    return [
+        (s, lengths[i : i + block]) for s, lengths in shapes.items()
+        for i in range(0, len(lengths), block)
+    ]  # fmt: skip
+
+
+def _recommendation(
+    candidates: Sequence[Candidate],
+    spec: DesignSpec,
+    paired: bool,
+    rng: np.random.Generator,
+    resamples: int,
+) -> Recommendation:
+    """The rule on ``candidates``, with the stability of its pick over ``resamples``
+    bootstrap resamples of the trials (drawn from ``rng``)."""
+    rec = recommend(candidates, spec.alpha, spec.tolerance, spec.criterion, paired=paired)
+    if not resamples:
+        return rec
+    spread = pick_spread(
+        candidates,
+        rng,
+        spec.alpha,
+        spec.tolerance,
+        spec.criterion,
+        paired=paired,
+        resamples=resamples,
+    )
+    return replace(rec, spread=spread, resamples=resamples)
+
+
 def run_design(
     robot: Robot,
+    spec: DesignSpec,
     rng: np.random.Generator,
     *,
-    sides: Sequence[int] = (4,),
-    side_lengths_m=None,
-    runs_per_direction: int = 5,
-    trials: int = 800,
-    method: str = "heading",
-    validation: ValidationTrack | None = None,
-    alpha: float = 0.05,
-    tolerance: float = 0.05,
-    criterion: str = "error",
     settings: SimulationSettings = FAST,
     progress: Progress | None = None,
     common_random_numbers: bool = True,
     resamples: int = 200,
 ) -> DesignResult:
-    """The design procedure (module docstring) with the paper's defaults.
+    """The design procedure (module docstring) for the candidates, runs, trials, method,
+    validation track and rule of ``spec``.
 
     Parameters
     ----------
     robot : Robot
         The physical robot (systematic and non-systematic errors, measurement noise) and the
         parameters it runs with during the test (``robot.believed_geometry``).
+    spec : DesignSpec
+        Sizes it leaves open are scaled to the robot's nominal wheelbase
+        (:meth:`DesignSpec.for_wheelbase`: the paper's 0.5 .. 10 m and 4 m x 4 m square CCW for
+        the paper's robot). Shapes after the first are compared at equal travel
+        (:func:`equal_travel_side_lengths`).
     rng : numpy.random.Generator
-    sides : sequence of int
-        Polygon shapes to compare (repeat for several; see :func:`equal_travel_side_lengths`).
-    side_lengths_m : array_like, optional
-        Candidate side lengths of the first shape (m); default 0.5, 1.0, ..., 10 m.
-    runs_per_direction, trials : int
-        Test runs per direction in each calibration; Monte-Carlo trials per candidate.
-    method : {'heading', 'umbmark'}
-    validation : ValidationTrack, optional
-        Default: 4 m x 4 m square CCW (the paper's).
-    alpha, tolerance, criterion
-        Parameters of the recommendation rule (:mod:`odocal.design.recommend`).
     common_random_numbers : bool
         Simulate every candidate with the same random numbers (trial by trial) and judge with
         paired tests (default); False: independent samples and Welch tests.
     resamples : int
         Bootstrap resamples of the trials that measure the stability of the pick (0: none).
     """
-    check_design_inputs(runs_per_direction, trials)
-    if method not in METHODS:
-        raise ModelError(f"method must be one of {', '.join(METHODS)}, got {method!r}")
-    sides = [int(s) for s in dict.fromkeys(sides)]
-    if not sides:
-        raise ModelError("at least one polygon shape (sides) is needed")
-    if method == "umbmark" and any(s != 4 for s in sides):
-        raise ModelError("UMBmark is defined for squares only (sides 4)")
-    if side_lengths_m is None:
-        side_lengths_m = np.arange(1, 21) * 0.5
-    side_lengths_m = np.asarray(side_lengths_m, dtype=float)
-    if side_lengths_m.ndim != 1 or side_lengths_m.size == 0:
-        raise ModelError("at least one candidate side length is needed")
-    if not np.all(np.isfinite(side_lengths_m) & (side_lengths_m > 0)):
-        raise ModelError(f"side lengths must be finite and > 0, got {side_lengths_m.tolist()}")
-    validation = validation or ValidationTrack(4, 4.0, "ccw")
-
-    # Candidates are simulated in blocks of at most _BLOCK_RUNS test runs per direction: this
-    # bounds memory and paces the progress bar. The blocks depend only on the arguments, so the
-    # random stream (and the result) is the same on every machine. With common random numbers
-    # every candidate draws from its own freshly seeded generators (one block per candidate).
-    per_candidate = trials * runs_per_direction
-    block = 1 if common_random_numbers else max(1, _BLOCK_RUNS // per_candidate)
-    shapes = equal_travel_side_lengths(side_lengths_m, sides)
-    blocks = [
-        (s, lengths[i : i + block]) for s, lengths in shapes.items()
-        for i in range(0, len(lengths), block)
-    ]  # fmt: skip
-    total = 2 + len(blocks)
-    done = 0
-
-    def step(label: str) -> None:
-        nonlocal done
-        done += 1
-        if progress is not None:
-            progress(done, total, label)
-
+    spec = spec.for_wheelbase(float(robot.nominal.wheelbase_m))
+    validation, trials = spec.validation_track, spec.trials
+    blocks = _blocks(spec, common_random_numbers)
+    step = _Steps(2 + len(blocks), progress)
     seeds = tuple(int(v) for v in rng.integers(0, 2**63 - 1, size=3))
     common = (seeds[0], seeds[1]) if common_random_numbers else None
 
@@ -484,9 +533,9 @@ def run_design(
             robot,
             s,
             lengths,
-            runs_per_direction,
+            spec.runs_per_direction,
             trials,
-            method,
+            spec.method,
             validation,
             rng,
             settings,
@@ -494,30 +543,20 @@ def run_design(
         )
         step(f"{s}-gon up to {lengths[-1]:g} m")
     paired = common_random_numbers
-    rec = recommend(candidates, alpha, tolerance, criterion, paired=paired)
-    if resamples:
-        spread = pick_spread(
-            candidates,
-            np.random.default_rng(seeds[2]),
-            alpha,
-            tolerance,
-            criterion,
-            paired=paired,
-            resamples=resamples,
-        )
-        rec = replace(rec, spread=spread, resamples=resamples)
+    rec = _recommendation(candidates, spec, paired, np.random.default_rng(seeds[2]), resamples)
     result = DesignResult(
         tuple(candidates),
         floor,
         uncal,
         rec,
         validation,
-        method,
-        runs_per_direction,
+        spec.method,
+        spec.runs_per_direction,
         trials,
         settings,
         paired,
         truth_factors=true_factors(robot),
+        other=other_criterion(candidates, rec, paired=paired),
     )
     return replace(result, warnings=gain_warnings(result, uncal_samples if paired else None))
 
@@ -543,18 +582,7 @@ def gain_warnings(result: DesignResult, uncalibrated_samples=None) -> tuple[str,
     )
 
 
-def other_criterion(result: DesignResult) -> Recommendation | None:
-    """The recommendation under the other criterion ('error' <-> 'residual'), or None when the
-    candidates carry no residual statistics."""
-    rec = result.recommendation
-    other = "residual" if rec.criterion == "error" else "error"
-    try:
-        return recommend(result.candidates, rec.alpha, rec.tolerance, other, paired=result.paired)
-    except ModelError:
-        return None
-
-
-def _comparison_dict(result_candidates, comp) -> dict:
+def _comparison_dict(result_candidates: Sequence[Candidate], comp: Comparison) -> dict:
     o, r = result_candidates[comp.other], result_candidates[comp.reference]
     test, rule = comp.test, comp.rule
     return {
@@ -571,52 +599,19 @@ def _comparison_dict(result_candidates, comp) -> dict:
     }
 
 
-def stability(result: DesignResult) -> dict | None:
-    """How stable the recommendation is (bootstrap of the trials), or None when not measured:
-    ``picks`` (side, travel and share of each candidate the resamples pick) and ``range_m``, the
-    sides that hold 90 % of the picks."""
-    from .recommend import spread_range
-
-    rec, cands = result.recommendation, result.candidates
-    if not rec.spread:
-        return None
-    held = spread_range(cands, rec.spread)
-    return {
-        "resamples": rec.resamples,
-        "picks": [
-            {
-                "sides": cands[i].sides,
-                "side_m": rounded(cands[i].side_m),
-                "travel_m": rounded(cands[i].travel_m),
-                "share": rounded(share, 4),
-            }
-            for i, share in rec.spread
-        ],
-        "range_m": [
-            rounded(min(cands[i].side_m for i in held)),
-            rounded(max(cands[i].side_m for i in held)),
-        ],
-        "range_travel_m": [
-            rounded(min(cands[i].travel_m for i in held)),
-            rounded(max(cands[i].travel_m for i in held)),
-        ],
-    }
-
-
 def _other_dict(result: DesignResult) -> dict | None:
-    other = other_criterion(result)
-    if other is None:
+    c = result.other_recommended
+    if result.other is None or c is None:
         return None
-    c = result.candidates[other.index]
     return {
-        "criterion": other.criterion,
+        "criterion": result.other.criterion,
         "sides": c.sides,
         "side_m": rounded(c.side_m),
         "travel_m": rounded(c.travel_m),
     }
 
 
-def design_json(result: DesignResult, **extra) -> dict:
+def design_json(result: DesignResult, **extra: object) -> dict:
     """The ``odocal design --json`` object (issue contract plus extra keys; floats rounded to 9
     significant digits, NaN as null). ``extra`` (e.g. seed, robot) is merged in."""
     cands = result.candidates
@@ -663,7 +658,7 @@ def design_json(result: DesignResult, **extra) -> dict:
         "ttests": [_comparison_dict(cands, comp) for comp in rec.neighbours],
         "rule_test": rec.test,
         "common_random_numbers": result.paired,
-        "stability": stability(result),
+        "stability": None if result.stability is None else result.stability.as_dict(),
         "warnings": list(result.warnings),
         "criterion": rec.criterion,
         "alpha": rec.alpha,

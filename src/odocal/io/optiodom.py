@@ -364,9 +364,10 @@ def load_optiodom_experiment(folder):
     return by_side, ivanjko, heldout, split
 
 
-def read_published(folder, method: str = "Sousa", dataset: str = "ALL_DATASETS_COMBINED"):
+def read_published(folder, method: str = "Sousa", dataset: str | None = "ALL_DATASETS_COMBINED"):
     """Published calibrated geometry from ``reference_results_diff.csv`` (first row of
-    ``method`` and ``dataset`` with no note), or None if the file is absent."""
+    ``method`` and ``dataset`` with no note), or None if the file is absent; ``dataset`` None:
+    {data set: geometry} of every data set."""
     path = Path(folder) / "reference_results_diff.csv"
     if not path.is_file():
         return None

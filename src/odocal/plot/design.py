@@ -3,12 +3,19 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from functools import partial
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..design.result import rounded
 from ._figure import method_style, shape_colour
 from ._figure import new_figure as _new_figure
+
+if TYPE_CHECKING:
+    from ..design.reproduce import Reproduction
+    from ..design.sweep import DesignResult
 
 __all__ = [
     "leg_heading_figure",
@@ -239,14 +246,13 @@ def _how(result) -> str:
     return f"{result.trials} Monte-Carlo trials{crn}"
 
 
-def _indistinguishable(result, x: str):
-    from ..design.sweep import stability
-
-    st = stability(result)
+def _indistinguishable(result: DesignResult, x: str) -> tuple[float, float] | None:
+    """The sizes the bootstrap cannot tell apart on the x axis, as the JSON reports them."""
+    st = result.stability
     if st is None:
         return None
-    key = "range_m" if x == "side" else "range_travel_m"
-    return tuple(st[key])
+    lo, hi = st.range_m if x == "side" else st.range_travel_m
+    return rounded(lo), rounded(hi)
 
 
 def design_figures(result) -> dict:
@@ -333,11 +339,10 @@ def range_figures(design) -> dict:
     ax.set_ylim(0.99, 1.15 * top)
     ax.set_xlabel(f"side length of the {shape_name(cands[0].sides)} test track (m)")
     ax.set_ylabel("error after calibration above the best size's")
-    ranges = design.as_dict()["error_range"]["ranges"]
+    eb, ed, k = (design.level_range(key) for key in ("E_b", "E_d", "k_m"))
     ax.set_title(
         f"Design over plausible errors ({len(design.scenarios)} robots, first-order analytic)\n"
-        f"E_b {ranges['E_b'][0]:g}-{ranges['E_b'][1]:g}, E_d {ranges['E_d'][0]:g}-"
-        f"{ranges['E_d'][1]:g}, k {ranges['k_m'][0]:.2g}-{ranges['k_m'][1]:.2g} m"
+        f"E_b {eb[0]:g}-{eb[1]:g}, E_d {ed[0]:g}-{ed[1]:g}, k {k[0]:.2g}-{k[1]:.2g} m"
     )
     ax.grid(alpha=0.3)
     fig.legend(loc="outside lower center", ncol=2, fontsize=8)
@@ -376,122 +381,124 @@ def precision_figure(sweep, title: str):
     return fig
 
 
-def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
+def _cond(name: str) -> str:
+    """The conditions of a built-in robot, for a title."""
+    from ..presets import PRESETS
+
+    r = PRESETS[name]
+    return f"E_b {r.systematic.E_b:g}, E_d {r.systematic.E_d:g}, k {r.nonsystematic.k_r_m:.3g} m"
+
+
+def _post_error(
+    series: list, title: str, result: DesignResult, x: str, paper_choice: float
+) -> Callable[[], Any]:
+    """A post-error figure of the reproduction, with the floor, the uncalibrated error and the
+    validation track of ``result``."""
+    return partial(
+        post_error_figure,
+        series,
+        title,
+        x=x,
+        floor_m=result.floor.mean_m,
+        uncalibrated_m=result.uncalibrated.mean_m,
+        paper_choice=paper_choice,
+        validation_label=result.validation.label,
+    )
+
+
+def reproduce_figures(rep: Reproduction) -> dict[str, tuple[str, Callable[[], Any]]]:
     """The paper's figures from a :class:`odocal.design.reproduce.Reproduction`:
     key -> (file name, a function drawing the figure: drawn when written, several at once)."""
     from ..design.reproduce import INSTRUMENT_SIGMA_THETA_DEG, PAPER
     from ..presets import PRESETS
 
-    def cond(name: str) -> str:
-        r = PRESETS[name]
-        return (
-            f"E_b {r.systematic.E_b:g}, E_d {r.systematic.E_d:g}, k {r.nonsystematic.k_r_m:.3g} m"
-        )
-
-    files = {}
-    files["fig3"] = (
-        "fig3_leg_heading_error.png",
-        partial(leg_heading_figure, rep.fig3, f"Fig. 3: leg heading error ({cond('paper-fig3')})"),
-    )
-    files["fig4"] = (
-        "fig4_systematic_share.png",
-        partial(
-            share_figure,
-            rep.fig3,
-            f"Fig. 4: systematic share ({cond('paper-fig3')})",
-            paper_share=PAPER["fig4_share_at_4m"],
+    f5, f6, f9, fi = rep.fig5, rep.fig6, rep.fig9, rep.instrument
+    square5 = ("square", f5.candidates, f5.recommended, shape_colour(4), "-")
+    files: dict[str, tuple[str, Callable[[], Any]]] = {
+        "fig3": (
+            "fig3_leg_heading_error.png",
+            partial(
+                leg_heading_figure, rep.fig3, f"Fig. 3: leg heading error ({_cond('paper-fig3')})"
+            ),
         ),
-    )
-    f5 = rep.fig5
-    files["fig5"] = (
-        "fig5_square_post_error.png",
-        partial(
-            post_error_figure,
-            [("square", f5.candidates, f5.recommended, shape_colour(4), "-")],
-            f"Fig. 5: square test tracks\n{cond('paper-fig5')}\n{_how(f5)}",
-            x="side",
-            floor_m=f5.floor.mean_m,
-            uncalibrated_m=f5.uncalibrated.mean_m,
-            paper_choice=PAPER["chosen_side_m"],
-            validation_label=f5.validation.label,
+        "fig4": (
+            "fig4_systematic_share.png",
+            partial(
+                share_figure,
+                rep.fig3,
+                f"Fig. 4: systematic share ({_cond('paper-fig3')})",
+                paper_share=PAPER["fig4_share_at_4m"],
+            ),
         ),
-    )
-    f6 = rep.fig6
-    files["fig6"] = (
-        "fig6_octagon_post_error.png",
-        partial(
-            post_error_figure,
-            [
-                ("square (Fig. 5)", f5.candidates, f5.recommended, shape_colour(4), "-"),
-                ("octagon", f6.candidates, f6.recommended, shape_colour(8), "-"),
-            ],
-            f"Fig. 6: octagon vs square at equal travel\n{cond('paper-fig5')}\n{_how(f6)}",
-            x="travel",
-            floor_m=f6.floor.mean_m,
-            uncalibrated_m=f6.uncalibrated.mean_m,
-            paper_choice=PAPER["chosen_travel_m"],
-            validation_label=f6.validation.label,
+        "fig5": (
+            "fig5_square_post_error.png",
+            _post_error(
+                [square5],
+                f"Fig. 5: square test tracks\n{_cond('paper-fig5')}\n{_how(f5)}",
+                f5,
+                "side",
+                PAPER["chosen_side_m"],
+            ),
         ),
-    )
-    files["fig8"] = (
-        "fig8_systematic_share_experiment.png",
-        partial(
-            share_figure,
-            rep.fig8,
-            f"Fig. 8: systematic share ({cond('paper-experiment')})",
-            paper_share=PAPER["fig8_share_at_4m"],
+        "fig6": (
+            "fig6_octagon_post_error.png",
+            _post_error(
+                [
+                    ("square (Fig. 5)", *square5[1:]),
+                    ("octagon", f6.candidates, f6.recommended, shape_colour(8), "-"),
+                ],
+                f"Fig. 6: octagon vs square at equal travel\n{_cond('paper-fig5')}\n{_how(f6)}",
+                f6,
+                "travel",
+                PAPER["chosen_travel_m"],
+            ),
         ),
-    )
-    f9 = rep.fig9
-    files["fig9"] = (
-        "fig9_experiment_post_error.png",
-        partial(
-            post_error_figure,
-            [("square", f9.candidates, f9.recommended, shape_colour(4), "-")],
-            f"Fig. 9: experimental robot\n{cond('paper-experiment')}\n{_how(f9)}",
-            x="side",
-            floor_m=f9.floor.mean_m,
-            uncalibrated_m=f9.uncalibrated.mean_m,
-            paper_choice=PAPER["chosen_side_m"],
-            validation_label=f9.validation.label,
+        "fig8": (
+            "fig8_systematic_share_experiment.png",
+            partial(
+                share_figure,
+                rep.fig8,
+                f"Fig. 8: systematic share ({_cond('paper-experiment')})",
+                paper_share=PAPER["fig8_share_at_4m"],
+            ),
         ),
-    )
-    fi = rep.instrument
-    files["fig5_instrument"] = (
-        "fig5_instrument_post_error.png",
-        partial(
-            post_error_figure,
-            [
-                (
-                    "square, perfect instrument (Fig. 5)",
-                    f5.candidates,
-                    f5.recommended,
-                    shape_colour(4),
-                    "-",
-                ),
-                (  # the same shape, so a shade of its colour
-                    f"square, heading instrument {INSTRUMENT_SIGMA_THETA_DEG:g} deg",
-                    fi.candidates,
-                    fi.recommended,
-                    "#08306b",
-                    "--",
-                ),
-            ],
-            f"Fig. 5 with a noisy heading instrument\n{cond('paper-fig5')}\n{_how(fi)}",
-            x="side",
-            floor_m=f5.floor.mean_m,
-            uncalibrated_m=f5.uncalibrated.mean_m,
-            paper_choice=PAPER["chosen_side_m"],
-            validation_label=f5.validation.label,
+        "fig9": (
+            "fig9_experiment_post_error.png",
+            _post_error(
+                [("square", f9.candidates, f9.recommended, shape_colour(4), "-")],
+                f"Fig. 9: experimental robot\n{_cond('paper-experiment')}\n{_how(f9)}",
+                f9,
+                "side",
+                PAPER["chosen_side_m"],
+            ),
         ),
-    )
+        "fig5_instrument": (
+            "fig5_instrument_post_error.png",
+            _post_error(
+                [
+                    ("square, perfect instrument (Fig. 5)", *square5[1:]),
+                    (  # the same shape, so a shade of its colour
+                        f"square, heading instrument {INSTRUMENT_SIGMA_THETA_DEG:g} deg",
+                        fi.candidates,
+                        fi.recommended,
+                        "#08306b",
+                        "--",
+                    ),
+                ],
+                f"Fig. 5 with a noisy heading instrument\n{_cond('paper-fig5')}\n{_how(fi)}",
+                f5,
+                "side",
+                PAPER["chosen_side_m"],
+            ),
+        ),
+    }
     r5 = PRESETS["paper-fig5"].systematic
     files["fig5_calibration"] = (
         "fig5_calibrated_factors.png",
         partial(
             calibration_figure,
             f5.candidates,
-            f"Calibrated factors on square tracks ({cond('paper-fig5')})",
+            f"Calibrated factors on square tracks ({_cond('paper-fig5')})",
             truth=(r5.E_b, r5.E_d),
         ),
     )
@@ -501,7 +508,7 @@ def reproduce_figures(rep) -> dict[str, tuple[str, object]]:
             partial(
                 precision_figure,
                 rep.precision,
-                f"Recommended track size vs instrument precision\n{cond('paper-fig5')}",
+                f"Recommended track size vs instrument precision\n{_cond('paper-fig5')}",
             ),
         )
     return files

@@ -3,18 +3,24 @@ per band of motion (``odocal fit --plot``)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from functools import partial
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ._figure import method_style, new_figure
+
+if TYPE_CHECKING:
+    from ..design.real_experiment import RealExperiment
+    from ..design.spec import Method
 
 __all__ = ["design_vs_real_figure", "gain_figure", "wheelbase_bands_figure", "real_figures"]
 
 _MM = 1000.0
 
 
-def design_vs_real_figure(exp, title: str):
+def design_vs_real_figure(exp: RealExperiment, title: str) -> Any:
     """The design's predicted held-out error per square size (model) against the real
     calibrations' held-out errors (mm)."""
     pred = exp.prediction
@@ -36,18 +42,18 @@ def design_vs_real_figure(exp, title: str):
     ax.axhline(
         pred.floor.mean_m * _MM, color="C0", ls=":", lw=1, label="model floor (true parameters)"
     )
-    for k, (side, c) in enumerate(pred.real.items()):
+    for k, (side, cand) in enumerate(pred.real.items()):
         ax.errorbar(
             [side],
-            [c.post_error_mean_m * _MM],
-            yerr=[[c.post_error_std_m * _MM], [c.post_error_std_m * _MM]],
+            [cand.post_error_mean_m * _MM],
+            yerr=[[cand.post_error_std_m * _MM], [cand.post_error_std_m * _MM]],
             fmt="s",
             color="C0",
             mfc="white",
             capsize=4,
             label="model: the real run counts (mean +- std)" if k == 0 else None,
         )
-    markers = {
+    markers: dict[Method, tuple[str, str]] = {
         "heading": ("o", method_style("heading")[0]),
         "umbmark": ("^", method_style("umbmark")[0]),
     }
@@ -92,7 +98,7 @@ def design_vs_real_figure(exp, title: str):
     return fig
 
 
-def gain_figure(exp, title: str):
+def gain_figure(exp: RealExperiment, title: str) -> Any:
     """Held-out error against the turning gain mean(D)/b, with every calibration on it."""
     fig = new_figure(7.4, 4.6)
     ax = fig.add_subplot()
@@ -196,7 +202,7 @@ def wheelbase_bands_figure(
     return fig
 
 
-def real_figures(exp) -> dict[str, tuple[str, object]]:
+def real_figures(exp: RealExperiment) -> dict[str, tuple[str, Callable[[], Any]]]:
     """key -> (file name, a function drawing the figure) for the real experiment (drawn when
     written, several at once)."""
     a, b = exp.sides_m
@@ -219,7 +225,7 @@ def real_figures(exp) -> dict[str, tuple[str, object]]:
             "real_effective_wheelbase.png",
             partial(
                 wheelbase_bands_figure,
-                exp.turning,
+                exp.turning.named(),
                 "Effective wheelbase per band of motion (at the diameters of odocal's fit)",
             ),
         ),
