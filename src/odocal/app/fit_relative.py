@@ -18,9 +18,13 @@ from typing import Any, Literal
 import numpy as np
 
 from ..calibration.censi import SensorOdometryFit, fit_censi
+from ..calibration.heldout import HeldOut, heldout_check
+from ..calibration.interval_noise import IntervalNoise, estimate_interval_noise
 from ..calibration.relative_motions import RelativeMotions, stack_motions
 from ..calibration.scan_matching import ScanIntervals, scan_interval_motions
+from ..calibration.time_offset import TimeOffset
 from ..core.model import WheelGeometry
+from ..core.transforms import se2_compose, se2_inverse
 from ..errors import CalibrationError, InputError
 from ..io.bag_options import BagOptions
 from ..io.bag_scan import ScanBag, read_scan_bag
@@ -109,6 +113,14 @@ class RelativeFitResult:
     written : tuple of Path
     forced : tuple of str
         The absurd-result messages accepted with ``force``.
+    time_offsets : tuple of TimeOffset
+        Each bag's clock offset of its truth source against the wheels (SLAM, laser).
+    heldout : HeldOut or None
+        The blocked cross-validation against the nominal geometry (bags with a nominal).
+    noise : IntervalNoise or None
+        The wheels' random error and the truth's, from the residuals (bags).
+    notes : tuple of str
+        What was not checked, and why.
     """
 
     fit: SensorOdometryFit
@@ -121,6 +133,10 @@ class RelativeFitResult:
     written: tuple[Path, ...] = ()
     forced: tuple[str, ...] = ()
     load_warnings: tuple[str, ...] = ()
+    time_offsets: tuple[TimeOffset, ...] = ()
+    heldout: HeldOut | None = None
+    noise: IntervalNoise | None = None
+    notes: tuple[str, ...] = ()
 
     @property
     def method(self) -> Literal["relative", "scan"]:
@@ -131,7 +147,17 @@ class RelativeFitResult:
     def warnings(self) -> tuple[str, ...]:
         """The fit's warnings, and the absurd-result messages accepted with ``force``."""
         own = tuple(self.fit.warnings)
-        return own + tuple(w for w in self.forced if w not in own)
+        offsets = tuple(w for o in self.time_offsets for w in o.warnings)
+        return own + offsets + tuple(w for w in self.forced if w not in own)
+
+    @property
+    def time_offsets_s(self) -> dict[str, float]:
+        """Source -> clock offset (s) applied; with several bags, the first bag's (each bag's
+        own is in ``time_offsets``)."""
+        out: dict[str, float] = {}
+        for o in self.time_offsets:
+            out.setdefault(o.source, o.offset_s)
+        return out
 
     def as_dict(self) -> dict[str, Any]:
         """The JSON of ``odocal fit --json`` for relative motions."""
@@ -145,6 +171,12 @@ class RelativeFitResult:
         else:
             out["method"] = "scan"
             out["scan"] = [s.as_dict() for s in self.scans]
+        if self.source != "tuples":
+            out["time_offsets_s"] = self.time_offsets_s
+            out["time_offsets"] = [o.as_dict() for o in self.time_offsets]
+            out["heldout"] = None if self.heldout is None else self.heldout.as_dict()
+            out["noise"] = None if self.noise is None else self.noise.as_dict()
+            out["notes"] = list(self.notes)
         return out
 
 
@@ -198,6 +230,89 @@ def _nominal(robot: RobotSpec) -> WheelGeometry | None:
     return load_robot(robot).nominal if robot else None
 
 
+def _ran_with(robot: RobotSpec) -> WheelGeometry | None:
+    """The geometry the robot's controller ran with (its odometry is inverted through it when a
+    bag has no joint states): ROBOT.yaml's ``believed``, else its nominal."""
+    return load_robot(robot).believed_geometry if robot else None
+
+
+def _slam_chains(
+    bags: Sequence[SlamBag], result: SensorOdometryFit
+) -> tuple[RelativeMotions, np.ndarray]:
+    """Every interval between SLAM updates of every bag (dropped ones included: they carry the
+    held-out chains) and which of them the fit used (not a jump, not an outlier)."""
+    parts, usable, k = [], [], 0
+    dropped = set(result.dropped_indices)
+    for b in bags:
+        m = b.motions
+        used = np.array(m.every_used, dtype=bool)
+        keep = used.copy()
+        pos = np.flatnonzero(used)
+        for j, i in enumerate(pos):
+            if k + j in dropped:
+                keep[i] = False
+        k += len(pos)
+        inc = b.every_increments
+        assert inc is not None  # the loader sets them
+        d = b.time_offset.offset_s
+        parts.append(RelativeMotions(
+            inc[0].sum(axis=1), inc[1].sum(axis=1), np.asarray(m.every_motion), inc,
+            np.asarray(m.every_start_s) - d, np.asarray(m.every_end_s) - d,
+        ))  # fmt: skip
+        usable.append(keep)
+    return stack_motions(parts), np.concatenate(usable)
+
+
+def relative_checks(
+    motions: RelativeMotions,
+    usable: np.ndarray,
+    mount: np.ndarray,
+    result: SensorOdometryFit,
+    nominal: WheelGeometry | None,
+    *,
+    force: bool = False,
+) -> dict[str, Any]:
+    """The held-out check and the one-log noise estimate of a bag route: ``motions`` every
+    interval in time order (the sensor's motion, seen from a sensor mounted at ``mount`` on
+    the base), ``usable`` those the fit used. Without a nominal geometry there is nothing to
+    hold the calibration against (a note says so). A log too short for the check is an
+    InputError unless ``force``; a calibration that no model can make beat the nominal one on
+    the held-out blocks is a CalibrationError unless ``force`` (nothing written)."""
+    notes: list[str] = []
+    if motions.increments is None or motions.start_s is None or motions.end_s is None:
+        return {"notes": ("no held-out check: the intervals carry no times",)}
+    inc_r, inc_l = motions.increments
+    sm = np.asarray(motions.sensor_motion, dtype=float)
+    base = sm
+    if np.any(mount != 0):
+        mnt = np.broadcast_to(mount, sm.shape)
+        base = se2_compose(se2_compose(mnt, sm), se2_inverse(mnt))
+    heldout = noise = None
+    if nominal is None:
+        notes.append("no held-out check: it needs the nominal geometry (--robot)")
+    else:
+        try:
+            heldout = heldout_check(
+                motions.start_s, motions.end_s, inc_r, inc_l, base, nominal, result.geometry,
+                fit_mask=usable,
+            )  # fmt: skip
+        except CalibrationError as exc:
+            if not force:
+                raise InputError(f"{exc} (--force fits without it)") from None
+            notes.append(f"no held-out check: {exc}")
+        if heldout is not None and heldout.preferred is None and not force:
+            raise CalibrationError(
+                f"{heldout.verdict()}; nothing written (--force exports the calibration anyway)"
+            )
+    try:
+        noise = estimate_interval_noise(
+            inc_r[usable], inc_l[usable], base[usable], result.geometry, motions.start_s[usable]
+        )
+    except CalibrationError as exc:
+        notes.append(f"no noise estimate: {exc}")
+    return {"heldout": heldout, "noise": noise, "notes": tuple(notes)}
+
+
 def fit_tuple_files(
     paths: Sequence[str | Path],
     plan: OutputPlan,
@@ -238,15 +353,25 @@ def fit_slam_bags(
         if not is_bag(p):
             raise InputError("--truth-frames needs ROS bags", p)
     bags = load_slam_bags(
-        paths, truth_frames, bag, ticks_per_rev=ticks_per_rev, stamp_offset_s=slam_stamp_offset_s
+        paths,
+        truth_frames,
+        bag,
+        ticks_per_rev=ticks_per_rev,
+        stamp_offset_s=slam_stamp_offset_s,
+        ran_with=_ran_with(robot),
+        time_offset_s=bag.time_offset("slam"),
     )
     result, forced = fit_relative(
         [b.relative_motions for b in bags], nominal, sensor_pose=(0.0, 0.0, 0.0), force=force
     )
+    every, usable = _slam_chains(bags, result)
+    checks = relative_checks(every, usable, np.zeros(3), result, nominal, force=force)
     written = _export(plan, result, nominal, "relative", exports)
     return RelativeFitResult(
-        result, nominal, len(paths), "slam", slam_bags=tuple(bags), written=written, forced=forced
-    )
+        result, nominal, len(paths), "slam", slam_bags=tuple(bags), written=written,
+        forced=forced, time_offsets=tuple(b.time_offset for b in bags),
+        load_warnings=tuple(w for b in bags for w in b.wheel_warnings), **checks,
+    )  # fmt: skip
 
 
 def _scan_summary(loaded: ScanBag, intervals: ScanIntervals) -> ScanSummary:
@@ -264,7 +389,10 @@ def _scan_summary(loaded: ScanBag, intervals: ScanIntervals) -> ScanSummary:
 
 
 def scan_intervals(
-    loaded: ScanBag, nominal: WheelGeometry, interval_s: float
+    loaded: ScanBag,
+    nominal: WheelGeometry,
+    interval_s: float,
+    time_offset_s: float | None = None,
 ) -> tuple[RelativeMotions, ScanSummary]:
     """The scan-matched intervals of one loaded bag
     (:func:`~odocal.calibration.scan_matching.scan_interval_motions`) and its summary;
@@ -280,6 +408,7 @@ def scan_intervals(
             nominal,
             np.asarray(loaded.mount, dtype=float),
             interval_s,
+            time_offset_s,
         )
     except CalibrationError as exc:
         raise InputError(str(exc), loaded.path, None, scans.topic) from None
@@ -310,11 +439,20 @@ def fit_scan_bags(
     for p in paths:
         if not is_bag(p):
             raise InputError("--method scan needs ROS bags with laser scans", p)
-        m, s = scan_intervals(read_scan_bag(p, bag, ticks_per_rev), nominal, scan_interval_s)
+        m, s = scan_intervals(
+            read_scan_bag(p, bag, ticks_per_rev), nominal, scan_interval_s,
+            bag.time_offset("laser"),
+        )  # fmt: skip
         motions.append(m)
         summaries.append(s)
     result, forced = fit_relative(motions, nominal, force=force)
+    stacked = stack_motions(motions)
+    usable = np.ones(len(stacked.phi_right_rad), dtype=bool)
+    usable[list(result.dropped_indices)] = False
+    mount = np.array([result.sensor_x_m, result.sensor_y_m, result.sensor_yaw_rad])
+    checks = relative_checks(stacked, usable, mount, result, nominal, force=force)
     written = _export(plan, result, nominal, "scan", exports)
     return RelativeFitResult(
-        result, nominal, len(paths), "scan", scans=tuple(summaries), written=written, forced=forced
-    )
+        result, nominal, len(paths), "scan", scans=tuple(summaries), written=written,
+        forced=forced, time_offsets=tuple(s.intervals.time_offset for s in summaries), **checks,
+    )  # fmt: skip

@@ -15,8 +15,8 @@ is the distance between the dead-reckoned and the measured end of the chain (the
 composed). A model's held-out error is the mean of those end errors over all chains of all
 blocks, and each chain's errors of two models are paired, so the comparison is a paired one.
 
-Models (each the maximum-likelihood fit of the base motions, a Cauchy loss on each component
-scaled by its robust spread):
+Models (each a robust fit of the base motions: the soft-L1 loss, about quadratic within its
+scale and linear beyond, on each component scaled by its robust spread):
 
 - ``full``: D_R, D_L and b;
 - ``equal-diameters``: D_R / D_L held at the nominal ratio (a common wheel scale and b);
@@ -40,8 +40,18 @@ from ..core.model import WheelGeometry
 from ..core.odometry import dead_reckon_rows
 from ..core.transforms import se2_compose
 from ..errors import CalibrationError
+from .robust_covariance import cluster_covariance
+from .time_offset import time_blocks
 
-__all__ = ["MODELS", "Model", "HeldOut", "ModelScore", "heldout_check", "fit_base_motion"]
+__all__ = [
+    "MODELS",
+    "Model",
+    "HeldOut",
+    "ModelScore",
+    "BaseMotionFit",
+    "heldout_check",
+    "fit_base_motion",
+]
 
 Model = Literal["full", "equal-diameters", "scale"]
 MODELS: tuple[Model, ...] = ("full", "equal-diameters", "scale")
@@ -65,12 +75,16 @@ class ModelScore:
     beats_nominal : bool
         Lower held-out error than the nominal parameters, chain by chain (paired: the mean
         paired difference is below zero by more than its standard error).
+    fit : BaseMotionFit or None
+        The model fitted on all the data, with its cluster-robust covariance (restricted
+        models; the full model's answer is the route's own).
     """
 
     model: str
     geometry: WheelGeometry
     mean_final_error_m: float
     beats_nominal: bool
+    fit: BaseMotionFit | None = None
 
     def as_dict(self) -> dict:
         """JSON-ready."""
@@ -175,15 +189,55 @@ def _predict(g: WheelGeometry, inc_r: np.ndarray, inc_l: np.ndarray) -> np.ndarr
     return poses[:, :, -1].T
 
 
+@dataclass(frozen=True)
+class BaseMotionFit:
+    """One model fitted to base motions.
+
+    Attributes
+    ----------
+    model : str
+    geometry : WheelGeometry
+    covariance : ndarray, shape (3, 3), or None
+        Of (D_R, D_L, b) (m^2): cluster-robust over time blocks
+        (:mod:`odocal.calibration.robust_covariance`) when the intervals' times were given,
+        None otherwise or when singular.
+    dof : int
+        Degrees of freedom of its standard errors (time blocks - 1; 0 without).
+    """
+
+    model: str
+    geometry: WheelGeometry
+    covariance: np.ndarray | None = None
+    dof: int = 0
+
+    @property
+    def stderr(self) -> np.ndarray | None:
+        """Standard errors of (D_R, D_L, b) (m), or None."""
+        return None if self.covariance is None else np.sqrt(np.diag(self.covariance))
+
+
+def _mapping(model: Model, nominal: WheelGeometry) -> np.ndarray:
+    """d(D_R, D_L, b) / d(model parameters), shape (3, p)."""
+    if model == "full":
+        return np.eye(3)
+    if model == "equal-diameters":
+        return np.array([[nominal.diameter_right_m, 0.0], [nominal.diameter_left_m, 0.0],
+                         [0.0, 1.0]])  # fmt: skip
+    return np.array([[nominal.diameter_right_m], [nominal.diameter_left_m], [0.0]])
+
+
 def fit_base_motion(
     model: Model,
     inc_r: np.ndarray,
     inc_l: np.ndarray,
     motion: np.ndarray,
     nominal: WheelGeometry,
-) -> WheelGeometry:
+    start_s: np.ndarray | None = None,
+) -> BaseMotionFit:
     """Fit ``model`` (module docstring) to measured base motions (n, 3) over intervals whose
-    wheel increments are ``inc_r``, ``inc_l`` (n, K), rows zero padded."""
+    wheel increments are ``inc_r``, ``inc_l`` (n, K), rows zero padded. With the intervals'
+    ``start_s`` (s) the result carries a cluster-robust covariance over time blocks (the Cauchy
+    loss's weights in the bread and the scores)."""
     from scipy.optimize import least_squares  # here: a slow import
 
     nom_pred = _predict(nominal, inc_r, inc_l)
@@ -195,12 +249,39 @@ def fit_base_motion(
         return ((_predict(g, inc_r, inc_l) - motion) / scale).ravel()
 
     q0 = _start(model, nominal)
-    sol = least_squares(fun, q0, loss="cauchy", x_scale=np.abs(q0))
+    sol = least_squares(fun, q0, loss="soft_l1", x_scale=np.abs(q0))
     # once more with the scale of the fitted model's residuals
     e1 = (fun(sol.x).reshape(-1, 3)) * scale
     scale = np.maximum(1.4826 * np.median(np.abs(e1 - np.median(e1, axis=0)), axis=0), 1e-6)
-    sol = least_squares(fun, sol.x, loss="cauchy", x_scale=np.abs(q0))
-    return _geometry(model, sol.x, nominal)
+    sol = least_squares(fun, sol.x, loss="soft_l1", x_scale=np.abs(q0))
+    geometry = _geometry(model, sol.x, nominal)
+    if start_s is None:
+        return BaseMotionFit(model, geometry)
+    cov, dof = _robust_covariance(fun, sol.x, np.asarray(start_s, dtype=float))
+    if cov is None:
+        return BaseMotionFit(model, geometry)
+    m = _mapping(model, nominal)
+    return BaseMotionFit(model, geometry, m @ cov @ m.T, dof)
+
+
+def _robust_covariance(fun, q: np.ndarray, start_s: np.ndarray) -> tuple[np.ndarray | None, int]:
+    """The cluster-robust covariance of the M-estimate with the soft-L1 loss at ``q``
+    (psi(r) = r / sqrt(1 + r^2), psi'(r) = (1 + r^2)^-3/2), over time blocks."""
+    f = fun(q)
+    jac = np.empty((len(f), len(q)))
+    for j in range(len(q)):
+        h = 1e-6 * max(abs(q[j]), 1e-3)
+        qp, qm = q.copy(), q.copy()
+        qp[j] += h
+        qm[j] -= h
+        jac[:, j] = (fun(qp) - fun(qm)) / (2 * h)
+    root = np.sqrt(1.0 + f * f)
+    clusters = np.repeat(time_blocks(start_s), 3)
+    try:
+        cc = cluster_covariance(jac, f / root, clusters, curvature=1.0 / root**3)
+    except CalibrationError:
+        return None, 0
+    return cc.covariance, cc.dof
 
 
 def _chains(start_s: np.ndarray, end_s: np.ndarray, gap_s: float) -> list[np.ndarray]:
@@ -247,7 +328,7 @@ def heldout_check(
     *,
     fit_mask=None,
     folds: int = 4,
-    chain_s: float = 60.0,
+    chain_s: float | None = None,
 ) -> HeldOut:
     """The blocked cross-validation of the module docstring.
 
@@ -269,9 +350,10 @@ def heldout_check(
         The route's own answer on all the data (the full model's geometry in the result).
     folds : int
         Contiguous blocks (>= 2).
-    chain_s : float
+    chain_s : float, optional
         Chains longer than this are cut into pieces of about this duration (s): one loop
-        closure-free stretch of many minutes would otherwise count as one point.
+        closure-free stretch of many minutes would otherwise count as one point. Default: a
+        24th of the log, within 5-60 s (about 6 pieces per block or more).
     """
     a, b = np.asarray(start_s, dtype=float), np.asarray(end_s, dtype=float)
     r, lft, m = np.asarray(inc_r, float), np.asarray(inc_l, float), np.asarray(motion, float)
@@ -280,6 +362,8 @@ def heldout_check(
     if folds < 2:
         raise CalibrationError(f"the held-out check needs at least 2 folds, got {folds}")
     dt = float(np.median(b - a)) if n else 0.0
+    if chain_s is None:
+        chain_s = min(60.0, max(5.0, float(b.max() - a.min()) / 24.0)) if n else 60.0
     block = np.minimum((folds * (a - a.min()) / max(float(b.max() - a.min()), 1e-9)), folds - 1)
     block = block.astype(int)
     per_chain = max(2, int(round(chain_s / dt))) if dt > 0 else 2
@@ -307,7 +391,7 @@ def heldout_check(
         errors["nominal"].append(_chain_end_errors(test, nominal, r, lft, m))
         for mod in MODELS:
             try:
-                g = fit_base_motion(mod, r[train], lft[train], m[train], nominal)
+                g = fit_base_motion(mod, r[train], lft[train], m[train], nominal).geometry
             except (ValueError, np.linalg.LinAlgError):
                 g = nominal
             errors[mod].append(_chain_end_errors(test, g, r, lft, m))
@@ -318,12 +402,11 @@ def heldout_check(
         d = e[mod] - e["nominal"]
         se = float(np.std(d, ddof=1) / math.sqrt(len(d))) if len(d) > 1 else math.inf
         beats = bool(np.mean(d) < -se)
-        geom = (
-            calibrated
-            if mod == "full"
-            else fit_base_motion(mod, r[usable], lft[usable], m[usable], nominal)
-        )
-        scores.append(ModelScore(mod, geom, float(np.mean(e[mod])), beats))
+        if mod == "full":
+            whole = BaseMotionFit("full", calibrated)
+        else:
+            whole = fit_base_motion(mod, r[usable], lft[usable], m[usable], nominal, a[usable])
+        scores.append(ModelScore(mod, whole.geometry, float(np.mean(e[mod])), beats, whole))
     winners = [s for s in scores if s.beats_nominal]
     preferred = min(winners, key=lambda s: s.mean_final_error_m).model if winners else None
     if scores[0].beats_nominal:

@@ -33,12 +33,17 @@ class RelativeMotions:
     increments : (ndarray, ndarray) or None
         Right and left wheel increments within each interval, each shape (n, K), rows zero
         padded (:func:`wheel_increments`); None when the source has only the totals.
+    start_s, end_s : ndarray, shape (n,), or None
+        Each interval's bounds on the wheels' clock (s), where known (bags): for the time
+        blocks of the uncertainty and the held-out check.
     """
 
     phi_right_rad: np.ndarray
     phi_left_rad: np.ndarray
     sensor_motion: np.ndarray
     increments: tuple[np.ndarray, np.ndarray] | None = None
+    start_s: np.ndarray | None = None
+    end_s: np.ndarray | None = None
 
 
 def wheel_increments(
@@ -81,6 +86,19 @@ def stack_motions(parts: Sequence[RelativeMotions]) -> RelativeMotions:
     """The intervals of several sources as one (in order); increments only if every source has
     them."""
     increments = [p.increments for p in parts]
+    timed = all(p.start_s is not None and p.end_s is not None for p in parts)
+    start = end = None
+    if timed:
+        # one clock per source: later sources are moved after the earlier ones (a 1 s gap), so
+        # that time blocks never mix two bags
+        shift, starts, ends = 0.0, [], []
+        for p in parts:
+            a, b = np.asarray(p.start_s, float), np.asarray(p.end_s, float)
+            off = shift - float(a.min()) if len(a) else shift
+            starts.append(a + off)
+            ends.append(b + off)
+            shift = float(ends[-1].max()) + 1.0 if len(b) else shift
+        start, end = np.concatenate(starts), np.concatenate(ends)
     return RelativeMotions(
         np.concatenate([p.phi_right_rad for p in parts]),
         np.concatenate([p.phi_left_rad for p in parts]),
@@ -88,4 +106,6 @@ def stack_motions(parts: Sequence[RelativeMotions]) -> RelativeMotions:
         None
         if any(i is None for i in increments)
         else stack_increments([i for i in increments if i is not None]),
+        start,
+        end,
     )

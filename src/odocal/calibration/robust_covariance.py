@@ -63,7 +63,10 @@ class ClusterCovariance:
 
 
 def cluster_covariance(
-    jacobian: np.ndarray, residual: np.ndarray, clusters: np.ndarray
+    jacobian: np.ndarray,
+    residual: np.ndarray,
+    clusters: np.ndarray,
+    curvature: np.ndarray | None = None,
 ) -> ClusterCovariance:
     """The cluster-robust covariance (module docstring).
 
@@ -75,6 +78,10 @@ def cluster_covariance(
         Weighted residuals at the solution.
     clusters : ndarray of int, shape (m,)
         Cluster of each residual row (any integer labels).
+    curvature : ndarray, shape (m,), optional
+        For an M-estimate (a robust loss): give ``residual`` as the loss's psi(r) and here its
+        derivative psi'(r); the bread is then sum psi'(r_i) J_i J_i^T (default: least squares,
+        psi(r) = r, psi' = 1).
 
     Raises
     ------
@@ -88,7 +95,7 @@ def cluster_covariance(
     n_g = len(labels)
     if n_g < 2:
         raise CalibrationError("a cluster-robust covariance needs at least 2 clusters")
-    jtj = j.T @ j
+    jtj = j.T @ j if curvature is None else (j * np.asarray(curvature, float)[:, None]).T @ j
     try:
         bread = np.linalg.inv(jtj)
     except np.linalg.LinAlgError:

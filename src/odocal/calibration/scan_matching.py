@@ -33,6 +33,7 @@ import numpy as np
 from ..core.model import WheelGeometry
 from ..errors import CalibrationError, ModelError
 from .relative_motions import RelativeMotions, wheel_increments
+from .time_offset import TimeOffset, estimate_time_offset
 
 if TYPE_CHECKING:
     from scipy.spatial import cKDTree
@@ -617,6 +618,9 @@ class ScanIntervals:
         Scans from the start to the end of an interval.
     intervals, matched, not_converged, degenerate : int
         Intervals matched; usable ones; those whose match did not converge; degenerate ones.
+    time_offset : TimeOffset
+        How late the laser's stamps run behind the wheels' (applied: the wheel rotations of
+        each interval are taken at the wheel clock).
     """
 
     motions: RelativeMotions
@@ -625,6 +629,7 @@ class ScanIntervals:
     matched: int
     not_converged: int
     degenerate: int
+    time_offset: TimeOffset = field(default_factory=lambda: TimeOffset.given("laser", 0.0))
 
 
 def scan_interval_motions(
@@ -636,6 +641,7 @@ def scan_interval_motions(
     nominal: WheelGeometry,
     mount: np.ndarray,
     interval_s: float,
+    time_offset_s: float | None = 0.0,
 ) -> ScanIntervals:
     """Cut a drive into intervals between scans about ``interval_s`` apart (within the wheel
     joints' time span; intervals where the wheels hardly turn are left out) and match the scans
@@ -643,7 +649,10 @@ def scan_interval_motions(
     the laser at ``mount`` (x_m, y_m, yaw_rad on the base).
 
     ``scan_time_s`` (N,) and ``scan_points_m`` (N arrays (n_i, 2), m) are the scans; the wheel
-    angles ``right_rad``, ``left_rad`` (rad) are sampled at ``joint_time_s`` (s, same clock).
+    angles ``right_rad``, ``left_rad`` (rad) are sampled at ``joint_time_s`` (s). The laser's
+    stamps run ``time_offset_s`` late against the wheels' (None: estimated from the matched
+    rotations, :mod:`odocal.calibration.time_offset`); the wheel rotations of an interval are
+    taken at the wheel clock.
     CalibrationError when scans and joints hardly overlap or fewer than
     :data:`MIN_MATCHED_INTERVALS` intervals match."""
     from .censi import predict_sensor_motion
@@ -668,14 +677,39 @@ def scan_interval_motions(
             f"only {int(ok.sum())} of {len(ok)} scan intervals matched; record a longer drive "
             "in a room with walls the laser sees"
         )
-    inc = wheel_increments(
-        t_j, right_rad, left_rad, matches.start_time_s[ok], matches.end_time_s[ok]
-    )
+    a, b, motion = matches.start_time_s[ok], matches.end_time_s[ok], matches.motion[ok]
+    offset = _laser_offset(t_j, right_rad, left_rad, a, b, motion, time_offset_s)
+    d = offset.offset_s
+    inc = wheel_increments(t_j, right_rad, left_rad, a - d, b - d)
+    if d:
+        phi_r, phi_l = inc[0].sum(axis=1), inc[1].sum(axis=1)
+    else:  # the rotations as before, bit for bit
+        phi_r, phi_l = phi_r[ok], phi_l[ok]
     return ScanIntervals(
-        RelativeMotions(phi_r[ok], phi_l[ok], matches.motion[ok], inc),
+        RelativeMotions(phi_r, phi_l, motion, inc, a - d, b - d),
         int(stride),
         int(len(ok)),
         int(ok.sum()),
         int((~matches.converged).sum()),
         int(matches.degenerate.sum()),
+        offset,
     )
+
+
+def _laser_offset(
+    t_j: np.ndarray,
+    right: np.ndarray,
+    left: np.ndarray,
+    start_s: np.ndarray,
+    end_s: np.ndarray,
+    motion: np.ndarray,
+    given: float | None,
+) -> TimeOffset:
+    """The laser's clock offset: given, else registered on the matched rotations (the laser's
+    rotation is the base's whatever its mounting)."""
+    if given is not None:
+        return TimeOffset.given("laser", given)
+    try:
+        return estimate_time_offset(t_j, right, left, start_s, end_s, motion[:, 2], source="laser")
+    except CalibrationError as exc:
+        return TimeOffset("laser", 0.0, None, "not estimated", warnings=(f"{exc}; taken as 0",))

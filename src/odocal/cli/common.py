@@ -234,6 +234,16 @@ def add_bag_args(p: argparse.ArgumentParser) -> None:
     g.add_argument("--right-joint", metavar="NAME", help="right wheel joint name")
     g.add_argument("--left-joint", metavar="NAME", help="left wheel joint name")
     g.add_argument("--scan-topic", metavar="T", help="sensor_msgs/LaserScan topic (--method scan)")
+    g.add_argument(
+        "--time-offset",
+        type=time_offset,
+        action="append",
+        default=[],
+        metavar="SOURCE=SECONDS",
+        help="fix the clock offset of a source against the wheels instead of estimating it: "
+        "how late its stamps run (s, negative: early); SOURCE is truth, slam, laser or imu; "
+        "repeatable",
+    )
 
 
 def add_slam_args(p: argparse.ArgumentParser) -> None:
@@ -248,11 +258,13 @@ def add_slam_args(p: argparse.ArgumentParser) -> None:
     )
     s.add_argument(
         "--slam-stamp-offset",
-        type=number(float, at_least=0, at_most=10, hint=" s"),
+        type=number(float, at_least=-10, at_most=10, hint=" s"),
         default=0.0,
         metavar="S",
         help="seconds the SLAM post-dates its correction (slam_toolbox: transform_timeout, 0.2 "
-        "by default; AMCL: transform_tolerance); default 0",
+        "by default; AMCL: transform_tolerance; negative: ante-dates); default 0. A clock "
+        "offset between the SLAM and the wheels is estimated on top (--time-offset slam=S "
+        "fixes it)",
     )
 
 
@@ -267,7 +279,24 @@ def bag_options(args: argparse.Namespace) -> BagOptions:
         right_joint=getattr(args, "right_joint", None),
         left_joint=getattr(args, "left_joint", None),
         imu_axis=getattr(args, "imu_axis", None),
+        time_offsets=tuple(getattr(args, "time_offset", None) or ()),
     )
+
+
+def time_offset(text: str) -> tuple[str, float]:
+    """An argparse type: ``SOURCE=SECONDS`` (a known source, a plausible offset)."""
+    from ..io.bag_options import MAX_TIME_OFFSET_S, TIME_OFFSET_SOURCES
+
+    source, sep, value = text.partition("=")
+    source = source.strip().lower()
+    if not sep or source not in TIME_OFFSET_SOURCES:
+        raise argparse.ArgumentTypeError(
+            f"expected SOURCE=SECONDS with SOURCE one of {', '.join(TIME_OFFSET_SOURCES)}, "
+            f"got {text!r}"
+        )
+    seconds = number(float, at_least=-MAX_TIME_OFFSET_S, at_most=MAX_TIME_OFFSET_S,
+                     hint=" s: outside any plausible clock offset")(value.strip())  # fmt: skip
+    return source, float(seconds)
 
 
 def truth_frames(args: argparse.Namespace) -> tuple[str, str] | None:

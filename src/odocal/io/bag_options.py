@@ -6,7 +6,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["BagOptions", "NO_BAG_OPTIONS"]
+__all__ = ["BagOptions", "NO_BAG_OPTIONS", "TIME_OFFSET_SOURCES", "MAX_TIME_OFFSET_S"]
+
+#: The sources whose clock offset against the wheels a route may estimate or take as given:
+#: a truth track (motion capture, a pose topic or CSV), a SLAM pose on /tf, a laser, an IMU.
+TIME_OFFSET_SOURCES = ("truth", "slam", "laser", "imu")
+#: The largest plausible clock offset (s): beyond it the logs are not of the same drive.
+MAX_TIME_OFFSET_S = 2.0
 
 
 @dataclass(frozen=True)
@@ -32,6 +38,9 @@ class BagOptions:
         detected.
     invert_right, invert_left : bool
         Negate a wheel joint whose axis is mirrored.
+    time_offsets : tuple of (str, float)
+        Clock offsets fixed by the user (``--time-offset SOURCE=SECONDS``): how late each
+        source's stamps run behind the wheels' (s); a source not named is estimated.
     """
 
     joint_topic: str | None = None
@@ -44,6 +53,11 @@ class BagOptions:
     imu_axis: str | None = None
     invert_right: bool = False
     invert_left: bool = False
+    time_offsets: tuple[tuple[str, float], ...] = ()
+
+    def time_offset(self, source: str) -> float | None:
+        """The offset fixed for ``source`` (s), or None (estimate it)."""
+        return dict(self.time_offsets).get(source)
 
 
 #: The defaults: every topic and joint picked by the readers.
