@@ -56,6 +56,14 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.model import ModelError, WheelGeometry
+from ..core.odometry import (
+    arc_displacement,
+    arc_position,
+    body_increments,
+    midpoint_end,
+    wheel_travel,
+)
+from ..core.transforms import se2_compose, se2_inverse, wrap_angle
 from ..errors import CalibrationError
 from .result import check_physical
 
@@ -98,7 +106,7 @@ class SensorOdometryFit:
     geometry : WheelGeometry
         Wheel diameters D_R, D_L (m) and wheelbase b (m).
     sensor_x_m, sensor_y_m, sensor_yaw_rad : float
-        Sensor pose in the robot base frame (m, m, rad in (-pi, pi]).
+        Sensor pose in the robot base frame (m, m, rad in [-pi, pi)).
     covariance : ndarray, shape (6, 6)
         Covariance of the parameters in ``PARAMETERS`` order (SI units squared); NaN rows and
         columns for parameters that were fixed, all NaN if singular.
@@ -221,35 +229,6 @@ def _stderr(cov: np.ndarray) -> dict:
     }
 
 
-# ----------------------------------------------------------------------------------------------
-# SE(2) helpers (rows are poses (x, y, theta))
-
-
-def _wrap(a):
-    return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
-
-
-def _compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a (+) b for poses of shape (..., 3)."""
-    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
-    return np.stack(
-        [
-            a[..., 0] + c * b[..., 0] - s * b[..., 1],
-            a[..., 1] + s * b[..., 0] + c * b[..., 1],
-            a[..., 2] + b[..., 2],
-        ],
-        axis=-1,
-    )
-
-
-def _inverse(a: np.ndarray) -> np.ndarray:
-    """(-a) for poses of shape (..., 3)."""
-    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
-    return np.stack(
-        [-c * a[..., 0] - s * a[..., 1], s * a[..., 0] - c * a[..., 1], -a[..., 2]], axis=-1
-    )
-
-
 def relative_motion(poses) -> np.ndarray:
     """Displacements between consecutive poses, each in the frame of the earlier pose.
 
@@ -262,13 +241,13 @@ def relative_motion(poses) -> np.ndarray:
     Returns
     -------
     ndarray, shape (n, 3)
-        (-P_k) (+) P_k+1: the ``sensor_motion`` of ``fit_censi``; theta wrapped to (-pi, pi].
+        (-P_k) (+) P_k+1: the ``sensor_motion`` of ``fit_censi``; theta wrapped to [-pi, pi).
     """
     p = np.asarray(poses, dtype=float)
     if p.ndim != 2 or p.shape[1] != 3 or len(p) < 2:
         raise ModelError(f"poses must have shape (n + 1, 3) with n >= 1, got {p.shape}")
-    d = _compose(_inverse(p[:-1]), p[1:])
-    d[:, 2] = _wrap(d[:, 2])
+    d = se2_compose(se2_inverse(p[:-1]), p[1:])
+    d[:, 2] = wrap_angle(d[:, 2])
     return d
 
 
@@ -278,28 +257,16 @@ def _arc(p: np.ndarray, phi_r: np.ndarray, phi_l: np.ndarray) -> np.ndarray:
     1-D wheel rotations (n,): the exact arc (constant wheel speeds within the interval). 2-D
     wheel increments (n, K) (zero padded): the midpoint odometry over the increments, as
     ``core.odometry.dead_reckon`` integrates them (no constant-speed assumption)."""
+    s_r, s_l = wheel_travel(phi_r, phi_l, WheelGeometry.unchecked(p[0], p[1], p[2]))
     if phi_r.ndim == 2:
-        s_r, s_l = 0.5 * p[0] * phi_r, 0.5 * p[1] * phi_l
-        ds, dth = 0.5 * (s_r + s_l), (s_r - s_l) / p[2]
-        th = np.cumsum(dth, axis=1)
-        mid = th - 0.5 * dth
-        return np.column_stack(
-            [np.sum(ds * np.cos(mid), axis=1), np.sum(ds * np.sin(mid), axis=1), th[:, -1]]
-        )
-    s_r = 0.5 * p[0] * phi_r
-    s_l = 0.5 * p[1] * phi_l
-    d = 0.5 * (s_r + s_l)
-    th = (s_r - s_l) / p[2]
-    # sin(th)/th and (1 - cos th)/th = (th/2) sinc(th/2)^2, stable at th = 0
-    sinc = np.sinc(th / np.pi)
-    half = np.sinc(th / (2 * np.pi))
-    return np.column_stack([d * sinc, d * 0.5 * th * half * half, th])
+        return midpoint_end(*body_increments(s_r, s_l, p[2]))
+    return arc_displacement(0.5 * (s_r + s_l), (s_r - s_l) / p[2])
 
 
 def _predict(p: np.ndarray, phi_r: np.ndarray, phi_l: np.ndarray) -> np.ndarray:
     o = _arc(p, phi_r, phi_l)
     lpose = np.broadcast_to(p[3:6], o.shape)
-    return _compose(_inverse(lpose), _compose(o, lpose))
+    return se2_compose(se2_inverse(lpose), se2_compose(o, lpose))
 
 
 def predict_sensor_motion(
@@ -339,15 +306,15 @@ def _disagreement(p, phi_r, phi_l, sm) -> np.ndarray:
     """The authors' outlier residual l (+) s - o (+) l, shape (n, 3), robot frame."""
     o = _arc(p, phi_r, phi_l)
     lpose = np.broadcast_to(p[3:6], o.shape)
-    e = _compose(lpose, sm) - _compose(o, lpose)
-    e[:, 2] = _wrap(e[:, 2])
+    e = se2_compose(lpose, sm) - se2_compose(o, lpose)
+    e[:, 2] = wrap_angle(e[:, 2])
     return e
 
 
 def _residual(p, phi_r, phi_l, sm) -> np.ndarray:
     """Predicted - measured sensor motion, shape (n, 3), sensor frame (heading wrapped)."""
     e = _predict(p, phi_r, phi_l) - sm
-    e[:, 2] = _wrap(e[:, 2])
+    e[:, 2] = wrap_angle(e[:, 2])
     return e
 
 
@@ -453,9 +420,7 @@ def _closed_form(phi_r, phi_l, sm, fixed_pose) -> np.ndarray:
     j21, j22 = _step1(phi_r, phi_l, sm)
     th = j21 * phi_l + j22 * phi_r
     k = 0.5 * (-j21 * phi_l + j22 * phi_r)
-    sinc = np.sinc(th / np.pi)
-    half = np.sinc(th / (2 * np.pi))
-    cx, cy = k * sinc, k * 0.5 * th * half * half  # robot translation over b
+    cx, cy = arc_position(k, th)  # robot translation over b
     c, s = np.cos(th), np.sin(th)
     sx, sy = sm[:, 0], sm[:, 1]
     if fixed_pose is not None:
@@ -515,7 +480,7 @@ def closed_form_censi(
     _check_excitation(r, l_)
     p = _closed_form(r, l_, sm, fixed)
     check_physical(p[:3], None, "censi")
-    p[5] = float(_wrap(p[5]))
+    p[5] = float(wrap_angle(p[5]))
     return p
 
 
@@ -722,7 +687,7 @@ def fit_censi(
         p = _closed_form(r[keep], l_[keep], sm[keep], fixed)
     warnings = check_physical(p[:3], None, "censi")
     closed = p.copy()
-    closed[5] = float(_wrap(closed[5]))
+    closed[5] = float(wrap_angle(closed[5]))
 
     free = [0, 1, 2] if fixed is not None else [0, 1, 2, 3, 4, 5]
     rk, lk, smk = wr[keep], wl[keep], sm[keep]
@@ -731,7 +696,7 @@ def fit_censi(
         p, converged = _refine(p, free, rk, lk, smk, (wr, wl, sm))
         if not converged:
             warnings = [*warnings, "censi: the nonlinear refinement did not converge"]
-    p[5] = float(_wrap(p[5]))
+    p[5] = float(wrap_angle(p[5]))
     warnings = [*warnings, *check_physical(p[:3], nominal, "censi")]
 
     sigma = _noise_std(p, rk, lk, smk, len(free), (wr, wl, sm))
@@ -743,7 +708,7 @@ def fit_censi(
         far = [
             PARAMETERS[j]
             for j in free
-            if abs(_wrap(p[j] - closed[j]) if j == 5 else p[j] - closed[j]) > 3 * se[j]
+            if abs(wrap_angle(p[j] - closed[j]) if j == 5 else p[j] - closed[j]) > 3 * se[j]
         ]
         if far:
             warnings.append(

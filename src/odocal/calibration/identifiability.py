@@ -38,7 +38,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..core.model import MeasurementNoise, NonSystematicError, WheelGeometry
-from ..core.odometry import dead_reckon
+from ..core.odometry import body_increments, dead_reckon, wheel_jacobian, wheel_travel
 from ..errors import CalibrationError
 
 # The fit's residual layout (sample indices, segment marks, run weights), its relative-pose
@@ -304,13 +304,6 @@ def _json(v):
 # Motion summary (wheel angles only)
 
 
-def _wheel_travel(angle_right_rad, angle_left_rad, geometry: WheelGeometry):
-    """Per-sample-step wheel travel (ds_R, ds_L) in m, shape (K - 1,) each."""
-    dr = np.diff(np.asarray(angle_right_rad, dtype=float))
-    dl = np.diff(np.asarray(angle_left_rad, dtype=float))
-    return dr * (0.5 * geometry.diameter_right_m), dl * (0.5 * geometry.diameter_left_m)
-
-
 def _windows(ds_r, ds_l, b, window_m):
     """Net wheel travel and absolute wheel travel per window of ``window_m`` travel."""
     w = 0.5 * (np.abs(ds_r) + np.abs(ds_l))
@@ -376,7 +369,9 @@ def summarize_motion(
     b = float(geometry.wheelbase_m)
     per, parts = [], []
     for rec in recordings:
-        ds_r, ds_l = _wheel_travel(rec.wheel_angle_right_rad, rec.wheel_angle_left_rad, geometry)
+        ds_r, ds_l = wheel_travel(
+            np.diff(rec.wheel_angle_right_rad), np.diff(rec.wheel_angle_left_rad), geometry
+        )
         win = _windows(ds_r, ds_l, b, th.window_m)
         path = float(np.abs(0.5 * (ds_r + ds_l)).sum())
         per.append(_summary(rec.name, rec.label, win[0], win[1], win[2], path, b, th))
@@ -440,17 +435,13 @@ def _cumulative_increment_covariance(run: RunResiduals, geometry, noise: NoiseMo
     if not (k_r > 0 or k_l > 0 or k_t > 0):
         return None
     b = float(geometry.wheelbase_m)
-    ds_r, ds_l = _wheel_travel(run.phi_r, run.phi_l, geometry)
-    ds = 0.5 * (ds_r + ds_l)
-    dth = (ds_r - ds_l) / b
-    mid = pose[:-1, 2] + 0.5 * dth
+    ds_r, ds_l = wheel_travel(np.diff(run.phi_r), np.diff(run.phi_l), geometry)
+    ds, dth = body_increments(ds_r, ds_l, b)
+    mid = pose[:-1, 2] + 0.5 * dth  # pose: the midpoint poses of these increments
     c, s = np.cos(mid), np.sin(mid)
-    h = ds / (2.0 * b)
     # columns: right wheel, left wheel, extra heading noise of the increment
     B = np.empty((len(ds), 3, 3))
-    B[:, 0, 0], B[:, 0, 1] = 0.5 * c - h * s, 0.5 * c + h * s
-    B[:, 1, 0], B[:, 1, 1] = 0.5 * s + h * c, 0.5 * s - h * c
-    B[:, 2, 0], B[:, 2, 1] = 1.0 / b, -1.0 / b
+    B[:, :, :2] = wheel_jacobian(ds, c, s, b)
     B[:, 0, 2], B[:, 1, 2], B[:, 2, 2] = -0.5 * ds * s, 0.5 * ds * c, 1.0
     H = np.empty((len(ds), 4, 3))
     H[:, :3, :] = B - a[1:, :, None] * B[:, 2:3, :]

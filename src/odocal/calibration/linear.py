@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.model import WheelGeometry
+from ..core.odometry import midpoint_headings
 from ..errors import CalibrationError
 from .result import GeometryFit, check_physical, stderr_dict
 
@@ -83,9 +84,7 @@ def coefficients_trials(angles, finals):
             dr = np.diff(a[:, 0])
             dl = np.diff(a[:, 1])
             dth = c2[:, 0:1] * dr + c2[:, 1:2] * dl
-            before = np.zeros_like(dth)  # the heading before each increment
-            before[:, 1:] = np.cumsum(dth, axis=1)[:, :-1]
-            m = before + 0.5 * dth
+            _, m = midpoint_headings(dth)  # the mid heading of each increment
             cm, sm = np.cos(m), np.sin(m)
             done[id(a)] = np.stack([cm @ dr, cm @ dl, sm @ dr, sm @ dl], axis=1).reshape(-1, 2, 2)
         rows[:, 2 * j : 2 * j + 2] = done[id(a)]

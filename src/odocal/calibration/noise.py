@@ -36,6 +36,7 @@ import numpy as np
 
 from ..core.covariance import propagate, propagate_increments
 from ..core.model import MeasurementNoise, NonSystematicError, WheelGeometry
+from ..core.odometry import wheel_travel
 from ..core.runs import EndPoseRuns
 from ..core.tracks import out_and_back, straight_line
 from ..errors import CalibrationError
@@ -463,17 +464,19 @@ def estimate_k_from_recordings(
     from pathlib import Path
 
     b = float(geometry.wheelbase_m)
+    scalar = WheelGeometry.unchecked(
+        float(geometry.diameter_right_m), float(geometry.diameter_left_m), b
+    )
     var_m = (measurement.sigma_theta_rad**2) if measurement else 0.0
     groups: dict[tuple[str, str], list] = {}
     skipped: list[str] = []
     for r in recordings:
         if r.ground_truth is None:
             raise CalibrationError(f"{r.name}: estimating k from recorded runs needs ground truth")
-        dr = np.diff(np.asarray(r.wheel_angle_right_rad, dtype=float)) * (
-            0.5 * float(geometry.diameter_right_m)
-        )
-        dl = np.diff(np.asarray(r.wheel_angle_left_rad, dtype=float)) * (
-            0.5 * float(geometry.diameter_left_m)
+        dr, dl = wheel_travel(
+            np.diff(np.asarray(r.wheel_angle_right_rad, dtype=float)),
+            np.diff(np.asarray(r.wheel_angle_left_rad, dtype=float)),
+            scalar,
         )
         if len(dr) < 1:
             skipped.append(f"{Path(r.name).name}: too short")

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .model import MeasurementNoise, ModelError, NonSystematicError, Robot, WheelGeometry
+from .odometry import body_increments, midpoint_path, wheel_jacobian
 from .pose import compose
 from .simulate import increments_per_segment, odometric_pose
 from .tracks import Track
@@ -189,26 +190,14 @@ def propagate_increments(
     dl = np.asarray(dl, dtype=float)
     b = np.asarray(wheelbase_m, dtype=float)[..., None]
     dr, dl, b = np.broadcast_arrays(dr, dl, b)
-    ds = 0.5 * (dr + dl)
-    dth = (dr - dl) / b
-    theta_after = np.cumsum(dth, axis=-1)
-    mid = theta_after - 0.5 * dth
-    c, s = np.cos(mid), np.sin(mid)
-    ds_eff = ds * np.sinc(dth / (2.0 * math.pi)) if integration == "exact" else ds
-    x_after = np.cumsum(ds_eff * c, axis=-1)
-    y_after = np.cumsum(ds_eff * s, axis=-1)
+    ds, dth = body_increments(dr, dl, b)
+    chord = "exact" if integration == "exact" else "none"
+    x_after, y_after, theta_after, c, s = midpoint_path(ds, dth, chord=chord)
     x_n, y_n = x_after[..., -1:], y_after[..., -1:]
     mean = np.stack([x_n[..., 0], y_n[..., 0], theta_after[..., -1]], axis=-1)
 
     # F_d (eq. 5.11), columns (right, left), per increment: shape (B..., K, 3, 2)
-    h = ds / (2.0 * b)
-    g = np.empty(ds.shape + (3, 2))
-    g[..., 0, 0] = 0.5 * c - h * s
-    g[..., 0, 1] = 0.5 * c + h * s
-    g[..., 1, 0] = 0.5 * s + h * c
-    g[..., 1, 1] = 0.5 * s - h * c
-    g[..., 2, 0] = 1.0 / b
-    g[..., 2, 1] = -1.0 / b
+    g = wheel_jacobian(ds, c, s, b)
     # transport to the end: rows x and y pick up -(y_N - y_i) and (x_N - x_i) times the theta row
     g[..., 0, :] -= (y_n - y_after)[..., None] * g[..., 2, :]
     g[..., 1, :] += (x_n - x_after)[..., None] * g[..., 2, :]

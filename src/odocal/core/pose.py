@@ -6,28 +6,20 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
+
+from .odometry import arc_step
 
 __all__ = ["compose", "start_frame"]
 
 
-def compose(pose: np.ndarray, distance, angle) -> np.ndarray:
+def compose(pose: ArrayLike, distance: ArrayLike, angle: ArrayLike) -> np.ndarray:
     """Exact pose after a constant-curvature motion (distance m, heading change rad).
 
-    ``pose`` has shape (..., 3); ``distance`` and ``angle`` broadcast against pose[..., 0].
+    ``pose`` has shape (..., 3); ``distance`` and ``angle`` broadcast against pose[..., 0]. The
+    exact-arc step of the dead-reckoning kernel (:func:`odocal.core.odometry.arc_step`).
     """
-    pose = np.asarray(pose, dtype=float)
-    distance = np.asarray(distance, dtype=float)
-    angle = np.asarray(angle, dtype=float)
-    chord = distance * np.sinc(angle / (2.0 * math.pi))  # d sin(a/2)/(a/2)
-    mid = pose[..., 2] + 0.5 * angle
-    return np.stack(
-        np.broadcast_arrays(
-            pose[..., 0] + chord * np.cos(mid),
-            pose[..., 1] + chord * np.sin(mid),
-            pose[..., 2] + angle,
-        ),
-        axis=-1,
-    )
+    return arc_step(pose, distance, angle)
 
 
 def start_frame(x, y, theta_rad) -> np.ndarray:

@@ -372,6 +372,9 @@ def _drive_block(segments, b_true, noise, rng, exact, pose, record, traj, headin
     (one angle per increment, not per run): only e_k, which is small, is left per run, and its
     cos and sin are Taylor polynomials accurate to the last bit; likewise the sin(x)/x of the
     exact arcs and, on straight legs, cos and sin of the whole mid heading.
+
+    This is the midpoint update of :mod:`odocal.core.odometry` (its one home), unrolled by
+    segment for speed; tests/test_odometry.py equates the two.
     """
     start = 0  # increments driven before the segment
     for s_r, s_l, n in segments:
