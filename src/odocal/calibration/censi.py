@@ -63,7 +63,7 @@ from ..core.odometry import (
     midpoint_end,
     wheel_travel,
 )
-from ..core.transforms import se2_compose, se2_inverse, wrap_angle
+from ..core.transforms import se2_compose, se2_conjugate, se2_relative, wrap_angle
 from ..errors import CalibrationError
 from .result import check_physical
 
@@ -246,9 +246,7 @@ def relative_motion(poses) -> np.ndarray:
     p = np.asarray(poses, dtype=float)
     if p.ndim != 2 or p.shape[1] != 3 or len(p) < 2:
         raise ModelError(f"poses must have shape (n + 1, 3) with n >= 1, got {p.shape}")
-    d = se2_compose(se2_inverse(p[:-1]), p[1:])
-    d[:, 2] = wrap_angle(d[:, 2])
-    return d
+    return se2_relative(p[:-1], p[1:])
 
 
 def _arc(p: np.ndarray, phi_r: np.ndarray, phi_l: np.ndarray) -> np.ndarray:
@@ -266,7 +264,7 @@ def _arc(p: np.ndarray, phi_r: np.ndarray, phi_l: np.ndarray) -> np.ndarray:
 def _predict(p: np.ndarray, phi_r: np.ndarray, phi_l: np.ndarray) -> np.ndarray:
     o = _arc(p, phi_r, phi_l)
     lpose = np.broadcast_to(p[3:6], o.shape)
-    return se2_compose(se2_inverse(lpose), se2_compose(o, lpose))
+    return se2_conjugate(o, lpose)
 
 
 def predict_sensor_motion(

@@ -39,6 +39,7 @@ import numpy as np
 
 from ..core.model import MeasurementNoise, NonSystematicError, WheelGeometry
 from ..core.odometry import body_increments, dead_reckon, wheel_jacobian, wheel_travel
+from ..core.transforms import se2_conjugate
 from ..errors import CalibrationError
 
 # The fit's residual layout (sample indices, segment marks, run weights), its relative-pose
@@ -389,15 +390,9 @@ def summarize_motion(
 
 def _mounted(poses, mount):
     """Poses of a frame mounted at (x, y, yaw) on the robot, in that frame's start frame."""
-    mx, my, ma = mount
-    if mx == 0 and my == 0 and ma == 0:
+    if mount[0] == 0 and mount[1] == 0 and mount[2] == 0:
         return poses
-    th = poses[:, 2]
-    c, s = np.cos(th), np.sin(th)
-    px = poses[:, 0] + c * mx - s * my - mx
-    py = poses[:, 1] + s * mx + c * my - my
-    ca, sa = math.cos(ma), math.sin(ma)
-    return np.column_stack([ca * px + sa * py, -sa * px + ca * py, th])
+    return se2_conjugate(poses, np.asarray(mount, dtype=float))
 
 
 def _blocks(run: RunResiduals, kind: str):

@@ -3,12 +3,11 @@ frame (docs/conventions.md: +x the start heading, +y to the left, theta CCW posi
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numpy.typing import ArrayLike
 
 from .odometry import arc_step
+from .transforms import se2_relative
 
 __all__ = ["compose", "start_frame"]
 
@@ -28,7 +27,5 @@ def start_frame(x, y, theta_rad) -> np.ndarray:
     ``x``, ``y`` (m) and ``theta_rad`` (rad, unwrapped) have shape (K,); the heading keeps its
     unwrapping (only the first heading is subtracted).
     """
-    x, y, th = (np.asarray(v, dtype=float) for v in (x, y, theta_rad))
-    c, s = math.cos(th[0]), math.sin(th[0])
-    dx, dy = x - x[0], y - y[0]
-    return np.column_stack([c * dx + s * dy, -s * dx + c * dy, th - th[0]])
+    poses = np.column_stack([np.asarray(v, dtype=float) for v in (x, y, theta_rad)])
+    return se2_relative(poses[0], poses, wrap=False)

@@ -32,7 +32,8 @@ enforces the one-parent tree. The buffer here is a few hundred lines on
 
 Planar helpers (SE(2)), for a robot on the floor: :func:`planar_pose` projects 3D transforms to
 (x_m, y_m, yaw_rad); :func:`se2_relative` gives the motion of pose b seen from pose a (in a's
-frame); :func:`se2_compose`, :func:`se2_inverse`, :func:`wrap_angle`. Frames and signs follow
+frame); :func:`se2_compose`, :func:`se2_inverse`, :func:`se2_conjugate` (a motion seen from a
+frame mounted on the moving body), :func:`wrap_angle`. Frames and signs follow
 docs/conventions.md (REP-103: x forward, y left, z up, yaw counter-clockwise positive).
 
 Errors: data problems (unknown frame, disconnected trees, times outside the data, a frame with two
@@ -74,6 +75,7 @@ __all__ = [
     "se2_compose",
     "se2_inverse",
     "se2_relative",
+    "se2_conjugate",
 ]
 
 
@@ -266,6 +268,17 @@ def se2_relative(a, b, *, wrap: bool = True) -> np.ndarray:
     dx, dy = b[..., 0] - a[..., 0], b[..., 1] - a[..., 1]
     dyaw = b[..., 2] - a[..., 2]
     return np.stack([c * dx + s * dy, -s * dx + c * dy, wrap_angle(dyaw) if wrap else dyaw], -1)
+
+
+def se2_conjugate(motion, frame) -> np.ndarray:
+    """frame^-1 (+) motion (+) frame: ``motion`` of a body seen by a frame mounted on it.
+
+    ``frame`` is the pose of the mounted frame (a sensor, a tracker's marker body) in the body
+    frame; ``motion`` a displacement of the body in its own frame at the start (a relative
+    motion, or a pose in the body's start frame). The result is the mounted frame's displacement
+    in its own frame at the start. Shapes (n, 3) or (3,), broadcast against each other.
+    """
+    return se2_compose(se2_inverse(frame), se2_compose(motion, frame))
 
 
 # --------------------------------------------------------------------------- buffer
