@@ -54,6 +54,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.model import ModelError, WheelGeometry
 from ..core.odometry import (
@@ -636,53 +637,13 @@ def fit_censi(
     """
     r, l_, sm = _as_inputs(phi_right_rad, phi_left_rad, sensor_motion)
     fixed = _as_pose(sensor_pose)
-    if isinstance(outlier_iterations, bool) or not isinstance(outlier_iterations, int | np.integer):
-        raise ModelError(f"outlier_iterations must be an integer, got {outlier_iterations!r}")
-    if not 0 <= outlier_iterations <= 100:
-        raise ModelError(f"outlier_iterations must be in 0..100, got {outlier_iterations}")
-    if not isinstance(outlier_fraction, int | float | np.floating) or not (
-        0.0 <= float(outlier_fraction) < 0.5
-    ):
-        raise ModelError(f"outlier_fraction must be in [0, 0.5), got {outlier_fraction!r}")
-    outlier_iterations = int(outlier_iterations)
-    outlier_fraction = float(outlier_fraction)
+    outlier_iterations, outlier_fraction = _outlier_rule(outlier_iterations, outlier_fraction)
     _check_excitation(r, l_)
     # the wheel data the odometry is integrated from: rotations, or the sampled increments
-    wr, wl = r, l_
-    if wheel_increments is not None:
-        wr, wl = (np.asarray(a, dtype=float) for a in wheel_increments)
-        if wr.ndim != 2 or wr.shape != wl.shape or len(wr) != len(r):
-            raise ModelError(
-                f"wheel_increments must be two arrays of shape ({len(r)}, K), got "
-                f"{wr.shape} and {wl.shape}"
-            )
-        if not (np.all(np.isfinite(wr)) and np.all(np.isfinite(wl))):
-            raise ModelError("wheel_increments must be finite")
-        scale = max(float(np.max(np.abs(r))), float(np.max(np.abs(l_))), 1e-12)
-        if (
-            np.max(np.abs(wr.sum(axis=1) - r)) > 1e-9 * scale
-            or np.max(np.abs(wl.sum(axis=1) - l_)) > 1e-9 * scale
-        ):
-            raise ModelError("wheel_increments must sum to phi_right_rad and phi_left_rad")
-
+    wr, wl = (r, l_) if wheel_increments is None else _as_increments(wheel_increments, r, l_)
     n = len(r)
-    keep = np.arange(n)
-    history = [keep]
-    per_round = []
-    p = _closed_form(r, l_, sm, fixed)
-    for _ in range(outlier_iterations if outlier_fraction > 0 else 0):
-        check_physical(p[:3], None, "censi")
-        mask = _trim(p, wr[keep], wl[keep], sm[keep], outlier_fraction)
-        per_round.append(int(np.count_nonzero(~mask)))
-        keep = keep[mask]
-        history.append(keep)
-        if len(keep) < MIN_TUPLES:
-            raise CalibrationError(
-                f"censi: only {len(keep)} tuples left after outlier rejection; at least "
-                f"{MIN_TUPLES} are needed"
-            )
-        _check_excitation(r[keep], l_[keep])
-        p = _closed_form(r[keep], l_[keep], sm[keep], fixed)
+    trimmed = _trimmed_closed_form(r, l_, sm, fixed, wr, wl, outlier_iterations, outlier_fraction)
+    p, keep = trimmed.estimate, trimmed.keep
     warnings = check_physical(p[:3], None, "censi")
     closed = p.copy()
     closed[5] = float(wrap_angle(closed[5]))
@@ -699,20 +660,9 @@ def fit_censi(
 
     sigma = _noise_std(p, rk, lk, smk, len(free), (wr, wl, sm))
     cov = _fisher(p, free, rk, lk, smk, sigma)
-    cov_paper = _paper_covariance(p, free, wr, wl, sm, history, keep, outlier_fraction)
-
-    se = np.sqrt(np.diag(cov))
-    if refine and wheel_increments is None and np.all(np.isfinite(se[free])):
-        far = [
-            PARAMETERS[j]
-            for j in free
-            if abs(wrap_angle(p[j] - closed[j]) if j == 5 else p[j] - closed[j]) > 3 * se[j]
-        ]
-        if far:
-            warnings.append(
-                "censi: the refined and closed-form estimates differ by more than 3 standard "
-                f"errors in {', '.join(far)}; the arc model may not fit these tuples"
-            )
+    cov_paper = _paper_covariance(p, free, wr, wl, sm, trimmed.history, keep, outlier_fraction)
+    if refine and wheel_increments is None:
+        warnings += _far_from_closed_form(p, closed, cov, free)
     dropped = np.setdiff1d(np.arange(n), keep)
     return SensorOdometryFit(
         geometry=WheelGeometry(float(p[0]), float(p[1]), float(p[2])),
@@ -727,13 +677,109 @@ def fit_censi(
         tuples_total=n,
         tuples_used=len(keep),
         dropped_indices=tuple(int(i) for i in dropped),
-        dropped_per_round=tuple(per_round),
+        dropped_per_round=tuple(trimmed.dropped_per_round),
         outlier_iterations=outlier_iterations,
         outlier_fraction=outlier_fraction,
         refined=bool(refine),
         sensor_pose_fixed=fixed is not None,
         warnings=tuple(warnings),
     )
+
+
+def _outlier_rule(iterations: object, fraction: object) -> tuple[int, float]:
+    """The trimming rounds (0..100) and fraction ([0, 0.5)), checked."""
+    if isinstance(iterations, bool) or not isinstance(iterations, int | np.integer):
+        raise ModelError(f"outlier_iterations must be an integer, got {iterations!r}")
+    if not 0 <= iterations <= 100:
+        raise ModelError(f"outlier_iterations must be in 0..100, got {iterations}")
+    if not isinstance(fraction, int | float | np.floating) or not (0.0 <= float(fraction) < 0.5):
+        raise ModelError(f"outlier_fraction must be in [0, 0.5), got {fraction!r}")
+    return int(iterations), float(fraction)
+
+
+def _as_increments(
+    wheel_increments: tuple[ArrayLike, ArrayLike], r: np.ndarray, l_: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The sampled wheel increments (n, K) of each interval, checked against the rotations."""
+    wr, wl = (np.asarray(a, dtype=float) for a in wheel_increments)
+    if wr.ndim != 2 or wr.shape != wl.shape or len(wr) != len(r):
+        raise ModelError(
+            f"wheel_increments must be two arrays of shape ({len(r)}, K), got "
+            f"{wr.shape} and {wl.shape}"
+        )
+    if not (np.all(np.isfinite(wr)) and np.all(np.isfinite(wl))):
+        raise ModelError("wheel_increments must be finite")
+    scale = max(float(np.max(np.abs(r))), float(np.max(np.abs(l_))), 1e-12)
+    if (
+        np.max(np.abs(wr.sum(axis=1) - r)) > 1e-9 * scale
+        or np.max(np.abs(wl.sum(axis=1) - l_)) > 1e-9 * scale
+    ):
+        raise ModelError("wheel_increments must sum to phi_right_rad and phi_left_rad")
+    return wr, wl
+
+
+@dataclass(frozen=True)
+class _Trimmed:
+    """The closed form after the authors' trimming rounds: the estimate, the tuples kept, the
+    kept tuples before every round (``history[0]`` all of them) and the count dropped per
+    round."""
+
+    estimate: np.ndarray
+    keep: np.ndarray
+    history: list[np.ndarray]
+    dropped_per_round: list[int]
+
+
+def _trimmed_closed_form(
+    r: np.ndarray,
+    l_: np.ndarray,
+    sm: np.ndarray,
+    fixed: np.ndarray | None,
+    wr: np.ndarray,
+    wl: np.ndarray,
+    iterations: int,
+    fraction: float,
+) -> _Trimmed:
+    """The closed form, re-estimated after each trimming round (the outlier rule judges the
+    odometry integrated from ``wr``, ``wl``)."""
+    keep = np.arange(len(r))
+    history = [keep]
+    per_round = []
+    p = _closed_form(r, l_, sm, fixed)
+    for _ in range(iterations if fraction > 0 else 0):
+        check_physical(p[:3], None, "censi")
+        mask = _trim(p, wr[keep], wl[keep], sm[keep], fraction)
+        per_round.append(int(np.count_nonzero(~mask)))
+        keep = keep[mask]
+        history.append(keep)
+        if len(keep) < MIN_TUPLES:
+            raise CalibrationError(
+                f"censi: only {len(keep)} tuples left after outlier rejection; at least "
+                f"{MIN_TUPLES} are needed"
+            )
+        _check_excitation(r[keep], l_[keep])
+        p = _closed_form(r[keep], l_[keep], sm[keep], fixed)
+    return _Trimmed(p, keep, history, per_round)
+
+
+def _far_from_closed_form(
+    p: np.ndarray, closed: np.ndarray, cov: np.ndarray, free: list[int]
+) -> list[str]:
+    """A warning when the refinement moved more than 3 standard errors from the closed form."""
+    se = np.sqrt(np.diag(cov))
+    if not np.all(np.isfinite(se[free])):
+        return []
+    far = [
+        PARAMETERS[j]
+        for j in free
+        if abs(wrap_angle(p[j] - closed[j]) if j == 5 else p[j] - closed[j]) > 3 * se[j]
+    ]
+    if not far:
+        return []
+    return [
+        "censi: the refined and closed-form estimates differ by more than 3 standard "
+        f"errors in {', '.join(far)}; the arc model may not fit these tuples"
+    ]
 
 
 def _paper_covariance(p, free, r, l_, sm, history, keep, fraction) -> np.ndarray | None:
