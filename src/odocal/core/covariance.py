@@ -20,11 +20,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .model import MeasurementNoise, ModelError, NonSystematicError, Robot, WheelGeometry
-from .odometry import body_increments, midpoint_path, wheel_jacobian
+from .odometry import Chord, body_increments, midpoint_path, wheel_jacobian
 from .pose import compose
 from .simulate import increments_per_segment, odometric_pose
 from .tracks import Track
@@ -98,7 +100,13 @@ def correlation(covariance: np.ndarray) -> np.ndarray:
     return r
 
 
-def _increments(track, true, believed, max_step_m, steps_per_segment):
+def _increments(
+    track: Track,
+    true: WheelGeometry,
+    believed: WheelGeometry,
+    max_step_m: float | None,
+    steps_per_segment: int | None,
+) -> tuple[np.ndarray, np.ndarray]:
     """True wheel travel per increment (dr, dl), shape (B..., K), as drive() makes them.
 
     As in drive(), a segment has the same number of increments for every batch element (set by
@@ -177,7 +185,12 @@ def propagate(
 
 
 def propagate_increments(
-    dr, dl, wheelbase_m, noise: NonSystematicError, *, integration: str = "midpoint"
+    dr: ArrayLike,
+    dl: ArrayLike,
+    wheelbase_m: float | np.ndarray,
+    noise: NonSystematicError,
+    *,
+    integration: str = "midpoint",
 ) -> tuple[np.ndarray, np.ndarray]:
     """Final pose and its first-order covariance for given TRUE wheel-travel increments.
 
@@ -191,7 +204,7 @@ def propagate_increments(
     b = np.asarray(wheelbase_m, dtype=float)[..., None]
     dr, dl, b = np.broadcast_arrays(dr, dl, b)
     ds, dth = body_increments(dr, dl, b)
-    chord = "exact" if integration == "exact" else "none"
+    chord: Chord = "exact" if integration == "exact" else "none"
     x_after, y_after, theta_after, c, s = midpoint_path(ds, dth, chord=chord)
     x_n, y_n = x_after[..., -1:], y_after[..., -1:]
     mean = np.stack([x_n[..., 0], y_n[..., 0], theta_after[..., -1]], axis=-1)
@@ -208,7 +221,7 @@ def propagate_increments(
     return mean, cov
 
 
-def predict(track: Track, robot: Robot, **options) -> PosePrediction:
+def predict(track: Track, robot: Robot, **options: Any) -> PosePrediction:
     """:func:`propagate` for ``robot`` (true geometry from its systematic errors, believed
     geometry from ``robot.believed`` or nominal, its wheel noise and instrument noise)."""
     return propagate(
@@ -238,7 +251,9 @@ def mean_final_pose(track: Track, true: WheelGeometry, believed: WheelGeometry) 
     return pose
 
 
-def straight_line_covariance(distance_m: float, wheelbase_m: float, k_r_m: float, k_l_m: float):
+def straight_line_covariance(
+    distance_m: float, wheelbase_m: float, k_r_m: float, k_l_m: float
+) -> np.ndarray:
     """Closed-form covariance of a straight run of ``distance_m`` from zero covariance.
 
     In the robot frame (f forward, s left, theta), with K+ = k_r + k_l, K- = k_r - k_l (metres;

@@ -32,12 +32,15 @@ the real experiment's held-out final positions (``design/real_experiment.py``).
 from __future__ import annotations
 
 import math
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
 
-from .model import WheelGeometry
+from .model import ModelError, WheelGeometry
+
+if TYPE_CHECKING:
+    from .recording import Recording
 
 __all__ = [
     "wheel_travel",
@@ -76,7 +79,7 @@ def wheel_travel(
 
 
 def body_increments(
-    travel_right_m: np.ndarray, travel_left_m: np.ndarray, wheelbase_m: ArrayLike
+    travel_right_m: np.ndarray, travel_left_m: np.ndarray, wheelbase_m: float | np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """The centre's travel ds = (ds_R + ds_L) / 2 (m) and heading change
     dtheta = (ds_R - ds_L) / b (rad) of each increment (shapes broadcast)."""
@@ -196,7 +199,7 @@ def arc_displacement(distance_m: np.ndarray, angle_rad: np.ndarray) -> np.ndarra
 
 
 def wheel_jacobian(
-    ds_m: np.ndarray, cos_mid: np.ndarray, sin_mid: np.ndarray, wheelbase_m: ArrayLike
+    ds_m: np.ndarray, cos_mid: np.ndarray, sin_mid: np.ndarray, wheelbase_m: float | np.ndarray
 ) -> np.ndarray:
     """Derivative of one midpoint step (dx, dy, dtheta; start frame) with respect to the wheel
     travel (ds_R, ds_L): Siegwart's F_d (eq. 5.11), shape (..., 3, 2) for inputs of shape (...)
@@ -255,7 +258,7 @@ def position_errors(ground_truth: np.ndarray, odometry: np.ndarray) -> np.ndarra
     return np.hypot(ground_truth[:, 0] - odometry[:, 0], ground_truth[:, 1] - odometry[:, 1])
 
 
-def evaluate(recording, geometry: WheelGeometry) -> dict:
+def evaluate(recording: Recording, geometry: WheelGeometry) -> dict:
     """Dead-reckon ``recording`` with ``geometry`` and compare with its ground truth.
 
     Returns final and maximum position error (m) and final and maximum heading error (rad, abs).
@@ -264,6 +267,8 @@ def evaluate(recording, geometry: WheelGeometry) -> dict:
     """
     odo = dead_reckon(recording.wheel_angle_right_rad, recording.wheel_angle_left_rad, geometry)
     gt = recording.ground_truth
+    if gt is None:
+        raise ModelError(f"{recording.name}: evaluating a geometry needs ground truth")
     valid = recording.meta.get("truth_samples") if recording.meta else None
     if valid is not None:
         gt, odo = gt[valid], odo[valid]

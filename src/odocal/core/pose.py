@@ -21,7 +21,7 @@ def compose(pose: ArrayLike, distance: ArrayLike, angle: ArrayLike) -> np.ndarra
     return arc_step(pose, distance, angle)
 
 
-def start_frame(x, y, theta_rad) -> np.ndarray:
+def start_frame(x: ArrayLike, y: ArrayLike, theta_rad: ArrayLike) -> np.ndarray:
     """Poses re-expressed relative to the first one: shape (K, 3), first row (0, 0, 0).
 
     ``x``, ``y`` (m) and ``theta_rad`` (rad, unwrapped) have shape (K,); the heading keeps its

@@ -20,6 +20,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .model import ModelError, NonSystematicError, WheelGeometry
 from .odometry import body_increments, midpoint_end, wheel_travel
@@ -27,7 +28,9 @@ from .odometry import body_increments, midpoint_end, wheel_travel
 __all__ = ["chunk_rotations", "replay_final_errors"]
 
 
-def chunk_rotations(angle_right_rad, angle_left_rad, max_chunk_rad: float) -> np.ndarray:
+def chunk_rotations(
+    angle_right_rad: ArrayLike, angle_left_rad: ArrayLike, max_chunk_rad: float
+) -> np.ndarray:
     """Cumulative wheel angles at chunk boundaries, shape (C + 1, 2) (right, left; rad), from
     cumulative angles of shape (K,) (module docstring)."""
     if not (math.isfinite(max_chunk_rad) and max_chunk_rad > 0):
