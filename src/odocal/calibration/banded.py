@@ -22,11 +22,13 @@ costs per band.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 
 import numpy as np
 
 from ..core.model import WheelGeometry
 from ..core.odometry import dead_reckon
+from ..core.recording import Recording
 from ..errors import CalibrationError
 from .result import GeometryFit, check_physical
 from .trajectory import optimizer_report, solve_lm
@@ -45,7 +47,14 @@ __all__ = ["fit_banded"]
 
 
 class _Run:
-    def __init__(self, rec, start: WheelGeometry, samples: int, band_param: np.ndarray, window_s):
+    def __init__(
+        self,
+        rec: Recording,
+        start: WheelGeometry,
+        samples: int,
+        band_param: np.ndarray,
+        window_s: float,
+    ) -> None:
         self.name = rec.name
         self.phi_r = np.asarray(rec.wheel_angle_right_rad, dtype=float)
         self.phi_l = np.asarray(rec.wheel_angle_left_rad, dtype=float)
@@ -62,7 +71,7 @@ class _Run:
         )
         self.weight = math.sqrt(max(travel, 1e-9) / len(self.idx))
 
-    def residual(self, p, w_head):
+    def residual(self, p: np.ndarray, w_head: float) -> np.ndarray:
         b = np.asarray(p[2:])[self.param]
         odo = dead_reckon(self.phi_r, self.phi_l, WheelGeometry.unchecked(p[0], p[1], b))
         e = self.gt[self.idx] - odo[self.idx]
@@ -71,7 +80,7 @@ class _Run:
 
 
 def fit_banded(
-    recordings,
+    recordings: Iterable[Recording],
     start: WheelGeometry,
     *,
     nominal: WheelGeometry | None = None,
@@ -116,7 +125,7 @@ def fit_banded(
     band_param = np.array([excited.index(nearest[i]) for i in range(len(BANDS))])
     prepared = [_Run(r, start, samples_per_run, band_param, window_s) for r in runs]
 
-    def fun(p):
+    def fun(p: np.ndarray) -> np.ndarray:
         return np.concatenate([r.residual(p, heading_weight_m) for r in prepared])
 
     x0 = np.array(

@@ -210,12 +210,12 @@ class SensorOdometryFit:
         }
 
 
-def _finite_or_none(a) -> list:
+def _finite_or_none(a: ArrayLike) -> list:
     """Nested lists of floats with non-finite entries as None (JSON has no NaN)."""
     return [_finite_or_none(v) if np.ndim(v) else _num(v) for v in np.asarray(a, dtype=float)]
 
 
-def _num(v) -> float | None:
+def _num(v: float | None) -> float | None:
     if v is None:
         return None
     v = float(v)
@@ -230,7 +230,7 @@ def _stderr(cov: np.ndarray) -> dict:
     }
 
 
-def relative_motion(poses) -> np.ndarray:
+def relative_motion(poses: ArrayLike) -> np.ndarray:
     """Displacements between consecutive poses, each in the frame of the earlier pose.
 
     Parameters
@@ -269,7 +269,10 @@ def _predict(p: np.ndarray, phi_r: np.ndarray, phi_l: np.ndarray) -> np.ndarray:
 
 
 def predict_sensor_motion(
-    geometry: WheelGeometry, sensor_pose, phi_right_rad, phi_left_rad
+    geometry: WheelGeometry,
+    sensor_pose: ArrayLike,
+    phi_right_rad: ArrayLike,
+    phi_left_rad: ArrayLike,
 ) -> np.ndarray:
     """The sensor displacement over each interval predicted by the arc model.
 
@@ -301,7 +304,9 @@ def predict_sensor_motion(
     return _predict(p, r, l_)
 
 
-def _disagreement(p, phi_r, phi_l, sm) -> np.ndarray:
+def _disagreement(
+    p: np.ndarray, phi_r: np.ndarray, phi_l: np.ndarray, sm: np.ndarray
+) -> np.ndarray:
     """The authors' outlier residual l (+) s - o (+) l, shape (n, 3), robot frame."""
     o = _arc(p, phi_r, phi_l)
     lpose = np.broadcast_to(p[3:6], o.shape)
@@ -310,7 +315,7 @@ def _disagreement(p, phi_r, phi_l, sm) -> np.ndarray:
     return e
 
 
-def _residual(p, phi_r, phi_l, sm) -> np.ndarray:
+def _residual(p: np.ndarray, phi_r: np.ndarray, phi_l: np.ndarray, sm: np.ndarray) -> np.ndarray:
     """Predicted - measured sensor motion, shape (n, 3), sensor frame (heading wrapped)."""
     e = _predict(p, phi_r, phi_l) - sm
     e[:, 2] = wrap_angle(e[:, 2])
@@ -321,7 +326,9 @@ def _residual(p, phi_r, phi_l, sm) -> np.ndarray:
 # Input checks
 
 
-def _as_inputs(phi_right_rad, phi_left_rad, sensor_motion):
+def _as_inputs(
+    phi_right_rad: ArrayLike, phi_left_rad: ArrayLike, sensor_motion: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r = np.asarray(phi_right_rad, dtype=float)
     l_ = np.asarray(phi_left_rad, dtype=float)
     sm = np.asarray(sensor_motion, dtype=float)
@@ -374,7 +381,7 @@ def _check_excitation(phi_r: np.ndarray, phi_l: np.ndarray) -> None:
     raise CalibrationError(f"censi: degenerate motion: {what}")
 
 
-def _step1(phi_r, phi_l, sm) -> tuple[float, float]:
+def _step1(phi_r: np.ndarray, phi_l: np.ndarray, sm: np.ndarray) -> tuple[float, float]:
     """J21, J22 by least squares on the sensor rotations (rad per rad of wheel rotation)."""
     phi = np.column_stack([phi_l, phi_r])
     j, *_ = np.linalg.lstsq(phi, sm[:, 2], rcond=None)
@@ -414,7 +421,9 @@ def _step1(phi_r, phi_l, sm) -> tuple[float, float]:
     return j21, j22
 
 
-def _closed_form(phi_r, phi_l, sm, fixed_pose) -> np.ndarray:
+def _closed_form(
+    phi_r: np.ndarray, phi_l: np.ndarray, sm: np.ndarray, fixed_pose: np.ndarray | None
+) -> np.ndarray:
     """The paper's two linear steps; (D_R, D_L, b, x, y, yaw). Inputs already checked."""
     j21, j22 = _step1(phi_r, phi_l, sm)
     th = j21 * phi_l + j22 * phi_r
@@ -456,7 +465,11 @@ def _closed_form(phi_r, phi_l, sm, fixed_pose) -> np.ndarray:
 
 
 def closed_form_censi(
-    phi_right_rad, phi_left_rad, sensor_motion, *, sensor_pose=None
+    phi_right_rad: ArrayLike,
+    phi_left_rad: ArrayLike,
+    sensor_motion: ArrayLike,
+    *,
+    sensor_pose: ArrayLike | None = None,
 ) -> np.ndarray:
     """The paper's closed-form estimate on all tuples (no outlier rejection, no refinement).
 
@@ -483,7 +496,7 @@ def closed_form_censi(
     return p
 
 
-def _as_pose(sensor_pose) -> np.ndarray | None:
+def _as_pose(sensor_pose: ArrayLike | None) -> np.ndarray | None:
     if sensor_pose is None:
         return None
     pose = np.asarray(sensor_pose, dtype=float)
@@ -496,7 +509,14 @@ def _as_pose(sensor_pose) -> np.ndarray | None:
 # Refinement and covariance
 
 
-def _jacobian(p, free, phi_r, phi_l, sm, weight) -> np.ndarray:
+def _jacobian(
+    p: np.ndarray,
+    free: list[int],
+    phi_r: np.ndarray,
+    phi_l: np.ndarray,
+    sm: np.ndarray,
+    weight: float | np.ndarray,
+) -> np.ndarray:
     """Central-difference Jacobian of the weighted residual w.r.t. p[free], shape (3n, k)."""
     cols = []
     for j in free:
@@ -510,7 +530,14 @@ def _jacobian(p, free, phi_r, phi_l, sm, weight) -> np.ndarray:
     return np.column_stack(cols)
 
 
-def _noise_std(p, phi_r, phi_l, sm, n_free: int, everything=None) -> np.ndarray:
+def _noise_std(
+    p: np.ndarray,
+    phi_r: np.ndarray,
+    phi_l: np.ndarray,
+    sm: np.ndarray,
+    n_free: int,
+    everything: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray:
     """Noise standard deviation per component (x_m, y_m, theta_rad), shape (3,).
 
     RMS residual over the tuples used, with the parameter count spread over the 3 components;
@@ -530,7 +557,14 @@ def _noise_std(p, phi_r, phi_l, sm, n_free: int, everything=None) -> np.ndarray:
     return np.maximum(sigma, _SIGMA_FLOOR)
 
 
-def _refine(p0, free, phi_r, phi_l, sm, everything) -> tuple[np.ndarray, bool]:
+def _refine(
+    p0: np.ndarray,
+    free: list[int],
+    phi_r: np.ndarray,
+    phi_l: np.ndarray,
+    sm: np.ndarray,
+    everything: tuple[np.ndarray, np.ndarray, np.ndarray],
+) -> tuple[np.ndarray, bool]:
     from scipy.optimize import least_squares  # here: a slow import
 
     p = p0.copy()
@@ -538,12 +572,12 @@ def _refine(p0, free, phi_r, phi_l, sm, everything) -> tuple[np.ndarray, bool]:
     for _ in range(2):  # noise weights from the current estimate, then once more
         w = 1.0 / _noise_std(p, phi_r, phi_l, sm, len(free), everything)
 
-        def fun(q, w=w, base=p):
+        def fun(q: np.ndarray, w: np.ndarray = w, base: np.ndarray = p) -> np.ndarray:
             full = base.copy()
             full[free] = q
             return (_residual(full, phi_r, phi_l, sm) * w).ravel()
 
-        def jac(q, w=w, base=p):
+        def jac(q: np.ndarray, w: np.ndarray = w, base: np.ndarray = p) -> np.ndarray:
             full = base.copy()
             full[free] = q
             return _jacobian(full, free, phi_r, phi_l, sm, w)
@@ -555,7 +589,14 @@ def _refine(p0, free, phi_r, phi_l, sm, everything) -> tuple[np.ndarray, bool]:
     return p, converged
 
 
-def _fisher(p, free, phi_r, phi_l, sm, sigma) -> np.ndarray:
+def _fisher(
+    p: np.ndarray,
+    free: list[int],
+    phi_r: np.ndarray,
+    phi_l: np.ndarray,
+    sm: np.ndarray,
+    sigma: np.ndarray,
+) -> np.ndarray:
     """Covariance (6, 6) as the inverse Fisher information, NaN for fixed or singular."""
     jw = _jacobian(p, free, phi_r, phi_l, sm, 1.0 / sigma)
     cov = np.full((6, 6), np.nan)
@@ -572,7 +613,9 @@ def _fisher(p, free, phi_r, phi_l, sm, sigma) -> np.ndarray:
 # Outlier trimming (the authors' rule)
 
 
-def _trim(p, phi_r, phi_l, sm, fraction: float) -> np.ndarray:
+def _trim(
+    p: np.ndarray, phi_r: np.ndarray, phi_l: np.ndarray, sm: np.ndarray, fraction: float
+) -> np.ndarray:
     """Mask of the tuples kept by one trimming round at estimate p."""
     e = _disagreement(p, phi_r, phi_l, sm)
     e_xy = np.hypot(e[:, 0], e[:, 1])
@@ -583,16 +626,16 @@ def _trim(p, phi_r, phi_l, sm, fraction: float) -> np.ndarray:
 
 
 def fit_censi(
-    phi_right_rad,
-    phi_left_rad,
-    sensor_motion,
+    phi_right_rad: ArrayLike,
+    phi_left_rad: ArrayLike,
+    sensor_motion: ArrayLike,
     *,
-    sensor_pose=None,
+    sensor_pose: ArrayLike | None = None,
     refine: bool = True,
     outlier_iterations: int = 4,
     outlier_fraction: float = 0.01,
     nominal: WheelGeometry | None = None,
-    wheel_increments=None,
+    wheel_increments: tuple[ArrayLike, ArrayLike] | None = None,
 ) -> SensorOdometryFit:
     """Calibrate wheel diameters, wheelbase and the sensor pose from relative-motion tuples.
 
@@ -782,7 +825,16 @@ def _far_from_closed_form(
     ]
 
 
-def _paper_covariance(p, free, r, l_, sm, history, keep, fraction) -> np.ndarray | None:
+def _paper_covariance(
+    p: np.ndarray,
+    free: list[int],
+    r: np.ndarray,
+    l_: np.ndarray,
+    sm: np.ndarray,
+    history: list[np.ndarray],
+    keep: np.ndarray,
+    fraction: float,
+) -> np.ndarray | None:
     """The authors' covariance: noise = sample std of the residuals over the tuples left after
     the first trimming round; Fisher information summed over ``keep`` trimmed once more."""
     noise_set = history[min(1, len(history) - 1)]

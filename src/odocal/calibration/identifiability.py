@@ -35,8 +35,10 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.model import MeasurementNoise, NonSystematicError, WheelGeometry
 from ..core.odometry import body_increments, dead_reckon, wheel_jacobian, wheel_travel
@@ -289,7 +291,7 @@ class LogCheck:
         }
 
 
-def _json(v):
+def _json(v: Any) -> Any:
     """Floats, lists and None only; non-finite numbers become None."""
     if v is None or isinstance(v, (str, bool)):
         return v
@@ -307,7 +309,9 @@ def _json(v):
 # Motion summary (wheel angles only)
 
 
-def _windows(ds_r, ds_l, b, window_m):
+def _windows(
+    ds_r: np.ndarray, ds_l: np.ndarray, b: float, window_m: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Net wheel travel and absolute wheel travel per window of ``window_m`` travel."""
     w = 0.5 * (np.abs(ds_r) + np.abs(ds_l))
     c = np.concatenate([[0.0], np.cumsum(w)])
@@ -321,7 +325,16 @@ def _windows(ds_r, ds_l, b, window_m):
     return s_r[keep], s_l[keep], travel[keep]
 
 
-def _summary(name, label, s_r, s_l, travel, path_m, b, th: CheckThresholds) -> MotionSummary:
+def _summary(
+    name: str,
+    label: str | None,
+    s_r: np.ndarray,
+    s_l: np.ndarray,
+    travel: np.ndarray,
+    path_m: float,
+    b: float,
+    th: CheckThresholds,
+) -> MotionSummary:
     a = 0.5 * (s_r + s_l)
     dth = (s_r - s_l) / b
     straight = np.abs(a) >= th.straight_radius_b * b * np.abs(dth)
@@ -365,7 +378,9 @@ def _summary(name, label, s_r, s_l, travel, path_m, b, th: CheckThresholds) -> M
 
 
 def summarize_motion(
-    recordings, geometry: WheelGeometry, thresholds: CheckThresholds | None = None
+    recordings: Iterable[Recording],
+    geometry: WheelGeometry,
+    thresholds: CheckThresholds | None = None,
 ) -> tuple[MotionSummary, tuple[MotionSummary, ...]]:
     """(whole log, per recording) motion summaries from the wheel angles (no ground truth)."""
     th = thresholds or CheckThresholds()
@@ -390,21 +405,21 @@ def summarize_motion(
 # Residual model: Jacobian and noise covariance per run
 
 
-def _mounted(poses, mount):
+def _mounted(poses: np.ndarray, mount: np.ndarray) -> np.ndarray:
     """Poses of a frame mounted at (x, y, yaw) on the robot, in that frame's start frame."""
     if mount[0] == 0 and mount[1] == 0 and mount[2] == 0:
         return poses
     return se2_conjugate(poses, np.asarray(mount, dtype=float))
 
 
-def _blocks(run: RunResiduals, kind: str):
+def _blocks(run: RunResiduals, kind: str) -> tuple[np.ndarray, np.ndarray]:
     """(start, end) sample index of every residual block of ``run``."""
     if kind == "pose":
         return np.zeros(len(run.idx), dtype=int), np.asarray(run.idx)
     return np.asarray(run.i0), np.asarray(run.i1)
 
 
-def _predict(run: RunResiduals, kind: str, params) -> np.ndarray:
+def _predict(run: RunResiduals, kind: str, params: np.ndarray) -> np.ndarray:
     """Residual rows (x, y, theta per block, unweighted) predicted by ``params``."""
     odo = dead_reckon(run.phi_r, run.phi_l, WheelGeometry.unchecked(*params[:3]))
     if len(params) > 3:
@@ -414,7 +429,7 @@ def _predict(run: RunResiduals, kind: str, params) -> np.ndarray:
     return relative_poses(odo, run.i0, run.i1).ravel()
 
 
-def _jacobian(run: RunResiduals, kind: str, params, steps) -> np.ndarray:
+def _jacobian(run: RunResiduals, kind: str, params: np.ndarray, steps: np.ndarray) -> np.ndarray:
     """d(predicted rows)/d(params) by central differences, shape (3 blocks, n)."""
     cols = []
     for i, h in enumerate(steps):
@@ -425,7 +440,9 @@ def _jacobian(run: RunResiduals, kind: str, params, steps) -> np.ndarray:
     return np.column_stack(cols)
 
 
-def _cumulative_increment_covariance(run: RunResiduals, geometry, noise: NoiseModel, pose, a):
+def _cumulative_increment_covariance(
+    run: RunResiduals, geometry: WheelGeometry, noise: NoiseModel, pose: np.ndarray, a: np.ndarray
+) -> np.ndarray | None:
     """Qc[t] = sum over the increments before sample t of H_i diag(q_i) H_i^T, shape (K, 4, 4),
     or None without wheel or turn noise (see _noise_covariance)."""
     k_r, k_l, k_t = noise.wheel.k_r_m, noise.wheel.k_l_m, noise.turn_rad
@@ -449,7 +466,9 @@ def _cumulative_increment_covariance(run: RunResiduals, geometry, noise: NoiseMo
     return np.concatenate([np.zeros((1, 4, 4)), np.cumsum(Q, axis=0)])
 
 
-def _pose_forms(run: RunResiduals, geometry, noise: NoiseModel, X, V):
+def _pose_forms(
+    run: RunResiduals, geometry: WheelGeometry, noise: NoiseModel, X: np.ndarray, V: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Pose residuals without dense matrices: (X^T Sigma^-1 X, V^T Sigma V) for X, V of shape
     (3 B, k). The rows are a linear Gaussian state-space model: block j is C_j Z_j + v_j with
     C_j = [I | a_j], Z_j = Z_j-1 + w_j (the wheel and turn noise of the increments up to sample
@@ -501,7 +520,7 @@ def _noise_covariance(
     geometry: WheelGeometry,
     noise: NoiseModel,
     max_blocks: int = MAX_BLOCKS_PER_RUN,
-):
+) -> np.ndarray:
     """Covariance of the residual rows of ``run`` under ``noise``, shape (3 B, 3 B).
 
     Wheel part: the error of the pose at the end of block (s0, s1] from the increments inside
@@ -555,7 +574,7 @@ def _noise_covariance(
     return 0.5 * (cov + cov.T)
 
 
-def _solve_psd(S, X):
+def _solve_psd(S: np.ndarray, X: np.ndarray) -> np.ndarray:
     """S^-1 X for a covariance S (pseudo-inverse when singular, e.g. no noise at all)."""
     from scipy.linalg import cho_factor, cho_solve  # here: scipy.linalg takes long to import
 
@@ -588,10 +607,10 @@ def _basis(n: int) -> np.ndarray:
     return B
 
 
-def _named_directions(n: int):
+def _named_directions(n: int) -> list[tuple[str, np.ndarray]]:
     """Directions with their own name, unit vectors of the relative parametrisation."""
 
-    def v(*x):
+    def v(*x: float) -> np.ndarray:
         u = np.zeros(n)
         u[: len(x)] = x
         return u / np.linalg.norm(u)
@@ -603,7 +622,7 @@ def _named_directions(n: int):
     ] + [(name, row) for name, row in zip(_BASIS_NAMES, _basis(n), strict=False)]
 
 
-def describe_direction(vec) -> str:
+def describe_direction(vec: ArrayLike) -> str:
     """A unit vector of the relative parametrisation (ln D_R, ln D_L, ln b [, x/b, y/b, yaw]) in
     words. A change of the parameters along it is what the data cannot see (or see worst).
 
@@ -629,7 +648,7 @@ def describe_direction(vec) -> str:
     )
 
 
-def _describe_subspace(N) -> list[str]:
+def _describe_subspace(N: np.ndarray) -> list[str]:
     """Words for every dimension of the subspace spanned by the orthonormal columns of ``N``:
     first the named directions lying in it (projection >= 0.95), then the rest."""
     k = N.shape[1]
@@ -851,7 +870,7 @@ def _tip_for(weakest: str, b: float) -> str:
 
 
 def check_recordings(
-    recordings,
+    recordings: Iterable[Recording],
     geometry: WheelGeometry,
     *,
     noise: NoiseModel | None = None,
@@ -1092,7 +1111,7 @@ class _Directions:
         return cls(cond, v, describe_direction(v), weakest_se, blind)
 
 
-def _sandwich(H, M):
+def _sandwich(H: np.ndarray, M: np.ndarray) -> np.ndarray:
     """H^-1 M H^-1, or inf where H is singular."""
     n = len(H)
     d = np.sqrt(np.clip(np.diag(H), 1e-300, None))
@@ -1104,7 +1123,7 @@ def _sandwich(H, M):
     return 0.5 * (cov + cov.T)
 
 
-def _stderr(names, cov) -> dict:
+def _stderr(names: Sequence[str], cov: np.ndarray) -> dict:
     d = np.diag(cov)
     return {
         k: (math.sqrt(v) if math.isfinite(v) and v >= 0 else math.inf)

@@ -129,7 +129,9 @@ class NoiseEstimate:
         }
 
 
-def _coefficients(track: str, d: float, b: float, curvature_rad_per_m: float):
+def _coefficients(
+    track: str, d: float, b: float, curvature_rad_per_m: float
+) -> tuple[np.ndarray, ...]:
     """Final-pose covariance per unit k_r and per unit k_l, ((3, 3), (3, 3)), on the mean path."""
     half = 0.5 * curvature_rad_per_m * b  # (f_r - f_l) / 2 for a path of this curvature
     believed = WheelGeometry.symmetric(1.0, b)
@@ -396,7 +398,7 @@ _REPEAT_TRAVEL = 0.1
 _REPEAT_ROTATION_RAD = math.radians(30.0)
 
 
-def _kind_of_run(rec, total_rotation_rad: float) -> str:
+def _kind_of_run(rec: Recording, total_rotation_rad: float) -> str:
     """What a run is, for grouping repeats: its label, else its direction from the data."""
     if rec.label:
         return str(rec.label)
@@ -493,7 +495,7 @@ def _chi2_interval(ss_scaled: float, dof: int) -> tuple[float, float]:
 
 
 def estimate_k_from_recordings(
-    recordings,
+    recordings: Iterable[Recording],
     geometry: WheelGeometry,
     measurement: MeasurementNoise | None = None,
     *,
@@ -727,11 +729,11 @@ def _split_recorded(
     return k_diff, k_diff_se, 0.5 * (k_sum + k_diff), 0.5 * (k_sum - k_diff), note
 
 
-def _k_diff_recorded(used, k_sum: float):
+def _k_diff_recorded(used: list[_Group], k_sum: float) -> tuple[float | None, float | None, str]:
     """k_r - k_l by least squares on the x-theta and y-theta sample covariances of every group,
     given k_sum; jackknife standard error over groups. Returns (k_diff, se, note)."""
 
-    def solve(parts):
+    def solve(parts: list[list[_RecordedRun]]) -> float | None:
         num = den = 0.0
         for rows in parts:
             e = np.array([x.err for x in rows])
@@ -761,7 +763,7 @@ def _k_diff_recorded(used, k_sum: float):
     return k_diff, se, ""
 
 
-def tracker_noise(recordings) -> MeasurementNoise:
+def tracker_noise(recordings: Iterable[Recording]) -> MeasurementNoise:
     """The tracker's noise per sample, from the jitter of its poses: second differences of the
     ground truth, x_(i+1) - 2 x_i + x_(i-1), have variance 6 sigma^2 for white noise on a smooth
     path; sigma = 1.4826 MAD / sqrt(6) over every sample of every run (robust to the robot's
@@ -782,7 +784,7 @@ def tracker_noise(recordings) -> MeasurementNoise:
             "the tracker noise needs runs with ground truth of 3 samples or more"
         )
 
-    def robust_sigma(parts):
+    def robust_sigma(parts: list[np.ndarray]) -> float:
         a = np.concatenate(parts)
         return float(1.4826 * np.median(np.abs(a - np.median(a))) / math.sqrt(6.0))
 

@@ -56,6 +56,7 @@ import numbers
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.transforms import se2_compose, se2_inverse, se2_relative
 from ..errors import CalibrationError, InputError, ModelError
@@ -234,7 +235,7 @@ class SlamMotions:
         )
 
 
-def _vector(a, name: str, m: int | None) -> np.ndarray:
+def _vector(a: ArrayLike, name: str, m: int | None) -> np.ndarray:
     v = np.asarray(a, dtype=float)
     if v.ndim != 1 or (m is not None and len(v) != m):
         want = f"({m},)" if m is not None else "(m,)"
@@ -244,7 +245,7 @@ def _vector(a, name: str, m: int | None) -> np.ndarray:
     return v
 
 
-def _poses(a, name: str, m: int) -> np.ndarray | None:
+def _poses(a: ArrayLike | None, name: str, m: int) -> np.ndarray | None:
     if a is None:
         return None
     p = np.asarray(a, dtype=float)
@@ -261,13 +262,13 @@ def _unwrapped(p: np.ndarray) -> np.ndarray:
 
 
 def slam_relative_motions(
-    stamp_s,
-    wheel_angle_right_rad,
-    wheel_angle_left_rad,
+    stamp_s: ArrayLike,
+    wheel_angle_right_rad: ArrayLike,
+    wheel_angle_left_rad: ArrayLike,
     *,
-    correction_pose=None,
-    odometry_pose=None,
-    truth_pose=None,
+    correction_pose: ArrayLike | None = None,
+    odometry_pose: ArrayLike | None = None,
+    truth_pose: ArrayLike | None = None,
     limits: SlamLimits | None = None,
     first_is_update: bool | None = None,
 ) -> SlamMotions:
@@ -470,7 +471,7 @@ def slam_relative_motions(
             f"only {counts.used} of {counts.intervals} intervals between SLAM updates are usable"
         )
 
-    def pick(x):
+    def pick(x: np.ndarray | None) -> np.ndarray | None:
         return None if x is None else _readonly(np.array(x[used], dtype=float))
 
     return SlamMotions(

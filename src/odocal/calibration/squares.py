@@ -25,12 +25,14 @@ from __future__ import annotations
 
 import math
 from collections import Counter
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import numpy as np
 
 from ..core.model import WheelGeometry, wheel_factors
 from ..core.odometry import dead_reckon
+from ..core.recording import Recording
 from ..core.runs import EndPoseRuns
 from ..errors import CalibrationError
 from .heading import calibrate_heading
@@ -55,8 +57,10 @@ HEADING_SOURCES = ("truth", "gyro")
 
 
 def recorded_end_errors(
-    recordings, ran_with: WheelGeometry | None = None, heading_source: str = "truth"
-):
+    recordings: Iterable[Recording],
+    ran_with: WheelGeometry | None = None,
+    heading_source: str = "truth",
+) -> tuple[EndPoseRuns, list[str]]:
     """EndPoseRuns (directions from the data) and warnings, for closed polygon runs.
 
     ``heading_source``: 'truth' (the ground truth's final pose) or 'gyro' (the integrated gyro
@@ -104,7 +108,7 @@ def recorded_end_errors(
     return EndPoseRuns(tuple(dirs), np.array(errs)), warnings
 
 
-def _group(recordings):
+def _group(recordings: Iterable[Recording]) -> dict[str, list[Recording]]:
     groups: dict[str, list] = {}
     for r in recordings:
         groups.setdefault(r.dataset, []).append(r)
@@ -112,7 +116,7 @@ def _group(recordings):
 
 
 def fit_recorded_squares(
-    recordings,
+    recordings: Sequence[Recording],
     method: str,
     *,
     side_m: float | None = None,

@@ -39,12 +39,16 @@ are flagged. ``drop_outliers=True`` refits once without them; ``exclude`` leaves
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.model import WheelGeometry
 from ..core.odometry import dead_reckon, dead_reckon_rows
+from ..core.recording import Recording
 from ..errors import CalibrationError
 from .linear import fit_linear
 from .result import GeometryFit, check_physical, stderr_dict
@@ -63,7 +67,7 @@ RESIDUALS = ("pose", "segment")
 RUN_WEIGHTS = ("travel", "equal")
 
 
-def robust_z(values) -> np.ndarray:
+def robust_z(values: ArrayLike) -> np.ndarray:
     """Robust z-scores 0.6745 (v - median) / MAD (0 where MAD is 0), shape like ``values``."""
     v = np.asarray(values, dtype=float)
     med = np.median(v)
@@ -73,7 +77,7 @@ def robust_z(values) -> np.ndarray:
     return 0.6745 * (v - med) / mad
 
 
-def match_runs(names, patterns) -> list[str]:
+def match_runs(names: Iterable[str], patterns: Sequence[str]) -> list[str]:
     """Names matched by any pattern: the full name, its file name, or a substring of it."""
     out = []
     for n in names:
@@ -84,7 +88,7 @@ def match_runs(names, patterns) -> list[str]:
     return out
 
 
-def _travel(phi_r, phi_l, geometry: WheelGeometry) -> np.ndarray:
+def _travel(phi_r: np.ndarray, phi_l: np.ndarray, geometry: WheelGeometry) -> np.ndarray:
     """Cumulative mean absolute wheel travel (m) at every sample, shape (K,): spins count too."""
     step = 0.25 * (
         np.abs(np.diff(phi_r)) * geometry.diameter_right_m
@@ -109,7 +113,15 @@ def _block_weight(travel_m: float, count: int, run_weight: str) -> float:
 class RunResiduals:
     """Pre-computed arrays of one run for fast residual evaluation."""
 
-    def __init__(self, rec, kind, samples, segment_m, start: WheelGeometry, run_weight="travel"):
+    def __init__(
+        self,
+        rec: Recording,
+        kind: str,
+        samples: int,
+        segment_m: float,
+        start: WheelGeometry,
+        run_weight: str = "travel",
+    ) -> None:
         self.name = rec.name
         self.phi_r = np.asarray(rec.wheel_angle_right_rad, dtype=float)
         self.phi_l = np.asarray(rec.wheel_angle_left_rad, dtype=float)
@@ -136,7 +148,7 @@ class RunResiduals:
         self.weight = _block_weight(self.travel_m, count, run_weight)
 
 
-def relative_poses(P, i0, i1):
+def relative_poses(P: np.ndarray, i0: np.ndarray, i1: np.ndarray) -> np.ndarray:
     d = P[i1, :2] - P[i0, :2]
     c, s = np.cos(P[i0, 2]), np.sin(P[i0, 2])
     return np.column_stack(
@@ -144,7 +156,7 @@ def relative_poses(P, i0, i1):
     )
 
 
-def _run_residual(run: RunResiduals, p, kind, w_head) -> np.ndarray:
+def _run_residual(run: RunResiduals, p: np.ndarray, kind: str, w_head: float) -> np.ndarray:
     """One run's (unweighted) residual at geometry ``p`` = (D_R, D_L, b): the definition that
     :class:`_Residuals` evaluates for many runs at once."""
     odo = dead_reckon(run.phi_r, run.phi_l, WheelGeometry.unchecked(*p))
@@ -173,7 +185,9 @@ class _Residuals:
     in the runs' order with one precomputed permutation.
     """
 
-    def __init__(self, runs: list[RunResiduals], kind: str, w_head: float, weighted=True):
+    def __init__(
+        self, runs: list[RunResiduals], kind: str, w_head: float, weighted: bool = True
+    ) -> None:
         self.kind, self.w_head = kind, w_head
         if kind == "pose":
             samples = [r.idx for r in runs]
@@ -218,13 +232,13 @@ class _Residuals:
         self.order = np.empty_like(gathered_at)
         self.order[gathered_at] = np.arange(len(gathered_at))
 
-    def poses(self, p) -> np.ndarray:
+    def poses(self, p: np.ndarray) -> np.ndarray:
         """Dead-reckoned poses at the compared samples, shape (samples, 3), in the runs' order."""
         g = WheelGeometry.unchecked(*p)
         parts = [dead_reckon_rows(ri, li, g).reshape(3, -1)[:, k] for ri, li, k in self.blocks]
         return np.concatenate(parts, axis=1)[:, self.order].T
 
-    def __call__(self, p) -> np.ndarray:
+    def __call__(self, p: np.ndarray) -> np.ndarray:
         odo = self.poses(p)
         if self.kind == "pose":
             e = self.truth - odo
@@ -238,7 +252,7 @@ class _Residuals:
         return np.split(residual, self.splits)
 
 
-def solve_lm(fun, x0, **tolerances):
+def solve_lm(fun: Callable[[np.ndarray], np.ndarray], x0: np.ndarray, **tolerances: float) -> Any:
     """scipy's Levenberg-Marquardt (``least_squares``, parameters scaled by 1 % of |x0|) from
     ``x0``; ``sol.evaluations`` counts every evaluation of ``fun`` (scipy's ``nfev`` leaves out
     those of its finite-difference Jacobian). The trajectory and banded fits use it."""
@@ -246,7 +260,7 @@ def solve_lm(fun, x0, **tolerances):
 
     evaluations = 0
 
-    def counted(p):
+    def counted(p: np.ndarray) -> np.ndarray:
         nonlocal evaluations
         evaluations += 1
         return fun(p)
@@ -258,7 +272,7 @@ def solve_lm(fun, x0, **tolerances):
     return sol
 
 
-def optimizer_report(sol) -> dict:
+def optimizer_report(sol: Any) -> dict:
     """What a fit reports of its :func:`solve_lm` solution: scipy's ``nfev``, every residual
     evaluation (its Jacobian's too) and scipy's status."""
     return {"nfev": int(sol.nfev), "evaluations": int(sol.evaluations), "status": int(sol.status)}
@@ -281,7 +295,7 @@ def _relative_stderr(fit: GeometryFit) -> float:
 
 
 def fit_trajectory(
-    recordings,
+    recordings: Iterable[Recording],
     start: WheelGeometry | None = None,
     *,
     nominal: WheelGeometry | None = None,
@@ -289,7 +303,7 @@ def fit_trajectory(
     segment_m: float = 1.0,
     heading_weight_m: float = 0.1,
     samples_per_run: int = 200,
-    exclude=(),
+    exclude: Sequence[str] = (),
     drop_outliers: bool = False,
     outlier_z: float = 3.5,
     run_weight: str = "travel",
@@ -354,7 +368,7 @@ def fit_trajectory(
     # estimate, else nominal
     gauge = starts[0]
 
-    def fit(rs):
+    def fit(rs: list[Recording]) -> tuple[Any, ...]:
         # every start is tried and the lowest cost kept: the linear estimate is usually best,
         # but it can be far off when the runs' end poses alone condition it badly
         best = None
@@ -437,7 +451,9 @@ def fit_trajectory(
 # --- every Monte-Carlo trial at once ------------------------------------------------------------
 
 
-def _dead_reckon_trials(dphi_r, dphi_l, x: np.ndarray, jacobian: bool):
+def _dead_reckon_trials(
+    dphi_r: np.ndarray, dphi_l: np.ndarray, x: np.ndarray, jacobian: bool
+) -> tuple[np.ndarray, np.ndarray | None]:
     """Dead reckoning (the operations of :func:`odocal.core.odometry.dead_reckon`) of one run's
     wheel-angle increments ``dphi_r``, ``dphi_l`` (rad, shape (K-1,)) with every geometry of
     ``x`` (shape (M, 3): D_R, D_L, b in m).
@@ -486,7 +502,14 @@ class _TrialGroup:
     """One group of runs with the same wheel angles: increments, samples, weight and the
     (weighted) mean ground truth at the samples over the group's runs, per trial."""
 
-    def __init__(self, angles, truth, start: WheelGeometry, samples: int, run_weight: str):
+    def __init__(
+        self,
+        angles: ArrayLike,
+        truth: ArrayLike,
+        start: WheelGeometry,
+        samples: int,
+        run_weight: str,
+    ) -> None:
         angles = np.asarray(angles, dtype=float)
         truth = np.asarray(truth, dtype=float)
         if angles.ndim != 2 or angles.shape[1] != 2 or len(angles) < 2:
@@ -505,7 +528,13 @@ class _TrialGroup:
         self.truth = np.moveaxis(truth[:, :, self.idx, :].mean(axis=1), -1, 0)  # (3, M, S)
 
 
-def _normal_equations(groups, x, trials, w_head, jacobian=True):
+def _normal_equations(
+    groups: list[_TrialGroup],
+    x: np.ndarray,
+    trials: np.ndarray,
+    w_head: float,
+    jacobian: bool = True,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """cost (M,), J^T J (M, 3, 3) and J^T r (M, 3) of the weighted pose residuals of the trials
     ``trials`` at ``x`` (M, 3); r = ground truth - odometry, heading times ``w_head``."""
     scale = np.array([1.0, 1.0, w_head])[:, None, None]
@@ -531,8 +560,8 @@ _COST_ROUNDING = 1e-10
 
 
 def fit_trajectory_trials(
-    angles,
-    truth,
+    angles: Sequence[ArrayLike],
+    truth: Sequence[ArrayLike],
     start: WheelGeometry,
     *,
     heading_weight_m: float = 0.1,

@@ -51,11 +51,14 @@ band and overall (see its docstring).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.model import WheelGeometry
+from ..core.recording import Recording
 from ..core.stats import student_t_quantile
 from ..errors import CalibrationError
 
@@ -98,7 +101,11 @@ def _radius_range(index: int, wheelbase_m: float) -> tuple[float, float | None]:
 
 
 def band_of_increments(
-    angle_right_rad, angle_left_rad, time_s, reference: WheelGeometry, window_s: float = 0.5
+    angle_right_rad: ArrayLike,
+    angle_left_rad: ArrayLike,
+    time_s: ArrayLike,
+    reference: WheelGeometry,
+    window_s: float = 0.5,
 ) -> np.ndarray:
     """Band index (into :data:`BANDS`) of every increment of one run, shape (K - 1,); -1 where
     the robot stands still. ``angle_*``: cumulative wheel angles (rad), shape (K,)."""
@@ -121,7 +128,7 @@ def band_of_increments(
     return band
 
 
-def nearest_estimated_band(estimated) -> list[int]:
+def nearest_estimated_band(estimated: Iterable[int]) -> list[int]:
     """For every band index, the index of the nearest band in ``estimated`` (indices into
     :data:`BANDS`; ties go to the tighter band): where a banded model takes a band's wheelbase
     when that band was not estimated."""
@@ -132,7 +139,10 @@ def nearest_estimated_band(estimated) -> list[int]:
 
 
 def wheelbase_per_increment(
-    recording, band_wheelbases_m: dict, classify_with: WheelGeometry, window_s: float = 0.5
+    recording: Recording,
+    band_wheelbases_m: dict,
+    classify_with: WheelGeometry,
+    window_s: float = 0.5,
 ) -> np.ndarray:
     """The wheelbase (m) a banded model uses for every increment of ``recording``, shape
     (K - 1,): the band's value from ``band_wheelbases_m`` (band name -> m), or the nearest
@@ -153,7 +163,7 @@ def wheelbase_per_increment(
     return values[np.where(band < 0, nearest[0], band)]
 
 
-def _segments(band: np.ndarray):
+def _segments(band: np.ndarray) -> list[tuple[int, int, int]]:
     """(band, first increment, last increment + 1) of every maximal stretch of one band."""
     if len(band) == 0:
         return []
@@ -266,7 +276,7 @@ class EffectiveWheelbase:
 
 
 def effective_wheelbase(
-    recordings,
+    recordings: Iterable[Recording],
     reference: WheelGeometry,
     *,
     window_s: float = 0.5,
