@@ -169,7 +169,7 @@ def stderr_dict(cov: np.ndarray | None) -> dict:
 
 
 def check_physical(
-    values: Iterable[float], nominal: WheelGeometry | None, method: str
+    values: Iterable[float | np.ndarray], nominal: WheelGeometry | None, method: str
 ) -> list[str]:
     """Raise CalibrationError for non-positive values (the classic sign of swapped wheels);
     return warnings for values far (> 25 %) from ``nominal``."""
@@ -188,7 +188,9 @@ def check_physical(
 ABSURD_FRACTION = 0.25
 
 
-def far_from_nominal(values: Iterable[float], nominal: WheelGeometry | None) -> list[str]:
+def far_from_nominal(
+    values: Iterable[float | np.ndarray], nominal: WheelGeometry | None
+) -> list[str]:
     """One message per value of ``values`` (D_R, D_L, b in m) further than
     :data:`ABSURD_FRACTION` from ``nominal`` (none without a nominal geometry)."""
     if nominal is None:

@@ -504,8 +504,8 @@ class TransformBuffer:
         parent: str,
         child: str,
         time_s: ArrayLike,
-        translation_m: np.ndarray,
-        quaternion_xyzw: np.ndarray,
+        translation_m: ArrayLike,
+        quaternion_xyzw: ArrayLike,
     ) -> None:
         """Add samples of the dynamic edge T_parent_child.
 
@@ -517,7 +517,7 @@ class TransformBuffer:
         t = np.atleast_1d(np.asarray(time_s, dtype=float))
         if t.ndim != 1:
             raise ModelError(f"time_s must have shape (k,), got {np.shape(time_s)}")
-        tr = RigidTransforms(translation_m, quaternion_xyzw)
+        tr = RigidTransforms(np.asarray(translation_m, float), np.asarray(quaternion_xyzw, float))
         if len(tr) != len(t):
             raise ModelError(f"{len(t)} times for {len(tr)} transforms")
         if not np.all(np.isfinite(t)):
@@ -526,10 +526,10 @@ class TransformBuffer:
             self._edge(parent, child, False).add(t, tr.translation_m, tr.quaternion_xyzw)
 
     def add_static(
-        self, parent: str, child: str, translation_m: np.ndarray, quaternion_xyzw: np.ndarray
+        self, parent: str, child: str, translation_m: ArrayLike, quaternion_xyzw: ArrayLike
     ) -> None:
         """Add the constant edge T_parent_child (``/tf_static``); a later value replaces it."""
-        tr = RigidTransforms(translation_m, quaternion_xyzw)
+        tr = RigidTransforms(np.asarray(translation_m, float), np.asarray(quaternion_xyzw, float))
         if len(tr) != 1:
             raise ModelError(f"a static edge is one transform, got {len(tr)}")
         self._edge(parent, child, True).add(np.zeros(1), tr.translation_m, tr.quaternion_xyzw)
