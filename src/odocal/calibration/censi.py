@@ -259,7 +259,7 @@ def _arc(p: np.ndarray, phi_r: np.ndarray, phi_l: np.ndarray) -> np.ndarray:
     s_r, s_l = wheel_travel(phi_r, phi_l, WheelGeometry.unchecked(p[0], p[1], p[2]))
     if phi_r.ndim == 2:
         return midpoint_end(*body_increments(s_r, s_l, p[2]))
-    return arc_displacement(0.5 * (s_r + s_l), (s_r - s_l) / p[2])
+    return arc_displacement(*body_increments(s_r, s_l, p[2]))
 
 
 def _predict(p: np.ndarray, phi_r: np.ndarray, phi_l: np.ndarray) -> np.ndarray:

@@ -335,8 +335,7 @@ def _summary(
     b: float,
     th: CheckThresholds,
 ) -> MotionSummary:
-    a = 0.5 * (s_r + s_l)
-    dth = (s_r - s_l) / b
+    a, dth = body_increments(s_r, s_l, b)  # centre travel and heading change per window
     straight = np.abs(a) >= th.straight_radius_b * b * np.abs(dth)
     spot = np.abs(a) <= th.spot_radius_b * b * np.abs(dth)
     arc = ~straight & ~spot

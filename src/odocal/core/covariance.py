@@ -26,8 +26,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from .model import MeasurementNoise, ModelError, NonSystematicError, Robot, WheelGeometry
-from .odometry import Chord, body_increments, midpoint_path, wheel_jacobian
-from .pose import compose
+from .odometry import Chord, arc_step, body_increments, midpoint_path, wheel_jacobian
 from .simulate import increments_per_segment, odometric_pose
 from .tracks import Track
 
@@ -246,8 +245,8 @@ def mean_final_pose(track: Track, true: WheelGeometry, believed: WheelGeometry) 
     pose = np.zeros(3)
     for seg in track.segments:
         s_hat_r, s_hat_l = seg.wheel_travel(believed.wheelbase_m)
-        s_r, s_l = s_hat_r * f_r, s_hat_l * f_l
-        pose = compose(pose, 0.5 * (s_r + s_l), (s_r - s_l) / true.wheelbase_m)
+        s_r, s_l = np.asarray(s_hat_r * f_r), np.asarray(s_hat_l * f_l)
+        pose = arc_step(pose, *body_increments(s_r, s_l, true.wheelbase_m))
     return pose
 
 

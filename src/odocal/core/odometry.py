@@ -79,7 +79,9 @@ def wheel_travel(
 
 
 def body_increments(
-    travel_right_m: np.ndarray, travel_left_m: np.ndarray, wheelbase_m: float | np.ndarray
+    travel_right_m: np.ndarray,
+    travel_left_m: np.ndarray,
+    wheelbase_m: float | np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The centre's travel ds = (ds_R + ds_L) / 2 (m) and heading change
     dtheta = (ds_R - ds_L) / b (rad) of each increment (shapes broadcast)."""
