@@ -1,4 +1,4 @@
-"""The synthetic room and the simulated 2D lidar (odocal.core.room): exact ranges on simple
+"""The synthetic room and the simulated 2D lidar (tests/support/room.py): exact ranges on simple
 geometry, batches, misses, seeded noise, bad input."""
 
 from __future__ import annotations
@@ -7,8 +7,8 @@ import math
 
 import numpy as np
 import pytest
+from support.room import Room, box_segments, ray_cast
 
-from odocal.core.room import Room, box_segments, ray_cast
 from odocal.errors import ModelError
 
 # A 4 m x 2 m room, nothing inside: exact ranges are easy to write down.

@@ -2,7 +2,7 @@
 displacements without and with range noise, convergence from a poor guess, partial overlap,
 moving obstacles, invalid ranges, degenerate scenes and bad input.
 
-The scans come from odocal.core.room.ray_cast: a 360 deg lidar with 720 rays (0.5 deg), 12 m
+The scans come from tests/support/room.py (ray_cast): a 360 deg lidar with 720 rays (0.5 deg), 12 m
 range, in the default 8 m x 6 m room. Sensor poses are drawn in its free middle, displacements
 up to 0.3 m and 0.3 rad, initial guesses off by about 5 cm and 2 deg (odometry-like).
 """
@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 import pytest
+from support.room import Room, box_segments, ray_cast
 
 from odocal.calibration.scan_matching import (
     MIN_POINTS,
@@ -23,7 +24,6 @@ from odocal.calibration.scan_matching import (
     prepare_scan,
     scan_points,
 )
-from odocal.core.room import Room, box_segments, ray_cast
 from odocal.errors import CalibrationError, ModelError
 
 ROOM = Room.default()

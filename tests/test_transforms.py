@@ -13,6 +13,7 @@ from odocal.core.transforms import (
     TransformBuffer,
     planar_pose,
     se2_compose,
+    se2_conjugate,
     se2_inverse,
     se2_relative,
     tilt_rad,
@@ -322,6 +323,25 @@ def test_se2_relative_compose_and_inverse():
     np.testing.assert_allclose(
         wrap_angle([math.pi, -math.pi, 7.0]), [-math.pi, -math.pi, 7 - 2 * math.pi]
     )
+
+
+def test_se2_conjugate_is_the_motion_of_a_mounted_frame():
+    """A sensor 0.3 m ahead of the axle, facing left: a spot turn of the robot by 90 deg CCW
+    moves the sensor 0.3 m back-left along its arc; in the sensor's own start frame (x left of
+    the robot, y backwards) that is (0.3, 0.3) and the same 90 deg turn."""
+    mount = np.array([0.3, 0.0, math.pi / 2])
+    spin = np.array([0.0, 0.0, math.pi / 2])
+    np.testing.assert_allclose(se2_conjugate(spin, mount), [0.3, 0.3, math.pi / 2], atol=1e-15)
+    # the definition, for many motions at once, and what a mounted frame sees of absolute poses
+    rng = np.random.default_rng(1000)
+    poses = rng.uniform(-3, 3, (20, 3))
+    got = se2_conjugate(poses, mount)
+    want = se2_compose(se2_inverse(mount), se2_compose(poses, mount))
+    assert np.array_equal(got, want)
+    sensor = se2_compose(poses, mount)  # the sensor's poses in the robot's start frame
+    np.testing.assert_allclose(got, se2_relative(mount, sensor, wrap=False), atol=1e-14)
+    # no mounting offset: the motion itself
+    np.testing.assert_allclose(se2_conjugate(poses, np.zeros(3)), poses, atol=1e-15)
 
 
 def test_planar_matches_se2_of_the_composed_chain():

@@ -29,11 +29,15 @@ where, the robot drives). E_b, E_d are relative to the parameters the robot ran 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.model import WheelGeometry, check_positive
 from ..core.odometry import dead_reckon
+from ..core.recording import Recording
 from ..core.runs import CircleRuns
 from ..errors import CalibrationError
 from .circle_fit import fit_circle
@@ -50,11 +54,17 @@ __all__ = [
 ]
 
 
-def _ratio(radius, half_wheelbase):
+def _ratio(radius: float | np.ndarray, half_wheelbase: float | np.ndarray) -> float | np.ndarray:
     return (radius + half_wheelbase) / (radius - half_wheelbase)
 
 
-def bcpt_factors(radius_cw_m, radius_ccw_m, commanded_radius_m, wheelbase_m, commanded_ccw_m=None):
+def bcpt_factors(
+    radius_cw_m: ArrayLike,
+    radius_ccw_m: ArrayLike,
+    commanded_radius_m: ArrayLike,
+    wheelbase_m: ArrayLike,
+    commanded_ccw_m: ArrayLike | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """Exact E_b, E_d from the measured CW and CCW radii (m); arrays broadcast.
 
     Parameters
@@ -94,7 +104,12 @@ def bcpt_factors(radius_cw_m, radius_ccw_m, commanded_radius_m, wheelbase_m, com
     return E_b, E_d
 
 
-def bcpt_first_order(radius_cw_m, radius_ccw_m, commanded_radius_m, wheelbase_m):
+def bcpt_first_order(
+    radius_cw_m: float | np.ndarray,
+    radius_ccw_m: float | np.ndarray,
+    commanded_radius_m: float | np.ndarray,
+    wheelbase_m: float | np.ndarray,
+) -> tuple[float | np.ndarray, float | np.ndarray]:
     """First-order (linearised) E_b, E_d, for intuition and sanity checks only:
     E_b ~ (R_cw + R_ccw)/(2 R_c), E_d ~ 1 + b_n (R_cw - R_ccw)/(2 R_c^2)."""
     rc = np.asarray(commanded_radius_m, dtype=float)
@@ -105,7 +120,7 @@ def bcpt_first_order(radius_cw_m, radius_ccw_m, commanded_radius_m, wheelbase_m)
 
 
 def calibrate_bcpt(
-    runs: CircleRuns, commanded_radius_m: float, ran_with: WheelGeometry, **inputs
+    runs: CircleRuns, commanded_radius_m: float, ran_with: WheelGeometry, **inputs: Any
 ) -> CalibrationResult:
     """BCPT from measured circle radii (the mean radius per direction); see module docstring.
 
@@ -146,7 +161,9 @@ def calibrate_bcpt(
 # --- recorded runs ---------------------------------------------------------------------------
 
 
-def circle_arcs_from_recording(recording, arc_rad: float | None = None, geometry=None):
+def circle_arcs_from_recording(
+    recording: Recording, arc_rad: float | None = None, geometry: WheelGeometry | None = None
+) -> list[dict]:
     """Fit circles to a recorded circle run, whole or split into arcs.
 
     The commanded radius is taken from the run itself: the circle fitted to the DEAD-RECKONED
@@ -203,13 +220,17 @@ def circle_arcs_from_recording(recording, arc_rad: float | None = None, geometry
     return out
 
 
-def circle_runs_from_recordings(recordings, arc_rad: float | None = None):
+def circle_runs_from_recordings(
+    recordings: Iterable[Recording], arc_rad: float | None = None
+) -> list[list[dict]]:
     """Per-arc fits of several recorded circle runs; returns (list of arc dicts per run)."""
     return [circle_arcs_from_recording(r, arc_rad) for r in recordings]
 
 
 def calibrate_bcpt_recordings(
-    recordings, arc_rad: float | None = None, commanded_radius_m: float | None = None
+    recordings: Iterable[Recording],
+    arc_rad: float | None = None,
+    commanded_radius_m: float | None = None,
 ) -> CalibrationResult:
     """BCPT from recorded CW and CCW circle runs with ground truth.
 
@@ -240,19 +261,21 @@ def calibrate_bcpt_recordings(
     n_arcs = min(len(f) for d in by_dir for f in by_dir[d])
     per_arc = []
     for k in range(n_arcs):
-        r = {d: float(np.mean([f[k]["radius_m"] for f in by_dir[d]])) for d in by_dir}
+        radius = {d: float(np.mean([f[k]["radius_m"] for f in by_dir[d]])) for d in by_dir}
         rc = {d: float(np.mean([f[k]["commanded_radius_m"] for f in by_dir[d]])) for d in by_dir}
         if commanded_radius_m is not None:
             rc = {"cw": commanded_radius_m, "ccw": commanded_radius_m}
-        E_b, E_d = bcpt_factors(r["cw"], r["ccw"], rc["cw"], ran_with.wheelbase_m, rc["ccw"])
+        e_b, e_d = bcpt_factors(
+            radius["cw"], radius["ccw"], rc["cw"], ran_with.wheelbase_m, rc["ccw"]
+        )
         per_arc.append(
             {
                 "commanded_radius_cw_m": rc["cw"],
                 "commanded_radius_ccw_m": rc["ccw"],
-                "radius_cw_m": r["cw"],
-                "radius_ccw_m": r["ccw"],
-                "E_b": float(E_b),
-                "E_d": float(E_d),
+                "radius_cw_m": radius["cw"],
+                "radius_ccw_m": radius["ccw"],
+                "E_b": float(e_b),
+                "E_d": float(e_d),
             }
         )
     E_b = float(np.mean([a["E_b"] for a in per_arc]))

@@ -54,8 +54,17 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.model import ModelError, WheelGeometry
+from ..core.odometry import (
+    arc_displacement,
+    arc_position,
+    body_increments,
+    midpoint_end,
+    wheel_travel,
+)
+from ..core.transforms import se2_compose, se2_conjugate, se2_relative, wrap_angle
 from ..errors import CalibrationError
 from .result import check_physical
 
@@ -98,7 +107,7 @@ class SensorOdometryFit:
     geometry : WheelGeometry
         Wheel diameters D_R, D_L (m) and wheelbase b (m).
     sensor_x_m, sensor_y_m, sensor_yaw_rad : float
-        Sensor pose in the robot base frame (m, m, rad in (-pi, pi]).
+        Sensor pose in the robot base frame (m, m, rad in [-pi, pi)).
     covariance : ndarray, shape (6, 6)
         Covariance of the parameters in ``PARAMETERS`` order (SI units squared); NaN rows and
         columns for parameters that were fixed, all NaN if singular.
@@ -201,12 +210,12 @@ class SensorOdometryFit:
         }
 
 
-def _finite_or_none(a) -> list:
+def _finite_or_none(a: ArrayLike) -> list:
     """Nested lists of floats with non-finite entries as None (JSON has no NaN)."""
     return [_finite_or_none(v) if np.ndim(v) else _num(v) for v in np.asarray(a, dtype=float)]
 
 
-def _num(v) -> float | None:
+def _num(v: float | None) -> float | None:
     if v is None:
         return None
     v = float(v)
@@ -221,36 +230,7 @@ def _stderr(cov: np.ndarray) -> dict:
     }
 
 
-# ----------------------------------------------------------------------------------------------
-# SE(2) helpers (rows are poses (x, y, theta))
-
-
-def _wrap(a):
-    return (np.asarray(a) + np.pi) % (2 * np.pi) - np.pi
-
-
-def _compose(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a (+) b for poses of shape (..., 3)."""
-    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
-    return np.stack(
-        [
-            a[..., 0] + c * b[..., 0] - s * b[..., 1],
-            a[..., 1] + s * b[..., 0] + c * b[..., 1],
-            a[..., 2] + b[..., 2],
-        ],
-        axis=-1,
-    )
-
-
-def _inverse(a: np.ndarray) -> np.ndarray:
-    """(-a) for poses of shape (..., 3)."""
-    c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
-    return np.stack(
-        [-c * a[..., 0] - s * a[..., 1], s * a[..., 0] - c * a[..., 1], -a[..., 2]], axis=-1
-    )
-
-
-def relative_motion(poses) -> np.ndarray:
+def relative_motion(poses: ArrayLike) -> np.ndarray:
     """Displacements between consecutive poses, each in the frame of the earlier pose.
 
     Parameters
@@ -262,14 +242,12 @@ def relative_motion(poses) -> np.ndarray:
     Returns
     -------
     ndarray, shape (n, 3)
-        (-P_k) (+) P_k+1: the ``sensor_motion`` of ``fit_censi``; theta wrapped to (-pi, pi].
+        (-P_k) (+) P_k+1: the ``sensor_motion`` of ``fit_censi``; theta wrapped to [-pi, pi).
     """
     p = np.asarray(poses, dtype=float)
     if p.ndim != 2 or p.shape[1] != 3 or len(p) < 2:
         raise ModelError(f"poses must have shape (n + 1, 3) with n >= 1, got {p.shape}")
-    d = _compose(_inverse(p[:-1]), p[1:])
-    d[:, 2] = _wrap(d[:, 2])
-    return d
+    return se2_relative(p[:-1], p[1:])
 
 
 def _arc(p: np.ndarray, phi_r: np.ndarray, phi_l: np.ndarray) -> np.ndarray:
@@ -278,32 +256,23 @@ def _arc(p: np.ndarray, phi_r: np.ndarray, phi_l: np.ndarray) -> np.ndarray:
     1-D wheel rotations (n,): the exact arc (constant wheel speeds within the interval). 2-D
     wheel increments (n, K) (zero padded): the midpoint odometry over the increments, as
     ``core.odometry.dead_reckon`` integrates them (no constant-speed assumption)."""
+    s_r, s_l = wheel_travel(phi_r, phi_l, WheelGeometry.unchecked(p[0], p[1], p[2]))
     if phi_r.ndim == 2:
-        s_r, s_l = 0.5 * p[0] * phi_r, 0.5 * p[1] * phi_l
-        ds, dth = 0.5 * (s_r + s_l), (s_r - s_l) / p[2]
-        th = np.cumsum(dth, axis=1)
-        mid = th - 0.5 * dth
-        return np.column_stack(
-            [np.sum(ds * np.cos(mid), axis=1), np.sum(ds * np.sin(mid), axis=1), th[:, -1]]
-        )
-    s_r = 0.5 * p[0] * phi_r
-    s_l = 0.5 * p[1] * phi_l
-    d = 0.5 * (s_r + s_l)
-    th = (s_r - s_l) / p[2]
-    # sin(th)/th and (1 - cos th)/th = (th/2) sinc(th/2)^2, stable at th = 0
-    sinc = np.sinc(th / np.pi)
-    half = np.sinc(th / (2 * np.pi))
-    return np.column_stack([d * sinc, d * 0.5 * th * half * half, th])
+        return midpoint_end(*body_increments(s_r, s_l, p[2]))
+    return arc_displacement(*body_increments(s_r, s_l, p[2]))
 
 
 def _predict(p: np.ndarray, phi_r: np.ndarray, phi_l: np.ndarray) -> np.ndarray:
     o = _arc(p, phi_r, phi_l)
     lpose = np.broadcast_to(p[3:6], o.shape)
-    return _compose(_inverse(lpose), _compose(o, lpose))
+    return se2_conjugate(o, lpose)
 
 
 def predict_sensor_motion(
-    geometry: WheelGeometry, sensor_pose, phi_right_rad, phi_left_rad
+    geometry: WheelGeometry,
+    sensor_pose: ArrayLike,
+    phi_right_rad: ArrayLike,
+    phi_left_rad: ArrayLike,
 ) -> np.ndarray:
     """The sensor displacement over each interval predicted by the arc model.
 
@@ -335,19 +304,21 @@ def predict_sensor_motion(
     return _predict(p, r, l_)
 
 
-def _disagreement(p, phi_r, phi_l, sm) -> np.ndarray:
+def _disagreement(
+    p: np.ndarray, phi_r: np.ndarray, phi_l: np.ndarray, sm: np.ndarray
+) -> np.ndarray:
     """The authors' outlier residual l (+) s - o (+) l, shape (n, 3), robot frame."""
     o = _arc(p, phi_r, phi_l)
     lpose = np.broadcast_to(p[3:6], o.shape)
-    e = _compose(lpose, sm) - _compose(o, lpose)
-    e[:, 2] = _wrap(e[:, 2])
+    e = se2_compose(lpose, sm) - se2_compose(o, lpose)
+    e[:, 2] = wrap_angle(e[:, 2])
     return e
 
 
-def _residual(p, phi_r, phi_l, sm) -> np.ndarray:
+def _residual(p: np.ndarray, phi_r: np.ndarray, phi_l: np.ndarray, sm: np.ndarray) -> np.ndarray:
     """Predicted - measured sensor motion, shape (n, 3), sensor frame (heading wrapped)."""
     e = _predict(p, phi_r, phi_l) - sm
-    e[:, 2] = _wrap(e[:, 2])
+    e[:, 2] = wrap_angle(e[:, 2])
     return e
 
 
@@ -355,7 +326,9 @@ def _residual(p, phi_r, phi_l, sm) -> np.ndarray:
 # Input checks
 
 
-def _as_inputs(phi_right_rad, phi_left_rad, sensor_motion):
+def _as_inputs(
+    phi_right_rad: ArrayLike, phi_left_rad: ArrayLike, sensor_motion: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r = np.asarray(phi_right_rad, dtype=float)
     l_ = np.asarray(phi_left_rad, dtype=float)
     sm = np.asarray(sensor_motion, dtype=float)
@@ -408,7 +381,7 @@ def _check_excitation(phi_r: np.ndarray, phi_l: np.ndarray) -> None:
     raise CalibrationError(f"censi: degenerate motion: {what}")
 
 
-def _step1(phi_r, phi_l, sm) -> tuple[float, float]:
+def _step1(phi_r: np.ndarray, phi_l: np.ndarray, sm: np.ndarray) -> tuple[float, float]:
     """J21, J22 by least squares on the sensor rotations (rad per rad of wheel rotation)."""
     phi = np.column_stack([phi_l, phi_r])
     j, *_ = np.linalg.lstsq(phi, sm[:, 2], rcond=None)
@@ -448,14 +421,14 @@ def _step1(phi_r, phi_l, sm) -> tuple[float, float]:
     return j21, j22
 
 
-def _closed_form(phi_r, phi_l, sm, fixed_pose) -> np.ndarray:
+def _closed_form(
+    phi_r: np.ndarray, phi_l: np.ndarray, sm: np.ndarray, fixed_pose: np.ndarray | None
+) -> np.ndarray:
     """The paper's two linear steps; (D_R, D_L, b, x, y, yaw). Inputs already checked."""
     j21, j22 = _step1(phi_r, phi_l, sm)
     th = j21 * phi_l + j22 * phi_r
     k = 0.5 * (-j21 * phi_l + j22 * phi_r)
-    sinc = np.sinc(th / np.pi)
-    half = np.sinc(th / (2 * np.pi))
-    cx, cy = k * sinc, k * 0.5 * th * half * half  # robot translation over b
+    cx, cy = arc_position(k, th)  # robot translation over b
     c, s = np.cos(th), np.sin(th)
     sx, sy = sm[:, 0], sm[:, 1]
     if fixed_pose is not None:
@@ -492,7 +465,11 @@ def _closed_form(phi_r, phi_l, sm, fixed_pose) -> np.ndarray:
 
 
 def closed_form_censi(
-    phi_right_rad, phi_left_rad, sensor_motion, *, sensor_pose=None
+    phi_right_rad: ArrayLike,
+    phi_left_rad: ArrayLike,
+    sensor_motion: ArrayLike,
+    *,
+    sensor_pose: ArrayLike | None = None,
 ) -> np.ndarray:
     """The paper's closed-form estimate on all tuples (no outlier rejection, no refinement).
 
@@ -515,11 +492,11 @@ def closed_form_censi(
     _check_excitation(r, l_)
     p = _closed_form(r, l_, sm, fixed)
     check_physical(p[:3], None, "censi")
-    p[5] = float(_wrap(p[5]))
+    p[5] = float(wrap_angle(p[5]))
     return p
 
 
-def _as_pose(sensor_pose) -> np.ndarray | None:
+def _as_pose(sensor_pose: ArrayLike | None) -> np.ndarray | None:
     if sensor_pose is None:
         return None
     pose = np.asarray(sensor_pose, dtype=float)
@@ -532,7 +509,14 @@ def _as_pose(sensor_pose) -> np.ndarray | None:
 # Refinement and covariance
 
 
-def _jacobian(p, free, phi_r, phi_l, sm, weight) -> np.ndarray:
+def _jacobian(
+    p: np.ndarray,
+    free: list[int],
+    phi_r: np.ndarray,
+    phi_l: np.ndarray,
+    sm: np.ndarray,
+    weight: float | np.ndarray,
+) -> np.ndarray:
     """Central-difference Jacobian of the weighted residual w.r.t. p[free], shape (3n, k)."""
     cols = []
     for j in free:
@@ -546,7 +530,14 @@ def _jacobian(p, free, phi_r, phi_l, sm, weight) -> np.ndarray:
     return np.column_stack(cols)
 
 
-def _noise_std(p, phi_r, phi_l, sm, n_free: int, everything=None) -> np.ndarray:
+def _noise_std(
+    p: np.ndarray,
+    phi_r: np.ndarray,
+    phi_l: np.ndarray,
+    sm: np.ndarray,
+    n_free: int,
+    everything: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+) -> np.ndarray:
     """Noise standard deviation per component (x_m, y_m, theta_rad), shape (3,).
 
     RMS residual over the tuples used, with the parameter count spread over the 3 components;
@@ -566,7 +557,14 @@ def _noise_std(p, phi_r, phi_l, sm, n_free: int, everything=None) -> np.ndarray:
     return np.maximum(sigma, _SIGMA_FLOOR)
 
 
-def _refine(p0, free, phi_r, phi_l, sm, everything) -> tuple[np.ndarray, bool]:
+def _refine(
+    p0: np.ndarray,
+    free: list[int],
+    phi_r: np.ndarray,
+    phi_l: np.ndarray,
+    sm: np.ndarray,
+    everything: tuple[np.ndarray, np.ndarray, np.ndarray],
+) -> tuple[np.ndarray, bool]:
     from scipy.optimize import least_squares  # here: a slow import
 
     p = p0.copy()
@@ -574,12 +572,12 @@ def _refine(p0, free, phi_r, phi_l, sm, everything) -> tuple[np.ndarray, bool]:
     for _ in range(2):  # noise weights from the current estimate, then once more
         w = 1.0 / _noise_std(p, phi_r, phi_l, sm, len(free), everything)
 
-        def fun(q, w=w, base=p):
+        def fun(q: np.ndarray, w: np.ndarray = w, base: np.ndarray = p) -> np.ndarray:
             full = base.copy()
             full[free] = q
             return (_residual(full, phi_r, phi_l, sm) * w).ravel()
 
-        def jac(q, w=w, base=p):
+        def jac(q: np.ndarray, w: np.ndarray = w, base: np.ndarray = p) -> np.ndarray:
             full = base.copy()
             full[free] = q
             return _jacobian(full, free, phi_r, phi_l, sm, w)
@@ -591,7 +589,14 @@ def _refine(p0, free, phi_r, phi_l, sm, everything) -> tuple[np.ndarray, bool]:
     return p, converged
 
 
-def _fisher(p, free, phi_r, phi_l, sm, sigma) -> np.ndarray:
+def _fisher(
+    p: np.ndarray,
+    free: list[int],
+    phi_r: np.ndarray,
+    phi_l: np.ndarray,
+    sm: np.ndarray,
+    sigma: np.ndarray,
+) -> np.ndarray:
     """Covariance (6, 6) as the inverse Fisher information, NaN for fixed or singular."""
     jw = _jacobian(p, free, phi_r, phi_l, sm, 1.0 / sigma)
     cov = np.full((6, 6), np.nan)
@@ -608,7 +613,9 @@ def _fisher(p, free, phi_r, phi_l, sm, sigma) -> np.ndarray:
 # Outlier trimming (the authors' rule)
 
 
-def _trim(p, phi_r, phi_l, sm, fraction: float) -> np.ndarray:
+def _trim(
+    p: np.ndarray, phi_r: np.ndarray, phi_l: np.ndarray, sm: np.ndarray, fraction: float
+) -> np.ndarray:
     """Mask of the tuples kept by one trimming round at estimate p."""
     e = _disagreement(p, phi_r, phi_l, sm)
     e_xy = np.hypot(e[:, 0], e[:, 1])
@@ -619,16 +626,16 @@ def _trim(p, phi_r, phi_l, sm, fraction: float) -> np.ndarray:
 
 
 def fit_censi(
-    phi_right_rad,
-    phi_left_rad,
-    sensor_motion,
+    phi_right_rad: ArrayLike,
+    phi_left_rad: ArrayLike,
+    sensor_motion: ArrayLike,
     *,
-    sensor_pose=None,
+    sensor_pose: ArrayLike | None = None,
     refine: bool = True,
     outlier_iterations: int = 4,
     outlier_fraction: float = 0.01,
     nominal: WheelGeometry | None = None,
-    wheel_increments=None,
+    wheel_increments: tuple[ArrayLike, ArrayLike] | None = None,
 ) -> SensorOdometryFit:
     """Calibrate wheel diameters, wheelbase and the sensor pose from relative-motion tuples.
 
@@ -673,56 +680,16 @@ def fit_censi(
     """
     r, l_, sm = _as_inputs(phi_right_rad, phi_left_rad, sensor_motion)
     fixed = _as_pose(sensor_pose)
-    if isinstance(outlier_iterations, bool) or not isinstance(outlier_iterations, int | np.integer):
-        raise ModelError(f"outlier_iterations must be an integer, got {outlier_iterations!r}")
-    if not 0 <= outlier_iterations <= 100:
-        raise ModelError(f"outlier_iterations must be in 0..100, got {outlier_iterations}")
-    if not isinstance(outlier_fraction, int | float | np.floating) or not (
-        0.0 <= float(outlier_fraction) < 0.5
-    ):
-        raise ModelError(f"outlier_fraction must be in [0, 0.5), got {outlier_fraction!r}")
-    outlier_iterations = int(outlier_iterations)
-    outlier_fraction = float(outlier_fraction)
+    outlier_iterations, outlier_fraction = _outlier_rule(outlier_iterations, outlier_fraction)
     _check_excitation(r, l_)
     # the wheel data the odometry is integrated from: rotations, or the sampled increments
-    wr, wl = r, l_
-    if wheel_increments is not None:
-        wr, wl = (np.asarray(a, dtype=float) for a in wheel_increments)
-        if wr.ndim != 2 or wr.shape != wl.shape or len(wr) != len(r):
-            raise ModelError(
-                f"wheel_increments must be two arrays of shape ({len(r)}, K), got "
-                f"{wr.shape} and {wl.shape}"
-            )
-        if not (np.all(np.isfinite(wr)) and np.all(np.isfinite(wl))):
-            raise ModelError("wheel_increments must be finite")
-        scale = max(float(np.max(np.abs(r))), float(np.max(np.abs(l_))), 1e-12)
-        if (
-            np.max(np.abs(wr.sum(axis=1) - r)) > 1e-9 * scale
-            or np.max(np.abs(wl.sum(axis=1) - l_)) > 1e-9 * scale
-        ):
-            raise ModelError("wheel_increments must sum to phi_right_rad and phi_left_rad")
-
+    wr, wl = (r, l_) if wheel_increments is None else _as_increments(wheel_increments, r, l_)
     n = len(r)
-    keep = np.arange(n)
-    history = [keep]
-    per_round = []
-    p = _closed_form(r, l_, sm, fixed)
-    for _ in range(outlier_iterations if outlier_fraction > 0 else 0):
-        check_physical(p[:3], None, "censi")
-        mask = _trim(p, wr[keep], wl[keep], sm[keep], outlier_fraction)
-        per_round.append(int(np.count_nonzero(~mask)))
-        keep = keep[mask]
-        history.append(keep)
-        if len(keep) < MIN_TUPLES:
-            raise CalibrationError(
-                f"censi: only {len(keep)} tuples left after outlier rejection; at least "
-                f"{MIN_TUPLES} are needed"
-            )
-        _check_excitation(r[keep], l_[keep])
-        p = _closed_form(r[keep], l_[keep], sm[keep], fixed)
+    trimmed = _trimmed_closed_form(r, l_, sm, fixed, wr, wl, outlier_iterations, outlier_fraction)
+    p, keep = trimmed.estimate, trimmed.keep
     warnings = check_physical(p[:3], None, "censi")
     closed = p.copy()
-    closed[5] = float(_wrap(closed[5]))
+    closed[5] = float(wrap_angle(closed[5]))
 
     free = [0, 1, 2] if fixed is not None else [0, 1, 2, 3, 4, 5]
     rk, lk, smk = wr[keep], wl[keep], sm[keep]
@@ -731,25 +698,14 @@ def fit_censi(
         p, converged = _refine(p, free, rk, lk, smk, (wr, wl, sm))
         if not converged:
             warnings = [*warnings, "censi: the nonlinear refinement did not converge"]
-    p[5] = float(_wrap(p[5]))
+    p[5] = float(wrap_angle(p[5]))
     warnings = [*warnings, *check_physical(p[:3], nominal, "censi")]
 
     sigma = _noise_std(p, rk, lk, smk, len(free), (wr, wl, sm))
     cov = _fisher(p, free, rk, lk, smk, sigma)
-    cov_paper = _paper_covariance(p, free, wr, wl, sm, history, keep, outlier_fraction)
-
-    se = np.sqrt(np.diag(cov))
-    if refine and wheel_increments is None and np.all(np.isfinite(se[free])):
-        far = [
-            PARAMETERS[j]
-            for j in free
-            if abs(_wrap(p[j] - closed[j]) if j == 5 else p[j] - closed[j]) > 3 * se[j]
-        ]
-        if far:
-            warnings.append(
-                "censi: the refined and closed-form estimates differ by more than 3 standard "
-                f"errors in {', '.join(far)}; the arc model may not fit these tuples"
-            )
+    cov_paper = _paper_covariance(p, free, wr, wl, sm, trimmed.history, keep, outlier_fraction)
+    if refine and wheel_increments is None:
+        warnings += _far_from_closed_form(p, closed, cov, free)
     dropped = np.setdiff1d(np.arange(n), keep)
     return SensorOdometryFit(
         geometry=WheelGeometry(float(p[0]), float(p[1]), float(p[2])),
@@ -764,7 +720,7 @@ def fit_censi(
         tuples_total=n,
         tuples_used=len(keep),
         dropped_indices=tuple(int(i) for i in dropped),
-        dropped_per_round=tuple(per_round),
+        dropped_per_round=tuple(trimmed.dropped_per_round),
         outlier_iterations=outlier_iterations,
         outlier_fraction=outlier_fraction,
         refined=bool(refine),
@@ -773,7 +729,112 @@ def fit_censi(
     )
 
 
-def _paper_covariance(p, free, r, l_, sm, history, keep, fraction) -> np.ndarray | None:
+def _outlier_rule(iterations: object, fraction: object) -> tuple[int, float]:
+    """The trimming rounds (0..100) and fraction ([0, 0.5)), checked."""
+    if isinstance(iterations, bool) or not isinstance(iterations, int | np.integer):
+        raise ModelError(f"outlier_iterations must be an integer, got {iterations!r}")
+    if not 0 <= iterations <= 100:
+        raise ModelError(f"outlier_iterations must be in 0..100, got {iterations}")
+    if not isinstance(fraction, int | float | np.floating) or not (0.0 <= float(fraction) < 0.5):
+        raise ModelError(f"outlier_fraction must be in [0, 0.5), got {fraction!r}")
+    return int(iterations), float(fraction)
+
+
+def _as_increments(
+    wheel_increments: tuple[ArrayLike, ArrayLike], r: np.ndarray, l_: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The sampled wheel increments (n, K) of each interval, checked against the rotations."""
+    wr, wl = (np.asarray(a, dtype=float) for a in wheel_increments)
+    if wr.ndim != 2 or wr.shape != wl.shape or len(wr) != len(r):
+        raise ModelError(
+            f"wheel_increments must be two arrays of shape ({len(r)}, K), got "
+            f"{wr.shape} and {wl.shape}"
+        )
+    if not (np.all(np.isfinite(wr)) and np.all(np.isfinite(wl))):
+        raise ModelError("wheel_increments must be finite")
+    scale = max(float(np.max(np.abs(r))), float(np.max(np.abs(l_))), 1e-12)
+    if (
+        np.max(np.abs(wr.sum(axis=1) - r)) > 1e-9 * scale
+        or np.max(np.abs(wl.sum(axis=1) - l_)) > 1e-9 * scale
+    ):
+        raise ModelError("wheel_increments must sum to phi_right_rad and phi_left_rad")
+    return wr, wl
+
+
+@dataclass(frozen=True)
+class _Trimmed:
+    """The closed form after the authors' trimming rounds: the estimate, the tuples kept, the
+    kept tuples before every round (``history[0]`` all of them) and the count dropped per
+    round."""
+
+    estimate: np.ndarray
+    keep: np.ndarray
+    history: list[np.ndarray]
+    dropped_per_round: list[int]
+
+
+def _trimmed_closed_form(
+    r: np.ndarray,
+    l_: np.ndarray,
+    sm: np.ndarray,
+    fixed: np.ndarray | None,
+    wr: np.ndarray,
+    wl: np.ndarray,
+    iterations: int,
+    fraction: float,
+) -> _Trimmed:
+    """The closed form, re-estimated after each trimming round (the outlier rule judges the
+    odometry integrated from ``wr``, ``wl``)."""
+    keep = np.arange(len(r))
+    history = [keep]
+    per_round = []
+    p = _closed_form(r, l_, sm, fixed)
+    for _ in range(iterations if fraction > 0 else 0):
+        check_physical(p[:3], None, "censi")
+        mask = _trim(p, wr[keep], wl[keep], sm[keep], fraction)
+        per_round.append(int(np.count_nonzero(~mask)))
+        keep = keep[mask]
+        history.append(keep)
+        if len(keep) < MIN_TUPLES:
+            raise CalibrationError(
+                f"censi: only {len(keep)} tuples left after outlier rejection; at least "
+                f"{MIN_TUPLES} are needed"
+            )
+        _check_excitation(r[keep], l_[keep])
+        p = _closed_form(r[keep], l_[keep], sm[keep], fixed)
+    return _Trimmed(p, keep, history, per_round)
+
+
+def _far_from_closed_form(
+    p: np.ndarray, closed: np.ndarray, cov: np.ndarray, free: list[int]
+) -> list[str]:
+    """A warning when the refinement moved more than 3 standard errors from the closed form."""
+    se = np.sqrt(np.diag(cov))
+    if not np.all(np.isfinite(se[free])):
+        return []
+    far = [
+        PARAMETERS[j]
+        for j in free
+        if abs(wrap_angle(p[j] - closed[j]) if j == 5 else p[j] - closed[j]) > 3 * se[j]
+    ]
+    if not far:
+        return []
+    return [
+        "censi: the refined and closed-form estimates differ by more than 3 standard "
+        f"errors in {', '.join(far)}; the arc model may not fit these tuples"
+    ]
+
+
+def _paper_covariance(
+    p: np.ndarray,
+    free: list[int],
+    r: np.ndarray,
+    l_: np.ndarray,
+    sm: np.ndarray,
+    history: list[np.ndarray],
+    keep: np.ndarray,
+    fraction: float,
+) -> np.ndarray | None:
     """The authors' covariance: noise = sample std of the residuals over the tuples left after
     the first trimming round; Fisher information summed over ``keep`` trimmed once more."""
     noise_set = history[min(1, len(history) - 1)]

@@ -18,6 +18,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.model import ModelError
 
@@ -51,7 +52,7 @@ class CircleFit:
     rms_residual_m: float | np.ndarray
 
 
-def _kasa(x, y):
+def _kasa(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     # Normal equations of [x y 1] p = x^2 + y^2, batched.
     ones = np.ones_like(x)
     a = np.stack([x, y, ones], axis=-1)  # (..., K, 3)
@@ -64,7 +65,7 @@ def _kasa(x, y):
     return xc, yc, r
 
 
-def _pratt(x, y):
+def _pratt(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     z = np.stack([x * x + y * y, x, y, np.ones_like(x)], axis=-1)  # (..., K, 4)
     m = np.einsum("...ki,...kj->...ij", z, z) / x.shape[-1]
     # M v = eta B v  <=>  B^-1 M v = eta v; the fit is the smallest non-negative eta.
@@ -80,7 +81,9 @@ def _pratt(x, y):
     return xc, yc, r
 
 
-def _refine(x, y, xc, yc, r, iterations: int):
+def _refine(
+    x: np.ndarray, y: np.ndarray, xc: np.ndarray, yc: np.ndarray, r: np.ndarray, iterations: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     for _ in range(iterations):
         dx = x - xc[..., None]
         dy = y - yc[..., None]
@@ -97,7 +100,9 @@ def _refine(x, y, xc, yc, r, iterations: int):
     return xc, yc, r
 
 
-def fit_circle(points, algebraic: str = "pratt", geometric: bool = True, iterations: int = 20):
+def fit_circle(
+    points: ArrayLike, algebraic: str = "pratt", geometric: bool = True, iterations: int = 20
+) -> CircleFit:
     """Fit a circle to points.
 
     Parameters

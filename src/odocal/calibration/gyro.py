@@ -38,9 +38,11 @@ is removed as given.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import CalibrationError
 
@@ -87,7 +89,7 @@ def _axis_name(v: np.ndarray) -> str | None:
     return None
 
 
-def rotation_from_quaternion(q_xyzw) -> np.ndarray:
+def rotation_from_quaternion(q_xyzw: Sequence[float]) -> np.ndarray:
     """Rotation matrix, shape (3, 3), of a quaternion (x, y, z, w) (ROS order; normalised)."""
     x, y, z, w = (float(c) for c in q_xyzw)
     n = math.sqrt(x * x + y * y + z * z + w * w)
@@ -117,11 +119,11 @@ def rotation_from_rpy(roll_rad: float, pitch_rad: float, yaw_rad: float) -> np.n
     return rz @ ry @ rx
 
 
-def _vec3(v) -> tuple[float, float, float]:
+def _vec3(v: Sequence[float] | np.ndarray) -> tuple[float, float, float]:
     return (float(v[0]), float(v[1]), float(v[2]))
 
 
-def integrate_rate(time_s, rate) -> np.ndarray:
+def integrate_rate(time_s: ArrayLike, rate: ArrayLike) -> np.ndarray:
     """Cumulative trapezoid integral of ``rate`` (shape (K,)) over ``time_s`` (s), starting at 0."""
     t = np.asarray(time_s, dtype=float)
     r = np.asarray(rate, dtype=float)
@@ -129,9 +131,9 @@ def integrate_rate(time_s, rate) -> np.ndarray:
 
 
 def still_intervals(
-    time_s,
-    yaw_rate_rad_s,
-    speed_m_s=None,
+    time_s: ArrayLike,
+    yaw_rate_rad_s: ArrayLike,
+    speed_m_s: ArrayLike | None = None,
     *,
     max_speed_m_s: float = 0.005,
     max_yaw_rate_rad_s: float = 0.005,
@@ -161,7 +163,12 @@ def _rate(time_s: np.ndarray, angle: np.ndarray) -> np.ndarray:
     return np.gradient(angle, time_s) if len(time_s) > 2 else np.zeros_like(angle)
 
 
-def detect_yaw_axis(imu_time_s, angular_velocity, odom_time_s, odom_yaw_rad):
+def detect_yaw_axis(
+    imu_time_s: ArrayLike,
+    angular_velocity: ArrayLike,
+    odom_time_s: ArrayLike,
+    odom_yaw_rad: ArrayLike,
+) -> tuple[str, float, dict[str, float]]:
     """The IMU axis whose heading increments correlate best with the odometry's.
 
     Compares increments over the odometry sample intervals (so a small time lag hardly
@@ -205,7 +212,9 @@ def _batch_stderr(samples: np.ndarray, time_s: np.ndarray, batch_s: float = 0.5)
     return float(samples.std(ddof=1) / math.sqrt(n))
 
 
-def still_bias(time_s, yaw_rate_rad_s, intervals):
+def still_bias(
+    time_s: ArrayLike, yaw_rate_rad_s: ArrayLike, intervals: Sequence[tuple[float, float]]
+) -> tuple[float | None, float | None, int, float]:
     """Gyro yaw-rate bias from the samples inside still ``intervals``.
 
     Returns (mean rad/s or None, batch-means standard error rad/s or None, samples, seconds).
@@ -222,7 +231,9 @@ def still_bias(time_s, yaw_rate_rad_s, intervals):
     return float(r[inside].mean()), _batch_stderr(r[inside], t[inside]), n, seconds
 
 
-def choose_bias(bias, estimate, stderr, min_still_s: float = 1.0):
+def choose_bias(
+    bias: str | float, estimate: float | None, stderr: float | None, min_still_s: float = 1.0
+) -> tuple[float, str, str | None]:
     """Apply the ``bias`` policy (module docstring) to a still-period estimate.
 
     Returns (bias to remove rad/s, source label, warning text or None).
@@ -289,7 +300,7 @@ class GyroResult:
         return self.odometry_rotation_rad / (2.0 * math.pi)
 
     def as_dict(self) -> dict:
-        def num(v):
+        def num(v: float | None) -> float | None:
             return None if v is None or not math.isfinite(v) else float(v)
 
         d = {
@@ -325,15 +336,15 @@ class GyroResult:
 
 
 def yaw_axis(
-    imu_time_s,
-    angular_velocity_rad_s,
-    ref_time_s,
-    ref_heading,
+    imu_time_s: ArrayLike,
+    angular_velocity_rad_s: ArrayLike,
+    ref_time_s: ArrayLike,
+    ref_heading: ArrayLike,
     *,
-    rotation=None,
+    rotation: ArrayLike | None = None,
     imu_axis: str | None = None,
     mounting_source: str | None = None,
-):
+) -> tuple[np.ndarray, str, str, dict[str, float], list[str]]:
     """The base's z axis in IMU coordinates: from ``rotation`` (R_base_imu), else the named
     ``imu_axis``, else detected from the data (the axis whose integrated rate correlates best with
     ``ref_heading``, any series proportional to the heading, e.g. right minus left wheel angle).
@@ -394,16 +405,16 @@ class GyroHeading:
 
 
 def gyro_heading(
-    imu_time_s,
-    angular_velocity_rad_s,
-    time_s,
-    turn_rad,
-    travel_rad=None,
+    imu_time_s: ArrayLike,
+    angular_velocity_rad_s: ArrayLike,
+    time_s: ArrayLike,
+    turn_rad: ArrayLike,
+    travel_rad: ArrayLike | None = None,
     *,
-    rotation=None,
+    rotation: ArrayLike | None = None,
     imu_axis: str | None = None,
     mounting_source: str | None = None,
-    bias="auto",
+    bias: str | float = "auto",
     max_still_rate: float = 0.02,
     min_still_s: float = 1.0,
 ) -> GyroHeading:
@@ -456,7 +467,15 @@ class _Bias:
 
 
 def _bias(
-    imu_time_s, yaw_rate, ref_time_s, ref_turn_rate, ref_speed, max_speed, max_turn, min_s, policy
+    imu_time_s: ArrayLike,
+    yaw_rate: ArrayLike,
+    ref_time_s: ArrayLike,
+    ref_turn_rate: ArrayLike,
+    ref_speed: ArrayLike | None,
+    max_speed: float,
+    max_turn: float,
+    min_s: float,
+    policy: str | float,
 ) -> _Bias:
     """The gyro bias from the reference's still periods, and what the policy removes."""
     intervals = still_intervals(
@@ -484,17 +503,17 @@ def _check_series(name: str, t: np.ndarray, values: np.ndarray) -> None:
 
 
 def gyro_calibration(
-    imu_time_s,
-    angular_velocity_rad_s,
-    odom_time_s,
+    imu_time_s: ArrayLike,
+    angular_velocity_rad_s: ArrayLike,
+    odom_time_s: ArrayLike,
     *,
-    odom_yaw_rad=None,
-    odom_yaw_rate_rad_s=None,
-    odom_speed_m_s=None,
-    rotation=None,
+    odom_yaw_rad: ArrayLike | None = None,
+    odom_yaw_rate_rad_s: ArrayLike | None = None,
+    odom_speed_m_s: ArrayLike | None = None,
+    rotation: ArrayLike | None = None,
     imu_axis: str | None = None,
     mounting_source: str | None = None,
-    bias="auto",
+    bias: str | float = "auto",
     max_still_speed_m_s: float = 0.005,
     max_still_yaw_rate_rad_s: float = 0.005,
     min_still_s: float = 1.0,

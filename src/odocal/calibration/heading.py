@@ -26,7 +26,13 @@ from .uncertainty import spread_uncertainty
 __all__ = ["heading_factors", "calibrate_heading"]
 
 
-def heading_factors(theta_cw_rad, theta_ccw_rad, sides: int, side_m, wheelbase_m):
+def heading_factors(
+    theta_cw_rad: float | np.ndarray,
+    theta_ccw_rad: float | np.ndarray,
+    sides: int,
+    side_m: float | np.ndarray,
+    wheelbase_m: float | np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
     """E_b, E_d from mean final heading errors (rad); arrays broadcast (vectorised design).
 
     ``wheelbase_m`` is the wheelbase the robot ran with (b in the equations above).

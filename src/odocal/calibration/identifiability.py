@@ -33,12 +33,17 @@ real data depends on how well the stated noise describes the robot (docs/check.m
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.model import MeasurementNoise, NonSystematicError, WheelGeometry
-from ..core.odometry import dead_reckon
+from ..core.odometry import body_increments, dead_reckon, wheel_jacobian, wheel_travel
+from ..core.recording import Recording
+from ..core.transforms import se2_conjugate
 from ..errors import CalibrationError
 
 # The fit's residual layout (sample indices, segment marks, run weights), its relative-pose
@@ -286,7 +291,7 @@ class LogCheck:
         }
 
 
-def _json(v):
+def _json(v: Any) -> Any:
     """Floats, lists and None only; non-finite numbers become None."""
     if v is None or isinstance(v, (str, bool)):
         return v
@@ -304,14 +309,9 @@ def _json(v):
 # Motion summary (wheel angles only)
 
 
-def _wheel_travel(angle_right_rad, angle_left_rad, geometry: WheelGeometry):
-    """Per-sample-step wheel travel (ds_R, ds_L) in m, shape (K - 1,) each."""
-    dr = np.diff(np.asarray(angle_right_rad, dtype=float))
-    dl = np.diff(np.asarray(angle_left_rad, dtype=float))
-    return dr * (0.5 * geometry.diameter_right_m), dl * (0.5 * geometry.diameter_left_m)
-
-
-def _windows(ds_r, ds_l, b, window_m):
+def _windows(
+    ds_r: np.ndarray, ds_l: np.ndarray, b: float, window_m: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Net wheel travel and absolute wheel travel per window of ``window_m`` travel."""
     w = 0.5 * (np.abs(ds_r) + np.abs(ds_l))
     c = np.concatenate([[0.0], np.cumsum(w)])
@@ -325,9 +325,17 @@ def _windows(ds_r, ds_l, b, window_m):
     return s_r[keep], s_l[keep], travel[keep]
 
 
-def _summary(name, label, s_r, s_l, travel, path_m, b, th: CheckThresholds) -> MotionSummary:
-    a = 0.5 * (s_r + s_l)
-    dth = (s_r - s_l) / b
+def _summary(
+    name: str,
+    label: str | None,
+    s_r: np.ndarray,
+    s_l: np.ndarray,
+    travel: np.ndarray,
+    path_m: float,
+    b: float,
+    th: CheckThresholds,
+) -> MotionSummary:
+    a, dth = body_increments(s_r, s_l, b)  # centre travel and heading change per window
     straight = np.abs(a) >= th.straight_radius_b * b * np.abs(dth)
     spot = np.abs(a) <= th.spot_radius_b * b * np.abs(dth)
     arc = ~straight & ~spot
@@ -369,14 +377,18 @@ def _summary(name, label, s_r, s_l, travel, path_m, b, th: CheckThresholds) -> M
 
 
 def summarize_motion(
-    recordings, geometry: WheelGeometry, thresholds: CheckThresholds | None = None
+    recordings: Iterable[Recording],
+    geometry: WheelGeometry,
+    thresholds: CheckThresholds | None = None,
 ) -> tuple[MotionSummary, tuple[MotionSummary, ...]]:
     """(whole log, per recording) motion summaries from the wheel angles (no ground truth)."""
     th = thresholds or CheckThresholds()
     b = float(geometry.wheelbase_m)
     per, parts = [], []
     for rec in recordings:
-        ds_r, ds_l = _wheel_travel(rec.wheel_angle_right_rad, rec.wheel_angle_left_rad, geometry)
+        ds_r, ds_l = wheel_travel(
+            np.diff(rec.wheel_angle_right_rad), np.diff(rec.wheel_angle_left_rad), geometry
+        )
         win = _windows(ds_r, ds_l, b, th.window_m)
         path = float(np.abs(0.5 * (ds_r + ds_l)).sum())
         per.append(_summary(rec.name, rec.label, win[0], win[1], win[2], path, b, th))
@@ -392,27 +404,21 @@ def summarize_motion(
 # Residual model: Jacobian and noise covariance per run
 
 
-def _mounted(poses, mount):
+def _mounted(poses: np.ndarray, mount: np.ndarray) -> np.ndarray:
     """Poses of a frame mounted at (x, y, yaw) on the robot, in that frame's start frame."""
-    mx, my, ma = mount
-    if mx == 0 and my == 0 and ma == 0:
+    if mount[0] == 0 and mount[1] == 0 and mount[2] == 0:
         return poses
-    th = poses[:, 2]
-    c, s = np.cos(th), np.sin(th)
-    px = poses[:, 0] + c * mx - s * my - mx
-    py = poses[:, 1] + s * mx + c * my - my
-    ca, sa = math.cos(ma), math.sin(ma)
-    return np.column_stack([ca * px + sa * py, -sa * px + ca * py, th])
+    return se2_conjugate(poses, np.asarray(mount, dtype=float))
 
 
-def _blocks(run: RunResiduals, kind: str):
+def _blocks(run: RunResiduals, kind: str) -> tuple[np.ndarray, np.ndarray]:
     """(start, end) sample index of every residual block of ``run``."""
     if kind == "pose":
         return np.zeros(len(run.idx), dtype=int), np.asarray(run.idx)
     return np.asarray(run.i0), np.asarray(run.i1)
 
 
-def _predict(run: RunResiduals, kind: str, params) -> np.ndarray:
+def _predict(run: RunResiduals, kind: str, params: np.ndarray) -> np.ndarray:
     """Residual rows (x, y, theta per block, unweighted) predicted by ``params``."""
     odo = dead_reckon(run.phi_r, run.phi_l, WheelGeometry.unchecked(*params[:3]))
     if len(params) > 3:
@@ -422,7 +428,7 @@ def _predict(run: RunResiduals, kind: str, params) -> np.ndarray:
     return relative_poses(odo, run.i0, run.i1).ravel()
 
 
-def _jacobian(run: RunResiduals, kind: str, params, steps) -> np.ndarray:
+def _jacobian(run: RunResiduals, kind: str, params: np.ndarray, steps: np.ndarray) -> np.ndarray:
     """d(predicted rows)/d(params) by central differences, shape (3 blocks, n)."""
     cols = []
     for i, h in enumerate(steps):
@@ -433,24 +439,22 @@ def _jacobian(run: RunResiduals, kind: str, params, steps) -> np.ndarray:
     return np.column_stack(cols)
 
 
-def _cumulative_increment_covariance(run: RunResiduals, geometry, noise: NoiseModel, pose, a):
+def _cumulative_increment_covariance(
+    run: RunResiduals, geometry: WheelGeometry, noise: NoiseModel, pose: np.ndarray, a: np.ndarray
+) -> np.ndarray | None:
     """Qc[t] = sum over the increments before sample t of H_i diag(q_i) H_i^T, shape (K, 4, 4),
     or None without wheel or turn noise (see _noise_covariance)."""
     k_r, k_l, k_t = noise.wheel.k_r_m, noise.wheel.k_l_m, noise.turn_rad
     if not (k_r > 0 or k_l > 0 or k_t > 0):
         return None
     b = float(geometry.wheelbase_m)
-    ds_r, ds_l = _wheel_travel(run.phi_r, run.phi_l, geometry)
-    ds = 0.5 * (ds_r + ds_l)
-    dth = (ds_r - ds_l) / b
-    mid = pose[:-1, 2] + 0.5 * dth
+    ds_r, ds_l = wheel_travel(np.diff(run.phi_r), np.diff(run.phi_l), geometry)
+    ds, dth = body_increments(ds_r, ds_l, b)
+    mid = pose[:-1, 2] + 0.5 * dth  # pose: the midpoint poses of these increments
     c, s = np.cos(mid), np.sin(mid)
-    h = ds / (2.0 * b)
     # columns: right wheel, left wheel, extra heading noise of the increment
     B = np.empty((len(ds), 3, 3))
-    B[:, 0, 0], B[:, 0, 1] = 0.5 * c - h * s, 0.5 * c + h * s
-    B[:, 1, 0], B[:, 1, 1] = 0.5 * s + h * c, 0.5 * s - h * c
-    B[:, 2, 0], B[:, 2, 1] = 1.0 / b, -1.0 / b
+    B[:, :, :2] = wheel_jacobian(ds, c, s, b)
     B[:, 0, 2], B[:, 1, 2], B[:, 2, 2] = -0.5 * ds * s, 0.5 * ds * c, 1.0
     H = np.empty((len(ds), 4, 3))
     H[:, :3, :] = B - a[1:, :, None] * B[:, 2:3, :]
@@ -461,7 +465,9 @@ def _cumulative_increment_covariance(run: RunResiduals, geometry, noise: NoiseMo
     return np.concatenate([np.zeros((1, 4, 4)), np.cumsum(Q, axis=0)])
 
 
-def _pose_forms(run: RunResiduals, geometry, noise: NoiseModel, X, V):
+def _pose_forms(
+    run: RunResiduals, geometry: WheelGeometry, noise: NoiseModel, X: np.ndarray, V: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Pose residuals without dense matrices: (X^T Sigma^-1 X, V^T Sigma V) for X, V of shape
     (3 B, k). The rows are a linear Gaussian state-space model: block j is C_j Z_j + v_j with
     C_j = [I | a_j], Z_j = Z_j-1 + w_j (the wheel and turn noise of the increments up to sample
@@ -513,7 +519,7 @@ def _noise_covariance(
     geometry: WheelGeometry,
     noise: NoiseModel,
     max_blocks: int = MAX_BLOCKS_PER_RUN,
-):
+) -> np.ndarray:
     """Covariance of the residual rows of ``run`` under ``noise``, shape (3 B, 3 B).
 
     Wheel part: the error of the pose at the end of block (s0, s1] from the increments inside
@@ -567,7 +573,7 @@ def _noise_covariance(
     return 0.5 * (cov + cov.T)
 
 
-def _solve_psd(S, X):
+def _solve_psd(S: np.ndarray, X: np.ndarray) -> np.ndarray:
     """S^-1 X for a covariance S (pseudo-inverse when singular, e.g. no noise at all)."""
     from scipy.linalg import cho_factor, cho_solve  # here: scipy.linalg takes long to import
 
@@ -600,10 +606,10 @@ def _basis(n: int) -> np.ndarray:
     return B
 
 
-def _named_directions(n: int):
+def _named_directions(n: int) -> list[tuple[str, np.ndarray]]:
     """Directions with their own name, unit vectors of the relative parametrisation."""
 
-    def v(*x):
+    def v(*x: float) -> np.ndarray:
         u = np.zeros(n)
         u[: len(x)] = x
         return u / np.linalg.norm(u)
@@ -615,7 +621,7 @@ def _named_directions(n: int):
     ] + [(name, row) for name, row in zip(_BASIS_NAMES, _basis(n), strict=False)]
 
 
-def describe_direction(vec) -> str:
+def describe_direction(vec: ArrayLike) -> str:
     """A unit vector of the relative parametrisation (ln D_R, ln D_L, ln b [, x/b, y/b, yaw]) in
     words. A change of the parameters along it is what the data cannot see (or see worst).
 
@@ -641,7 +647,7 @@ def describe_direction(vec) -> str:
     )
 
 
-def _describe_subspace(N) -> list[str]:
+def _describe_subspace(N: np.ndarray) -> list[str]:
     """Words for every dimension of the subspace spanned by the orthonormal columns of ``N``:
     first the named directions lying in it (projection >= 0.95), then the rest."""
     k = N.shape[1]
@@ -674,139 +680,173 @@ def _radius_hint(b: float) -> str:
     return f"{2.5 * b:.2g}-{10 * b:.2g} m (2.5-10 wheelbases)"
 
 
-def _degeneracies(motion: MotionSummary, cond, blind, stderr, values, b, th: CheckThresholds):
-    out: list[Degeneracy] = []
-    tips: list[str] = []
+# A degeneracy and the advice that cures it.
+_Finding = tuple[Degeneracy, list[str]]
+
+
+def _degeneracies(
+    motion: MotionSummary,
+    cond: float,
+    blind: Sequence[str],
+    stderr: Sequence[float],
+    values: np.ndarray,
+    b: float,
+    th: CheckThresholds,
+) -> tuple[list[Degeneracy], list[str]]:
+    """The log's degeneracies and what to drive about them: first what the motion lacks, then
+    the conditioning (advice from it only when the motion gave none)."""
     if not motion.wheel_travel_m > 0:
-        out.append(Degeneracy("no-motion", "blind", "everything", "the wheels did not turn at all"))
-        tips.append("drive the robot: this log has no wheel motion")
-        return out, tips
+        nothing = Degeneracy("no-motion", "blind", "everything", "the wheels did not turn at all")
+        return [nothing], ["drive the robot: this log has no wheel motion"]
+    motion_findings = [
+        _kind_of_motion(motion, b, th),
+        _one_turning_direction(motion, th),
+        _too_little_travel(motion, th),
+        _too_little_rotation(motion, th),
+    ]
+    found = [f for f in motion_findings if f is not None]
+    out = [d for d, _ in found]
+    tips = [t for _, advice in found for t in advice]
+    fit = _ill_conditioned(cond, blind, b, th) or _imprecise(cond, stderr, values, b, th)
+    if fit is not None:
+        out.append(fit[0])
+        if not tips:
+            tips += fit[1]
+    return out, tips
+
+
+def _kind_of_motion(motion: MotionSummary, b: float, th: CheckThresholds) -> _Finding | None:
+    """Only straight lines, only spot turns, or one curvature all the time."""
     if motion.share_straight >= th.only_share:
-        out.append(
-            Degeneracy(
-                "straight-only",
-                "blind",
-                "the wheelbase b",
-                f"only straight lines ({100 * motion.share_straight:.0f} % of the wheel travel): "
-                "they see the wheel scale and, from their heading drift, (D_R - D_L)/b, never b",
-            )
-        )
-        tips.append(
+        return Degeneracy(
+            "straight-only",
+            "blind",
+            "the wheelbase b",
+            f"only straight lines ({100 * motion.share_straight:.0f} % of the wheel travel): "
+            "they see the wheel scale and, from their heading drift, (D_R - D_L)/b, never b",
+        ), [
             "add turns in both directions: spot turns, or arcs of radius "
             f"{_radius_hint(b)}, at least half a turn each way (straight lines cannot separate "
             "b from the diameters)"
-        )
-    elif motion.share_spot >= th.only_share:
-        out.append(
-            Degeneracy(
-                "spot-turns-only",
-                "blind",
-                "the common scale of D_R, D_L and b (and, robustly, the diameter ratio)",
-                f"only spot turns ({100 * motion.share_spot:.0f} % of the wheel travel): they see "
-                "mean(D)/b, and D_R - D_L only through the small drift of the axle centre, "
-                "which a tracker off the axle imitates",
-            )
-        )
-        tips.append(
+        ]
+    if motion.share_spot >= th.only_share:
+        return Degeneracy(
+            "spot-turns-only",
+            "blind",
+            "the common scale of D_R, D_L and b (and, robustly, the diameter ratio)",
+            f"only spot turns ({100 * motion.share_spot:.0f} % of the wheel travel): they see "
+            "mean(D)/b, and D_R - D_L only through the small drift of the axle centre, "
+            "which a tracker off the axle imitates",
+        ), [
             "add straight runs of a known (tracked) length, 2 m or more, forward (and back): "
             "spot turns never see the common scale, and a closed track seen only at its end "
             "cannot see it either"
-        )
-    elif motion.ratio_concentration >= th.constant_ratio:
-        out.append(
-            Degeneracy(
-                "constant-curvature",
-                "blind",
-                "one combination of D_R, D_L and b",
-                "the wheels keep one speed ratio (one curvature) all the time "
-                f"(concentration {motion.ratio_concentration:.3f}): the path is one circle whose "
-                "radius and length per wheel turn fix only two of D_R, D_L, b",
-            )
-        )
-        tips.append(
+        ]
+    if motion.ratio_concentration >= th.constant_ratio:
+        return Degeneracy(
+            "constant-curvature",
+            "blind",
+            "one combination of D_R, D_L and b",
+            "the wheels keep one speed ratio (one curvature) all the time "
+            f"(concentration {motion.ratio_concentration:.3f}): the path is one circle whose "
+            "radius and length per wheel turn fix only two of D_R, D_L, b",
+        ), [
             "add motion with a different wheel-speed ratio: straight runs and spot turns, or "
             f"arcs of another radius in {_radius_hint(b)}, in both directions"
-        )
-    if motion.rotation_rad >= th.min_rotation_rad and motion.turning in ("left", "right"):
-        other = "right (CW)" if motion.turning == "left" else "left (CCW)"
-        main, turned = motion.rotation_left_rad, motion.rotation_right_rad
-        if motion.turning == "right":
-            main, turned = turned, main
-        out.append(
-            Degeneracy(
-                "one-turning-direction",
-                "weak",
-                "direction-dependent effects against b and D_R/D_L",
-                f"turns only {motion.turning}: {math.degrees(turned):.0f} deg to the "
-                f"{other.split()[0]} against {math.degrees(main):.0f} deg (less than "
-                f"{math.degrees(th.min_turn_each_way_rad):.0f} deg or "
-                f"{100 * th.min_turn_balance:.0f} %)",
-            )
-        )
-        tips.append(
-            f"drive the same motions turning {other} as well, about as much: with one direction "
-            "only, any direction-dependent effect (slip, caster drag, a tilted tracker) is "
-            "absorbed into b and D_R/D_L"
-        )
-    if motion.travel_m < th.min_travel_m - 1e-9:  # a float sum of exactly the minimum passes
-        out.append(
-            Degeneracy(
-                "too-little-travel",
-                "weak",
-                "the wheel scale",
-                f"the axle centre travelled {motion.travel_m:.2f} m (< {th.min_travel_m:g} m)",
-            )
-        )
-        tips.append(f"drive at least {th.min_travel_m:g} m in total (straight runs of 2 m or more)")
-    if motion.rotation_rad < th.min_rotation_rad and not (motion.share_straight >= th.only_share):
-        out.append(
-            Degeneracy(
-                "too-little-rotation",
-                "weak",
-                "the wheelbase b",
-                f"the robot turned {math.degrees(motion.rotation_rad):.0f} deg in total "
-                f"(< {math.degrees(th.min_rotation_rad):.0f} deg)",
-            )
-        )
-        tips.append(
-            f"turn at least {math.degrees(th.min_rotation_rad):.0f} deg in total, both ways"
-        )
-    if not (cond < th.max_condition):  # also NaN / inf
-        what = "; ".join(blind)
-        out.append(
-            Degeneracy(
-                "ill-conditioned",
-                "blind",
-                what,
-                f"condition number {cond:.3g} of the (relative) Fisher information "
-                f"(>= {th.max_condition:.0e}); not determined: {what}",
-            )
-        )
-        if not tips:
-            tips += [_tip_for(w, b) for w in blind]
+        ]
+    return None
+
+
+def _one_turning_direction(motion: MotionSummary, th: CheckThresholds) -> _Finding | None:
+    """Enough turning, but (almost) all of it one way."""
+    if not (motion.rotation_rad >= th.min_rotation_rad and motion.turning in ("left", "right")):
+        return None
+    other = "right (CW)" if motion.turning == "left" else "left (CCW)"
+    main, turned = motion.rotation_left_rad, motion.rotation_right_rad
+    if motion.turning == "right":
+        main, turned = turned, main
+    return Degeneracy(
+        "one-turning-direction",
+        "weak",
+        "direction-dependent effects against b and D_R/D_L",
+        f"turns only {motion.turning}: {math.degrees(turned):.0f} deg to the "
+        f"{other.split()[0]} against {math.degrees(main):.0f} deg (less than "
+        f"{math.degrees(th.min_turn_each_way_rad):.0f} deg or "
+        f"{100 * th.min_turn_balance:.0f} %)",
+    ), [
+        f"drive the same motions turning {other} as well, about as much: with one direction "
+        "only, any direction-dependent effect (slip, caster drag, a tilted tracker) is "
+        "absorbed into b and D_R/D_L"
+    ]
+
+
+def _too_little_travel(motion: MotionSummary, th: CheckThresholds) -> _Finding | None:
+    if not motion.travel_m < th.min_travel_m - 1e-9:  # a float sum of exactly the minimum passes
+        return None
+    return Degeneracy(
+        "too-little-travel",
+        "weak",
+        "the wheel scale",
+        f"the axle centre travelled {motion.travel_m:.2f} m (< {th.min_travel_m:g} m)",
+    ), [f"drive at least {th.min_travel_m:g} m in total (straight runs of 2 m or more)"]
+
+
+def _too_little_rotation(motion: MotionSummary, th: CheckThresholds) -> _Finding | None:
+    if not motion.rotation_rad < th.min_rotation_rad or motion.share_straight >= th.only_share:
+        return None
+    return Degeneracy(
+        "too-little-rotation",
+        "weak",
+        "the wheelbase b",
+        f"the robot turned {math.degrees(motion.rotation_rad):.0f} deg in total "
+        f"(< {math.degrees(th.min_rotation_rad):.0f} deg)",
+    ), [f"turn at least {math.degrees(th.min_rotation_rad):.0f} deg in total, both ways"]
+
+
+def _ill_conditioned(
+    cond: float, blind: Sequence[str], b: float, th: CheckThresholds
+) -> _Finding | None:
+    """Directions the Fisher information does not determine."""
+    if cond < th.max_condition:  # NaN and inf are ill-conditioned
+        return None
+    what = "; ".join(blind)
+    return Degeneracy(
+        "ill-conditioned",
+        "blind",
+        what,
+        f"condition number {cond:.3g} of the (relative) Fisher information "
+        f"(>= {th.max_condition:.0e}); not determined: {what}",
+    ), [_tip_for(w, b) for w in blind]
+
+
+def _imprecise(
+    cond: float,
+    stderr: Sequence[float],
+    values: np.ndarray,
+    b: float,
+    th: CheckThresholds,
+) -> _Finding | None:
+    """Geometry parameters determined, but with a predicted standard error above the
+    threshold."""
     rel = {k: v / p for k, v, p in zip(GEOMETRY_PARAMETERS, stderr, values, strict=False)}
     loose = {k: v for k, v in rel.items() if v > th.max_relative_stderr}
-    if loose and cond < th.max_condition:
-        words = {
-            "wheel_diameter_right_m": "D_R",
-            "wheel_diameter_left_m": "D_L",
-            "wheelbase_m": "b",
-        }
-        what = ", ".join(words[k] for k in loose)
-        out.append(
-            Degeneracy(
-                "imprecise",
-                "weak",
-                what,
-                "predicted standard error "
-                + ", ".join(f"{words[k]} {100 * v:.2g} %" for k, v in loose.items())
-                + f" (> {100 * th.max_relative_stderr:.2g} % of the value) with the stated noise",
-            )
-        )
-        if not tips:
-            direction = "the wheelbase b" if "wheelbase_m" in loose else "the common wheel scale"
-            tips.append(_tip_for(direction, b) + ", or simply more of the same runs")
-    return out, tips
+    if not (loose and cond < th.max_condition):
+        return None
+    words = {
+        "wheel_diameter_right_m": "D_R",
+        "wheel_diameter_left_m": "D_L",
+        "wheelbase_m": "b",
+    }
+    what = ", ".join(words[k] for k in loose)
+    direction = "the wheelbase b" if "wheelbase_m" in loose else "the common wheel scale"
+    return Degeneracy(
+        "imprecise",
+        "weak",
+        what,
+        "predicted standard error "
+        + ", ".join(f"{words[k]} {100 * v:.2g} %" for k, v in loose.items())
+        + f" (> {100 * th.max_relative_stderr:.2g} % of the value) with the stated noise",
+    ), [_tip_for(direction, b) + ", or simply more of the same runs"]
 
 
 def _tip_for(weakest: str, b: float) -> str:
@@ -829,7 +869,7 @@ def _tip_for(weakest: str, b: float) -> str:
 
 
 def check_recordings(
-    recordings,
+    recordings: Iterable[Recording],
     geometry: WheelGeometry,
     *,
     noise: NoiseModel | None = None,
@@ -864,32 +904,11 @@ def check_recordings(
         residuals of the recordings' ground truth at ``geometry`` (pass the fitted geometry).
     thresholds : CheckThresholds
     """
-    if residual not in RESIDUALS:
-        raise CalibrationError(f"residual must be one of {', '.join(RESIDUALS)}, got {residual!r}")
-    if run_weight not in RUN_WEIGHTS:
-        raise CalibrationError(
-            f"run_weight must be one of {', '.join(RUN_WEIGHTS)}, got {run_weight!r}"
-        )
-    if residual_scale not in ("stated", "empirical"):
-        raise CalibrationError(
-            f"residual_scale must be 'stated' or 'empirical', got {residual_scale!r}"
-        )
-    if not (segment_m > 0 and math.isfinite(segment_m)):
-        raise CalibrationError(f"segment_m must be finite and > 0, got {segment_m!r}")
-    if not (heading_weight_m >= 0 and math.isfinite(heading_weight_m)):
-        raise CalibrationError(
-            f"heading_weight_m must be finite and >= 0, got {heading_weight_m!r}"
-        )
-    recordings = list(recordings)
-    if not recordings:
-        raise CalibrationError("check: no recordings")
-    for r in recordings:
-        if len(r.time_s) < 2:
-            raise CalibrationError(f"check: {r.name} has fewer than two samples")
-        if residual_scale == "empirical" and r.ground_truth is None:
-            raise CalibrationError(
-                f"check: residual_scale='empirical' needs ground truth; {r.name} has none"
-            )
+    fit = _Settings(
+        residual, segment_m, heading_weight_m, samples_per_run, run_weight, mounting, residual_scale
+    )
+    fit.check()
+    recordings = _checked_recordings(recordings, fit.empirical)
     noise = noise or NoiseModel()
     th = thresholds or CheckThresholds()
     b = float(geometry.wheelbase_m)
@@ -899,81 +918,22 @@ def check_recordings(
     # relative parametrisation: lengths as fractions, mounting offsets in wheelbases, yaw in rad
     rel = np.concatenate([p0, [b, b, 1.0]]) if mounting else p0
     steps = 1e-6 * rel
-
-    n = len(params)
-    F = np.zeros((n, n))
-    Hw = np.zeros((n, n))
-    Mw = np.zeros((n, n))
-    chi2, rows = 0.0, 0
+    info = _Information(len(params))
     for rec in recordings:
-        odo = dead_reckon(rec.wheel_angle_right_rad, rec.wheel_angle_left_rad, geometry)
-        gt = odo if rec.ground_truth is None else rec.ground_truth
-        run = RunResiduals(
-            replace(rec, ground_truth=gt),
-            residual,
-            samples_per_run,
-            segment_m,
-            geometry,
-            run_weight,
-        )
-        J = _jacobian(run, residual, params, steps)
-        w = np.tile([1.0, 1.0, heading_weight_m], len(J) // 3) * run.weight
-        AJ = J * (w**2)[:, None]
-        Hw += J.T @ AJ
-        r = np.zeros(len(J))
-        if residual_scale == "empirical":
-            r = np.asarray(
-                run.gt[run.idx] if residual == "pose" else run.gt_rel, dtype=float
-            ).ravel() - _predict(run, residual, params)
-            rows += len(r)
-        Jr = np.column_stack([J, r])
-        if residual == "pose":
-            inv_form, Mrun = _pose_forms(run, geometry, noise, Jr, AJ)
-        else:
-            S = _noise_covariance(run, residual, geometry, noise, max_blocks_per_run)
-            inv_form, Mrun = Jr.T @ _solve_psd(S, Jr), AJ.T @ S @ AJ
-        F += inv_form[:n, :n]
-        Mw += Mrun
-        chi2 += float(inv_form[n, n])
-
-    scale = 1.0
-    if residual_scale == "empirical":
-        if rows <= n:
-            raise CalibrationError("check: too few residuals for an empirical scale")
-        scale = math.sqrt(chi2 / (rows - n))
-    F = F / scale**2
-    Mw = Mw * scale**2
-
-    cov = _sandwich(Hw, Mw)
-    F_rel = F * np.outer(rel, rel)
-    lam, vec = np.linalg.eigh(0.5 * (F_rel + F_rel.T))
-    lam_max = float(lam[-1])
-    cond = lam_max / float(lam[0]) if lam[0] > 0 else math.inf
-    weakest_se = 1.0 / math.sqrt(float(lam[0])) if cond < _SINGULAR else math.inf
-    if cond < _SINGULAR:
+        info.add_run(rec, geometry, noise, params, steps, fit, max_blocks_per_run)
+    F, Mw, scale = info.scaled(fit.empirical)
+    cov = _sandwich(info.hessian, Mw)
+    d = _Directions.of(F, rel, th)
+    if d.cond < _SINGULAR:
         cov_best = np.linalg.inv(F)
     else:
-        cov_best = np.full((n, n), np.inf)
-        cov = np.full((n, n), np.inf)
-    v = vec[:, 0]
-    v = v * np.sign(v[np.argmax(np.abs(v))])
-    weakest = describe_direction(v)
-    blind = _describe_subspace(vec[:, lam <= lam_max / th.max_condition]) if lam_max > 0 else ()
-
+        cov_best = np.full(F.shape, np.inf)
+        cov = np.full(F.shape, np.inf)
     motion, per = summarize_motion(recordings, geometry, th)
     stderr = _stderr(names, cov)
     degeneracies, tips = _degeneracies(
-        motion, cond, blind or (weakest,), list(stderr.values()), params, b, th
+        motion, d.cond, d.blind or (d.weakest,), list(stderr.values()), params, b, th
     )
-    settings = {
-        "residual": residual,
-        "segment_m": segment_m if residual == "segment" else None,
-        "heading_weight_m": heading_weight_m,
-        "samples_per_run": samples_per_run,
-        "run_weight": run_weight,
-        "mounting": mounting,
-        "residual_scale": residual_scale,
-    }
     return LogCheck(
         parameters=names,
         values=params,
@@ -981,22 +941,176 @@ def check_recordings(
         covariance=cov,
         stderr=stderr,
         stderr_best=_stderr(names, cov_best),
-        condition_number=cond,
-        weakest_direction=weakest,
-        blind_directions=tuple(blind),
-        weakest_vector=tuple(float(x) for x in v),
-        weakest_relative_stderr=weakest_se,
+        condition_number=d.cond,
+        weakest_direction=d.weakest,
+        blind_directions=tuple(d.blind),
+        weakest_vector=tuple(float(x) for x in d.weakest_vector),
+        weakest_relative_stderr=d.weakest_relative_stderr,
         degeneracies=tuple(degeneracies),
         suggestions=tuple(tips),
         motion=motion,
         per_recording=per,
         noise=noise,
         residual_scale=scale,
-        settings=settings,
+        settings=fit.as_dict(),
     )
 
 
-def _sandwich(H, M):
+@dataclass(frozen=True)
+class _Settings:
+    """The check's settings: the trajectory fit's it predicts for (``fit_trajectory``), the
+    mounting and the source of the noise scale."""
+
+    residual: str
+    segment_m: float
+    heading_weight_m: float
+    samples_per_run: int
+    run_weight: str
+    mounting: bool
+    residual_scale: str
+
+    @property
+    def empirical(self) -> bool:
+        return self.residual_scale == "empirical"
+
+    def check(self) -> None:
+        if self.residual not in RESIDUALS:
+            raise CalibrationError(
+                f"residual must be one of {', '.join(RESIDUALS)}, got {self.residual!r}"
+            )
+        if self.run_weight not in RUN_WEIGHTS:
+            raise CalibrationError(
+                f"run_weight must be one of {', '.join(RUN_WEIGHTS)}, got {self.run_weight!r}"
+            )
+        if self.residual_scale not in ("stated", "empirical"):
+            raise CalibrationError(
+                f"residual_scale must be 'stated' or 'empirical', got {self.residual_scale!r}"
+            )
+        if not (self.segment_m > 0 and math.isfinite(self.segment_m)):
+            raise CalibrationError(f"segment_m must be finite and > 0, got {self.segment_m!r}")
+        if not (self.heading_weight_m >= 0 and math.isfinite(self.heading_weight_m)):
+            raise CalibrationError(
+                f"heading_weight_m must be finite and >= 0, got {self.heading_weight_m!r}"
+            )
+
+    def as_dict(self) -> dict:
+        """``LogCheck.settings``."""
+        return {
+            "residual": self.residual,
+            "segment_m": self.segment_m if self.residual == "segment" else None,
+            "heading_weight_m": self.heading_weight_m,
+            "samples_per_run": self.samples_per_run,
+            "run_weight": self.run_weight,
+            "mounting": self.mounting,
+            "residual_scale": self.residual_scale,
+        }
+
+
+def _checked_recordings(recordings: Iterable[Recording], need_truth: bool) -> list[Recording]:
+    recordings = list(recordings)
+    if not recordings:
+        raise CalibrationError("check: no recordings")
+    for r in recordings:
+        if len(r.time_s) < 2:
+            raise CalibrationError(f"check: {r.name} has fewer than two samples")
+        if need_truth and r.ground_truth is None:
+            raise CalibrationError(
+                f"check: residual_scale='empirical' needs ground truth; {r.name} has none"
+            )
+    return recordings
+
+
+class _Information:
+    """Sums over the runs: the Fisher information F = J^T Sigma^-1 J of the stated noise, the
+    fit's own J^T W J (``hessian``) and J^T W Sigma W J (``meat``), and for an empirical scale
+    the residuals' r^T Sigma^-1 r and their count."""
+
+    def __init__(self, n: int) -> None:
+        self.n = n
+        self.fisher = np.zeros((n, n))
+        self.hessian = np.zeros((n, n))
+        self.meat = np.zeros((n, n))
+        self.chi2 = 0.0
+        self.rows = 0
+
+    def add_run(
+        self,
+        rec: Recording,
+        geometry: WheelGeometry,
+        noise: NoiseModel,
+        params: np.ndarray,
+        steps: np.ndarray,
+        fit: _Settings,
+        max_blocks: int,
+    ) -> None:
+        n, residual = self.n, fit.residual
+        odo = dead_reckon(rec.wheel_angle_right_rad, rec.wheel_angle_left_rad, geometry)
+        gt = odo if rec.ground_truth is None else rec.ground_truth
+        run = RunResiduals(
+            replace(rec, ground_truth=gt),
+            residual,
+            fit.samples_per_run,
+            fit.segment_m,
+            geometry,
+            fit.run_weight,
+        )
+        J = _jacobian(run, residual, params, steps)
+        w = np.tile([1.0, 1.0, fit.heading_weight_m], len(J) // 3) * run.weight
+        AJ = J * (w**2)[:, None]
+        self.hessian += J.T @ AJ
+        r = np.zeros(len(J))
+        if fit.empirical:
+            r = np.asarray(
+                run.gt[run.idx] if residual == "pose" else run.gt_rel, dtype=float
+            ).ravel() - _predict(run, residual, params)
+            self.rows += len(r)
+        Jr = np.column_stack([J, r])
+        if residual == "pose":
+            inv_form, Mrun = _pose_forms(run, geometry, noise, Jr, AJ)
+        else:
+            S = _noise_covariance(run, residual, geometry, noise, max_blocks)
+            inv_form, Mrun = Jr.T @ _solve_psd(S, Jr), AJ.T @ S @ AJ
+        self.fisher += inv_form[:n, :n]
+        self.meat += Mrun
+        self.chi2 += float(inv_form[n, n])
+
+    def scaled(self, empirical: bool) -> tuple[np.ndarray, np.ndarray, float]:
+        """F and the meat with the noise scaled by s (1, or sqrt(chi2 / (rows - n)) for an
+        empirical scale), and s."""
+        scale = 1.0
+        if empirical:
+            if self.rows <= self.n:
+                raise CalibrationError("check: too few residuals for an empirical scale")
+            scale = math.sqrt(self.chi2 / (self.rows - self.n))
+        return self.fisher / scale**2, self.meat * scale**2, scale
+
+
+@dataclass(frozen=True)
+class _Directions:
+    """The eigen-directions of F in the relative parametrisation: its condition number, the
+    weakest direction (unit vector and words), its Cramer-Rao relative standard error, and the
+    directions not determined (below 1 / ``max_condition`` of the best one), in words."""
+
+    cond: float
+    weakest_vector: np.ndarray
+    weakest: str
+    weakest_relative_stderr: float
+    blind: Sequence[str]
+
+    @classmethod
+    def of(cls, F: np.ndarray, rel: np.ndarray, th: CheckThresholds) -> _Directions:
+        F_rel = F * np.outer(rel, rel)
+        lam, vec = np.linalg.eigh(0.5 * (F_rel + F_rel.T))
+        lam_max = float(lam[-1])
+        cond = lam_max / float(lam[0]) if lam[0] > 0 else math.inf
+        weakest_se = 1.0 / math.sqrt(float(lam[0])) if cond < _SINGULAR else math.inf
+        v = vec[:, 0]
+        v = v * np.sign(v[np.argmax(np.abs(v))])
+        blind = _describe_subspace(vec[:, lam <= lam_max / th.max_condition]) if lam_max > 0 else ()
+        return cls(cond, v, describe_direction(v), weakest_se, blind)
+
+
+def _sandwich(H: np.ndarray, M: np.ndarray) -> np.ndarray:
     """H^-1 M H^-1, or inf where H is singular."""
     n = len(H)
     d = np.sqrt(np.clip(np.diag(H), 1e-300, None))
@@ -1008,7 +1122,7 @@ def _sandwich(H, M):
     return 0.5 * (cov + cov.T)
 
 
-def _stderr(names, cov) -> dict:
+def _stderr(names: Sequence[str], cov: np.ndarray) -> dict:
     d = np.diag(cov)
     return {
         k: (math.sqrt(v) if math.isfinite(v) and v >= 0 else math.inf)

@@ -17,14 +17,16 @@ Everything here is vectorised over a leading batch axis (Monte-Carlo trials).
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.model import WheelGeometry
-from ..core.odometry import dead_reckon
-from ..core.pose import compose
+from ..core.odometry import arc_step, body_increments, dead_reckon, wheel_travel
+from ..core.recording import Recording
 from ..errors import CalibrationError
 from .result import CalibrationResult
 
@@ -61,7 +63,14 @@ class IvanjkoFit:
 StraightPredictor = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
 
 
-def _fit_diameter_factors(predict, target, d_r, d_l, b, iterations=30):
+def _fit_diameter_factors(
+    predict: StraightPredictor,
+    target: np.ndarray,
+    d_r: np.ndarray,
+    d_l: np.ndarray,
+    b: np.ndarray,
+    iterations: int = 30,
+) -> np.ndarray:
     """Gauss-Newton on (K_R, K_L); ``predict(D_R, D_L, b)`` -> (M, n, 2); target (M, n, 2)."""
     m = d_r.shape[0]
     k = np.ones((m, 2))
@@ -93,7 +102,14 @@ def _fit_diameter_factors(predict, target, d_r, d_l, b, iterations=30):
     return k
 
 
-def _fit_wheelbase_factor(phi_r, phi_l, theta, d_r, d_l, b):
+def _fit_wheelbase_factor(
+    phi_r: np.ndarray,
+    phi_l: np.ndarray,
+    theta: np.ndarray,
+    d_r: np.ndarray,
+    d_l: np.ndarray,
+    b: np.ndarray,
+) -> np.ndarray:
     """Closed-form LS factor K_b for spins: theta_i ~ a_i / K_b, a_i = (phi_R D_R - phi_L D_L)/(2b).
 
     phi_r, phi_l, theta: (M, n). Returns (M,).
@@ -106,9 +122,9 @@ def _fit_wheelbase_factor(phi_r, phi_l, theta, d_r, d_l, b):
 def ivanjko_fit(
     start: WheelGeometry,
     predict_straight: StraightPredictor,
-    straight_xy,
-    spins_cw,
-    spins_ccw,
+    straight_xy: ArrayLike,
+    spins_cw: Sequence[ArrayLike],
+    spins_ccw: Sequence[ArrayLike],
     tolerance: float = DEFAULT_TOLERANCE,
     max_iterations: int = 50,
 ) -> IvanjkoFit:
@@ -142,7 +158,9 @@ def ivanjko_fit(
         if len(idx) == 0:
             break
 
-        def pred(dr, dl, bb, idx=idx):
+        def pred(
+            dr: np.ndarray, dl: np.ndarray, bb: np.ndarray, idx: np.ndarray = idx
+        ) -> np.ndarray:
             return _predict_subset(predict_straight, idx, m, dr, dl, bb)
 
         k = _fit_diameter_factors(pred, straight_xy[idx], d_r[idx], d_l[idx], b[idx])
@@ -175,7 +193,14 @@ def ivanjko_fit(
     return IvanjkoFit(WheelGeometry(d_r, d_l, b), iterations, ~active)
 
 
-def _predict_subset(predict, idx, m, dr, dl, bb):
+def _predict_subset(
+    predict: StraightPredictor,
+    idx: np.ndarray,
+    m: int,
+    dr: np.ndarray,
+    dl: np.ndarray,
+    bb: np.ndarray,
+) -> np.ndarray:
     """Call a full-batch predictor for the trials ``idx`` only (others get the first values)."""
     if len(idx) == m:
         return predict(dr, dl, bb)
@@ -185,7 +210,7 @@ def _predict_subset(predict, idx, m, dr, dl, bb):
     return predict(*full)[idx]
 
 
-def ivanjko_result(fit: IvanjkoFit, ran_with: WheelGeometry, **inputs) -> CalibrationResult:
+def ivanjko_result(fit: IvanjkoFit, ran_with: WheelGeometry, **inputs: Any) -> CalibrationResult:
     """A (single-trial) fit as a CalibrationResult: E_b, E_d relative to ``ran_with``; the
     corrected geometry is the fitted one (absolute scale included, reported as ``E_s``)."""
     g = fit.geometry.take(0) if np.ndim(fit.geometry.wheelbase_m) else fit.geometry
@@ -214,10 +239,10 @@ def ivanjko_result(fit: IvanjkoFit, ran_with: WheelGeometry, **inputs) -> Calibr
 
 
 def ivanjko_from_end_poses(
-    straight_final,
+    straight_final: ArrayLike,
     straight_length_m: float,
-    spin_cw_final,
-    spin_ccw_final,
+    spin_cw_final: ArrayLike,
+    spin_ccw_final: ArrayLike,
     spin_angle_rad: float,
     ran_with: WheelGeometry,
     tolerance: float = DEFAULT_TOLERANCE,
@@ -244,15 +269,13 @@ def ivanjko_from_end_poses(
     phi_r_s = (2.0 * straight_length_m / d_r_hat)[:, None]
     phi_l_s = (2.0 * straight_length_m / d_l_hat)[:, None]
 
-    def predict(d_r, d_l, b):
-        s_r = 0.5 * phi_r_s * d_r[:, None]
-        s_l = 0.5 * phi_l_s * d_l[:, None]
-        ds = 0.5 * (s_r + s_l)
-        dth = (s_r - s_l) / b[:, None]
-        pose = compose(np.zeros(3), ds, dth)
+    def predict(d_r: np.ndarray, d_l: np.ndarray, b: np.ndarray) -> np.ndarray:
+        batch = WheelGeometry.unchecked(d_r[:, None], d_l[:, None], b[:, None])
+        ds, dth = body_increments(*wheel_travel(phi_r_s, phi_l_s, batch), batch.wheelbase_m)
+        pose = arc_step(np.zeros(3), ds, dth)  # one wheel-speed ratio: an exact arc
         return pose[..., :2] * np.ones((1, sf.shape[1], 1))
 
-    def spins(final, sign):
+    def spins(final: ArrayLike, sign: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         f = np.asarray(final, dtype=float)
         psi = sign * spin_angle_rad
         phi_r = np.broadcast_to((psi * b_hat / d_r_hat)[:, None], f.shape[:2])
@@ -272,8 +295,16 @@ def ivanjko_from_end_poses(
 # --- recorded runs ---------------------------------------------------------------------------
 
 
+def _truth(r: Recording) -> np.ndarray:
+    if r.ground_truth is None:
+        raise CalibrationError(f"{r.name}: ivanjko needs ground truth")
+    return r.ground_truth
+
+
 def calibrate_ivanjko_recordings(
-    recordings, tolerance: float = DEFAULT_TOLERANCE, start: WheelGeometry | None = None
+    recordings: Iterable[Recording],
+    tolerance: float = DEFAULT_TOLERANCE,
+    start: WheelGeometry | None = None,
 ) -> CalibrationResult:
     """Ivanjko on recorded runs with ground truth, labelled 'straight', 'spin-cw', 'spin-ccw'
     (``odocal.io.optiodom.load_optiodom_dataset`` labels the OptiOdom ``ivanjko/`` runs so).
@@ -297,9 +328,9 @@ def calibrate_ivanjko_recordings(
     if start is None:
         raise CalibrationError("ivanjko: no starting parameters (ran_with unknown)")
     straight = groups["straight"]
-    target = np.array([[r.ground_truth[-1, :2] for r in straight]])
+    target = np.array([[_truth(r)[-1, :2] for r in straight]])
 
-    def predict(d_r, d_l, b):
+    def predict(d_r: np.ndarray, d_l: np.ndarray, b: np.ndarray) -> np.ndarray:
         g = WheelGeometry(float(d_r[0]), float(d_l[0]), float(b[0]))
         return np.array(
             [
@@ -310,17 +341,17 @@ def calibrate_ivanjko_recordings(
             ]
         )
 
-    def spins(runs):
+    def spins(runs: list[Recording]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         return (
             np.array([[r.wheel_angle_right_rad[-1] - r.wheel_angle_right_rad[0] for r in runs]]),
             np.array([[r.wheel_angle_left_rad[-1] - r.wheel_angle_left_rad[0] for r in runs]]),
-            np.array([[r.ground_truth[-1, 2] - r.ground_truth[0, 2] for r in runs]]),
+            np.array([[_truth(r)[-1, 2] - _truth(r)[0, 2] for r in runs]]),
         )
 
     fit = ivanjko_fit(
         start, predict, target, spins(groups["spin-cw"]), spins(groups["spin-ccw"]), tolerance
     )
-    straight_len = float(np.mean([np.hypot(*r.ground_truth[-1, :2]) for r in straight]))
+    straight_len = float(np.mean([np.hypot(*_truth(r)[-1, :2]) for r in straight]))
     return ivanjko_result(
         fit,
         start,
@@ -328,8 +359,6 @@ def calibrate_ivanjko_recordings(
         runs_spin_cw=len(groups["spin-cw"]),
         runs_spin_ccw=len(groups["spin-ccw"]),
         straight_length_m=straight_len,
-        spin_deg=float(
-            np.degrees(np.mean([abs(r.ground_truth[-1, 2]) for r in groups["spin-ccw"]]))
-        ),
+        spin_deg=float(np.degrees(np.mean([abs(_truth(r)[-1, 2]) for r in groups["spin-ccw"]]))),
         tolerance=tolerance,
     )

@@ -23,16 +23,22 @@ point of the trajectory fit.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.model import WheelGeometry
+from ..core.odometry import midpoint_headings
+from ..core.recording import Recording
 from ..errors import CalibrationError
 from .result import GeometryFit, LinearDetails, check_physical, stderr_dict
 
 __all__ = ["fit_linear", "linear_coefficients", "coefficients_trials", "linear_geometry_trials"]
 
 
-def _rank_ok(A) -> np.ndarray:
+def _rank_ok(A: np.ndarray) -> np.ndarray:
     """Full column rank per matrix of ``A`` (..., n, p), with numpy.linalg.matrix_rank's
     tolerance (largest singular value x max(n, p) x machine epsilon)."""
     sv = np.linalg.svd(A, compute_uv=False)
@@ -40,7 +46,7 @@ def _rank_ok(A) -> np.ndarray:
     return np.all(sv > tol, axis=-1)
 
 
-def _lstsq(A, y):
+def _lstsq(A: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
     """Least squares per trial: ``A`` (M, n, p), ``y`` (M, n) -> solution (M, p) and covariance
     (M, p, p; residual-variance scaled; None without redundancy). Full column rank assumed
     (rank-deficient trials give non-finite values)."""
@@ -55,7 +61,7 @@ def _lstsq(A, y):
     return x, cov
 
 
-def coefficients_trials(angles, finals):
+def coefficients_trials(angles: Sequence[np.ndarray], finals: ArrayLike) -> tuple[Any, ...]:
     """The two steps of the module docstring for many trials at once.
 
     ``angles``: per run, its cumulative wheel angles (right, left; rad), shape (K_j, 2),
@@ -83,9 +89,7 @@ def coefficients_trials(angles, finals):
             dr = np.diff(a[:, 0])
             dl = np.diff(a[:, 1])
             dth = c2[:, 0:1] * dr + c2[:, 1:2] * dl
-            before = np.zeros_like(dth)  # the heading before each increment
-            before[:, 1:] = np.cumsum(dth, axis=1)[:, :-1]
-            m = before + 0.5 * dth
+            _, m = midpoint_headings(dth)  # the mid heading of each increment
             cm, sm = np.cos(m), np.sin(m)
             done[id(a)] = np.stack([cm @ dr, cm @ dl, sm @ dr, sm @ dl], axis=1).reshape(-1, 2, 2)
         rows[:, 2 * j : 2 * j + 2] = done[id(a)]
@@ -95,7 +99,7 @@ def coefficients_trials(angles, finals):
     return c1, c2, cov1, cov2, ok1, ok2, cond
 
 
-def linear_coefficients(recordings):
+def linear_coefficients(recordings: Sequence[Recording]) -> tuple[Any, ...]:
     """(c_R1, c_L1, c_R2, c_L2), their covariances (2x2 each or None) and cond(Phi^T Phi) of
     step 1. ``recordings`` need ground truth."""
     angles = [
@@ -116,7 +120,7 @@ def linear_coefficients(recordings):
     return c1[0], c2[0], first(cov1), None if cov2 is None else cov2[0], cond
 
 
-def _physical(c):
+def _physical(c: ArrayLike) -> np.ndarray:
     """(D_R, D_L, b) (m) of the coefficients ``c`` = (c_R1, c_L1, c_R2, c_L2), shape (..., 4)."""
     c = np.asarray(c, dtype=float)
     c_r1, c_l1, c_r2, c_l2 = c[..., 0], c[..., 1], c[..., 2], c[..., 3]
@@ -126,7 +130,7 @@ def _physical(c):
     return np.stack([d_r, d_l, 1.0 / inv_b], axis=-1)
 
 
-def linear_geometry_trials(angles, finals) -> np.ndarray:
+def linear_geometry_trials(angles: Sequence[np.ndarray], finals: ArrayLike) -> np.ndarray:
     """D_R, D_L, b (m) per trial, shape (M, 3), from the runs of :func:`coefficients_trials`;
     NaN rows where a step is rank-deficient."""
     c1, c2, _, _, ok1, ok2, _ = coefficients_trials(angles, finals)
@@ -136,7 +140,9 @@ def linear_geometry_trials(angles, finals) -> np.ndarray:
     return out
 
 
-def fit_linear(recordings, nominal: WheelGeometry | None = None) -> GeometryFit:
+def fit_linear(
+    recordings: Sequence[Recording], nominal: WheelGeometry | None = None
+) -> GeometryFit:
     """Antonelli-style two-step linear least squares (module docstring) from runs with truth."""
     c1, c2, cov1, cov2, cond = linear_coefficients(recordings)
     c = np.concatenate([c1, c2])

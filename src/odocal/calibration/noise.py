@@ -30,12 +30,15 @@ the standard error of k_r - k_l is below a quarter of k_r + k_l (otherwise None,
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..core.covariance import propagate, propagate_increments
 from ..core.model import MeasurementNoise, NonSystematicError, WheelGeometry
+from ..core.odometry import wheel_travel
+from ..core.recording import Recording
 from ..core.runs import EndPoseRuns
 from ..core.tracks import out_and_back, straight_line
 from ..errors import CalibrationError
@@ -126,7 +129,9 @@ class NoiseEstimate:
         }
 
 
-def _coefficients(track: str, d: float, b: float, curvature_rad_per_m: float):
+def _coefficients(
+    track: str, d: float, b: float, curvature_rad_per_m: float
+) -> tuple[np.ndarray, ...]:
     """Final-pose covariance per unit k_r and per unit k_l, ((3, 3), (3, 3)), on the mean path."""
     half = 0.5 * curvature_rad_per_m * b  # (f_r - f_l) / 2 for a path of this curvature
     believed = WheelGeometry.symmetric(1.0, b)
@@ -210,15 +215,76 @@ def estimate_k(
             f"{n} run(s): at least {MIN_RUNS} are needed to estimate k (and "
             f"{RECOMMENDED_RUNS} or more for a useful interval)"
         )
-    warnings: list[str] = []
-    severe: list[str] = []
     var_m_theta = measurement.sigma_theta_rad**2 if measurement else 0.0
     var_m_xy = measurement.sigma_xy_m**2 if measurement else 0.0
-    x, y, th = err[:, 0], err[:, 1], err[:, 2]
-    s2_th = float(np.var(th, ddof=1))
-    c_xth = float(np.cov(x, th, ddof=1)[0, 1])
-    s2_x = float(np.var(x, ddof=1))
-    dof = n - 1
+    spread = _Spread.of(err)
+    k_sum, ci = _k_sum(track, d, b, spread, var_m_theta)
+    warnings: list[str] = []
+    if n < RECOMMENDED_RUNS:
+        warnings.append(
+            f"only {n} runs: the 95 % interval spans a factor {ci[1] / max(ci[0], 1e-300):.3g}; "
+            f"{RECOMMENDED_RUNS} to 20 runs are recommended"
+        )
+    if track == "straight":
+        curvature_rad_per_m = spread.mean_th / d  # the runs show the path's curvature directly
+    coef = _coefficients(track, d, b, curvature_rad_per_m)
+    k_diff, k_diff_se, k_r, k_l, note = _split_k(k_sum, coef, spread, var_m_theta)
+    if track == "out-and-back":
+        note += (
+            f"; the split assumes a path curvature of {curvature_rad_per_m:.3g} rad/m "
+            "(from the robot's systematic errors; out-and-back runs cannot show it)"
+        )
+    severe = _systematic_spread(track, err[:, 2], spread)
+    warnings += _lateral_mismatch(err[:, 1], k_sum, coef, var_m_xy)
+    warnings = _severe_first(severe, warnings, strict)
+    return NoiseEstimate(
+        track=track,
+        distance_m=d,
+        wheelbase_m=b,
+        runs=n,
+        k_sum_m=float(k_sum),
+        k_sum_ci95_m=(float(ci[0]), float(ci[1])),
+        k_diff_m=float(k_diff),
+        k_diff_se_m=float(k_diff_se),
+        k_r_m=None if k_r is None else float(k_r),
+        k_l_m=None if k_l is None else float(k_l),
+        split_note=note,
+        theta_mean_rad=spread.mean_th,
+        theta_std_rad=math.sqrt(spread.s2_th),
+        measurement_var_theta_rad2=var_m_theta,
+        warnings=tuple(warnings),
+    )
+
+
+@dataclass(frozen=True)
+class _Spread:
+    """Sample moments (ddof = 1) of the final errors of repeated runs: variances of x and
+    theta, their covariance, the mean heading error and the number of runs."""
+
+    s2_x: float
+    s2_th: float
+    c_xth: float
+    mean_th: float
+    runs: int
+
+    @classmethod
+    def of(cls, err: np.ndarray) -> _Spread:
+        x, th = err[:, 0], err[:, 2]
+        return cls(
+            s2_x=float(np.var(x, ddof=1)),
+            s2_th=float(np.var(th, ddof=1)),
+            c_xth=float(np.cov(x, th, ddof=1)[0, 1]),
+            mean_th=float(np.mean(th)),
+            runs=len(err),
+        )
+
+
+def _k_sum(
+    track: str, d: float, b: float, spread: _Spread, var_m_theta: float
+) -> tuple[float, tuple[float, float]]:
+    """k_r + k_l (m) from the heading spread and its 95 % chi-square interval."""
+    s2_th = spread.s2_th
+    dof = spread.runs - 1
     lo_q, hi_q = _chi2_quantiles(dof)
     var_lo, var_hi = dof * s2_th / lo_q, dof * s2_th / hi_q
     if s2_th <= var_m_theta:
@@ -230,19 +296,20 @@ def estimate_k(
     factor = b * b / (2.0 * d if track == "out-and-back" else d)
     k_sum = factor * (s2_th - var_m_theta)
     ci = (factor * max(var_lo - var_m_theta, 0.0), factor * max(var_hi - var_m_theta, 0.0))
-    if n < RECOMMENDED_RUNS:
-        warnings.append(
-            f"only {n} runs: the 95 % interval spans a factor {ci[1] / max(ci[0], 1e-300):.3g}; "
-            f"{RECOMMENDED_RUNS} to 20 runs are recommended"
-        )
+    return k_sum, ci
 
-    # k_r - k_l from the x-theta covariance. Its coefficients depend on the mean path (a
-    # curving path couples x to the heading), so they come from the propagation of eqs. (8)-(10)
-    # along the mean path: cov(x, theta) = k_r a_r + k_l a_l, var(theta) = (k_r + k_l) t.
-    mean_th = float(np.mean(th))
-    if track == "straight":
-        curvature_rad_per_m = mean_th / d  # the runs show the path's curvature directly
-    coef = _coefficients(track, d, b, curvature_rad_per_m)
+
+def _split_k(
+    k_sum: float, coef: tuple[np.ndarray, ...], spread: _Spread, var_m_theta: float
+) -> tuple[float, float, float | None, float | None, str]:
+    """k_r - k_l from the x-theta covariance, its standard error, k_r and k_l (None where not
+    identifiable) and a note saying which.
+
+    The coefficients depend on the mean path (a curving path couples x to the heading), so they
+    come from the propagation of eqs. (8)-(10) along it: cov(x, theta) = k_r a_r + k_l a_l,
+    var(theta) = (k_r + k_l) t."""
+    s2_th, c_xth, s2_x = spread.s2_th, spread.c_xth, spread.s2_x
+    dof = spread.runs - 1
     a_mean, a_half = 0.5 * (coef[0][0, 2] + coef[1][0, 2]), 0.5 * (coef[0][0, 2] - coef[1][0, 2])
     w = a_mean / coef[0][2, 2]
     k_diff = (c_xth - w * (s2_th - var_m_theta)) / a_half
@@ -257,21 +324,20 @@ def estimate_k(
             "runs, a more precise along-track measurement, or pivot turns about one wheel "
             "(docs/nonsystematic-errors.md); k_r = k_l = (k_r + k_l)/2 is the usual assumption"
         )
-        k_r = k_l = None
-    elif k_r < 0 or k_l < 0:
+        return k_diff, k_diff_se, None, None, note
+    if k_r < 0 or k_l < 0:
         note = f"k_r - k_l = {k_diff:.3g} m exceeds k_r + k_l: a negative k is not physical"
-        k_r = k_l = None
-    else:
-        note = f"k_r - k_l = {k_diff:.3g} m (standard error {k_diff_se:.3g} m)"
-    if track == "out-and-back":
-        note += (
-            f"; the split assumes a path curvature of {curvature_rad_per_m:.3g} rad/m "
-            "(from the robot's systematic errors; out-and-back runs cannot show it)"
-        )
+        return k_diff, k_diff_se, None, None, note
+    note = f"k_r - k_l = {k_diff:.3g} m (standard error {k_diff_se:.3g} m)"
+    return k_diff, k_diff_se, k_r, k_l, note
 
-    sd_th = math.sqrt(s2_th)
+
+def _systematic_spread(track: str, th: np.ndarray, spread: _Spread) -> list[str]:
+    """Obvious signs (more than 5 standard errors) that the spread is not purely random."""
+    severe = []
+    n, mean_th = spread.runs, spread.mean_th
     if track == "out-and-back":
-        t = mean_th / (sd_th / math.sqrt(n))
+        t = mean_th / (math.sqrt(spread.s2_th) / math.sqrt(n))
         if abs(t) > _OBVIOUS_SE:
             severe.append(
                 f"the mean heading error ({math.degrees(mean_th):+.4g} deg) is {abs(t):.1f} "
@@ -287,50 +353,41 @@ def estimate_k(
                 f"{100 * r2:.0f} % of their variance): a systematic part changed during the "
                 "session (battery, tyre temperature, floor); the spread overstates k"
             )
-    # lateral spread predicted from k_sum (plus the instrument) vs observed
+    return severe
+
+
+def _lateral_mismatch(
+    y: np.ndarray, k_sum: float, coef: tuple[np.ndarray, ...], var_m_xy: float
+) -> list[str]:
+    """A warning when the lateral spread disagrees with the one k_sum (plus the instrument)
+    predicts."""
     pred_y = k_sum * 0.5 * (coef[0][1, 1] + coef[1][1, 1]) + var_m_xy
     s2_y = float(np.var(y, ddof=1))
-    if pred_y > 0 and s2_y > 0:
-        # log of a ratio of two sample variances with correlation ~0.87 under the model:
-        # var(log ratio) ~ 4 (1 - rho^2) / (N - 1) = 1 / (N - 1)
-        z = math.log(s2_y / pred_y) * math.sqrt(dof)
-        if abs(z) > _LATERAL_SE:
-            warnings.append(
-                f"the lateral spread (std {math.sqrt(s2_y):.3g} m) is "
-                f"{math.sqrt(s2_y / pred_y):.2g} times what the heading spread predicts "
-                f"({math.sqrt(pred_y):.3g} m): "
-                + (
-                    "the start heading varies between runs (mark the start pose better), or the "
-                    "path is not a straight line"
-                    if s2_y > pred_y
-                    else "check the sign and frame of y and theta (start frame, +y left)"
-                )
-            )
-    if severe:
-        if strict:
-            raise CalibrationError(
-                severe[0] + " (use --force to estimate k anyway)"
-                if len(severe) == 1
-                else "; and ".join(severe) + " (use --force to estimate k anyway)"
-            )
-        warnings = severe + warnings
-    return NoiseEstimate(
-        track=track,
-        distance_m=d,
-        wheelbase_m=b,
-        runs=n,
-        k_sum_m=float(k_sum),
-        k_sum_ci95_m=(float(ci[0]), float(ci[1])),
-        k_diff_m=float(k_diff),
-        k_diff_se_m=float(k_diff_se),
-        k_r_m=None if k_r is None else float(k_r),
-        k_l_m=None if k_l is None else float(k_l),
-        split_note=note,
-        theta_mean_rad=mean_th,
-        theta_std_rad=sd_th,
-        measurement_var_theta_rad2=var_m_theta,
-        warnings=tuple(warnings),
-    )
+    if not (pred_y > 0 and s2_y > 0):
+        return []
+    # log of a ratio of two sample variances with correlation ~0.87 under the model:
+    # var(log ratio) ~ 4 (1 - rho^2) / (N - 1) = 1 / (N - 1)
+    z = math.log(s2_y / pred_y) * math.sqrt(len(y) - 1)
+    if abs(z) <= _LATERAL_SE:
+        return []
+    return [
+        f"the lateral spread (std {math.sqrt(s2_y):.3g} m) is "
+        f"{math.sqrt(s2_y / pred_y):.2g} times what the heading spread predicts "
+        f"({math.sqrt(pred_y):.3g} m): "
+        + (
+            "the start heading varies between runs (mark the start pose better), or the "
+            "path is not a straight line"
+            if s2_y > pred_y
+            else "check the sign and frame of y and theta (start frame, +y left)"
+        )
+    ]
+
+
+def _severe_first(severe: list[str], warnings: list[str], strict: bool) -> list[str]:
+    """Raise for obvious problems when ``strict``; else they lead the warnings."""
+    if severe and strict:
+        raise CalibrationError("; and ".join(severe) + " (use --force to estimate k anyway)")
+    return severe + warnings
 
 
 # --------------------------------------------------------------------------- recorded runs
@@ -341,7 +398,7 @@ _REPEAT_TRAVEL = 0.1
 _REPEAT_ROTATION_RAD = math.radians(30.0)
 
 
-def _kind_of_run(rec, total_rotation_rad: float) -> str:
+def _kind_of_run(rec: Recording, total_rotation_rad: float) -> str:
     """What a run is, for grouping repeats: its label, else its direction from the data."""
     if rec.label:
         return str(rec.label)
@@ -438,7 +495,7 @@ def _chi2_interval(ss_scaled: float, dof: int) -> tuple[float, float]:
 
 
 def estimate_k_from_recordings(
-    recordings,
+    recordings: Iterable[Recording],
     geometry: WheelGeometry,
     measurement: MeasurementNoise | None = None,
     *,
@@ -460,20 +517,85 @@ def estimate_k_from_recordings(
         A group whose heading errors drift with run order (more than 5 standard errors) is an
         error if True, a warning if False.
     """
+    b = float(geometry.wheelbase_m)
+    var_m = (measurement.sigma_theta_rad**2) if measurement else 0.0
+    skipped: list[str] = []
+    groups = _group_runs(recordings, geometry, skipped)
+    used = _repeats(groups, skipped)
+    pooled = _pool(used, b, var_m)
+    k_sum = b * b * (pooled.ss - 2 * var_m * pooled.dof) / pooled.denom
+    if k_sum <= 0:
+        raise CalibrationError(
+            "the heading spread of the repeats is not larger than the tracker's heading noise: "
+            "k cannot be resolved"
+        )
+    # chi-square interval of the pooled heading variance per unit travel, minus the tracker's
+    lo_ss, hi_ss = _chi2_interval(pooled.ss, pooled.dof)  # interval of the variance
+    scale = b * b * pooled.dof / pooled.denom
+    ci = (max(scale * (lo_ss - 2 * var_m), 0.0), max(scale * (hi_ss - 2 * var_m), 0.0))
+    warnings: list[str] = []
+    if pooled.dof < RECOMMENDED_RUNS - 1:
+        warnings.append(
+            f"only {pooled.dof} degrees of freedom: the 95 % interval spans a factor "
+            f"{ci[1] / max(ci[0], 1e-300):.3g}; more repeats narrow it"
+        )
+    warnings += _groups_off_the_pool(pooled.rows, k_sum)
+    # k_r - k_l from the x-theta and y-theta covariances (coefficients along each recorded path)
+    k_diff, k_diff_se, k_r, k_l, note = _split_recorded(used, k_sum)
+    warnings = _severe_first(pooled.severe, warnings, strict)
+    return RecordedNoise(
+        k_sum_m=float(k_sum),
+        k_sum_ci95_m=(float(ci[0]), float(ci[1])),
+        k_r_m=None if k_r is None else float(k_r),
+        k_l_m=None if k_l is None else float(k_l),
+        k_diff_m=None if k_diff is None else float(k_diff),
+        k_diff_se_m=None if k_diff_se is None else float(k_diff_se),
+        split_note=note,
+        runs=sum(len(rows) for _, rows in used),
+        dof=int(pooled.dof),
+        wheelbase_m=b,
+        measurement_var_theta_rad2=float(var_m),
+        groups=tuple(pooled.rows),
+        skipped=tuple(skipped),
+        warnings=tuple(warnings),
+    )
+
+
+@dataclass(frozen=True)
+class _RecordedRun:
+    """One recorded run: its final error (actual - odometric, start frame), total wheel travel
+    (m), heading change (rad) and final-pose covariance per unit k_r and per unit k_l."""
+
+    name: str
+    err: np.ndarray
+    travel: float
+    rotation: float
+    coef_r: np.ndarray
+    coef_l: np.ndarray
+
+
+_Group = tuple[tuple[str, str], list[_RecordedRun]]
+
+
+def _group_runs(
+    recordings: Iterable[Recording], geometry: WheelGeometry, skipped: list[str]
+) -> dict[tuple[str, str], list[_RecordedRun]]:
+    """The runs by (data set, kind of run), with the coefficients along each recorded path;
+    runs too short to use are listed in ``skipped``."""
     from pathlib import Path
 
     b = float(geometry.wheelbase_m)
-    var_m = (measurement.sigma_theta_rad**2) if measurement else 0.0
-    groups: dict[tuple[str, str], list] = {}
-    skipped: list[str] = []
+    scalar = WheelGeometry.unchecked(
+        float(geometry.diameter_right_m), float(geometry.diameter_left_m), b
+    )
+    groups: dict[tuple[str, str], list[_RecordedRun]] = {}
     for r in recordings:
         if r.ground_truth is None:
             raise CalibrationError(f"{r.name}: estimating k from recorded runs needs ground truth")
-        dr = np.diff(np.asarray(r.wheel_angle_right_rad, dtype=float)) * (
-            0.5 * float(geometry.diameter_right_m)
-        )
-        dl = np.diff(np.asarray(r.wheel_angle_left_rad, dtype=float)) * (
-            0.5 * float(geometry.diameter_left_m)
+        dr, dl = wheel_travel(
+            np.diff(np.asarray(r.wheel_angle_right_rad, dtype=float)),
+            np.diff(np.asarray(r.wheel_angle_left_rad, dtype=float)),
+            scalar,
         )
         if len(dr) < 1:
             skipped.append(f"{Path(r.name).name}: too short")
@@ -481,29 +603,24 @@ def estimate_k_from_recordings(
         mean, coef_r = propagate_increments(dr, dl, b, NonSystematicError(1.0, 0.0))
         _, coef_l = propagate_increments(dr, dl, b, NonSystematicError(0.0, 1.0))
         gt = np.asarray(r.ground_truth, dtype=float)
-        err = gt[-1] - mean
-        key = (
-            r.dataset,
-            _kind_of_run(r, float(gt[-1, 2] - gt[0, 2])),
-        )
-        groups.setdefault(key, []).append(
-            {
-                "name": r.name,
-                "err": err,
-                "travel": 0.5 * float(np.abs(dr).sum() + np.abs(dl).sum()),
-                "rotation": float(mean[2]),
-                "coef_r": coef_r,
-                "coef_l": coef_l,
-            }
-        )
-    used: list[tuple[tuple[str, str], list]] = []
+        key = (r.dataset, _kind_of_run(r, float(gt[-1, 2] - gt[0, 2])))
+        travel = 0.5 * float(np.abs(dr).sum() + np.abs(dl).sum())
+        run = _RecordedRun(r.name, gt[-1] - mean, travel, float(mean[2]), coef_r, coef_l)
+        groups.setdefault(key, []).append(run)
+    return groups
+
+
+def _repeats(groups: dict[tuple[str, str], list[_RecordedRun]], skipped: list[str]) -> list[_Group]:
+    """The groups that are repeats of one track (two or more runs of similar travel and
+    rotation); the others are listed in ``skipped``. None is an error."""
+    used: list[_Group] = []
     for key, rows in groups.items():
         label = f"{key[0]} {key[1]}"
         if len(rows) < 2:
             skipped.append(f"{label}: a single run (repeats are needed)")
             continue
-        travel = np.array([x["travel"] for x in rows])
-        rot = np.array([x["rotation"] for x in rows])
+        travel = np.array([x.travel for x in rows])
+        rot = np.array([x.rotation for x in rows])
         if np.ptp(travel) > _REPEAT_TRAVEL * travel.mean() or np.ptp(rot) > _REPEAT_ROTATION_RAD:
             skipped.append(
                 f"{label}: not repeats of one track (travel {travel.min():.3g}-{travel.max():.3g}"
@@ -518,16 +635,33 @@ def estimate_k_from_recordings(
             "folder): k needs the spread of repeats"
             + (f" ({'; '.join(skipped[:3])})" if skipped else "")
         )
+    return used
+
+
+@dataclass(frozen=True)
+class _Pooled:
+    """The pooled heading spread of the groups: the sum of squared deviations from the group
+    means (rad^2), its degrees of freedom, sum_g (n_g - 1) T_g (m), each group's own estimate
+    (the rows of ``RecordedNoise.groups``) and the groups whose headings drift."""
+
+    ss: float
+    dof: int
+    denom: float
+    rows: list[dict]
+    severe: list[str]
+
+
+def _pool(used: list[_Group], b: float, var_m: float) -> _Pooled:
+    """:class:`_Pooled` of the groups of repeats (``var_m``: the tracker's heading variance)."""
     ss = 0.0
     dof = 0
     denom = 0.0
     group_rows: list[dict] = []
-    warnings: list[str] = []
     severe: list[str] = []
     for key, rows in used:
-        th = np.array([x["err"][2] for x in rows])
+        th = np.array([x.err[2] for x in rows])
         n = len(th)
-        t_mean = float(np.mean([x["travel"] for x in rows]))
+        t_mean = float(np.mean([x.travel for x in rows]))
         ss_g = float(np.sum((th - th.mean()) ** 2))
         ss += ss_g
         dof += n - 1
@@ -554,84 +688,61 @@ def estimate_k_from_recordings(
                     f"({math.degrees(slope):+.3g} deg per run): a systematic part changed during "
                     "the session; the spread overstates k"
                 )
-    k_sum = b * b * (ss - 2 * var_m * dof) / denom
-    if k_sum <= 0:
-        raise CalibrationError(
-            "the heading spread of the repeats is not larger than the tracker's heading noise: "
-            "k cannot be resolved"
-        )
-    # chi-square interval of the pooled heading variance per unit travel, minus the tracker's
-    lo_ss, hi_ss = _chi2_interval(ss, dof)  # interval of the variance: ss / chi2 quantiles
-    scale = b * b * dof / denom
-    ci = (max(scale * (lo_ss - 2 * var_m), 0.0), max(scale * (hi_ss - 2 * var_m), 0.0))
-    if dof < RECOMMENDED_RUNS - 1:
-        warnings.append(
-            f"only {dof} degrees of freedom: the 95 % interval spans a factor "
-            f"{ci[1] / max(ci[0], 1e-300):.3g}; more repeats narrow it"
-        )
-    # does k depend on the track? groups whose own intervals exclude the pooled value
+    return _Pooled(ss, dof, denom, group_rows, severe)
+
+
+def _groups_off_the_pool(group_rows: list[dict], k_sum: float) -> list[str]:
+    """Does k depend on the track? A warning naming the groups whose own 95 % intervals
+    exclude the pooled value."""
     off = [g["group"] for g in group_rows if not g["k_sum_ci95"][0] <= k_sum <= g["k_sum_ci95"][1]]
-    if off:
-        warnings.append(
-            f"{len(off)} of {len(group_rows)} groups disagree with the pooled k at 95 % ("
-            + ", ".join(off[:4])
-            + (", ..." if len(off) > 4 else "")
-            + "): the random error does not grow with the travel as the model says (e.g. spot "
-            "turns or a floor that add their own scatter); the pooled k is an average"
-        )
-    # k_r - k_l from the x-theta and y-theta covariances (coefficients along each recorded path)
+    if not off:
+        return []
+    return [
+        f"{len(off)} of {len(group_rows)} groups disagree with the pooled k at 95 % ("
+        + ", ".join(off[:4])
+        + (", ..." if len(off) > 4 else "")
+        + "): the random error does not grow with the travel as the model says (e.g. spot "
+        "turns or a floor that add their own scatter); the pooled k is an average"
+    ]
+
+
+def _split_recorded(
+    used: list[_Group], k_sum: float
+) -> tuple[float | None, float | None, float | None, float | None, str]:
+    """k_r - k_l, its jackknife standard error, k_r and k_l (None where not identifiable) and
+    a note saying which."""
     k_diff, k_diff_se, note = _k_diff_recorded(used, k_sum)
-    k_r = k_l = None
     if k_diff is None:
-        pass
-    elif k_diff_se is None or k_diff_se > 0.25 * k_sum:
+        return None, k_diff_se, None, None, note
+    if k_diff_se is None or k_diff_se > 0.25 * k_sum:
         note = (
             f"k_r and k_l are not identifiable from these runs: k_r - k_l = {k_diff:.3g} m"
             + (f" has a standard error of {k_diff_se:.3g} m" if k_diff_se is not None else "")
             + ", more than a quarter of k_r + k_l; k_r = k_l = (k_r + k_l)/2 is the usual "
             "assumption"
         )
-    elif abs(k_diff) > k_sum:
+        return k_diff, k_diff_se, None, None, note
+    if abs(k_diff) > k_sum:
         note = f"k_r - k_l = {k_diff:.3g} m exceeds k_r + k_l: a negative k is not physical"
-    else:
-        k_r, k_l = 0.5 * (k_sum + k_diff), 0.5 * (k_sum - k_diff)
-        note = f"k_r - k_l = {k_diff:.3g} m (jackknife standard error {k_diff_se:.3g} m)"
-    if severe:
-        if strict:
-            raise CalibrationError("; and ".join(severe) + " (use --force to estimate k anyway)")
-        warnings = severe + warnings
-    return RecordedNoise(
-        k_sum_m=float(k_sum),
-        k_sum_ci95_m=(float(ci[0]), float(ci[1])),
-        k_r_m=None if k_r is None else float(k_r),
-        k_l_m=None if k_l is None else float(k_l),
-        k_diff_m=None if k_diff is None else float(k_diff),
-        k_diff_se_m=None if k_diff_se is None else float(k_diff_se),
-        split_note=note,
-        runs=sum(len(rows) for _, rows in used),
-        dof=int(dof),
-        wheelbase_m=b,
-        measurement_var_theta_rad2=float(var_m),
-        groups=tuple(group_rows),
-        skipped=tuple(skipped),
-        warnings=tuple(warnings),
-    )
+        return k_diff, k_diff_se, None, None, note
+    note = f"k_r - k_l = {k_diff:.3g} m (jackknife standard error {k_diff_se:.3g} m)"
+    return k_diff, k_diff_se, 0.5 * (k_sum + k_diff), 0.5 * (k_sum - k_diff), note
 
 
-def _k_diff_recorded(used, k_sum: float):
+def _k_diff_recorded(used: list[_Group], k_sum: float) -> tuple[float | None, float | None, str]:
     """k_r - k_l by least squares on the x-theta and y-theta sample covariances of every group,
     given k_sum; jackknife standard error over groups. Returns (k_diff, se, note)."""
 
-    def solve(parts):
+    def solve(parts: list[list[_RecordedRun]]) -> float | None:
         num = den = 0.0
         for rows in parts:
-            e = np.array([x["err"] for x in rows])
+            e = np.array([x.err for x in rows])
             n = len(e)
             if n < 2:
                 continue
             c = np.cov(e.T, ddof=1)
-            ar = np.mean([x["coef_r"] for x in rows], axis=0)
-            al = np.mean([x["coef_l"] for x in rows], axis=0)
+            ar = np.mean([x.coef_r for x in rows], axis=0)
+            al = np.mean([x.coef_l for x in rows], axis=0)
             mid, half = 0.5 * (ar + al), 0.5 * (ar - al)
             for i in (0, 1):
                 resid = c[i, 2] - k_sum * mid[i, 2]
@@ -652,7 +763,7 @@ def _k_diff_recorded(used, k_sum: float):
     return k_diff, se, ""
 
 
-def tracker_noise(recordings) -> MeasurementNoise:
+def tracker_noise(recordings: Iterable[Recording]) -> MeasurementNoise:
     """The tracker's noise per sample, from the jitter of its poses: second differences of the
     ground truth, x_(i+1) - 2 x_i + x_(i-1), have variance 6 sigma^2 for white noise on a smooth
     path; sigma = 1.4826 MAD / sqrt(6) over every sample of every run (robust to the robot's
@@ -673,7 +784,7 @@ def tracker_noise(recordings) -> MeasurementNoise:
             "the tracker noise needs runs with ground truth of 3 samples or more"
         )
 
-    def robust_sigma(parts):
+    def robust_sigma(parts: list[np.ndarray]) -> float:
         a = np.concatenate(parts)
         return float(1.4826 * np.median(np.abs(a - np.median(a))) / math.sqrt(6.0))
 

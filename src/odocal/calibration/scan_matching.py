@@ -26,9 +26,10 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.model import WheelGeometry
 from ..errors import CalibrationError, ModelError
@@ -170,7 +171,7 @@ class IntervalMatches:
 
 
 def scan_points(
-    ranges_m,
+    ranges_m: ArrayLike,
     angle_min_rad: float,
     angle_increment_rad: float,
     range_min_m: float,
@@ -204,7 +205,7 @@ def scan_points(
     return np.column_stack([r * np.cos(angles), r * np.sin(angles)])
 
 
-def _check_points(name: str, points) -> np.ndarray:
+def _check_points(name: str, points: ArrayLike) -> np.ndarray:
     p = np.asarray(points, dtype=float)
     if p.ndim != 2 or p.shape[1] != 2:
         raise ModelError(f"{name} must have shape (n, 2), got {p.shape}")
@@ -218,7 +219,7 @@ def _check_points(name: str, points) -> np.ndarray:
 
 
 def prepare_scan(
-    points_m,
+    points_m: ArrayLike,
     *,
     normal_neighbors: int = 7,
     normal_radius_m: float = 0.3,
@@ -273,9 +274,9 @@ def prepare_scan(
 
 
 def match_scans(
-    reference_points,
-    current_points,
-    initial_guess=(0.0, 0.0, 0.0),
+    reference_points: ArrayLike | PreparedScan,
+    current_points: ArrayLike,
+    initial_guess: ArrayLike = (0.0, 0.0, 0.0),
     *,
     max_correspondence_m: float = 0.3,
     max_iterations: int = 50,
@@ -455,7 +456,9 @@ class _Linearisation:
         return self.jacobian.T @ (self.weight * self.residual)
 
 
-def _linearise(ref: PreparedScan, cur: np.ndarray, pose: np.ndarray, opt: _Settings):
+def _linearise(
+    ref: PreparedScan, cur: np.ndarray, pose: np.ndarray, opt: _Settings
+) -> _Linearisation | None:
     """Correspondences, residuals, Jacobian and weights at ``pose``; None when fewer than 4
     current points have a reference line within the gate or none keeps a weight."""
     c, s = math.cos(pose[2]), math.sin(pose[2])
@@ -507,7 +510,9 @@ def _covariance(lin: _Linearisation, neighbors: float) -> np.ndarray | None:
     return 0.5 * (cov + cov.T)
 
 
-def _solve(hessian: np.ndarray, gradient: np.ndarray, lever_m: float):
+def _solve(
+    hessian: np.ndarray, gradient: np.ndarray, lever_m: float
+) -> tuple[np.ndarray, bool, np.ndarray]:
     """Gauss-Newton step (x, y, theta) from H step = g, whether a direction is unconstrained,
     and the diagonal of the (pseudo-)inverse of H. Directions the scene does not constrain
     (relative eigenvalue below DEGENERATE_RATIO, with theta scaled by ``lever_m``) get no
@@ -524,11 +529,11 @@ def _solve(hessian: np.ndarray, gradient: np.ndarray, lever_m: float):
 
 
 def match_intervals(
-    times_s,
+    times_s: ArrayLike,
     scans: Sequence[np.ndarray],
-    intervals,
-    initial_guesses=None,
-    **options,
+    intervals: ArrayLike,
+    initial_guesses: ArrayLike | None = None,
+    **options: Any,
 ) -> IntervalMatches:
     """Match the scans at the two ends of each interval.
 

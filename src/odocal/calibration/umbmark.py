@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.model import ModelError, WheelGeometry
 from ..core.runs import EndPoseRuns, check_both_directions
@@ -28,8 +29,13 @@ UMBMARK_FORMS = ("x", "y", "mean")
 
 
 def umbmark_factors(
-    cw_xy, ccw_xy, side_m, wheelbase_m, form: str = "mean", ed_wheelbase: str = "calibrated"
-):
+    cw_xy: ArrayLike,
+    ccw_xy: ArrayLike,
+    side_m: float | np.ndarray,
+    wheelbase_m: float | np.ndarray,
+    form: str = "mean",
+    ed_wheelbase: str = "calibrated",
+) -> tuple[np.ndarray, np.ndarray]:
     """E_b, E_d from mean final position errors; ``cw_xy``/``ccw_xy`` are (..., 2) arrays (m).
 
     Returns NaN where an equation is undefined.

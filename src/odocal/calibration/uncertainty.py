@@ -74,7 +74,7 @@ class CalibrationUncertainty:
         }
 
 
-def _num(v) -> float | None:
+def _num(v: float) -> float | None:
     v = float(v)
     return v if math.isfinite(v) else None
 

@@ -20,11 +20,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .model import MeasurementNoise, ModelError, NonSystematicError, Robot, WheelGeometry
-from .pose import compose
+from .odometry import Chord, arc_step, body_increments, midpoint_path, wheel_jacobian
 from .simulate import increments_per_segment, odometric_pose
 from .tracks import Track
 
@@ -97,7 +99,13 @@ def correlation(covariance: np.ndarray) -> np.ndarray:
     return r
 
 
-def _increments(track, true, believed, max_step_m, steps_per_segment):
+def _increments(
+    track: Track,
+    true: WheelGeometry,
+    believed: WheelGeometry,
+    max_step_m: float | None,
+    steps_per_segment: int | None,
+) -> tuple[np.ndarray, np.ndarray]:
     """True wheel travel per increment (dr, dl), shape (B..., K), as drive() makes them.
 
     As in drive(), a segment has the same number of increments for every batch element (set by
@@ -176,7 +184,12 @@ def propagate(
 
 
 def propagate_increments(
-    dr, dl, wheelbase_m, noise: NonSystematicError, *, integration: str = "midpoint"
+    dr: ArrayLike,
+    dl: ArrayLike,
+    wheelbase_m: float | np.ndarray,
+    noise: NonSystematicError,
+    *,
+    integration: str = "midpoint",
 ) -> tuple[np.ndarray, np.ndarray]:
     """Final pose and its first-order covariance for given TRUE wheel-travel increments.
 
@@ -189,26 +202,14 @@ def propagate_increments(
     dl = np.asarray(dl, dtype=float)
     b = np.asarray(wheelbase_m, dtype=float)[..., None]
     dr, dl, b = np.broadcast_arrays(dr, dl, b)
-    ds = 0.5 * (dr + dl)
-    dth = (dr - dl) / b
-    theta_after = np.cumsum(dth, axis=-1)
-    mid = theta_after - 0.5 * dth
-    c, s = np.cos(mid), np.sin(mid)
-    ds_eff = ds * np.sinc(dth / (2.0 * math.pi)) if integration == "exact" else ds
-    x_after = np.cumsum(ds_eff * c, axis=-1)
-    y_after = np.cumsum(ds_eff * s, axis=-1)
+    ds, dth = body_increments(dr, dl, b)
+    chord: Chord = "exact" if integration == "exact" else "none"
+    x_after, y_after, theta_after, c, s = midpoint_path(ds, dth, chord=chord)
     x_n, y_n = x_after[..., -1:], y_after[..., -1:]
     mean = np.stack([x_n[..., 0], y_n[..., 0], theta_after[..., -1]], axis=-1)
 
     # F_d (eq. 5.11), columns (right, left), per increment: shape (B..., K, 3, 2)
-    h = ds / (2.0 * b)
-    g = np.empty(ds.shape + (3, 2))
-    g[..., 0, 0] = 0.5 * c - h * s
-    g[..., 0, 1] = 0.5 * c + h * s
-    g[..., 1, 0] = 0.5 * s + h * c
-    g[..., 1, 1] = 0.5 * s - h * c
-    g[..., 2, 0] = 1.0 / b
-    g[..., 2, 1] = -1.0 / b
+    g = wheel_jacobian(ds, c, s, b)
     # transport to the end: rows x and y pick up -(y_N - y_i) and (x_N - x_i) times the theta row
     g[..., 0, :] -= (y_n - y_after)[..., None] * g[..., 2, :]
     g[..., 1, :] += (x_n - x_after)[..., None] * g[..., 2, :]
@@ -219,7 +220,7 @@ def propagate_increments(
     return mean, cov
 
 
-def predict(track: Track, robot: Robot, **options) -> PosePrediction:
+def predict(track: Track, robot: Robot, **options: Any) -> PosePrediction:
     """:func:`propagate` for ``robot`` (true geometry from its systematic errors, believed
     geometry from ``robot.believed`` or nominal, its wheel noise and instrument noise)."""
     return propagate(
@@ -244,12 +245,14 @@ def mean_final_pose(track: Track, true: WheelGeometry, believed: WheelGeometry) 
     pose = np.zeros(3)
     for seg in track.segments:
         s_hat_r, s_hat_l = seg.wheel_travel(believed.wheelbase_m)
-        s_r, s_l = s_hat_r * f_r, s_hat_l * f_l
-        pose = compose(pose, 0.5 * (s_r + s_l), (s_r - s_l) / true.wheelbase_m)
+        s_r, s_l = np.asarray(s_hat_r * f_r), np.asarray(s_hat_l * f_l)
+        pose = arc_step(pose, *body_increments(s_r, s_l, true.wheelbase_m))
     return pose
 
 
-def straight_line_covariance(distance_m: float, wheelbase_m: float, k_r_m: float, k_l_m: float):
+def straight_line_covariance(
+    distance_m: float, wheelbase_m: float, k_r_m: float, k_l_m: float
+) -> np.ndarray:
     """Closed-form covariance of a straight run of ``distance_m`` from zero covariance.
 
     In the robot frame (f forward, s left, theta), with K+ = k_r + k_l, K- = k_r - k_l (metres;

@@ -13,6 +13,7 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import ModelError
 
@@ -29,7 +30,7 @@ __all__ = [
 ]
 
 
-def _show(value, bad) -> str:
+def _show(value: ArrayLike, bad: np.ndarray) -> str:
     """``value`` for a one-line message: a scalar as is; of an array, the first bad element."""
     arr = np.asarray(value, dtype=float)
     if arr.ndim == 0:
@@ -38,13 +39,13 @@ def _show(value, bad) -> str:
     return f"{float(arr[bad].flat[0])!r} ({int(bad.sum())} of {arr.size} values)"
 
 
-def _finite(name: str, value) -> None:
+def _finite(name: str, value: ArrayLike) -> None:
     arr = np.asarray(value, dtype=float)
     if not np.all(np.isfinite(arr)):
         raise ModelError(f"{name} must be finite, got {_show(value, ~np.isfinite(arr))}")
 
 
-def check_positive(name: str, value) -> None:
+def check_positive(name: str, value: ArrayLike) -> None:
     """Raise ModelError unless every element of ``value`` is finite and > 0."""
     _finite(name, value)
     arr = np.asarray(value, dtype=float)
@@ -52,7 +53,7 @@ def check_positive(name: str, value) -> None:
         raise ModelError(f"{name} must be > 0, got {_show(value, ~(arr > 0))}")
 
 
-def check_nonnegative(name: str, value) -> None:
+def check_nonnegative(name: str, value: ArrayLike) -> None:
     """Raise ModelError unless every element of ``value`` is finite and >= 0."""
     _finite(name, value)
     arr = np.asarray(value, dtype=float)
@@ -60,7 +61,7 @@ def check_nonnegative(name: str, value) -> None:
         raise ModelError(f"{name} must be >= 0, got {_show(value, ~(arr >= 0))}")
 
 
-def wheel_factors(E_d):
+def wheel_factors(E_d: float | np.ndarray) -> tuple[float | np.ndarray, float | np.ndarray]:
     """Per-wheel diameter factors (c_R, c_L) = (2 E_d / (E_d + 1), 2 / (E_d + 1)) of a diameter
     ratio ``E_d`` (dimensionless; float or array): they change the ratio by ``E_d`` and keep the
     mean diameter (docs/conventions.md). The one place this formula is written."""
@@ -92,7 +93,12 @@ class WheelGeometry:
         check_positive("wheelbase_m", self.wheelbase_m)
 
     @classmethod
-    def unchecked(cls, diameter_right_m, diameter_left_m, wheelbase_m) -> WheelGeometry:
+    def unchecked(
+        cls,
+        diameter_right_m: float | np.ndarray,
+        diameter_left_m: float | np.ndarray,
+        wheelbase_m: float | np.ndarray,
+    ) -> WheelGeometry:
         """A geometry built without the checks (values may be batches, NaN or <= 0): for
         optimisers and Monte-Carlo batches, which check their results themselves."""
         obj = object.__new__(cls)
@@ -107,12 +113,12 @@ class WheelGeometry:
         return cls(wheel_diameter_m, wheel_diameter_m, wheelbase_m)
 
     @property
-    def mean_diameter_m(self):
+    def mean_diameter_m(self) -> float | np.ndarray:
         """Mean of the two wheel diameters (m)."""
         return 0.5 * (self.diameter_right_m + self.diameter_left_m)
 
     @property
-    def diameter_ratio(self):
+    def diameter_ratio(self) -> float | np.ndarray:
         """D_R / D_L (dimensionless)."""
         return self.diameter_right_m / self.diameter_left_m
 
@@ -126,7 +132,7 @@ class WheelGeometry:
         c_r, c_l = wheel_factors(error.E_d)
         return WheelGeometry(d_n * c_r, d_n * c_l, self.wheelbase_m * error.E_b)
 
-    def corrected(self, E_b, E_d) -> WheelGeometry:
+    def corrected(self, E_b: float | np.ndarray, E_d: float | np.ndarray) -> WheelGeometry:
         """Compose a calibration (E_b, E_d, relative to ``self``) with ``self``.
 
         c_R = 2 E_d/(E_d + 1), c_L = 2/(E_d + 1) multiply the diameters per wheel (so the new ratio
@@ -139,10 +145,10 @@ class WheelGeometry:
             wheelbase_m=self.wheelbase_m * E_b,
         )
 
-    def take(self, index) -> WheelGeometry:
+    def take(self, index: int | slice | np.ndarray) -> WheelGeometry:
         """Select one robot (or a sub-batch) from a batched geometry."""
 
-        def pick(v):
+        def pick(v: float | np.ndarray) -> float | np.ndarray:
             return np.asarray(v)[index] if np.ndim(v) else v
 
         return WheelGeometry(

@@ -1,33 +1,241 @@
-"""Dead reckoning: wheel rotations -> believed pose, with the midpoint update (model.md eq. 8)."""
+"""Dead reckoning: wheel rotations -> believed pose, with the midpoint update (model.md eq. 8).
+
+This module is the one home of the midpoint update
+
+    ds_i = dphi_i D_i / 2,  ds = (ds_R + ds_L) / 2,  dtheta = (ds_R - ds_L) / b,
+    x += ds cos(theta + dtheta/2),  y += ds sin(theta + dtheta/2),  theta += dtheta
+
+and of its exact-arc form (``ds`` times the chord factor sin(dtheta/2) / (dtheta/2), exact for
+constant wheel speeds within an increment). Every caller builds on the steps below:
+
+- :func:`wheel_travel` (wheel rotations to wheel travel) and :func:`body_increments` (wheel travel
+  to the centre's travel ``ds`` and heading change ``dtheta``);
+- :func:`midpoint_headings`, :func:`midpoint_poses` (every pose along the way; the core of
+  :func:`dead_reckon` and :func:`dead_reckon_rows`), :func:`midpoint_end` (the end pose only) and
+  :func:`midpoint_path` (headings, mid-heading cosines and positions, for covariance propagation);
+- :func:`arc_step` (one exact arc from a given pose) and :func:`arc_displacement` (one exact arc
+  from the origin); :func:`wheel_jacobian` (the update's derivative with respect to the wheel
+  travel, Siegwart's F_d).
+
+Two floating-point forms of the mid heading exist, one rounding apart: theta_before + dtheta/2
+(:func:`midpoint_headings`, :func:`midpoint_poses`) and theta_after - dtheta/2
+(:func:`midpoint_end`, :func:`midpoint_path`); and the end pose is summed pairwise
+(:func:`midpoint_end`) where the path is a cumulative sum. Both are kept, each where it was
+written, so that every printed number stays the same bit for bit; tests equate them to 1e-12.
+
+Speed-critical copies stay where they are, each with a test equating it to this kernel and a
+comment pointing here: the simulator's segment loop (``core/simulate.py``, Taylor polynomials
+per run), the trajectory fit's batched poses and derivatives (``calibration/trajectory.py``) and
+the real experiment's held-out final positions (``design/real_experiment.py``).
+"""
 
 from __future__ import annotations
 
+import math
+from typing import TYPE_CHECKING, Literal
+
 import numpy as np
+from numpy.typing import ArrayLike
 
-from .model import WheelGeometry
+from .model import ModelError, WheelGeometry
 
-__all__ = ["dead_reckon", "dead_reckon_rows", "final_error", "position_errors", "evaluate"]
+if TYPE_CHECKING:
+    from .recording import Recording
+
+__all__ = [
+    "wheel_travel",
+    "body_increments",
+    "midpoint_headings",
+    "midpoint_poses",
+    "midpoint_end",
+    "midpoint_path",
+    "chord_factor",
+    "chord_factor_series",
+    "arc_step",
+    "arc_position",
+    "arc_displacement",
+    "wheel_jacobian",
+    "dead_reckon",
+    "dead_reckon_rows",
+    "final_error",
+    "position_errors",
+    "evaluate",
+]
+
+Chord = Literal["none", "exact", "series"]
 
 
-def dead_reckon(angle_right_rad, angle_left_rad, geometry: WheelGeometry) -> np.ndarray:
+def wheel_travel(
+    increment_right_rad: ArrayLike, increment_left_rad: ArrayLike, geometry: WheelGeometry
+) -> tuple[np.ndarray, np.ndarray]:
+    """Wheel travel (m) of wheel-rotation increments (rad): ds_i = dphi_i D_i / 2.
+
+    The increments broadcast against the geometry's values (a batch of geometries of shape
+    (M, 1) with increments of shape (K,) gives shape (M, K)).
+    """
+    dr = np.asarray(increment_right_rad, dtype=float) * (0.5 * geometry.diameter_right_m)
+    dl = np.asarray(increment_left_rad, dtype=float) * (0.5 * geometry.diameter_left_m)
+    return dr, dl
+
+
+def body_increments(
+    travel_right_m: np.ndarray,
+    travel_left_m: np.ndarray,
+    wheelbase_m: float | np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The centre's travel ds = (ds_R + ds_L) / 2 (m) and heading change
+    dtheta = (ds_R - ds_L) / b (rad) of each increment (shapes broadcast)."""
+    return 0.5 * (travel_right_m + travel_left_m), (travel_right_m - travel_left_m) / wheelbase_m
+
+
+def midpoint_headings(dtheta_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Heading after each increment (cumulative sum along the last axis, from 0) and the mid
+    heading of each increment, theta_before + dtheta / 2 (rad); both of the input's shape."""
+    theta = np.cumsum(dtheta_rad, axis=-1)
+    before = np.zeros_like(theta)
+    before[..., 1:] = theta[..., :-1]
+    return theta, before + 0.5 * dtheta_rad
+
+
+def midpoint_poses(ds_m: np.ndarray, dtheta_rad: np.ndarray) -> np.ndarray:
+    """Every pose of the midpoint update over increments along the last axis (shape (..., K)),
+    from (0, 0, 0): shape (3, ..., K + 1) (x_m, y_m, theta_rad; column 0 the start).
+
+    Sums run along the last axis element after element, so that each row of a batch equals the
+    same increments integrated alone, bit for bit (zero padding at a row's end leaves its
+    earlier poses untouched)."""
+    ds = np.asarray(ds_m, dtype=float)
+    dth = np.asarray(dtheta_rad, dtype=float)
+    poses = np.empty((3, *ds.shape[:-1], ds.shape[-1] + 1))
+    poses[..., 0] = 0.0
+    np.cumsum(dth, axis=-1, out=poses[2, ..., 1:])
+    mid = poses[2, ..., :-1] + 0.5 * dth
+    np.cumsum(ds * np.cos(mid), axis=-1, out=poses[0, ..., 1:])
+    np.cumsum(ds * np.sin(mid), axis=-1, out=poses[1, ..., 1:])
+    return poses
+
+
+def chord_factor(dtheta_rad: np.ndarray) -> np.ndarray:
+    """sin(dtheta/2) / (dtheta/2): an exact arc's chord over its length (1 at dtheta = 0)."""
+    return np.sinc(dtheta_rad / (2.0 * math.pi))
+
+
+def chord_factor_series(dtheta_rad: np.ndarray) -> np.ndarray:
+    """:func:`chord_factor` without np.sinc's cost: its Taylor series to x^6 where
+    |dtheta| < 0.5 rad (error below 1e-10), else exact."""
+    x2 = 0.25 * dtheta_rad * dtheta_rad
+    out = 1.0 - x2 / 6.0 + x2 * x2 / 120.0 - x2 * x2 * x2 / 5040.0
+    big = np.abs(dtheta_rad) >= 0.5
+    if np.any(big):
+        half = 0.5 * dtheta_rad[big]
+        out[big] = np.sin(half) / half
+    return out
+
+
+def _chord(ds_m: np.ndarray, dtheta_rad: np.ndarray, chord: Chord) -> np.ndarray:
+    if chord == "exact":
+        return ds_m * chord_factor(dtheta_rad)
+    if chord == "series":
+        return ds_m * chord_factor_series(dtheta_rad)
+    return ds_m
+
+
+def midpoint_end(ds_m: np.ndarray, dtheta_rad: np.ndarray, *, chord: Chord = "none") -> np.ndarray:
+    """End pose (x_m, y_m, theta_rad) of consecutive increments along the last axis, from the
+    origin: shape (..., 3). Mid heading theta_after - dtheta/2, positions summed pairwise
+    (np.sum). ``chord``: 'exact' or 'series' integrates each increment as an exact arc
+    (:func:`chord_factor`, :func:`chord_factor_series`); 'none' is eq. 8."""
+    theta = np.cumsum(dtheta_rad, axis=-1)
+    mid = theta - 0.5 * dtheta_rad
+    ds = _chord(ds_m, dtheta_rad, chord)
+    x = np.sum(ds * np.cos(mid), axis=-1)
+    y = np.sum(ds * np.sin(mid), axis=-1)
+    end = theta[..., -1] if theta.shape[-1] else np.zeros(theta.shape[:-1])
+    return np.stack([x, y, end], axis=-1)
+
+
+def midpoint_path(
+    ds_m: np.ndarray, dtheta_rad: np.ndarray, *, chord: Chord = "none"
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The path of consecutive increments along the last axis, from the origin: x, y, theta
+    after each increment and cos, sin of each increment's mid heading theta_after - dtheta/2
+    (all of the input's shape), as covariance propagation needs them. ``chord`` as in
+    :func:`midpoint_end`."""
+    theta = np.cumsum(dtheta_rad, axis=-1)
+    mid = theta - 0.5 * dtheta_rad
+    c, s = np.cos(mid), np.sin(mid)
+    ds = _chord(ds_m, dtheta_rad, chord)
+    return np.cumsum(ds * c, axis=-1), np.cumsum(ds * s, axis=-1), theta, c, s
+
+
+def arc_step(pose: ArrayLike, distance_m: ArrayLike, angle_rad: ArrayLike) -> np.ndarray:
+    """Exact pose after a constant-curvature motion (distance m, heading change rad) from
+    ``pose`` (shape (..., 3)); ``distance_m`` and ``angle_rad`` broadcast against pose[..., 0]."""
+    pose = np.asarray(pose, dtype=float)
+    distance = np.asarray(distance_m, dtype=float)
+    angle = np.asarray(angle_rad, dtype=float)
+    chord = distance * chord_factor(angle)  # d sin(a/2)/(a/2)
+    mid = pose[..., 2] + 0.5 * angle
+    return np.stack(
+        np.broadcast_arrays(
+            pose[..., 0] + chord * np.cos(mid),
+            pose[..., 1] + chord * np.sin(mid),
+            pose[..., 2] + angle,
+        ),
+        axis=-1,
+    )
+
+
+def arc_position(distance_m: np.ndarray, angle_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Exact constant-curvature position change from the origin: (d sin(a)/a, d (1 - cos a)/a)
+    (m), written with sin(a)/a and (1 - cos a)/a = (a/2) sinc(a/2)^2 so that it is stable at
+    a = 0; shapes of the inputs."""
+    sinc = np.sinc(angle_rad / np.pi)
+    half = np.sinc(angle_rad / (2 * np.pi))
+    return distance_m * sinc, distance_m * 0.5 * angle_rad * half * half
+
+
+def arc_displacement(distance_m: np.ndarray, angle_rad: np.ndarray) -> np.ndarray:
+    """:func:`arc_position` and the heading change, shape (n, 3) (x_m, y_m, theta_rad)."""
+    return np.column_stack([*arc_position(distance_m, angle_rad), angle_rad])
+
+
+def wheel_jacobian(
+    ds_m: np.ndarray, cos_mid: np.ndarray, sin_mid: np.ndarray, wheelbase_m: float | np.ndarray
+) -> np.ndarray:
+    """Derivative of one midpoint step (dx, dy, dtheta; start frame) with respect to the wheel
+    travel (ds_R, ds_L): Siegwart's F_d (eq. 5.11), shape (..., 3, 2) for inputs of shape (...)
+    (``cos_mid``, ``sin_mid`` of the mid heading)."""
+    b = wheelbase_m
+    h = ds_m / (2.0 * b)
+    g = np.empty(np.shape(ds_m) + (3, 2))
+    g[..., 0, 0] = 0.5 * cos_mid - h * sin_mid
+    g[..., 0, 1] = 0.5 * cos_mid + h * sin_mid
+    g[..., 1, 0] = 0.5 * sin_mid + h * cos_mid
+    g[..., 1, 1] = 0.5 * sin_mid - h * cos_mid
+    g[..., 2, 0] = 1.0 / b
+    g[..., 2, 1] = -1.0 / b
+    return g
+
+
+def dead_reckon(
+    angle_right_rad: ArrayLike, angle_left_rad: ArrayLike, geometry: WheelGeometry
+) -> np.ndarray:
     """Integrate cumulative wheel angles (rad, shape (K,)) into poses, shape (K, 3).
 
     ds_i = dphi_i D_i / 2; ds = (ds_R + ds_L)/2; dtheta = (ds_R - ds_L)/b;
     x += ds cos(theta + dtheta/2), y += ds sin(theta + dtheta/2). Starts at (0, 0, 0).
     """
-    dr = np.diff(np.asarray(angle_right_rad, dtype=float)) * (0.5 * geometry.diameter_right_m)
-    dl = np.diff(np.asarray(angle_left_rad, dtype=float)) * (0.5 * geometry.diameter_left_m)
-    ds = 0.5 * (dr + dl)
-    dth = (dr - dl) / geometry.wheelbase_m
-    theta = np.concatenate([[0.0], np.cumsum(dth)])
-    mid = theta[:-1] + 0.5 * dth
-    x = np.concatenate([[0.0], np.cumsum(ds * np.cos(mid))])
-    y = np.concatenate([[0.0], np.cumsum(ds * np.sin(mid))])
-    return np.column_stack([x, y, theta])
+    dr, dl = wheel_travel(
+        np.diff(np.asarray(angle_right_rad, dtype=float)),
+        np.diff(np.asarray(angle_left_rad, dtype=float)),
+        geometry,
+    )
+    return np.ascontiguousarray(midpoint_poses(*body_increments(dr, dl, geometry.wheelbase_m)).T)
 
 
 def dead_reckon_rows(
-    increment_right_rad, increment_left_rad, geometry: WheelGeometry
+    increment_right_rad: ArrayLike, increment_left_rad: ArrayLike, geometry: WheelGeometry
 ) -> np.ndarray:
     """:func:`dead_reckon` of many runs at once, bit for bit: one run per row.
 
@@ -38,17 +246,8 @@ def dead_reckon_rows(
     operations of :func:`dead_reckon` in the same order on every element, so that row r up to
     its own length equals ``dead_reckon`` of that run exactly.
     """
-    dr = np.asarray(increment_right_rad, dtype=float) * (0.5 * geometry.diameter_right_m)
-    dl = np.asarray(increment_left_rad, dtype=float) * (0.5 * geometry.diameter_left_m)
-    ds = 0.5 * (dr + dl)
-    dth = (dr - dl) / geometry.wheelbase_m
-    poses = np.empty((3, dr.shape[0], dr.shape[1] + 1))
-    poses[:, :, 0] = 0.0
-    np.cumsum(dth, axis=1, out=poses[2, :, 1:])
-    mid = poses[2, :, :-1] + 0.5 * dth
-    np.cumsum(ds * np.cos(mid), axis=1, out=poses[0, :, 1:])
-    np.cumsum(ds * np.sin(mid), axis=1, out=poses[1, :, 1:])
-    return poses
+    dr, dl = wheel_travel(increment_right_rad, increment_left_rad, geometry)
+    return midpoint_poses(*body_increments(dr, dl, geometry.wheelbase_m))
 
 
 def final_error(ground_truth: np.ndarray, odometry: np.ndarray) -> np.ndarray:
@@ -61,7 +260,7 @@ def position_errors(ground_truth: np.ndarray, odometry: np.ndarray) -> np.ndarra
     return np.hypot(ground_truth[:, 0] - odometry[:, 0], ground_truth[:, 1] - odometry[:, 1])
 
 
-def evaluate(recording, geometry: WheelGeometry) -> dict:
+def evaluate(recording: Recording, geometry: WheelGeometry) -> dict:
     """Dead-reckon ``recording`` with ``geometry`` and compare with its ground truth.
 
     Returns final and maximum position error (m) and final and maximum heading error (rad, abs).
@@ -70,6 +269,8 @@ def evaluate(recording, geometry: WheelGeometry) -> dict:
     """
     odo = dead_reckon(recording.wheel_angle_right_rad, recording.wheel_angle_left_rad, geometry)
     gt = recording.ground_truth
+    if gt is None:
+        raise ModelError(f"{recording.name}: evaluating a geometry needs ground truth")
     valid = recording.meta.get("truth_samples") if recording.meta else None
     if valid is not None:
         gt, odo = gt[valid], odo[valid]

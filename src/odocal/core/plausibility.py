@@ -19,6 +19,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .covariance import mean_final_pose
 from .model import Robot, SystematicError, WheelGeometry
@@ -102,7 +103,11 @@ def end_error_bounds(
     )
 
 
-def proportions_problem(diameter_right_m, diameter_left_m, wheelbase_m) -> str | None:
+def proportions_problem(
+    diameter_right_m: float | np.ndarray,
+    diameter_left_m: float | np.ndarray,
+    wheelbase_m: float | np.ndarray,
+) -> str | None:
     """Wheel diameters (m) against the wheelbase (m): None if plausible, else why not."""
     lo, hi = DIAMETER_PER_WHEELBASE
     b = float(np.mean(wheelbase_m))
@@ -129,7 +134,7 @@ def track_size_problem(wheelbase_m: float, side_m: float, what: str = "track") -
     return None
 
 
-def wrap_heading_error(theta_rad):
+def wrap_heading_error(theta_rad: ArrayLike) -> np.ndarray:
     """Heading errors wrapped into [-pi, pi) (rad; arrays keep their shape).
 
     The final heading error of a closed run is the small deviation from the commanded total turn.

@@ -3,40 +3,29 @@ frame (docs/conventions.md: +x the start heading, +y to the left, theta CCW posi
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
+from numpy.typing import ArrayLike
+
+from .odometry import arc_step
+from .transforms import se2_relative
 
 __all__ = ["compose", "start_frame"]
 
 
-def compose(pose: np.ndarray, distance, angle) -> np.ndarray:
+def compose(pose: ArrayLike, distance: ArrayLike, angle: ArrayLike) -> np.ndarray:
     """Exact pose after a constant-curvature motion (distance m, heading change rad).
 
-    ``pose`` has shape (..., 3); ``distance`` and ``angle`` broadcast against pose[..., 0].
+    ``pose`` has shape (..., 3); ``distance`` and ``angle`` broadcast against pose[..., 0]. The
+    exact-arc step of the dead-reckoning kernel (:func:`odocal.core.odometry.arc_step`).
     """
-    pose = np.asarray(pose, dtype=float)
-    distance = np.asarray(distance, dtype=float)
-    angle = np.asarray(angle, dtype=float)
-    chord = distance * np.sinc(angle / (2.0 * math.pi))  # d sin(a/2)/(a/2)
-    mid = pose[..., 2] + 0.5 * angle
-    return np.stack(
-        np.broadcast_arrays(
-            pose[..., 0] + chord * np.cos(mid),
-            pose[..., 1] + chord * np.sin(mid),
-            pose[..., 2] + angle,
-        ),
-        axis=-1,
-    )
+    return arc_step(pose, distance, angle)
 
 
-def start_frame(x, y, theta_rad) -> np.ndarray:
+def start_frame(x: ArrayLike, y: ArrayLike, theta_rad: ArrayLike) -> np.ndarray:
     """Poses re-expressed relative to the first one: shape (K, 3), first row (0, 0, 0).
 
     ``x``, ``y`` (m) and ``theta_rad`` (rad, unwrapped) have shape (K,); the heading keeps its
     unwrapping (only the first heading is subtracted).
     """
-    x, y, th = (np.asarray(v, dtype=float) for v in (x, y, theta_rad))
-    c, s = math.cos(th[0]), math.sin(th[0])
-    dx, dy = x - x[0], y - y[0]
-    return np.column_stack([c * dx + s * dy, -s * dx + c * dy, th - th[0]])
+    poses = np.column_stack([np.asarray(v, dtype=float) for v in (x, y, theta_rad)])
+    return se2_relative(poses[0], poses, wrap=False)

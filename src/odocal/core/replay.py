@@ -20,13 +20,17 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .model import ModelError, NonSystematicError, WheelGeometry
+from .odometry import body_increments, midpoint_end, wheel_travel
 
 __all__ = ["chunk_rotations", "replay_final_errors"]
 
 
-def chunk_rotations(angle_right_rad, angle_left_rad, max_chunk_rad: float) -> np.ndarray:
+def chunk_rotations(
+    angle_right_rad: ArrayLike, angle_left_rad: ArrayLike, max_chunk_rad: float
+) -> np.ndarray:
     """Cumulative wheel angles at chunk boundaries, shape (C + 1, 2) (right, left; rad), from
     cumulative angles of shape (K,) (module docstring)."""
     if not (math.isfinite(max_chunk_rad) and max_chunk_rad > 0):
@@ -61,24 +65,22 @@ def chunk_rotations(angle_right_rad, angle_left_rad, max_chunk_rad: float) -> np
     return a[keep]
 
 
-def _chord_factor(dth):
-    """sin(dth/2) / (dth/2), the chord of an arc over its length (np.sinc without its cost):
-    its Taylor series to x^6 where |dth| < 0.5 rad (error below 1e-10), else exact."""
-    x2 = 0.25 * dth * dth
-    out = 1.0 - x2 / 6.0 + x2 * x2 / 120.0 - x2 * x2 * x2 / 5040.0
-    big = np.abs(dth) >= 0.5
-    if np.any(big):
-        half = 0.5 * dth[big]
-        out[big] = np.sin(half) / half
-    return out
+def _scalar(geometry: WheelGeometry) -> WheelGeometry:
+    """``geometry`` with its values as Python floats."""
+    return WheelGeometry.unchecked(
+        float(geometry.diameter_right_m),
+        float(geometry.diameter_left_m),
+        float(geometry.wheelbase_m),
+    )
 
 
-def _arc_end(ds, dth):
-    """End positions of consecutive exact arcs (ds, dth: shape (..., C)) from the origin."""
-    theta_after = np.cumsum(dth, axis=-1)
-    mid = theta_after - 0.5 * dth
-    ds_eff = ds * _chord_factor(dth)
-    return (ds_eff * np.cos(mid)).sum(axis=-1), (ds_eff * np.sin(mid)).sum(axis=-1)
+def _end_position(
+    travel_right_m: np.ndarray, travel_left_m: np.ndarray, wheelbase_m: float | np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """End positions (x_m, y_m) of consecutive exact arcs (wheel travel: shape (..., C)) from
+    the origin."""
+    end = midpoint_end(*body_increments(travel_right_m, travel_left_m, wheelbase_m), chord="series")
+    return end[..., 0], end[..., 1]
 
 
 def replay_final_errors(
@@ -119,23 +121,22 @@ def replay_final_errors(
     m, t = shape
     if not noise.is_zero and rng is None:
         raise ModelError("a numpy.random.Generator is needed to simulate noise")
-    s_r = dphi[:, 0] * (0.5 * float(true.diameter_right_m))
-    s_l = dphi[:, 1] * (0.5 * float(true.diameter_left_m))
+    s_r, s_l = wheel_travel(dphi[:, 0], dphi[:, 1], _scalar(true))
     s_r = np.broadcast_to(s_r, (t, len(s_r))).copy()
     s_l = np.broadcast_to(s_l, (t, len(s_l))).copy()
     if noise.k_r_m > 0 and rng is not None:
         s_r += np.sqrt(noise.k_r_m * np.abs(s_r)) * rng.standard_normal(s_r.shape)
     if noise.k_l_m > 0 and rng is not None:
         s_l += np.sqrt(noise.k_l_m * np.abs(s_l)) * rng.standard_normal(s_l.shape)
-    x_t, y_t = _arc_end(0.5 * (s_r + s_l), (s_r - s_l) / float(true.wheelbase_m))  # (T,)
+    x_t, y_t = _end_position(s_r, s_l, float(true.wheelbase_m))  # (T,)
 
     d_r = np.broadcast_to(np.asarray(calibrated.diameter_right_m, dtype=float), shape)
     d_l = np.broadcast_to(np.asarray(calibrated.diameter_left_m, dtype=float), shape)
     b = np.broadcast_to(np.asarray(calibrated.wheelbase_m, dtype=float), shape)
     out = np.empty(shape)
     for i in range(m):  # one calibration row at a time: (T, C) work arrays
-        o_r = 0.5 * d_r[i][:, None] * dphi[:, 0]
-        o_l = 0.5 * d_l[i][:, None] * dphi[:, 1]
-        x_o, y_o = _arc_end(0.5 * (o_r + o_l), (o_r - o_l) / b[i][:, None])
+        row = WheelGeometry.unchecked(d_r[i][:, None], d_l[i][:, None], b[i][:, None])
+        o_r, o_l = wheel_travel(dphi[:, 0], dphi[:, 1], row)
+        x_o, y_o = _end_position(o_r, o_l, row.wheelbase_m)
         out[i] = np.hypot(x_t - x_o, y_t - y_o)
     return out

@@ -24,8 +24,9 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -89,7 +90,10 @@ MAX_RUN_INCREMENTS = 2_000_000_000
 
 
 def increments_per_segment(
-    s_r, s_l, max_step_m: float | None, steps_per_segment: int | None = None
+    s_r: float | np.ndarray,
+    s_l: float | np.ndarray,
+    max_step_m: float | None,
+    steps_per_segment: int | None = None,
 ) -> int:
     """Increments a segment of wheel travel ``s_r``, ``s_l`` (m; scalars or arrays) is split into:
     ``steps_per_segment`` if given, else enough that no increment exceeds ``max_step_m`` (m)."""
@@ -169,7 +173,15 @@ def final_headings(
 
 
 def _simulate(
-    track, true, believed, noise, runs, rng, options, trajectory, heading_only
+    track: Track,
+    true: WheelGeometry,
+    believed: WheelGeometry,
+    noise: NonSystematicError,
+    runs: int,
+    rng: np.random.Generator | None,
+    options: tuple[float | None, int | None, str],
+    trajectory: bool | Sequence[int] | np.ndarray,
+    heading_only: bool,
 ) -> SimulationResult:
     """:func:`drive` (and, with ``heading_only``, :func:`final_headings`: the positions stay 0)."""
     max_step_m, steps_per_segment, integration = options
@@ -188,7 +200,7 @@ def _simulate(
             "simulation): use fewer runs"
         )
 
-    def batch(v):
+    def batch(v: float | np.ndarray) -> np.ndarray:
         return np.broadcast_to(np.asarray(v, dtype=float), (runs,))
 
     # per-wheel travel factor true/believed and true wheelbase, shape (runs,)
@@ -241,7 +253,7 @@ def _simulate(
             heading_only,
         )
 
-    def run_group(group) -> None:
+    def run_group(group: Iterable[int]) -> None:
         for i in group:
             run_block(i)
 
@@ -276,7 +288,7 @@ _PROCESS_INCREMENTS = 1 << 22
 _CHUNK = 1 << 14
 
 
-def _recorded(trajectory, total: int) -> np.ndarray | None:
+def _recorded(trajectory: bool | Sequence[int] | np.ndarray, total: int) -> np.ndarray | None:
     """The increment counts whose poses are recorded (0 .. total), or None."""
     if trajectory is True:
         return np.arange(total + 1)
@@ -330,7 +342,9 @@ def _accumulate(x: np.ndarray) -> np.ndarray:
 _ROW_LOOP = 32
 
 
-def _wheel_noise(rng, k_m: float, scale: np.ndarray, n: int) -> np.ndarray | None:
+def _wheel_noise(
+    rng: np.random.Generator | None, k_m: float, scale: np.ndarray, n: int
+) -> np.ndarray | None:
     """The noise of one wheel's travel over ``n`` increments: ``scale`` (m, sqrt(k |a|) for a
     mean travel a per increment; shape (runs,)) times standard normals, shape (n, runs); None
     without noise."""
@@ -353,7 +367,17 @@ def _cos_sin(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return _series(u, _COS[: _terms(largest, _COS)], np.empty_like(u)), sin_x
 
 
-def _drive_block(segments, b_true, noise, rng, exact, pose, record, traj, heading_only) -> None:
+def _drive_block(
+    segments: list[tuple[np.ndarray, np.ndarray, int]],
+    b_true: np.ndarray,
+    noise: NonSystematicError,
+    rng: np.random.Generator | None,
+    exact: bool,
+    pose: np.ndarray,
+    record: np.ndarray | None,
+    traj: np.ndarray | None,
+    heading_only: bool,
+) -> None:
     """Drive one block of runs (rows of ``pose``, updated in place) through ``segments``.
 
     Per segment of n increments, runs are taken a few at a time (passes of about _CHUNK
@@ -372,6 +396,9 @@ def _drive_block(segments, b_true, noise, rng, exact, pose, record, traj, headin
     (one angle per increment, not per run): only e_k, which is small, is left per run, and its
     cos and sin are Taylor polynomials accurate to the last bit; likewise the sin(x)/x of the
     exact arcs and, on straight legs, cos and sin of the whole mid heading.
+
+    This is the midpoint update of :mod:`odocal.core.odometry` (its one home), unrolled by
+    segment for speed; tests/test_odometry.py equates the two.
     """
     start = 0  # increments driven before the segment
     for s_r, s_l, n in segments:
@@ -481,7 +508,7 @@ def simulate(
     robot: Robot,
     runs: int,
     rng: np.random.Generator | None,
-    **options,
+    **options: Any,
 ) -> SimulationResult:
     """Drive ``track`` ``runs`` times with ``robot`` (true geometry from its systematic errors,
     believed geometry from ``robot.believed`` or nominal). Options as in :func:`drive`.

@@ -24,6 +24,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import ModelError
 
@@ -253,7 +254,7 @@ def ttest_from_stats(
     )
 
 
-def ttest_samples(a, b, equal_var: bool = False) -> TTest:
+def ttest_samples(a: ArrayLike, b: ArrayLike, equal_var: bool = False) -> TTest:
     """t-test of sample ``a`` against sample ``b`` (1-D arrays of finite values)."""
     a = np.asarray(a, dtype=float).ravel()
     b = np.asarray(b, dtype=float).ravel()
@@ -273,22 +274,22 @@ def ttest_samples(a, b, equal_var: bool = False) -> TTest:
     )
 
 
-def ttest_paired(a, b) -> TTest:
+def ttest_paired(a: ArrayLike, b: ArrayLike) -> TTest:
     """Paired t-test of ``a`` against ``b`` (1-D arrays of equal length; pairs with a non-finite
     member are left out). ``std_a``/``std_b`` are the groups' own spreads; the test uses the
     spread of the differences."""
-    a = np.asarray(a, dtype=float).ravel()
-    b = np.asarray(b, dtype=float).ravel()
-    if a.shape != b.shape:
+    xa = np.asarray(a, dtype=float).ravel()
+    xb = np.asarray(b, dtype=float).ravel()
+    if xa.shape != xb.shape:
         raise ModelError(
-            f"a paired t-test needs samples of equal length, got {a.size} and {b.size}"
+            f"a paired t-test needs samples of equal length, got {xa.size} and {xb.size}"
         )
-    ok = np.isfinite(a) & np.isfinite(b)
-    a, b = a[ok], b[ok]
-    n = int(a.size)
+    ok = np.isfinite(xa) & np.isfinite(xb)
+    xa, xb = xa[ok], xb[ok]
+    n = int(xa.size)
     if n < 2:
         raise ModelError(f"a paired t-test needs at least 2 finite pairs, got {n}")
-    d = a - b
+    d = xa - xb
     diff, sd = float(d.mean()), float(d.std(ddof=1))
     df = float(n - 1)
     if sd > 0:
@@ -307,16 +308,16 @@ def ttest_paired(a, b) -> TTest:
         p_two,
         p_less,
         p_greater,
-        float(a.mean()),
-        float(b.mean()),
-        float(a.std(ddof=1)),
-        float(b.std(ddof=1)),
+        float(xa.mean()),
+        float(xb.mean()),
+        float(xa.std(ddof=1)),
+        float(xb.std(ddof=1)),
         n,
         n,
     )
 
 
-def circular_mean(angles_rad, axis=-1):
+def circular_mean(angles_rad: ArrayLike, axis: int = -1) -> np.ndarray:
     """Circular mean of unwrapped angles that keeps their unwrapped scale.
 
     The mean direction is taken relative to the arithmetic mean, so a set of errors near -2 pi

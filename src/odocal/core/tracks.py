@@ -62,13 +62,15 @@ class Segment:
             return "straight"
         return "turn" if d0 else "arc"
 
-    def wheel_travel(self, wheelbase_m):
+    def wheel_travel(
+        self, wheelbase_m: float | np.ndarray
+    ) -> tuple[float | np.ndarray, float | np.ndarray]:
         """Believed wheel travel (s_R, s_L) in m for a robot believing ``wheelbase_m``."""
         half = 0.5 * self.angle_rad * wheelbase_m
         return self.distance_m + half, self.distance_m - half
 
 
-def straight(distance_m: float) -> Segment:
+def straight(distance_m: float | np.ndarray) -> Segment:
     """Drive straight for ``distance_m`` (m; negative = backwards)."""
     return Segment(distance_m, 0.0)
 
@@ -98,12 +100,12 @@ class Track:
             raise ModelError("a track needs at least one segment")
 
     @property
-    def travel_m(self):
+    def travel_m(self) -> float | np.ndarray:
         """Total believed axle-centre distance (m)."""
         return sum(np.abs(s.distance_m) for s in self.segments)
 
     @property
-    def rotation_rad(self):
+    def rotation_rad(self) -> float | np.ndarray:
         """Total signed believed heading change (rad)."""
         return sum(s.angle_rad for s in self.segments)
 
@@ -144,7 +146,7 @@ class Track:
 MAX_POLYGON_SIDES = 1000
 
 
-def polygon(sides: int, side_m, direction: str) -> Track:
+def polygon(sides: int, side_m: float | np.ndarray, direction: str) -> Track:
     """Regular N-gon: N times (straight ``side_m``, spot turn of 2 pi / N), left turns for 'ccw',
     right turns for 'cw'. UMBmark is ``polygon(4, 4.0, ...)``. ``side_m`` may be an array."""
     if not isinstance(sides, (int, np.integer)) or sides < 3:

@@ -32,7 +32,8 @@ enforces the one-parent tree. The buffer here is a few hundred lines on
 
 Planar helpers (SE(2)), for a robot on the floor: :func:`planar_pose` projects 3D transforms to
 (x_m, y_m, yaw_rad); :func:`se2_relative` gives the motion of pose b seen from pose a (in a's
-frame); :func:`se2_compose`, :func:`se2_inverse`, :func:`wrap_angle`. Frames and signs follow
+frame); :func:`se2_compose`, :func:`se2_inverse`, :func:`se2_conjugate` (a motion seen from a
+frame mounted on the moving body), :func:`wrap_angle`. Frames and signs follow
 docs/conventions.md (REP-103: x forward, y left, z up, yaw counter-clockwise positive).
 
 Errors: data problems (unknown frame, disconnected trees, times outside the data, a frame with two
@@ -48,6 +49,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InputError, ModelError
 
@@ -55,7 +57,7 @@ if TYPE_CHECKING:
     from scipy.spatial.transform import Rotation
 
 
-def _rotation():
+def _rotation() -> type[Rotation]:
     """scipy's Rotation class, imported when first needed (scipy.spatial takes long to import)."""
     from scipy.spatial.transform import Rotation
 
@@ -74,6 +76,7 @@ __all__ = [
     "se2_compose",
     "se2_inverse",
     "se2_relative",
+    "se2_conjugate",
 ]
 
 
@@ -131,7 +134,7 @@ class RigidTransforms:
         return obj
 
     @classmethod
-    def from_rotation(cls, translation_m, rotation: Rotation) -> RigidTransforms:
+    def from_rotation(cls, translation_m: ArrayLike, rotation: Rotation) -> RigidTransforms:
         """From translations (m), shape (n, 3), and a scipy Rotation of n rotations."""
         t = np.array(translation_m, dtype=float, ndmin=2)
         q = np.atleast_2d(rotation.as_quat())
@@ -147,7 +150,7 @@ class RigidTransforms:
         return cls._trusted(np.zeros((n, 3)), q)
 
     @classmethod
-    def from_matrix(cls, matrix) -> RigidTransforms:
+    def from_matrix(cls, matrix: ArrayLike) -> RigidTransforms:
         """From homogeneous matrices, shape (n, 4, 4) or (4, 4)."""
         m = np.array(matrix, dtype=float)
         if m.ndim == 2:
@@ -159,7 +162,7 @@ class RigidTransforms:
     def __len__(self) -> int:
         return len(self.translation_m)
 
-    def __getitem__(self, index) -> RigidTransforms:
+    def __getitem__(self, index: int | slice | np.ndarray) -> RigidTransforms:
         t = np.array(self.translation_m[index], ndmin=2)
         q = np.array(self.quaternion_xyzw[index], ndmin=2)
         return RigidTransforms._trusted(t, q)
@@ -193,7 +196,7 @@ class RigidTransforms:
         t = self.translation_m + r_a.apply(np.array(other.translation_m))
         return RigidTransforms._trusted(np.atleast_2d(t), (r_a * other.rotation).as_quat())
 
-    def apply(self, points_m) -> np.ndarray:
+    def apply(self, points_m: ArrayLike) -> np.ndarray:
         """Child-frame points (m), shape (n, 3) or (3,), expressed in the parent frame."""
         return self.rotation.apply(np.array(points_m, dtype=float)) + self.translation_m
 
@@ -201,7 +204,7 @@ class RigidTransforms:
 # --------------------------------------------------------------------------- planar helpers
 
 
-def wrap_angle(angle_rad):
+def wrap_angle(angle_rad: ArrayLike) -> np.ndarray:
     """Angles wrapped into [-pi, pi) (rad), same shape."""
     a = np.asarray(angle_rad, dtype=float)
     return (a + math.pi) % (2.0 * math.pi) - math.pi
@@ -226,7 +229,7 @@ def tilt_rad(transforms: RigidTransforms) -> np.ndarray:
     return np.arccos(np.clip(z, -1.0, 1.0))
 
 
-def _poses(p, name: str) -> np.ndarray:
+def _poses(p: ArrayLike, name: str) -> np.ndarray:
     a = np.asarray(p, dtype=float)
     if a.shape[-1:] != (3,) or a.ndim > 2:
         raise ModelError(
@@ -235,7 +238,7 @@ def _poses(p, name: str) -> np.ndarray:
     return a
 
 
-def se2_compose(a, b) -> np.ndarray:
+def se2_compose(a: ArrayLike, b: ArrayLike) -> np.ndarray:
     """a (+) b: pose b, given in frame a, expressed in a's parent. Shapes (n, 3) or (3,)."""
     a, b = _poses(a, "a"), _poses(b, "b")
     c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
@@ -244,7 +247,7 @@ def se2_compose(a, b) -> np.ndarray:
     return np.stack([x, y, a[..., 2] + b[..., 2]], axis=-1)
 
 
-def se2_inverse(a) -> np.ndarray:
+def se2_inverse(a: ArrayLike) -> np.ndarray:
     """The inverse pose (the parent's pose seen from a). Shape (n, 3) or (3,)."""
     a = _poses(a, "a")
     c, s = np.cos(a[..., 2]), np.sin(a[..., 2])
@@ -253,7 +256,7 @@ def se2_inverse(a) -> np.ndarray:
     return np.stack([x, y, -a[..., 2]], axis=-1)
 
 
-def se2_relative(a, b, *, wrap: bool = True) -> np.ndarray:
+def se2_relative(a: ArrayLike, b: ArrayLike, *, wrap: bool = True) -> np.ndarray:
     """Motion from pose a to pose b seen from a: (dx_m, dy_m, dyaw_rad) = a^-1 (+) b.
 
     dx, dy: b's position minus a's, rotated into a's frame (dx forward, dy left of a).
@@ -266,6 +269,17 @@ def se2_relative(a, b, *, wrap: bool = True) -> np.ndarray:
     dx, dy = b[..., 0] - a[..., 0], b[..., 1] - a[..., 1]
     dyaw = b[..., 2] - a[..., 2]
     return np.stack([c * dx + s * dy, -s * dx + c * dy, wrap_angle(dyaw) if wrap else dyaw], -1)
+
+
+def se2_conjugate(motion: ArrayLike, frame: ArrayLike) -> np.ndarray:
+    """frame^-1 (+) motion (+) frame: ``motion`` of a body seen by a frame mounted on it.
+
+    ``frame`` is the pose of the mounted frame (a sensor, a tracker's marker body) in the body
+    frame; ``motion`` a displacement of the body in its own frame at the start (a relative
+    motion, or a pose in the body's start frame). The result is the mounted frame's displacement
+    in its own frame at the start. Shapes (n, 3) or (3,), broadcast against each other.
+    """
+    return se2_compose(se2_inverse(frame), se2_compose(motion, frame))
 
 
 # --------------------------------------------------------------------------- buffer
@@ -381,7 +395,9 @@ class _Edge:
         self.rotation = _rotation().from_quat(self.quaternion_xyzw)
         self._dirty = False
 
-    def at(self, time_s: np.ndarray, tol: float, max_gap: float | None, name: str, query: str):
+    def at(
+        self, time_s: np.ndarray, tol: float, max_gap: float | None, name: str, query: str
+    ) -> tuple[np.ndarray, Rotation]:
         """Translations (n, 3) and Rotation (n) at ``time_s``; InputError outside the data."""
         self.finish()
         rot = self.rotation
@@ -483,7 +499,14 @@ class TransformBuffer:
                 return True
         return False
 
-    def add(self, parent: str, child: str, time_s, translation_m, quaternion_xyzw) -> None:
+    def add(
+        self,
+        parent: str,
+        child: str,
+        time_s: ArrayLike,
+        translation_m: ArrayLike,
+        quaternion_xyzw: ArrayLike,
+    ) -> None:
         """Add samples of the dynamic edge T_parent_child.
 
         time_s : float or ndarray, shape (k,) -- sample times (s), any order.
@@ -494,7 +517,7 @@ class TransformBuffer:
         t = np.atleast_1d(np.asarray(time_s, dtype=float))
         if t.ndim != 1:
             raise ModelError(f"time_s must have shape (k,), got {np.shape(time_s)}")
-        tr = RigidTransforms(translation_m, quaternion_xyzw)
+        tr = RigidTransforms(np.asarray(translation_m, float), np.asarray(quaternion_xyzw, float))
         if len(tr) != len(t):
             raise ModelError(f"{len(t)} times for {len(tr)} transforms")
         if not np.all(np.isfinite(t)):
@@ -502,9 +525,11 @@ class TransformBuffer:
         if len(t):
             self._edge(parent, child, False).add(t, tr.translation_m, tr.quaternion_xyzw)
 
-    def add_static(self, parent: str, child: str, translation_m, quaternion_xyzw) -> None:
+    def add_static(
+        self, parent: str, child: str, translation_m: ArrayLike, quaternion_xyzw: ArrayLike
+    ) -> None:
         """Add the constant edge T_parent_child (``/tf_static``); a later value replaces it."""
-        tr = RigidTransforms(translation_m, quaternion_xyzw)
+        tr = RigidTransforms(np.asarray(translation_m, float), np.asarray(quaternion_xyzw, float))
         if len(tr) != 1:
             raise ModelError(f"a static edge is one transform, got {len(tr)}")
         self._edge(parent, child, True).add(np.zeros(1), tr.translation_m, tr.quaternion_xyzw)
@@ -601,7 +626,7 @@ class TransformBuffer:
         self,
         parent: str,
         child: str,
-        time_s,
+        time_s: ArrayLike,
         *,
         max_extrapolation_s: float | None = None,
         max_gap_s: float | None = None,
@@ -644,7 +669,7 @@ class TransformBuffer:
         return Lookup(p, c, _readonly(t.copy()), RigidTransforms._trusted(trans, q), steps)
 
 
-def _tolerance(value, name: str) -> float:
+def _tolerance(value: float, name: str) -> float:
     v = float(value)
     if not (math.isfinite(v) and v >= 0.0):
         raise ModelError(f"{name} must be a finite number >= 0 (s), got {value!r}")

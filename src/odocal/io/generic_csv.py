@@ -38,6 +38,7 @@ Blank lines are skipped; ``#`` lines before the header carry ``key: value`` sett
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -58,7 +59,7 @@ from .limits import (
     WHEEL_ANGLE_MAX_RAD,
     WHEEL_STEP_MAX_RAD,
 )
-from .table import MAX_FIELD_CHARS, parse_number, read_table
+from .table import MAX_FIELD_CHARS, Table, parse_number, read_table
 
 __all__ = [
     "load_generic_csv",
@@ -177,7 +178,7 @@ def _unwrap_ticks(ticks: np.ndarray, lines, name: str, wrap, path) -> np.ndarray
 
 
 def load_generic_csv(
-    path, ticks_per_rev: float | None = None, text: str | None = None
+    path: str | Path, ticks_per_rev: float | None = None, text: str | None = None
 ) -> Recording:
     """One run from a generic run CSV (see module docstring); InputError names file/line/field.
 
@@ -186,9 +187,59 @@ def load_generic_csv(
         path, what="a header row starting with 'time_s'", text=text, settings=_SETTINGS
     )
     settings = _settings(table, path)
+    wheel_cols, ticks, present = _columns(table, path)
+    col = table.header
+    wanted = ["time_s", *wheel_cols, *present] + (["gyro_yaw_rad"] if "gyro_yaw_rad" in col else [])
+    data = table.numbers(wanted, at_most=_COLUMN_MAX)
+    if len(data) < 2:
+        raise InputError(f"a run needs at least two samples, got {len(data)}", path)
+    t = data[:, 0]
+    bad = np.nonzero(np.diff(t) <= 0)[0]
+    if len(bad):
+        i = int(bad[0]) + 1
+        raise InputError(
+            f"time is not strictly increasing ({t[i - 1]:g} s then {t[i]:g} s)",
+            path,
+            table.lines[i],
+            "time_s",
+        )
+
+    meta: dict = {"format": "generic-csv"}
+    right, left = data[:, 1], data[:, 2]
+    if ticks:
+        tpr = _ticks_per_rev(ticks_per_rev, settings, table, path)
+        wrap = settings.get("ticks_wrap", (None,))[0]
+        scale = 2.0 * math.pi / tpr
+        right = _unwrap_ticks(right, table.lines, "ticks_right", wrap, path) * scale
+        left = _unwrap_ticks(left, table.lines, "ticks_left", wrap, path) * scale
+        meta["ticks_per_rev"] = tpr
+    else:
+        right, left = right - right[0], left - left[0]
+    check_wheel_steps(right, left, table.lines, path, wheel_cols)
+
+    gt = start_frame(data[:, 3], data[:, 4], data[:, 5]) if present else None
+    gyro = data[:, -1] - data[0, -1] if "gyro_yaw_rad" in col else None
+    if "side_m" in settings:
+        meta["side_m"] = settings["side_m"][0]
+    label = settings.get("label", (None,))[0]
+    return Recording(
+        name=str(path),
+        time_s=t,
+        wheel_angle_right_rad=right,
+        wheel_angle_left_rad=left,
+        ground_truth=gt,
+        gyro_yaw_rad=gyro,
+        ran_with=_ran_with(settings, table, path),
+        label=label or None,
+        meta=meta,
+    )
+
+
+def _columns(table: Table, path: str | Path) -> tuple[tuple[str, str], bool, list[str]]:
+    """The wheel columns (angles, or ticks: the flag), and the ground-truth columns present
+    (none or all three), checked against the header."""
     header_no = table.header_line
     col = table.header
-
     if "time_s" not in col:
         raise InputError("missing column 'time_s' in the header", path, header_no, "time_s")
     if "wheel_right_rad" in col or "wheel_left_rad" in col:
@@ -214,79 +265,41 @@ def load_generic_csv(
             header_no,
             missing,
         )
-    wanted = ["time_s", *wheel_cols, *present] + (["gyro_yaw_rad"] if "gyro_yaw_rad" in col else [])
-    data = table.numbers(wanted, at_most=_COLUMN_MAX)
-    if len(data) < 2:
-        raise InputError(f"a run needs at least two samples, got {len(data)}", path)
-    t = data[:, 0]
-    bad = np.nonzero(np.diff(t) <= 0)[0]
-    if len(bad):
-        i = int(bad[0]) + 1
+    return wheel_cols, ticks, present
+
+
+def _ticks_per_rev(given: float | None, settings: dict, table: Table, path: str | Path) -> float:
+    """The ticks per wheel revolution: the argument, else the file's setting."""
+    tpr = given
+    if tpr is None and "ticks_per_rev" in settings:
+        tpr = settings["ticks_per_rev"][0]
+    if tpr is None:
         raise InputError(
-            f"time is not strictly increasing ({t[i - 1]:g} s then {t[i]:g} s)",
+            "tick columns need the ticks per wheel revolution: add '# ticks_per_rev: N' "
+            "above the header (or pass ticks_per_rev)",
             path,
-            table.lines[i],
-            "time_s",
+            table.header_line,
+            "ticks_per_rev",
         )
+    return tpr
 
-    meta: dict = {"format": "generic-csv"}
-    right, left = data[:, 1], data[:, 2]
-    if ticks:
-        tpr = ticks_per_rev
-        if tpr is None and "ticks_per_rev" in settings:
-            tpr = settings["ticks_per_rev"][0]
-        if tpr is None:
-            raise InputError(
-                "tick columns need the ticks per wheel revolution: add '# ticks_per_rev: N' "
-                "above the header (or pass ticks_per_rev)",
-                path,
-                header_no,
-                "ticks_per_rev",
-            )
-        wrap = settings.get("ticks_wrap", (None,))[0]
-        scale = 2.0 * math.pi / tpr
-        right = _unwrap_ticks(right, table.lines, "ticks_right", wrap, path) * scale
-        left = _unwrap_ticks(left, table.lines, "ticks_left", wrap, path) * scale
-        meta["ticks_per_rev"] = tpr
-    else:
-        right, left = right - right[0], left - left[0]
-    check_wheel_steps(right, left, table.lines, path, wheel_cols)
 
-    gt = None
-    if present:
-        gt = start_frame(data[:, 3], data[:, 4], data[:, 5])
-    gyro = None
-    if "gyro_yaw_rad" in col:
-        gyro = data[:, -1] - data[0, -1]
-
-    ran_with = None
+def _ran_with(settings: dict, table: Table, path: str | Path) -> WheelGeometry | None:
+    """The parameters the robot ran with, from the header settings (all three or none)."""
     geo_keys = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
     given = [k for k in geo_keys if k in settings]
-    if given:
-        if len(given) < 3:
-            missing = [k for k in geo_keys if k not in settings][0]
-            raise InputError(
-                "the parameters the robot ran with need all three of "
-                f"{', '.join(geo_keys)} in the header",
-                path,
-                header_no,
-                missing,
-            )
-        ran_with = WheelGeometry(*(settings[k][0] for k in geo_keys))
-    if "side_m" in settings:
-        meta["side_m"] = settings["side_m"][0]
-    label = settings.get("label", (None,))[0]
-    return Recording(
-        name=str(path),
-        time_s=t,
-        wheel_angle_right_rad=right,
-        wheel_angle_left_rad=left,
-        ground_truth=gt,
-        gyro_yaw_rad=gyro,
-        ran_with=ran_with,
-        label=label or None,
-        meta=meta,
-    )
+    if not given:
+        return None
+    if len(given) < 3:
+        missing = [k for k in geo_keys if k not in settings][0]
+        raise InputError(
+            "the parameters the robot ran with need all three of "
+            f"{', '.join(geo_keys)} in the header",
+            path,
+            table.header_line,
+            missing,
+        )
+    return WheelGeometry(*(settings[k][0] for k in geo_keys))
 
 
 def write_generic_csv(path, recording: Recording) -> None:

@@ -37,7 +37,7 @@ from .limits import (
     TIME_MAX_S,
     TRACK_LENGTH_MAX_M,
 )
-from .table import MAX_LINE_CHARS, parse_number, read_table
+from .table import MAX_LINE_CHARS, LineNumbers, parse_number, read_table
 from .textfile import read_text
 
 __all__ = [
@@ -134,7 +134,7 @@ _RUN_MAX = {
 }
 
 
-def _read_run(path: Path) -> tuple[np.ndarray, list[int]]:
+def _read_run(path: Path) -> tuple[np.ndarray, LineNumbers]:
     """The run's values, shape (K, 6), and the line of each row."""
     table = read_table(path, what="rows of time_s,x,y,theta,ticks_R,ticks_L", columns=_RUN_COLUMNS)
     data = table.numbers(_RUN_COLUMNS, at_most=_RUN_MAX)
@@ -211,7 +211,8 @@ def load_optiodom_dataset(folder) -> list[Recording]:
     diameters = _meta_values(meta, "Di", meta_path)
     (wheelbase,) = _meta_values(meta, "Li", meta_path)
     ran_with = WheelGeometry(diameters[0], diameters[-1], wheelbase)
-    side = (_meta_values(meta, "L", meta_path) or [None])[0]
+    sides = _meta_values(meta, "L", meta_path)
+    side = sides[0] if sides else None
     n_meta = _meta_values(meta, "N", meta_path)
     n_runs = int(n_meta[0]) if n_meta else None
     kind = folder.parent.name

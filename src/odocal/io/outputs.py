@@ -104,11 +104,12 @@ def _signals_held():
         for s, handler in old.items():
             signal.signal(s, handler)
         if pending:
-            s, handler = pending[0], old[pending[0]]
+            signum = pending[0]
+            handler = old[signal.Signals(signum)]
             if callable(handler):
-                handler(s, None)  # e.g. raises KeyboardInterrupt
+                handler(signum, None)  # e.g. raises KeyboardInterrupt
             elif handler == signal.SIG_DFL:
-                os.kill(os.getpid(), s)
+                os.kill(os.getpid(), signum)
 
 
 class _SigTerm(KeyboardInterrupt):

@@ -34,6 +34,7 @@ from .textfile import read_text
 
 __all__ = [
     "Table",
+    "LineNumbers",
     "ColumnSample",
     "read_table",
     "read_column",
@@ -134,7 +135,7 @@ def _body_fields(path, no: int, line: str, width: int) -> list[str] | None:
     return fields
 
 
-class _LineNumbers:
+class LineNumbers:
     """``table.lines[i]``: the line of data row i, without splitting the rows until asked."""
 
     def __init__(self, table: Table):
@@ -205,9 +206,9 @@ class Table:
         return self.rows[index][0]
 
     @property
-    def lines(self) -> _LineNumbers:
+    def lines(self) -> LineNumbers:
         """The line number of each data row, ``lines[i]``, found only when asked (messages)."""
-        return _LineNumbers(self)
+        return LineNumbers(self)
 
     def has(self, name: str) -> bool:
         return name in self.header

@@ -58,39 +58,39 @@ def _umask() -> int:
 
 
 @contextmanager
-def atomic_path(path) -> Iterator[Path]:
+def atomic_path(path: str | Path) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` only if the block succeeds.
 
     A failure leaves no partial output (and any previous file untouched).
     """
-    path = Path(path)
-    parent = path.parent if str(path.parent) else Path(".")
+    target = Path(path)
+    parent = target.parent if str(target.parent) else Path(".")
     if not parent.is_dir():
         raise InputError("the output folder does not exist", parent)
-    if path.is_dir():
-        raise InputError("is a directory, expected an output file name", path)
-    if path.exists() and not path.is_file():
+    if target.is_dir():
+        raise InputError("is a directory, expected an output file name", target)
+    if target.exists() and not target.is_file():
         # a device, FIFO or socket: renaming a file onto it would replace it
-        raise InputError("exists and is not a regular file; choose another output name", path)
+        raise InputError("exists and is not a regular file; choose another output name", target)
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=parent)
+        fd, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=parent)
     except OSError as exc:
-        raise InputError(f"cannot write here: {exc.strerror}", path) from None
+        raise InputError(f"cannot write here: {exc.strerror}", target) from None
     os.close(fd)
-    tmp = Path(tmp)
+    tmp = Path(name)
     try:
         yield tmp
         try:
             os.chmod(tmp, 0o666 & ~_umask())  # mkstemp creates 0600; give the usual mode
-            os.replace(tmp, path)
+            os.replace(tmp, target)
         except OSError as exc:
-            raise InputError(f"cannot write: {exc.strerror}", path) from None
+            raise InputError(f"cannot write: {exc.strerror}", target) from None
     finally:
         if tmp.exists():
             tmp.unlink()
 
 
-def atomic_write(path, text: str) -> None:
+def atomic_write(path: str | Path, text: str) -> None:
     """Write ``text`` to ``path`` atomically (temporary file + rename)."""
     with atomic_path(path) as tmp:
         try:

@@ -232,7 +232,7 @@ class _Converter:
             )
         out: dict[str, Any] = {}
         seen: dict[str, int] = {}
-        merges = []
+        merges: list[Any] = []
         for knode, vnode in node.value:
             line = knode.start_mark.line + 1
             if isinstance(knode, yaml.ScalarNode) and knode.tag == _MERGE:

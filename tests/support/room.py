@@ -1,10 +1,11 @@
 """A synthetic room of line segments and a simulated 2D lidar that ray-casts into it.
 
-Used to test scan matching and the calibration routes that use a laser (docs/scan-matching.md).
-Frames follow docs/conventions.md: the room's (world) frame has x, y in metres; a sensor pose is
-(x_m, y_m, theta_rad) of the sensor in the room frame, heading CCW positive; a ray at angle
-``a`` (rad, CCW from the sensor's +x axis, as in ``sensor_msgs/LaserScan``) points along
-(cos(theta + a), sin(theta + a)) in the room frame.
+A test helper (tests/support), not part of the package: it tests scan matching and the
+calibration routes that use a laser (docs/scan-matching.md). Frames follow docs/conventions.md:
+the room's (world) frame has x, y in metres; a sensor pose is (x_m, y_m, theta_rad) of the
+sensor in the room frame, heading CCW positive; a ray at angle ``a`` (rad, CCW from the sensor's
++x axis, as in ``sensor_msgs/LaserScan``) points along (cos(theta + a), sin(theta + a)) in the
+room frame.
 
 A ray that hits nothing within ``max_range_m`` returns ``inf`` (REP-117's "no return").
 """
@@ -16,8 +17,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import ModelError
-from .model import check_nonnegative, check_positive
+from odocal.core.model import check_nonnegative, check_positive
+from odocal.errors import ModelError
 
 __all__ = ["Room", "box_segments", "ray_cast"]
 
