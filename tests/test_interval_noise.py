@@ -8,6 +8,7 @@ import pytest
 from odocal.calibration.interval_noise import estimate_interval_noise
 from odocal.core.model import WheelGeometry
 from odocal.core.odometry import dead_reckon_rows
+from odocal.core.transforms import se2_compose, se2_relative
 from odocal.errors import CalibrationError
 
 G = WheelGeometry(0.2, 0.2, 0.5)
@@ -50,3 +51,28 @@ def test_too_few_intervals():
     r, lft, m, t = log(4e-4, n=10)
     with pytest.raises(CalibrationError, match="too few intervals"):
         estimate_interval_noise(r, lft, m, G, t)
+
+
+def test_intervals_of_one_length_are_separated_by_composing_them():
+    # every interval the same length (a SLAM updating at a fixed rate): alone they cannot
+    # tell the wheels' noise from the truth's; composed into stretches of 2-16 they can
+    rng = np.random.default_rng(4)
+    n, steps, k_sum = 400, 10, 4e-4
+    turn = np.repeat(rng.uniform(-0.6, 0.6, size=(n // 4, 1)), 4, axis=0)
+    r = np.repeat(5.0 * (1 + turn), steps, axis=1) / steps
+    lft = np.repeat(5.0 * (1 - turn), steps, axis=1) / steps
+    s_r, s_l = 0.1 * r, 0.1 * lft
+    noisy_r = s_r + rng.standard_normal(s_r.shape) * np.sqrt(0.5 * k_sum * np.abs(s_r))
+    noisy_l = s_l + rng.standard_normal(s_l.shape) * np.sqrt(0.5 * k_sum * np.abs(s_l))
+    # the truth is a pose track (its noise on each pose, not on each interval's motion)
+    true_motion = dead_reckon_rows(noisy_r / 0.1, noisy_l / 0.1, G)[:, :, -1].T
+    poses = [np.zeros(3)]
+    for mo in true_motion:
+        poses.append(se2_compose(poses[-1], mo))
+    poses = np.array(poses) + rng.standard_normal((n + 1, 3)) * np.array([0.01, 0.01, 0.005])
+    measured = se2_relative(poses[:-1], poses[1:])
+    t = np.arange(n, dtype=float)
+    est = estimate_interval_noise(r, lft, measured, G, t, end_s=t + 1.0)
+    lo, hi = est.k_ci95_m
+    assert lo <= est.k_sum_m <= hi
+    assert est.k_sum_m == pytest.approx(k_sum, rel=0.4)

@@ -11,7 +11,7 @@ load each kind of input, call it and write what was asked for. The router
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -22,7 +22,7 @@ from ..calibration.heldout import HeldOut, heldout_check
 from ..calibration.interval_noise import IntervalNoise, estimate_interval_noise
 from ..calibration.relative_motions import RelativeMotions, stack_motions
 from ..calibration.scan_matching import ScanIntervals, scan_interval_motions
-from ..calibration.time_offset import TimeOffset
+from ..calibration.time_offset import TimeOffset, time_blocks
 from ..core.model import WheelGeometry
 from ..core.transforms import se2_compose, se2_inverse
 from ..errors import CalibrationError, InputError
@@ -139,6 +139,37 @@ class RelativeFitResult:
     notes: tuple[str, ...] = ()
 
     @property
+    def model(self) -> str:
+        """The model of the answer: 'full', or the restricted model the held-out check
+        preferred when the full one did not beat the nominal geometry."""
+        h = self.heldout
+        if h is None or h.preferred in (None, "full"):
+            return "full"
+        return h.preferred
+
+    @property
+    def geometry(self) -> WheelGeometry:
+        """The answer: the full fit's geometry, or the preferred restricted model's."""
+        if self.model == "full":
+            return self.fit.geometry
+        assert self.heldout is not None
+        return next(m.geometry for m in self.heldout.models if m.model == self.model)
+
+    @property
+    def geometry_stderr(self) -> tuple[float | None, float | None, float | None]:
+        """Standard errors of the answer's (D_R, D_L, b) (m)."""
+        if self.model == "full":
+            se = self.fit.stderr
+            return (se.get("wheel_diameter_right_m"), se.get("wheel_diameter_left_m"),
+                    se.get("wheelbase_m"))  # fmt: skip
+        assert self.heldout is not None
+        score = next(m for m in self.heldout.models if m.model == self.model)
+        err = None if score.fit is None else score.fit.stderr
+        if err is None:
+            return (None, None, None)
+        return (float(err[0]), float(err[1]), float(err[2]))
+
+    @property
     def method(self) -> Literal["relative", "scan"]:
         """The method, as ``odocal fit --method`` names it."""
         return "scan" if self.source == "scan" else "relative"
@@ -175,6 +206,13 @@ class RelativeFitResult:
             out["time_offsets_s"] = self.time_offsets_s
             out["time_offsets"] = [o.as_dict() for o in self.time_offsets]
             out["heldout"] = None if self.heldout is None else self.heldout.as_dict()
+            out["model"] = self.model
+            if self.model != "full":
+                g = self.geometry
+                out["answer"] = g.as_dict() | {
+                    "stderr": dict(zip(("wheel_diameter_right_m", "wheel_diameter_left_m",
+                                        "wheelbase_m"), self.geometry_stderr, strict=True)),
+                }  # fmt: skip
             out["noise"] = None if self.noise is None else self.noise.as_dict()
             out["notes"] = list(self.notes)
         return out
@@ -199,8 +237,18 @@ def fit_relative(
         sensor_pose=sensor_pose,
         nominal=nominal,
         wheel_increments=m.increments,
+        clusters=_blocks(m),
     )
     return result, tuple(refuse_absurd(result.geometry, nominal, force))
+
+
+def _blocks(m: RelativeMotions) -> np.ndarray:
+    """The independent groups of the intervals for the cluster-robust standard errors:
+    contiguous time blocks (:func:`~odocal.calibration.time_offset.time_blocks`); intervals
+    without times (tuple files, in the order recorded) in blocks of consecutive intervals."""
+    if m.start_s is not None:
+        return time_blocks(np.asarray(m.start_s, dtype=float))
+    return time_blocks(np.arange(len(m.phi_right_rad), dtype=float), min_block_s=0.0)
 
 
 def is_tuple_file(path: str | Path) -> bool:
@@ -214,16 +262,21 @@ def _export(
     nominal: WheelGeometry | None,
     method: str,
     exports: Exports,
+    geometry: WheelGeometry | None = None,
+    model: str = "full",
 ) -> tuple[Path, ...]:
     """PARAMS.yaml and the ros2_control file of a relative-motion fit (the sensor's mounting
-    beside the values)."""
+    beside the values): ``geometry`` (default the fit's) of ``model``."""
     record: dict[str, str | float] = {
         "method": method,
         "sensor_x_m": result.sensor_x_m,
         "sensor_y_m": result.sensor_y_m,
         "sensor_yaw_rad": result.sensor_yaw_rad,
     }
-    return exports.write(plan, result.geometry, nominal, record=record)
+    if model != "full":
+        record["model"] = f"{model} (preferred by the held-out check)"
+    chosen = result.geometry if geometry is None else geometry
+    return exports.write(plan, chosen, nominal, record=record)
 
 
 def _nominal(robot: RobotSpec) -> WheelGeometry | None:
@@ -306,7 +359,12 @@ def relative_checks(
             )
     try:
         noise = estimate_interval_noise(
-            inc_r[usable], inc_l[usable], base[usable], result.geometry, motions.start_s[usable]
+            inc_r[usable],
+            inc_l[usable],
+            base[usable],
+            result.geometry,
+            motions.start_s[usable],
+            end_s=motions.end_s[usable],
         )
     except CalibrationError as exc:
         notes.append(f"no noise estimate: {exc}")
@@ -366,12 +424,13 @@ def fit_slam_bags(
     )
     every, usable = _slam_chains(bags, result)
     checks = relative_checks(every, usable, np.zeros(3), result, nominal, force=force)
-    written = _export(plan, result, nominal, "relative", exports)
-    return RelativeFitResult(
-        result, nominal, len(paths), "slam", slam_bags=tuple(bags), written=written,
-        forced=forced, time_offsets=tuple(b.time_offset for b in bags),
+    res = RelativeFitResult(
+        result, nominal, len(paths), "slam", slam_bags=tuple(bags), forced=forced,
+        time_offsets=tuple(b.time_offset for b in bags),
         load_warnings=tuple(w for b in bags for w in b.wheel_warnings), **checks,
     )  # fmt: skip
+    written = _export(plan, result, nominal, "relative", exports, res.geometry, res.model)
+    return replace(res, written=written)
 
 
 def _scan_summary(loaded: ScanBag, intervals: ScanIntervals) -> ScanSummary:
@@ -451,8 +510,9 @@ def fit_scan_bags(
     usable[list(result.dropped_indices)] = False
     mount = np.array([result.sensor_x_m, result.sensor_y_m, result.sensor_yaw_rad])
     checks = relative_checks(stacked, usable, mount, result, nominal, force=force)
-    written = _export(plan, result, nominal, "scan", exports)
-    return RelativeFitResult(
-        result, nominal, len(paths), "scan", scans=tuple(summaries), written=written,
-        forced=forced, time_offsets=tuple(s.intervals.time_offset for s in summaries), **checks,
+    res = RelativeFitResult(
+        result, nominal, len(paths), "scan", scans=tuple(summaries), forced=forced,
+        time_offsets=tuple(s.intervals.time_offset for s in summaries), **checks,
     )  # fmt: skip
+    written = _export(plan, result, nominal, "scan", exports, res.geometry, res.model)
+    return replace(res, written=written)

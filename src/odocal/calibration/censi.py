@@ -67,6 +67,7 @@ from ..core.odometry import (
 from ..core.transforms import se2_compose, se2_conjugate, se2_relative, wrap_angle
 from ..errors import CalibrationError
 from .result import check_physical
+from .robust_covariance import cluster_covariance
 
 __all__ = [
     "PARAMETERS",
@@ -132,6 +133,13 @@ class SensorOdometryFit:
         Whether the nonlinear refinement ran (else the estimate is the closed form).
     sensor_pose_fixed : bool
     warnings : tuple of str
+    uncertainty : str
+        How ``covariance`` was computed: 'formal' (the inverse Fisher information) or
+        'cluster-robust over N time blocks' (:mod:`odocal.calibration.robust_covariance`).
+    covariance_formal : ndarray, shape (6, 6), or None
+        The formal covariance when ``covariance`` is the cluster-robust one.
+    dof : int or None
+        Degrees of freedom of the standard errors (blocks - 1), None for the formal ones.
     """
 
     geometry: WheelGeometry
@@ -152,6 +160,9 @@ class SensorOdometryFit:
     refined: bool
     sensor_pose_fixed: bool
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    uncertainty: str = "formal"
+    covariance_formal: np.ndarray | None = None
+    dof: int | None = None
 
     method = "relative"  # relative-motion calibration (Censi et al. 2013)
 
@@ -207,6 +218,18 @@ class SensorOdometryFit:
             "refined": self.refined,
             "sensor_pose_fixed": self.sensor_pose_fixed,
             "warnings": list(self.warnings),
+            **self._uncertainty_dict(),
+        }
+
+    def _uncertainty_dict(self) -> dict:
+        """How the standard errors were computed (only when not the formal ones, so that the
+        formal output keeps its keys)."""
+        if self.covariance_formal is None:
+            return {}
+        return {
+            "uncertainty": self.uncertainty,
+            "dof": self.dof,
+            "stderr_formal": {k: _num(v) for k, v in _stderr(self.covariance_formal).items()},
         }
 
 
@@ -636,6 +659,7 @@ def fit_censi(
     outlier_fraction: float = 0.01,
     nominal: WheelGeometry | None = None,
     wheel_increments: tuple[ArrayLike, ArrayLike] | None = None,
+    clusters: ArrayLike | None = None,
 ) -> SensorOdometryFit:
     """Calibrate wheel diameters, wheelbase and the sensor pose from relative-motion tuples.
 
@@ -665,6 +689,12 @@ def fit_censi(
         outlier rule and the covariance integrate the odometry over the samples instead of
         assuming constant wheel speeds within an interval (the closed form still does): for
         intervals that mix straights, turns and arcs, e.g. between SLAM updates.
+    clusters : array_like of int, shape (n,), optional
+        Independent groups of the tuples (e.g. contiguous time blocks of a log,
+        :func:`odocal.calibration.time_offset.time_blocks`). With them the covariance is the
+        cluster-robust one over the tuples used (residuals correlated within a block, and a
+        model that fits some stretches worse than others, widen it); ``covariance_formal`` keeps
+        the inverse Fisher information.
 
     Returns
     -------
@@ -703,10 +733,15 @@ def fit_censi(
 
     sigma = _noise_std(p, rk, lk, smk, len(free), (wr, wl, sm))
     cov = _fisher(p, free, rk, lk, smk, sigma)
+    robust = None if clusters is None else _robust(p, free, rk, lk, smk, sigma, clusters, keep)
     cov_paper = _paper_covariance(p, free, wr, wl, sm, trimmed.history, keep, outlier_fraction)
     if refine and wheel_increments is None:
         warnings += _far_from_closed_form(p, closed, cov, free)
     dropped = np.setdiff1d(np.arange(n), keep)
+    formal = None
+    how, dof = "formal", None
+    if robust is not None:
+        formal, (cov, how, dof) = cov, robust
     return SensorOdometryFit(
         geometry=WheelGeometry(float(p[0]), float(p[1]), float(p[2])),
         sensor_x_m=float(p[3]),
@@ -726,7 +761,35 @@ def fit_censi(
         refined=bool(refine),
         sensor_pose_fixed=fixed is not None,
         warnings=tuple(warnings),
+        uncertainty=how,
+        covariance_formal=formal,
+        dof=dof,
     )
+
+
+def _robust(
+    p: np.ndarray,
+    free: list[int],
+    rk: np.ndarray,
+    lk: np.ndarray,
+    smk: np.ndarray,
+    sigma: np.ndarray,
+    clusters: ArrayLike,
+    keep: np.ndarray,
+) -> tuple[np.ndarray, str, int] | None:
+    """The cluster-robust covariance (6, 6) over the tuples used, its description and degrees
+    of freedom; None with fewer than 2 clusters or a singular problem."""
+    labels = np.asarray(clusters)[keep]
+    w = 1.0 / sigma
+    jw = _jacobian(p, free, rk, lk, smk, w)
+    res = (_residual(p, rk, lk, smk) * w).ravel()
+    try:
+        cc = cluster_covariance(jw, res, np.repeat(labels, 3))
+    except CalibrationError:
+        return None
+    cov = np.full((6, 6), np.nan)
+    cov[np.ix_(free, free)] = cc.covariance
+    return cov, f"cluster-robust over {cc.clusters} time blocks", cc.dof
 
 
 def _outlier_rule(iterations: object, fraction: object) -> tuple[int, float]:

@@ -75,6 +75,8 @@ class ModelScore:
     beats_nominal : bool
         Lower held-out error than the nominal parameters, chain by chain (paired: the mean
         paired difference is below zero by more than its standard error).
+    worse_than_nominal : bool
+        Higher held-out error than the nominal, by more than that standard error.
     fit : BaseMotionFit or None
         The model fitted on all the data, with its cluster-robust covariance (restricted
         models; the full model's answer is the route's own).
@@ -85,6 +87,7 @@ class ModelScore:
     mean_final_error_m: float
     beats_nominal: bool
     fit: BaseMotionFit | None = None
+    worse_than_nominal: bool = False
 
     def as_dict(self) -> dict:
         """JSON-ready."""
@@ -93,6 +96,7 @@ class ModelScore:
             **self.geometry.as_dict(),
             "mean_final_error_m": self.mean_final_error_m,
             "beats_nominal": self.beats_nominal,
+            "worse_than_nominal": self.worse_than_nominal,
         }
 
 
@@ -141,12 +145,14 @@ class HeldOut:
         )
         if self.calibration_helps:
             return head + ": the calibration helps"
+        how = "makes it WORSE" if self.models[0].worse_than_nominal else "is no measurable gain"
         if self.preferred is not None:
             return (
-                head + f": the full calibration makes it WORSE; the held-out data prefer the "
+                head + f": the full calibration {how}; the held-out data prefer the "
                 f"'{self.preferred}' model"
             )
-        return head + ": NO model beats the nominal parameters on data it did not fit"
+        return head + f": the calibration {how}, and NO model beats the nominal parameters on "
+        "data it did not fit"
 
     def as_dict(self) -> dict:
         """JSON-ready (the ``heldout`` object of ``fit --json``)."""
@@ -402,11 +408,12 @@ def heldout_check(
         d = e[mod] - e["nominal"]
         se = float(np.std(d, ddof=1) / math.sqrt(len(d))) if len(d) > 1 else math.inf
         beats = bool(np.mean(d) < -se)
+        worse = bool(np.mean(d) > se)
         if mod == "full":
             whole = BaseMotionFit("full", calibrated)
         else:
             whole = fit_base_motion(mod, r[usable], lft[usable], m[usable], nominal, a[usable])
-        scores.append(ModelScore(mod, whole.geometry, float(np.mean(e[mod])), beats, whole))
+        scores.append(ModelScore(mod, whole.geometry, float(np.mean(e[mod])), beats, whole, worse))
     winners = [s for s in scores if s.beats_nominal]
     preferred = min(winners, key=lambda s: s.mean_final_error_m).model if winners else None
     if scores[0].beats_nominal:

@@ -12,9 +12,12 @@ where C_i is the first-order covariance of the interval's dead reckoning per uni
 k = k_r + k_l (model.md: each wheel's travel variance grows as k_w |s_w|, here with
 k_r = k_l = k / 2; ``core.covariance.propagate_increments``) and R the truth's noise on a
 relative motion (for a SLAM pose, about twice its per-pose variance). Longer intervals carry
-more wheel noise and the same truth noise, which separates the two: k, r_xy and r_theta are the
-Gaussian maximum-likelihood values over the intervals the calibration used (in log space, so
-that each stays positive).
+more wheel noise and the same truth noise, which separates the two. A log's intervals are often
+all of about one length (a SLAM updating once a second), so consecutive intervals are also
+composed into stretches of 2, 4, 8 and 16 (the measured motions composed, the wheel increments
+strung together): k, r_xy and r_theta are the Gaussian maximum-likelihood values over all of
+them (in log space, so that each stays positive). The stretches share data, so the likelihood
+is not a proper one; the interval below does not rely on it.
 
 The 95 % interval of k is a block bootstrap (contiguous time blocks of intervals resampled, the
 likelihood maximised again): residuals come in runs (a wheel slipping for a second, a SLAM that
@@ -34,6 +37,7 @@ import numpy as np
 from ..core.covariance import propagate_increments
 from ..core.model import NonSystematicError, WheelGeometry
 from ..core.odometry import dead_reckon_rows
+from ..core.transforms import se2_compose
 from ..errors import CalibrationError
 from .time_offset import time_blocks
 
@@ -109,6 +113,48 @@ def _maximise(e: np.ndarray, c: np.ndarray, start: np.ndarray, xatol: float) -> 
     return np.asarray(sol.x, dtype=float)
 
 
+def _stretches(
+    inc_r: np.ndarray,
+    inc_l: np.ndarray,
+    motion: np.ndarray,
+    start_s: np.ndarray,
+    end_s: np.ndarray | None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The intervals and the stretches of 2, 4, ... 16 consecutive ones (consecutive: one
+    starts where the last ended): increments (M, L) each, measured motions (M, 3), start times
+    (M,)."""
+    n, k = inc_r.shape
+    rows_r, rows_l, motions, starts = [inc_r], [inc_l], [motion], [start_s]
+    if end_s is not None and n > 1:
+        gap = np.abs(start_s[1:] - end_s[:-1]) > 1e-6 + 1e-3 * float(np.median(end_s - start_s))
+        chains = np.split(np.arange(n), np.flatnonzero(gap) + 1)
+        for size in (2, 4, 8, 16):
+            groups = [c[i : i + size] for c in chains for i in range(0, len(c) - size + 1, size)]
+            if not groups:
+                break
+            idx = np.array(groups)  # (G, size)
+            r = inc_r[idx].reshape(len(idx), size * k)
+            lft = inc_l[idx].reshape(len(idx), size * k)
+            m = motion[idx[:, 0]]
+            for j in range(1, size):
+                m = se2_compose(m, motion[idx[:, j]])
+            rows_r.append(r)
+            rows_l.append(lft)
+            motions.append(m)
+            starts.append(start_s[idx[:, 0]])
+    width = max(x.shape[1] for x in rows_r)
+
+    def pad(a: np.ndarray) -> np.ndarray:
+        return np.pad(a, ((0, 0), (0, width - a.shape[1])))
+
+    return (
+        np.concatenate([pad(x) for x in rows_r]),
+        np.concatenate([pad(x) for x in rows_l]),
+        np.concatenate(motions),
+        np.concatenate(starts),
+    )
+
+
 def estimate_interval_noise(
     inc_r,
     inc_l,
@@ -116,6 +162,7 @@ def estimate_interval_noise(
     geometry: WheelGeometry,
     start_s,
     *,
+    end_s=None,
     rng: np.random.Generator | None = None,
 ) -> IntervalNoise:
     """k and the truth's noise (module docstring) from intervals a calibration used.
@@ -130,6 +177,8 @@ def estimate_interval_noise(
         The calibrated geometry.
     start_s : ndarray, shape (n,)
         Interval starts (s), for the time blocks.
+    end_s : ndarray, shape (n,), optional
+        Interval ends (s): with them consecutive intervals are composed into stretches.
     rng : numpy.random.Generator, optional
         For the bootstrap (default seeded 0).
     """
@@ -141,6 +190,10 @@ def estimate_interval_noise(
         raise CalibrationError(
             f"too few intervals for a noise estimate: {n} (need {MIN_INTERVALS})"
         )
+    r, lft, m, t0 = _stretches(
+        r, lft, m, np.asarray(start_s, dtype=float),
+        None if end_s is None else np.asarray(end_s, dtype=float),
+    )  # fmt: skip
     pred = dead_reckon_rows(r, lft, geometry)[:, :, -1].T
     e = m - pred
     e[:, 2] = np.angle(np.exp(1j * e[:, 2]))
@@ -153,7 +206,7 @@ def estimate_interval_noise(
                     max(float(np.median(e[:, 2] ** 2)), 1e-12)])  # fmt: skip
     best = _maximise(e, c, start, 1e-4)
     gen = rng if rng is not None else np.random.default_rng(0)
-    blk = time_blocks(np.asarray(start_s, dtype=float))
+    blk = time_blocks(t0)
     nb = int(blk.max()) + 1
     members = [np.flatnonzero(blk == b) for b in range(nb)]
     ks = []
@@ -162,4 +215,7 @@ def estimate_interval_noise(
         ks.append(math.exp(_maximise(e[idx], c[idx], best, 1e-2)[0]))
     k, r_xy, r_th = np.exp(best)
     lo, hi = (float(np.quantile(ks, 0.025)), float(np.quantile(ks, 0.975))) if ks else (0, math.inf)
+    # a percentile interval need not hold its own estimate (a skewed bootstrap, an estimate at
+    # the boundary): widen it to do so
+    lo, hi = min(lo, float(k)), max(hi, float(k))
     return IntervalNoise(float(k), (lo, hi), float(math.sqrt(r_xy)), float(math.sqrt(r_th)), n, nb)

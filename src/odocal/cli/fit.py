@@ -409,8 +409,11 @@ def _print_relative(res: RelativeFitResult) -> None:
             )
         )
     print_table(rows)
+    if r.covariance_formal is not None:
+        print(f"  std. errors: {r.uncertainty} (formal ones in the JSON)")
     for b in res.slam_bags:
         print(f"  {b.path}: {b.chain}: {b.motions.summary()}")
+        print(f"    wheels: {b.wheels}")
     for s in res.scans:
         x, y, yaw = s.mount_guess
         print(
@@ -418,4 +421,33 @@ def _print_relative(res: RelativeFitResult) -> None:
             f"({s.scans} scans on {s.scan_topic}, {s.intervals.interval_scans} apart); laser "
             f"mounting from {s.mount_source}: x {x:.4f} m, y {y:.4f} m, yaw {yaw:.4f} rad"
         )
+    _print_checks(res)
     _print_written(res.written)
+
+
+def _print_checks(res: RelativeFitResult) -> None:
+    """Clock offsets, the held-out check, the answer's model and the one-log noise."""
+    for o in res.time_offsets:
+        se = "" if o.stderr_s is None else f" +- {o.stderr_s:.4f}"
+        print(f"  clock offset of the {o.source}: {o.offset_s:+.4f}{se} s ({o.how}; > 0: its "
+              "stamps run late)")  # fmt: skip
+    if res.heldout is not None:
+        print(f"  {res.heldout.verdict()}")
+    if res.model != "full":
+        g, se = res.geometry, res.geometry_stderr
+        cells = [
+            f"{name} {v:.6f}" + ("" if e is None else f" +- {e:.2e}")
+            for name, v, e in zip(("D_R", "D_L", "b"), (g.diameter_right_m, g.diameter_left_m,
+                                                        g.wheelbase_m), se, strict=True)
+        ]  # fmt: skip
+        print(f"  the answer is the '{res.model}' model: {', '.join(cells)} m")
+    if res.noise is not None:
+        n = res.noise
+        lo, hi = n.k_ci95_m
+        print(
+            f"  random error: wheels k_r + k_l {n.k_sum_m:.3g} m (95 %: {lo:.3g} to {hi:.3g}); "
+            f"truth {1e3 * n.truth_sigma_xy_m:.3g} mm, {math.degrees(n.truth_sigma_theta_rad):.3g}"
+            f" deg per interval ({n.intervals} intervals)"
+        )
+    for note in res.notes:
+        print(f"  {note}")
