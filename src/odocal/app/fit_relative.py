@@ -22,7 +22,7 @@ from ..calibration.heldout import HeldOut, heldout_check
 from ..calibration.interval_noise import IntervalNoise, estimate_interval_noise
 from ..calibration.relative_motions import RelativeMotions, stack_motions
 from ..calibration.scan_matching import ScanIntervals, scan_interval_motions
-from ..calibration.time_offset import TimeOffset, time_blocks
+from ..calibration.time_offset import TimeOffset, TimingCheck, time_blocks, timing_consistency
 from ..core.model import WheelGeometry
 from ..core.transforms import se2_compose, se2_inverse
 from ..errors import CalibrationError, InputError
@@ -119,6 +119,8 @@ class RelativeFitResult:
         The blocked cross-validation against the nominal geometry (bags with a nominal).
     noise : IntervalNoise or None
         The wheels' random error and the truth's, from the residuals (bags).
+    timing : TimingCheck or None
+        Whether the wheels' turning against the source's depends on the interval length.
     notes : tuple of str
         What was not checked, and why.
     """
@@ -136,6 +138,7 @@ class RelativeFitResult:
     time_offsets: tuple[TimeOffset, ...] = ()
     heldout: HeldOut | None = None
     noise: IntervalNoise | None = None
+    timing: TimingCheck | None = None
     notes: tuple[str, ...] = ()
 
     @property
@@ -179,7 +182,10 @@ class RelativeFitResult:
         """The fit's warnings, and the absurd-result messages accepted with ``force``."""
         own = tuple(self.fit.warnings)
         offsets = tuple(w for o in self.time_offsets for w in o.warnings)
-        return own + offsets + tuple(w for w in self.forced if w not in own)
+        timing = () if self.timing is None or self.timing.warning is None else (
+            self.timing.warning,
+        )  # fmt: skip
+        return own + offsets + timing + tuple(w for w in self.forced if w not in own)
 
     @property
     def time_offsets_s(self) -> dict[str, float]:
@@ -214,6 +220,7 @@ class RelativeFitResult:
                                         "wheelbase_m"), self.geometry_stderr, strict=True)),
                 }  # fmt: skip
             out["noise"] = None if self.noise is None else self.noise.as_dict()
+            out["timing"] = None if self.timing is None else self.timing.as_dict()
             out["notes"] = list(self.notes)
         return out
 
@@ -323,6 +330,7 @@ def relative_checks(
     result: SensorOdometryFit,
     nominal: WheelGeometry | None,
     *,
+    source: str,
     force: bool = False,
 ) -> dict[str, Any]:
     """The held-out check and the one-log noise estimate of a bag route: ``motions`` every
@@ -357,6 +365,10 @@ def relative_checks(
             raise CalibrationError(
                 f"{heldout.verdict()}; nothing written (--force exports the calibration anyway)"
             )
+    timing = timing_consistency(
+        motions.phi_right_rad, motions.phi_left_rad, sm[:, 2], motions.start_s, motions.end_s,
+        source=source,
+    )  # fmt: skip
     try:
         noise = estimate_interval_noise(
             inc_r[usable],
@@ -368,7 +380,7 @@ def relative_checks(
         )
     except CalibrationError as exc:
         notes.append(f"no noise estimate: {exc}")
-    return {"heldout": heldout, "noise": noise, "notes": tuple(notes)}
+    return {"heldout": heldout, "noise": noise, "timing": timing, "notes": tuple(notes)}
 
 
 def fit_tuple_files(
@@ -423,7 +435,9 @@ def fit_slam_bags(
         [b.relative_motions for b in bags], nominal, sensor_pose=(0.0, 0.0, 0.0), force=force
     )
     every, usable = _slam_chains(bags, result)
-    checks = relative_checks(every, usable, np.zeros(3), result, nominal, force=force)
+    checks = relative_checks(
+        every, usable, np.zeros(3), result, nominal, source="SLAM", force=force
+    )
     res = RelativeFitResult(
         result, nominal, len(paths), "slam", slam_bags=tuple(bags), forced=forced,
         time_offsets=tuple(b.time_offset for b in bags),
@@ -509,7 +523,7 @@ def fit_scan_bags(
     usable = np.ones(len(stacked.phi_right_rad), dtype=bool)
     usable[list(result.dropped_indices)] = False
     mount = np.array([result.sensor_x_m, result.sensor_y_m, result.sensor_yaw_rad])
-    checks = relative_checks(stacked, usable, mount, result, nominal, force=force)
+    checks = relative_checks(stacked, usable, mount, result, nominal, source="laser", force=force)
     res = RelativeFitResult(
         result, nominal, len(paths), "scan", scans=tuple(summaries), forced=forced,
         time_offsets=tuple(s.intervals.time_offset for s in summaries), **checks,

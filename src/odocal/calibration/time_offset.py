@@ -37,6 +37,8 @@ from ..errors import CalibrationError
 
 __all__ = [
     "TimeOffset",
+    "TimingCheck",
+    "timing_consistency",
     "estimate_time_offset",
     "wheel_rotations",
     "time_blocks",
@@ -297,3 +299,120 @@ def estimate_time_offset(
     return TimeOffset(
         source, best, stderr, "estimated", int(len(dth)), coarse, loss, tuple(warnings)
     )
+
+
+@dataclass(frozen=True)
+class TimingCheck:
+    """How the wheels' turning agrees with the source's over intervals of growing length.
+
+    Attributes
+    ----------
+    lengths_s : tuple of float
+        Median duration of the intervals at each scale (1, 2, 4, 8 consecutive intervals).
+    turn_ratio : tuple of float
+        The source's rotation per unit of the wheels' nominal rotation at each scale
+        ((J22 - J21) of a robust fit, relative to the first scale's).
+    stderr : tuple of float
+        Block-bootstrap standard errors of ``turn_ratio``.
+    consistent : bool
+        No scale differs from the first by more than 3 combined standard errors.
+    warning : str or None
+        What to do when not consistent.
+    """
+
+    lengths_s: tuple[float, ...]
+    turn_ratio: tuple[float, ...]
+    stderr: tuple[float, ...]
+    consistent: bool
+    warning: str | None
+
+    def as_dict(self) -> dict:
+        """JSON-ready."""
+        return {
+            "lengths_s": list(self.lengths_s),
+            "turn_ratio": list(self.turn_ratio),
+            "stderr": list(self.stderr),
+            "consistent": self.consistent,
+            "warning": self.warning,
+        }
+
+
+def _turn(phi_r: np.ndarray, phi_l: np.ndarray, dth: np.ndarray) -> float:
+    """J22 - J21 of the robust rotation fit of one set of intervals."""
+    scale = max(float(1.4826 * np.median(np.abs(dth - np.median(dth)))), 1e-6)
+    plain = _fit_rotation(phi_r[None, :], phi_l[None, :], dth, np.inf)[0]
+    scale = max(float(1.4826 * np.median(np.abs(plain))), 1e-6)
+    w = np.ones_like(dth)
+    j = np.zeros(2)
+    x = np.column_stack([phi_r, phi_l])
+    for _ in range(10):
+        sw = np.sqrt(w)
+        j, *_ = np.linalg.lstsq(x * sw[:, None], dth * sw, rcond=None)
+        w = 1.0 / (1.0 + ((dth - x @ j) / scale) ** 2)
+    return float(j[0] - j[1])
+
+
+def timing_consistency(
+    phi_right_rad: np.ndarray,
+    phi_left_rad: np.ndarray,
+    heading_change_rad: np.ndarray,
+    start_s: np.ndarray,
+    end_s: np.ndarray,
+    *,
+    source: str,
+    rng: np.random.Generator | None = None,
+) -> TimingCheck | None:
+    """Does the wheels' turning per unit of the source's stay the same when consecutive
+    intervals are composed into longer ones (2, 4, 8)? With a constant clock offset removed it
+    should: the rotation coefficients of one robot do not depend on how the log is cut. When
+    they differ, the odometry's timing is not a constant offset (it stalls and catches up,
+    it is filtered), short intervals see that, and a fit's answer depends on the interval
+    length beyond its uncertainty; the warning says which length to prefer. None when the
+    intervals do not chain."""
+    a, b = np.asarray(start_s, float), np.asarray(end_s, float)
+    n = len(a)
+    if n < 4 * _MIN_TURNING:
+        return None
+    dt = float(np.median(b - a))
+    gap = np.abs(a[1:] - b[:-1]) > 1e-6 + 1e-3 * dt
+    chains = np.split(np.arange(n), np.flatnonzero(gap) + 1)
+    gen = rng if rng is not None else np.random.default_rng(0)
+    lengths, ratios, errs = [], [], []
+    base = None
+    for size in (1, 2, 4, 8):
+        groups = [c[i : i + size] for c in chains for i in range(0, len(c) - size + 1, size)]
+        if len(groups) < 3 * _MIN_TURNING:
+            break
+        idx = np.array(groups)
+        pr = np.asarray(phi_right_rad)[idx].sum(axis=1)
+        pl = np.asarray(phi_left_rad)[idx].sum(axis=1)
+        th = np.asarray(heading_change_rad)[idx].sum(axis=1)
+        t0 = a[idx[:, 0]]
+        c = _turn(pr, pl, th)
+        blk = time_blocks(t0)
+        nb = int(blk.max()) + 1
+        members = [np.flatnonzero(blk == k) for k in range(nb)]
+        reps = []
+        for _ in range(200 if nb > 1 else 0):
+            pick = np.concatenate([members[k] for k in gen.integers(0, nb, nb)])
+            reps.append(_turn(pr[pick], pl[pick], th[pick]))
+        se = float(np.std(reps, ddof=1)) if reps else math.inf
+        base = c if base is None else base
+        lengths.append(float(np.median(b[idx[:, -1]] - t0)))
+        ratios.append(c / base)
+        errs.append(se / abs(base))
+    if len(ratios) < 2:
+        return None
+    z = [abs(r - 1.0) / math.hypot(e, errs[0]) for r, e in zip(ratios[1:], errs[1:], strict=True)]
+    consistent = bool(max(z) <= 3.0)
+    warning = None
+    if not consistent:
+        k = 1 + int(np.argmax(z))
+        warning = (
+            f"the wheels' turning against the {source}'s depends on the interval length: "
+            f"{100 * (ratios[k] - 1):+.1f} % over {lengths[k]:.2g} s against {lengths[0]:.2g} s "
+            f"({max(z):.1f} standard errors): the odometry's timing is not a constant offset "
+            "(it stalls and catches up, or is filtered), so the calibration depends on how the "
+            "log is cut: compare interval lengths, and trust the one the held-out check favours"
+        )
+    return TimingCheck(tuple(lengths), tuple(ratios), tuple(errs), consistent, warning)
