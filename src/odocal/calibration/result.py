@@ -12,6 +12,7 @@ from ..core.model import WheelGeometry
 from ..errors import CalibrationError
 from .fit_methods import HeadingSource, UmbmarkForm, WheelbaseModel
 from .fit_settings import TrajectorySettings
+from .robust_covariance import Consistency
 from .uncertainty import CalibrationUncertainty
 
 if TYPE_CHECKING:  # turning imports this module
@@ -277,6 +278,15 @@ class GeometryFit:
         The single wheelbase for a motion mix, and what it costs per band.
     constant_fit : WheelGeometry or None
         The constant-wheelbase fit behind a motion mix or a banded model.
+    uncertainty : str
+        How ``covariance`` was computed: 'formal' (s^2 (J^T J)^-1) or 'cluster-robust over N
+        data sets / runs / time blocks' (:mod:`odocal.calibration.robust_covariance`).
+    covariance_formal : ndarray, shape (3, 3), or None
+        The formal covariance when ``covariance`` is the cluster-robust one.
+    dof : int or None
+        Degrees of freedom of the cluster-robust standard errors (clusters - 1).
+    consistency : Consistency or None
+        Whether the log's parts (data sets, halves) agree within their own uncertainty.
     """
 
     method: str
@@ -295,6 +305,10 @@ class GeometryFit:
     effective_wheelbase: EffectiveWheelbase | None = None
     motion_mix: MixChoice | None = None
     constant_fit: WheelGeometry | None = None
+    uncertainty: str = "formal"
+    covariance_formal: np.ndarray | None = None
+    dof: int | None = None
+    consistency: Consistency | None = None
 
     @property
     def wheelbase_model(self) -> WheelbaseModel | None:
@@ -327,6 +341,12 @@ class GeometryFit:
         for part in (self.linear, self.squares, self.trajectory):
             if part is not None:
                 out.update(part.as_dict())
+        if self.covariance_formal is not None:
+            out["uncertainty"] = self.uncertainty
+            out["dof"] = self.dof
+            out["stderr_formal"] = stderr_dict(self.covariance_formal)
+        if self.consistency is not None:
+            out["consistency"] = self.consistency.as_dict(_KEYS)
         return out | self._wheelbase_dict()
 
     def _wheelbase_dict(self) -> dict[str, Any]:

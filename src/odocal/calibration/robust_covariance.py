@@ -107,3 +107,100 @@ def cluster_covariance(
     cov = c * bread @ meat @ bread
     s2 = float(r @ r) / max(m - p, 1)
     return ClusterCovariance(0.5 * (cov + cov.T), n_g, n_g - 1, s2 * bread)
+
+
+@dataclass(frozen=True)
+class Consistency:
+    """Do the groups of a log (its data sets, or its time halves) agree within their own
+    uncertainty?
+
+    Each group's estimate is the pooled one moved by a Gauss-Newton step on the group's rows
+    alone, with its own cluster-robust covariance over its subclusters (runs, time blocks);
+    Cochran's Q = sum_g (theta_g - mean)^2 / var_g per parameter (the mean weighted by 1 /
+    var_g) is chi-square with G - 1 degrees of freedom when they agree.
+
+    Attributes
+    ----------
+    groups : tuple of str
+        The groups compared.
+    estimates : ndarray, shape (G, p)
+        Each group's estimate.
+    stderr : ndarray, shape (G, p)
+        Its cluster-robust standard error.
+    statistic : ndarray, shape (p,)
+        Q per parameter.
+    dof : int
+        G - 1.
+    p_value : ndarray, shape (p,)
+    consistent : bool
+        No parameter's p-value below 0.01.
+    """
+
+    groups: tuple[str, ...]
+    estimates: np.ndarray
+    stderr: np.ndarray
+    statistic: np.ndarray
+    dof: int
+    p_value: np.ndarray
+    consistent: bool
+
+    def as_dict(self, names: tuple[str, ...]) -> dict:
+        """JSON-ready, parameters by ``names``."""
+        return {
+            "groups": list(self.groups),
+            "dof": self.dof,
+            "consistent": self.consistent,
+            "statistic": dict(zip(names, (float(q) for q in self.statistic), strict=True)),
+            "p_value": dict(zip(names, (float(v) for v in self.p_value), strict=True)),
+            "estimates": {
+                g: dict(zip(names, (float(v) for v in row), strict=True))
+                for g, row in zip(self.groups, self.estimates, strict=True)
+            },
+            "stderr": {
+                g: dict(zip(names, (float(v) for v in row), strict=True))
+                for g, row in zip(self.groups, self.stderr, strict=True)
+            },
+        }
+
+
+def group_consistency(
+    jacobian: np.ndarray,
+    residual: np.ndarray,
+    estimate: np.ndarray,
+    groups: np.ndarray,
+    subclusters: np.ndarray,
+    names: dict[int, str] | None = None,
+) -> Consistency | None:
+    """The agreement of the groups of a least-squares fit (:class:`Consistency`): ``jacobian``
+    (m, p) and ``residual`` (m,) at the pooled ``estimate`` (p,); ``groups`` and
+    ``subclusters`` (m,) integer labels per row. Groups with fewer than 3 subclusters or a
+    singular information are left out; None when fewer than 2 groups remain."""
+    from scipy.stats import chi2  # here: a slow import
+
+    j = np.asarray(jacobian, dtype=float)
+    r = np.asarray(residual, dtype=float)
+    labels = [int(g) for g in np.unique(groups)]
+    rows, est, err, kept = [], [], [], []
+    for g in labels:
+        sel = np.asarray(groups) == g
+        subs = np.asarray(subclusters)[sel]
+        if len(np.unique(subs)) < 3:
+            continue
+        try:
+            cc = cluster_covariance(j[sel], r[sel], subs)
+            step = np.linalg.solve(j[sel].T @ j[sel], j[sel].T @ r[sel])
+        except (CalibrationError, np.linalg.LinAlgError):
+            continue
+        rows.append(g)
+        est.append(np.asarray(estimate, dtype=float) - step)
+        err.append(cc.stderr)
+        kept.append(names.get(g, str(g)) if names else str(g))
+    if len(rows) < 2:
+        return None
+    e, s = np.array(est), np.array(err)
+    w = 1.0 / np.maximum(s, 1e-300) ** 2
+    mean = (w * e).sum(axis=0) / w.sum(axis=0)
+    q = (w * (e - mean) ** 2).sum(axis=0)
+    dof = len(rows) - 1
+    p = chi2.sf(q, dof)
+    return Consistency(tuple(kept), e, s, q, dof, p, bool(np.all(p >= 0.01)))

@@ -58,6 +58,7 @@ from .result import (
     check_physical,
     stderr_dict,
 )
+from .robust_covariance import Consistency, cluster_covariance, group_consistency
 from .trajectory_residuals import (
     RunResiduals,
     TrajectoryResiduals,
@@ -260,6 +261,98 @@ def _covariance(sol: Any, warnings: list[str]) -> np.ndarray | None:
     return cov
 
 
+#: Fewest groups for a cluster-robust covariance over data sets or runs (else time blocks).
+MIN_CLUSTERS = 8
+
+
+def _row_clusters(
+    runs: Sequence[RunResiduals], use: Sequence[Recording], kind: str
+) -> tuple[np.ndarray, str]:
+    """The independent group of every residual row, and what the groups are: the data sets
+    (sessions) when there are enough of them, else the runs, else contiguous time blocks of
+    each run (its rows are in time order)."""
+    counts = [len(r.idx) if kind == "pose" else len(r.i0) for r in runs]
+    sets = [r.dataset for r in use]
+    names = sorted(set(sets))
+    if len(names) >= MIN_CLUSTERS:
+        labels = [names.index(d) for d in sets]
+        return np.repeat(np.repeat(labels, counts), 3), f"{len(names)} data sets"
+    if len(runs) >= MIN_CLUSTERS:
+        return np.repeat(np.repeat(np.arange(len(runs)), counts), 3), f"{len(runs)} runs"
+    per_run = max(1, -(-2 * MIN_CLUSTERS // max(len(runs), 1)))  # ceil
+    labels = np.concatenate(
+        [i * per_run + (np.arange(c) * per_run) // max(c, 1) for i, c in enumerate(counts)]
+    )
+    return np.repeat(labels, 3), f"{len(np.unique(labels))} time blocks of {len(runs)} run(s)"
+
+
+def _consistency(
+    sol: Any, runs: Sequence[RunResiduals], use: Sequence[Recording], kind: str
+) -> Consistency | None:
+    """Do the data sets agree (else the first and second half of the runs, else of the one
+    run's samples)? Each group's subclusters are its runs (time blocks of a lone run)."""
+    counts = [len(r.idx) if kind == "pose" else len(r.i0) for r in runs]
+    sets = [r.dataset for r in use]
+    names = list(dict.fromkeys(sets))
+    if len(names) >= 2:
+        group_of_run = [names.index(d) for d in sets]
+        labels = {i: n for i, n in enumerate(names)}
+    elif len(runs) >= 2:
+        half = len(runs) // 2
+        group_of_run = [0 if i < half else 1 for i in range(len(runs))]
+        labels = {0: "first half of the runs", 1: "second half of the runs"}
+    else:
+        group_of_run = []
+        labels = {0: "first half of the run", 1: "second half of the run"}
+    if group_of_run:
+        groups = np.repeat(group_of_run, counts)
+        subs = np.repeat(np.arange(len(runs)), counts)
+        # a group of one run: its time blocks are the subclusters
+        for g in set(group_of_run):
+            members = [i for i, x in enumerate(group_of_run) if x == g]
+            if len(members) == 1:
+                sel = groups == g
+                subs[sel] = 10_000 * (g + 1) + (np.arange(sel.sum()) * 8) // max(sel.sum(), 1)
+    else:
+        n = counts[0] if counts else 0
+        groups = (np.arange(n) * 2) // max(n, 1)
+        subs = (np.arange(n) * 16) // max(n, 1)
+    if 3 * len(groups) != len(sol.fun):
+        return None
+    return group_consistency(
+        sol.jac, sol.fun, sol.x, np.repeat(groups, 3), np.repeat(subs, 3), labels
+    )
+
+
+def _robust_covariance(
+    sol: Any, runs: Sequence[RunResiduals], use: Sequence[Recording], s: TrajectorySettings
+) -> tuple[np.ndarray, str, int] | None:
+    """The cluster-robust covariance of the fit (:func:`_row_clusters`), its description and
+    degrees of freedom; None when it cannot be formed."""
+    clusters, what = _row_clusters(runs, use, s.residual)
+    if len(clusters) != len(sol.fun):
+        return None
+    try:
+        cc = cluster_covariance(sol.jac, sol.fun, clusters)
+    except CalibrationError:
+        return None
+    return cc.covariance, f"cluster-robust over {what}", cc.dof
+
+
+def _inconsistent(c: Consistency) -> str:
+    """The warning for groups that disagree beyond their own uncertainty."""
+    k = int(np.argmax(c.statistic))
+    name = ("D_R", "D_L", "b")[k]
+    lo, hi = int(np.argmin(c.estimates[:, k])), int(np.argmax(c.estimates[:, k]))
+    return (
+        f"the log is inconsistent: its parts disagree beyond their own uncertainty ({name}: "
+        f"Q = {c.statistic[k]:.1f} on {c.dof} degrees of freedom, p = {c.p_value[k]:.2g}; from "
+        f"{1e3 * c.estimates[lo, k]:.3f} mm in {c.groups[lo]} to {1e3 * c.estimates[hi, k]:.3f} "
+        f"mm in {c.groups[hi]}): the robot, the floor or the truth changed between them, and "
+        "the stated uncertainty holds only if the parts are a random sample of such changes"
+    )
+
+
 def fit_trajectory(
     recordings: Sequence[Recording],
     start: WheelGeometry | None = None,
@@ -298,13 +391,24 @@ def fit_trajectory(
             + "; refit with --drop-outliers or --exclude RUN"
         )
     warnings += check_physical(sol.x, nominal, "trajectory")
-    cov = _covariance(sol, warnings)
+    formal = _covariance(sol, warnings)
+    cov, how, dof = formal, "formal", None
+    robust = _robust_covariance(sol, runs, use, s) if formal is not None else None
+    if robust is not None:
+        cov, how, dof = robust
+    consistency = _consistency(sol, runs, use, s.residual)
+    if consistency is not None and not consistency.consistent:
+        warnings.append(_inconsistent(consistency))
     m = len(sol.fun)
     return GeometryFit(
         method="trajectory",
         geometry=WheelGeometry(*sol.x),
         stderr=stderr_dict(cov),
         covariance=cov,
+        uncertainty=how,
+        covariance_formal=None if robust is None else formal,
+        dof=dof,
+        consistency=consistency,
         runs=[r.name for r in use],
         per_run=per_run,
         outliers=outliers,
