@@ -59,6 +59,8 @@ def test_a_calibration_of_an_already_calibrated_robot_does_not_beat_it():
     h = heldout_check(a, b, r, lft, m, NOMINAL, cal, chain_s=30.0)
     assert not h.calibration_helps
     assert h.calibrated_final_error_m == pytest.approx(h.nominal_final_error_m, rel=0.2)
+    if h.preferred is None:
+        assert h.verdict().endswith("NO model beats the nominal parameters on data it did not fit")
 
 
 def test_dropped_intervals_carry_the_chains_but_not_the_fits():

@@ -193,7 +193,7 @@ class RelativeFitResult:
         own is in ``time_offsets``)."""
         out: dict[str, float] = {}
         for o in self.time_offsets:
-            out.setdefault(o.source, o.offset_s)
+            out.setdefault(o.source, o.applied_s)
         return out
 
     def as_dict(self) -> dict[str, Any]:
@@ -314,13 +314,30 @@ def _slam_chains(
         k += len(pos)
         inc = b.every_increments
         assert inc is not None  # the loader sets them
-        d = b.time_offset.offset_s
+        d = b.time_offset.applied_s
         parts.append(RelativeMotions(
             inc[0].sum(axis=1), inc[1].sum(axis=1), np.asarray(m.every_motion), inc,
             np.asarray(m.every_start_s) - d, np.asarray(m.every_end_s) - d,
         ))  # fmt: skip
         usable.append(keep)
     return stack_motions(parts), np.concatenate(usable)
+
+
+def _refit(motions: RelativeMotions, result: SensorOdometryFit) -> Any:
+    """The route's own estimator on some of the intervals (for the held-out folds): the
+    relative-motion fit, the sensor's mounting fixed if it was."""
+    assert motions.increments is not None
+    inc_r, inc_l = motions.increments
+    sm = np.asarray(motions.sensor_motion, dtype=float)
+    pose = result.sensor_pose if result.sensor_pose_fixed else None
+
+    def fit(idx: np.ndarray) -> WheelGeometry:
+        return fit_censi(
+            inc_r[idx].sum(axis=1), inc_l[idx].sum(axis=1), sm[idx], sensor_pose=pose,
+            wheel_increments=(inc_r[idx], inc_l[idx]),
+        ).geometry  # fmt: skip
+
+    return fit
 
 
 def relative_checks(
@@ -355,7 +372,7 @@ def relative_checks(
         try:
             heldout = heldout_check(
                 motions.start_s, motions.end_s, inc_r, inc_l, base, nominal, result.geometry,
-                fit_mask=usable,
+                fit_mask=usable, fit_full=_refit(motions, result),
             )  # fmt: skip
         except CalibrationError as exc:
             if not force:

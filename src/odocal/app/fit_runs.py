@@ -14,6 +14,8 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..calibration.banded import banded_after_constant
 from ..calibration.fit_methods import FitMethod, HeadingSource
 from ..calibration.fit_settings import (
@@ -22,10 +24,12 @@ from ..calibration.fit_settings import (
     SquareSettings,
     TrajectorySettings,
 )
+from ..calibration.heldout import HeldOut, heldout_runs
 from ..calibration.linear import fit_linear
 from ..calibration.result import GeometryFit
 from ..calibration.squares import fit_recorded_squares
-from ..calibration.trajectory import fit_trajectory
+from ..calibration.time_offset import TimeOffset, shift_truth, truth_offset
+from ..calibration.trajectory import fit_trajectory, fit_trajectory_model
 from ..calibration.turning import with_bands
 from ..core.model import Robot, WheelGeometry
 from ..core.recording import Recording
@@ -79,6 +83,12 @@ class FitResult:
         The absurd-result messages accepted with ``force``.
     measured : MeasuredRobot or None
         The robot measured from the runs (``robot_out``).
+    time_offsets : tuple of TimeOffset
+        The truth's clock offset against the wheels, per data set (trajectory fits; applied).
+    heldout : HeldOut or None
+        The blocked cross-validation over the runs (trajectory fits with a nominal geometry).
+    notes : tuple of str
+        What was not checked, and why.
     """
 
     fit: GeometryFit
@@ -89,12 +99,29 @@ class FitResult:
     log_check: CheckResult | None = None
     forced: tuple[str, ...] = ()
     measured: MeasuredRobot | None = None
+    time_offsets: tuple[TimeOffset, ...] = ()
+    heldout: HeldOut | None = None
+    notes: tuple[str, ...] = ()
 
     @property
     def warnings(self) -> tuple[str, ...]:
         """The fit's warnings, and the absurd-result messages accepted with ``force``."""
         own = tuple(self.fit.warnings)
-        return own + tuple(w for w in self.forced if w not in own)
+        offsets = tuple(w for o in self.time_offsets for w in o.warnings)
+        return own + offsets + tuple(w for w in self.forced if w not in own)
+
+    @property
+    def time_offsets_s(self) -> dict[str, float]:
+        """Source -> clock offset (s): the truth's, weighted over the data sets by their
+        standard errors (each data set's own in ``time_offsets``)."""
+        if not self.time_offsets:
+            return {}
+        values = [o.applied_s for o in self.time_offsets]
+        errs = [o.stderr_s for o in self.time_offsets]
+        if all(e is not None and e > 0 and np.isfinite(e) for e in errs):
+            w = np.array([1.0 / float(e) ** 2 for e in errs if e is not None])
+            return {"truth": float(np.sum(w * np.array(values)) / np.sum(w))}
+        return {"truth": float(np.median(values))}
 
     def as_dict(self) -> dict[str, Any]:
         """The JSON of ``odocal fit --json``."""
@@ -103,6 +130,11 @@ class FitResult:
         out["nominal"] = None if self.nominal is None else self.nominal.as_dict()
         if self.log_check is not None:
             out["log_check"] = self.log_check.as_dict()
+        if self.time_offsets or self.heldout is not None or self.notes:
+            out["time_offsets_s"] = self.time_offsets_s
+            out["time_offsets"] = [o.as_dict() for o in self.time_offsets]
+            out["heldout"] = None if self.heldout is None else self.heldout.as_dict()
+            out["notes"] = list(self.notes)
         return out
 
 
@@ -212,22 +244,35 @@ def fit_runs(
     squares: SquareSettings = DEFAULT_SQUARES,
     force: bool = False,
     measure: bool = False,
+    truth_offset_s: float | None = None,
+    heldout_check: bool = True,
 ) -> FitResult:
     """The route of runs with ground truth, I/O-free: calibrate ``recordings`` with ``method``
     against the nominal geometry (``robot``'s, else the runs' most common ran-with parameters),
     check the log (trajectory fits) and with ``measure`` measure the robot (this calibration's
     systematic errors, k from the repeated runs, the tracker's jitter).
 
+    Trajectory fits first move each data set's truth onto the wheels' clock (its offset
+    estimated, or ``truth_offset_s``), and afterwards check the answer on runs it did not fit
+    (``heldout_check``; needs the nominal geometry): when no model beats the nominal one there,
+    CalibrationError unless ``force``.
+
     A result more than 25 % from nominal is absurd for a calibration: CalibrationError unless
     ``force`` (then its messages are warnings)."""
     nominal = nominal_geometry(robot, recordings)
     ran_with = None if robot is None else robot.believed_geometry
+    offsets: tuple[TimeOffset, ...] = ()
+    if method == "trajectory":
+        recordings, offsets = _on_wheel_clock(recordings, truth_offset_s)
     fit = fit_recordings(
         recordings, method, nominal=nominal, ran_with=ran_with, settings=settings, squares=squares
     )
     log_check = None
+    heldout, notes = None, ()
     if method == "trajectory":
         fit, log_check = _with_log_check(recordings, fit, robot, settings)
+        if heldout_check:
+            heldout, notes = _heldout(_used(recordings, fit), nominal, fit, settings, force)
     forced = refuse_absurd(fit.geometry, nominal, force)
     measured = None
     if measure:
@@ -243,7 +288,67 @@ def fit_runs(
         log_check,
         tuple(forced),
         measured,
+        offsets,
+        heldout,
+        notes,
     )
+
+
+def _on_wheel_clock(
+    recordings: Sequence[Recording], given: float | None
+) -> tuple[list[Recording], tuple[TimeOffset, ...]]:
+    """The runs with their truth moved onto the wheels' clock: one offset per data set (one
+    recording setup), estimated (:func:`~odocal.calibration.time_offset.truth_offset`) unless
+    ``given``; a data set whose offset cannot be estimated keeps its truth (a warning says
+    so)."""
+    by_set: dict[str, list[Recording]] = {}
+    for r in recordings:
+        if r.ground_truth is not None:
+            by_set.setdefault(r.dataset, []).append(r)
+    offsets: dict[str, TimeOffset] = {}
+    for name, runs in by_set.items():
+        if given is not None:
+            offsets[name] = TimeOffset.given(f"truth ({name})", given)
+            continue
+        try:
+            est = truth_offset(runs)
+            offsets[name] = replace(est, source=f"truth ({name})")
+        except CalibrationError as exc:
+            offsets[name] = TimeOffset(
+                f"truth ({name})", 0.0, None, "not estimated", warnings=(f"{exc}; taken as 0",)
+            )
+    moved = [
+        shift_truth(r, offsets[r.dataset].applied_s) if r.dataset in offsets else r
+        for r in recordings
+    ]
+    return moved, tuple(offsets.values())
+
+
+def _heldout(
+    runs: Sequence[Recording],
+    nominal: WheelGeometry | None,
+    fit: GeometryFit,
+    settings: TrajectorySettings,
+    force: bool,
+) -> tuple[HeldOut | None, tuple[str, ...]]:
+    """The held-out check of a trajectory fit over its runs (:func:`heldout_runs`): a note
+    when it cannot be made; CalibrationError (nothing written) unless ``force`` when no model
+    beats the nominal geometry on runs it did not fit."""
+    if nominal is None:
+        return None, ("no held-out check: it needs the nominal geometry (--robot)",)
+    fixed = replace(settings, drop_outliers=False, wheelbase_model="constant", motion_mix=None)
+    try:
+        h = heldout_runs(
+            runs, nominal, fit.geometry,
+            lambda rs, model: fit_trajectory_model(rs, model, nominal, fixed),
+        )  # fmt: skip
+    except CalibrationError as exc:
+        return None, (f"no held-out check: {exc}",)
+    if h.preferred is None and not force:
+        raise CalibrationError(
+            f"{h.verdict()}; nothing written (--force exports the calibration anyway)"
+        )
+    return h, ()
 
 
 def fit_run_files(
@@ -274,6 +379,7 @@ def fit_run_files(
         squares=squares,
         force=force,
         measure=robot_out is not None,
+        truth_offset_s=bag.time_offset("truth"),
     )
     files: dict[Path, Any] = {}
     if plot is not None:

@@ -31,14 +31,16 @@ to export it without ``--force``).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
 
 from ..core.model import WheelGeometry
-from ..core.odometry import dead_reckon_rows
-from ..core.transforms import se2_compose
+from ..core.odometry import dead_reckon, dead_reckon_rows
+from ..core.recording import Recording
+from ..core.transforms import se2_compose, se2_relative
 from ..errors import CalibrationError
 from .robust_covariance import cluster_covariance
 from .time_offset import time_blocks
@@ -51,6 +53,8 @@ __all__ = [
     "BaseMotionFit",
     "heldout_check",
     "fit_base_motion",
+    "intervals_of_runs",
+    "heldout_runs",
 ]
 
 Model = Literal["full", "equal-diameters", "scale"]
@@ -151,8 +155,10 @@ class HeldOut:
                 head + f": the full calibration {how}; the held-out data prefer the "
                 f"'{self.preferred}' model"
             )
-        return head + f": the calibration {how}, and NO model beats the nominal parameters on "
-        "data it did not fit"
+        return (
+            head + f": the calibration {how}, and NO model beats the nominal parameters on "
+            "data it did not fit"
+        )
 
     def as_dict(self) -> dict:
         """JSON-ready (the ``heldout`` object of ``fit --json``)."""
@@ -335,6 +341,7 @@ def heldout_check(
     fit_mask=None,
     folds: int = 4,
     chain_s: float | None = None,
+    fit_full: Callable[[np.ndarray], WheelGeometry] | None = None,
 ) -> HeldOut:
     """The blocked cross-validation of the module docstring.
 
@@ -360,6 +367,10 @@ def heldout_check(
         Chains longer than this are cut into pieces of about this duration (s): one loop
         closure-free stretch of many minutes would otherwise count as one point. Default: a
         24th of the log, within 5-60 s (about 6 pieces per block or more).
+    fit_full : callable, optional
+        The route's own estimator of the full model on the intervals of the given indices
+        (default: the soft-L1 fit of the base motions); the restricted models are always
+        the latter.
     """
     a, b = np.asarray(start_s, dtype=float), np.asarray(end_s, dtype=float)
     r, lft, m = np.asarray(inc_r, float), np.asarray(inc_l, float), np.asarray(motion, float)
@@ -397,11 +408,32 @@ def heldout_check(
         errors["nominal"].append(_chain_end_errors(test, nominal, r, lft, m))
         for mod in MODELS:
             try:
-                g = fit_base_motion(mod, r[train], lft[train], m[train], nominal).geometry
-            except (ValueError, np.linalg.LinAlgError):
+                if mod == "full" and fit_full is not None:
+                    g = fit_full(train)
+                else:
+                    g = fit_base_motion(mod, r[train], lft[train], m[train], nominal).geometry
+            except (CalibrationError, ValueError, np.linalg.LinAlgError):
                 g = nominal
             errors[mod].append(_chain_end_errors(test, g, r, lft, m))
         durations.extend(float(b[c[-1]] - a[c[0]]) for c in test)
+    wholes = {
+        mod: BaseMotionFit("full", calibrated)
+        if mod == "full"
+        else fit_base_motion(mod, r[usable], lft[usable], m[usable], nominal, a[usable])
+        for mod in MODELS
+    }
+    return _verdict(errors, wholes, folds, durations)
+
+
+def _verdict(
+    errors: dict[str, list[np.ndarray]],
+    wholes: dict[str, BaseMotionFit],
+    folds: int,
+    durations: list[float],
+) -> HeldOut:
+    """Pair every model's held-out errors with the nominal's, chain by chain: the full model
+    is kept when it beats the nominal; else the restricted model with the lowest error among
+    those that do; else none."""
     e = {k: np.concatenate(v) for k, v in errors.items()}
     scores = []
     for mod in MODELS:
@@ -409,15 +441,12 @@ def heldout_check(
         se = float(np.std(d, ddof=1) / math.sqrt(len(d))) if len(d) > 1 else math.inf
         beats = bool(np.mean(d) < -se)
         worse = bool(np.mean(d) > se)
-        if mod == "full":
-            whole = BaseMotionFit("full", calibrated)
-        else:
-            whole = fit_base_motion(mod, r[usable], lft[usable], m[usable], nominal, a[usable])
+        whole = wholes[mod]
         scores.append(ModelScore(mod, whole.geometry, float(np.mean(e[mod])), beats, whole, worse))
-    winners = [s for s in scores if s.beats_nominal]
+    winners = [s for s in scores[1:] if s.beats_nominal]
     preferred = min(winners, key=lambda s: s.mean_final_error_m).model if winners else None
     if scores[0].beats_nominal:
-        preferred = "full" if preferred is None else preferred
+        preferred = "full"
     return HeldOut(
         folds,
         len(e["nominal"]),
@@ -426,4 +455,105 @@ def heldout_check(
         float(np.mean(e["full"])),
         tuple(scores),
         preferred,
+    )
+
+
+def heldout_runs(
+    recordings: Sequence[Recording],
+    nominal: WheelGeometry,
+    calibrated: WheelGeometry,
+    fit_model: Callable[[Sequence[Recording], Model], WheelGeometry],
+    *,
+    folds: int = 4,
+) -> HeldOut:
+    """The blocked cross-validation of a calibration from runs with a ground truth: the runs
+    (in the order given, i.e. as recorded) are cut into ``folds`` contiguous blocks; each model
+    is fitted by the route's own estimator ``fit_model(runs, model)`` on the other blocks, and
+    every run of the block is dead-reckoned from its start with the nominal and the fitted
+    parameters; the error is its final position error (as ``odocal validate`` measures it).
+    ``calibrated`` is the route's answer on all the runs (the full model)."""
+    runs = [r for r in recordings if r.ground_truth is not None]
+    folds = min(folds, len(runs))
+    if folds < 2 or len(runs) < MIN_CHAINS:
+        raise CalibrationError(
+            f"too few runs for a held-out check: {len(runs)} with a ground truth (need "
+            f"{MIN_CHAINS}; a single long run: cut it into runs, or record more)"
+        )
+    block = (np.arange(len(runs)) * folds) // len(runs)
+    errors: dict[str, list[np.ndarray]] = {k: [] for k in ("nominal", *MODELS)}
+    durations: list[float] = []
+    for f in range(folds):
+        test = [r for r, b in zip(runs, block, strict=True) if b == f]
+        train = [r for r, b in zip(runs, block, strict=True) if b != f]
+        errors["nominal"].append(np.array([_final_error(r, nominal) for r in test]))
+        for mod in MODELS:
+            try:
+                g = fit_model(train, mod)
+            except (CalibrationError, ValueError, np.linalg.LinAlgError):
+                g = nominal
+            errors[mod].append(np.array([_final_error(r, g) for r in test]))
+        durations.extend(float(r.time_s[-1] - r.time_s[0]) for r in test)
+    wholes = {"full": BaseMotionFit("full", calibrated)}
+    for mod in MODELS[1:]:
+        try:
+            wholes[mod] = BaseMotionFit(mod, fit_model(runs, mod))
+        except (CalibrationError, ValueError, np.linalg.LinAlgError):
+            wholes[mod] = BaseMotionFit(mod, nominal)
+    return _verdict(errors, wholes, folds, durations)
+
+
+def _final_error(recording: Recording, g: WheelGeometry) -> float:
+    """The final position error (m) of a run dead-reckoned with ``g``."""
+    assert recording.ground_truth is not None  # the caller keeps runs with a truth
+    pose = dead_reckon(recording.wheel_angle_right_rad, recording.wheel_angle_left_rad, g)[-1]
+    return math.hypot(
+        float(recording.ground_truth[-1, 0] - pose[0]),
+        float(recording.ground_truth[-1, 1] - pose[1]),
+    )
+
+
+def intervals_of_runs(
+    recordings: Sequence[Recording], window_s: float = 1.0
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Runs with a ground truth as consecutive intervals of about ``window_s``, for
+    :func:`heldout_check`: (start_s, end_s, inc_r, inc_l, motion). The runs are strung on one
+    clock with a gap between them, so that a chain never crosses from one run to the next;
+    ``motion`` is the truth's motion over each interval in the base frame at its start."""
+    starts, ends, rows_r, rows_l, motions = [], [], [], [], []
+    clock = 0.0
+    for rec in recordings:
+        gt = rec.ground_truth
+        if gt is None or len(rec.time_s) < 3:
+            continue
+        t = np.asarray(rec.time_s, dtype=float)
+        dt = float(np.median(np.diff(t)))
+        step = max(1, int(round(window_s / dt))) if dt > 0 else 1
+        k = np.arange(0, len(t), step)
+        if k[-1] != len(t) - 1:
+            k = np.r_[k, len(t) - 1]
+        a, b = k[:-1], k[1:]
+        right = np.asarray(rec.wheel_angle_right_rad, dtype=float)
+        left = np.asarray(rec.wheel_angle_left_rad, dtype=float)
+        width = int(np.max(b - a))
+        idx = a[:, None] + np.arange(width + 1)[None, :]
+        idx = np.minimum(idx, b[:, None])  # past the interval's end: no more increments
+        rows_r.append(np.diff(right[idx], axis=1))
+        rows_l.append(np.diff(left[idx], axis=1))
+        motions.append(se2_relative(gt[a], gt[b], wrap=False))
+        starts.append(t[a] - t[0] + clock)
+        ends.append(t[b] - t[0] + clock)
+        clock = float(ends[-1][-1]) + 1.0
+    if not starts:
+        raise CalibrationError("no run with a ground truth for the held-out check")
+    width = max(r.shape[1] for r in rows_r)
+
+    def pad(x: np.ndarray) -> np.ndarray:
+        return np.pad(x, ((0, 0), (0, width - x.shape[1])))
+
+    return (
+        np.concatenate(starts),
+        np.concatenate(ends),
+        np.concatenate([pad(x) for x in rows_r]),
+        np.concatenate([pad(x) for x in rows_l]),
+        np.concatenate(motions),
     )

@@ -684,7 +684,7 @@ def scan_interval_motions(
         )
     a, b, motion = matches.start_time_s[ok], matches.end_time_s[ok], matches.motion[ok]
     offset = _laser_offset(t_j, right_rad, left_rad, a, b, motion, time_offset_s)
-    d = offset.offset_s
+    d = offset.applied_s
     inc = wheel_increments(t_j, right_rad, left_rad, a - d, b - d)
     if d:
         phi_r, phi_l = inc[0].sum(axis=1), inc[1].sum(axis=1)

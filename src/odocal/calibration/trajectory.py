@@ -69,6 +69,7 @@ from .trajectory_residuals import (
 )
 
 __all__ = [
+    "fit_trajectory_model",
     "fit_trajectory",
     "fit_trajectory_trials",
     "RESIDUALS",
@@ -422,6 +423,37 @@ def fit_trajectory(
             linear_start=linear_start,
         ),
     )
+
+
+def fit_trajectory_model(
+    recordings: Sequence[Recording],
+    model: str,
+    nominal: WheelGeometry,
+    settings: TrajectorySettings = DEFAULT_TRAJECTORY,
+) -> WheelGeometry:
+    """The trajectory fit of one model of :mod:`odocal.calibration.heldout`: 'full' is
+    :func:`fit_trajectory`; 'equal-diameters' keeps D_R / D_L at the nominal ratio (a common
+    wheel scale and b); 'scale' fits one factor on both diameters with b nominal. Same residual,
+    weights and runs as the full fit (no outlier rule)."""
+    if model == "full":
+        return fit_trajectory(recordings, nominal=nominal, settings=settings).geometry
+    use, _ = _runs_to_fit(recordings, settings.exclude)
+    runs = [
+        RunResiduals(r, settings.residual, settings.samples_per_run, settings.segment_m, nominal,
+                     settings.run_weight)
+        for r in use
+    ]  # fmt: skip
+    fun = TrajectoryResiduals(runs, settings.residual, settings.heading_weight_m)
+    d_r, d_l, b = nominal.diameter_right_m, nominal.diameter_left_m, nominal.wheelbase_m
+
+    def geometry(q: np.ndarray) -> np.ndarray:
+        if model == "equal-diameters":
+            return np.array([d_r * q[0], d_l * q[0], q[1]])
+        return np.array([d_r * q[0], d_l * q[0], b])
+
+    q0 = np.array([1.0, b]) if model == "equal-diameters" else np.array([1.0])
+    sol = solve_lm(lambda q: fun(geometry(q)), q0, xtol=1e-12, ftol=1e-12, gtol=1e-15)
+    return WheelGeometry(*geometry(sol.x))
 
 
 # --- every Monte-Carlo trial at once ------------------------------------------------------------

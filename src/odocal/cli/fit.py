@@ -436,7 +436,7 @@ def _print_checks(res: RelativeFitResult) -> None:
     if res.model != "full":
         g, se = res.geometry, res.geometry_stderr
         cells = [
-            f"{name} {v:.6f}" + ("" if e is None else f" +- {e:.2e}")
+            f"{name} {v:.6f}" + (" (nominal)" if not e else f" +- {e:.2e}")
             for name, v, e in zip(("D_R", "D_L", "b"), (g.diameter_right_m, g.diameter_left_m,
                                                         g.wheelbase_m), se, strict=True)
         ]  # fmt: skip

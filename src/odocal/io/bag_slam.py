@@ -247,7 +247,7 @@ def load_slam_bag(
         )  # fmt: skip
 
     offset = _slam_offset(p, motions_at, lim, t_j, right, left, time_offset_s)
-    motions = motions_at(offset.offset_s, lim)
+    motions = motions_at(offset.applied_s, lim)
     recording = _recording(
         p,
         wheels.topic,
@@ -260,9 +260,9 @@ def load_slam_bag(
         odometry_pose,
         truth_pose,
         meta | wheels.meta,
-        offset.offset_s,
+        offset.applied_s,
     )
-    d = offset.offset_s
+    d = offset.applied_s
     increments = wheel_increments(t_j, right, left, motions.start_s - d, motions.end_s - d)
     every = wheel_increments(t_j, right, left, motions.every_start_s - d, motions.every_end_s - d)
     return SlamBag(
