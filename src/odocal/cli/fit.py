@@ -38,6 +38,7 @@ from .common import (
 if TYPE_CHECKING:
     from ..app.fit import FitResult, GyroFitResult, RelativeFitResult
     from ..calibration.result import GeometryFit
+    from ..calibration.time_offset import TimeOffset
     from ..calibration.turning import EffectiveWheelbase
 
 
@@ -300,6 +301,8 @@ def _print_runs(res: FitResult) -> None:
             )
         )
     print_table(rows)
+    if result.covariance_formal is not None:
+        print(f"std. errors: {result.uncertainty} (formal ones in the JSON)")
     if result.squares is not None:
         print(
             f"pooled from {len(result.squares.data_sets)} data set(s): per data set, "
@@ -314,7 +317,27 @@ def _print_runs(res: FitResult) -> None:
     if res.log_check is not None:
         print("Is this log enough? (odocal check)")
         print_check(res.log_check, indent="  ")
+    _print_offsets(res.time_offsets)
+    if res.heldout is not None:
+        print(res.heldout.verdict())
+    for note in res.notes:
+        print(note)
     _print_written(res.written)
+
+
+def _print_offsets(offsets: tuple[TimeOffset, ...]) -> None:
+    """The clock offsets: every applied one, and how many were found within their noise."""
+    quiet = [o for o in offsets if not o.applied]
+    for o in offsets:
+        if o.applied:
+            se = "" if o.stderr_s is None else f" +- {o.stderr_s:.4f}"
+            print(f"clock offset of the {o.source}: {o.offset_s:+.4f}{se} s ({o.how}; applied)")
+    if quiet:
+        worst = max(abs(o.offset_s) for o in quiet)
+        print(
+            f"clock offsets within their noise (not applied): {len(quiet)} of {len(offsets)} "
+            f"source(s), at most {1e3 * worst:.1f} ms"
+        )
 
 
 def _residual_rms(fit: GeometryFit) -> float | None:
