@@ -7,6 +7,7 @@ The synthetic bags hold a known simulated run: wheel angles (JointState), true p
 
 from __future__ import annotations
 
+import json
 import math
 from dataclasses import dataclass, replace
 
@@ -715,3 +716,41 @@ def test_joint_names(tmp_path, run):
         load_bag_recording(path, right_joint="nope", left_joint="wheel_a")
     rec = load_bag_recording(path, right_joint="wheel_b", left_joint="wheel_a")
     np.testing.assert_allclose(rec.wheel_angle_right_rad, run.right - run.right[0], atol=1e-12)
+
+
+def test_gyro_export_composes_with_what_the_controller_ran_with(synthetic, tmp_path, cli):
+    # the controller integrated /odom with b = 0.5 m, i.e. its nominal 0.49 m times a
+    # wheel_separation_multiplier of 1.0204: the correction applies to the 0.5 m it ran with
+    kind, path = synthetic
+    robot = tmp_path / "robot.yaml"
+    robot.write_text(
+        "wheel_diameter_m: 0.2\nwheelbase_m: 0.49\n"
+        "believed: {wheel_diameter_right_m: 0.2, wheel_diameter_left_m: 0.2, wheelbase_m: 0.5}\n"
+    )
+    ros2 = tmp_path / "dd.yaml"
+    status, out, err = cli(
+        "fit", path, "--method", "gyro", "--odom-topic", "/odom", "--robot", robot,
+        "--ros2", ros2, "--json",
+    )  # fmt: skip
+    assert status == 0, err
+    d = json.loads(out)
+    assert d["calibrated_wheelbase_m"] == pytest.approx(TRUE.wheelbase_m, abs=2e-3)
+    assert d["calibrated_from"] == "the geometry the controller ran with"
+    assert "wheel_separation_multiplier" in ros2.read_text()
+    mult = float(ros2.read_text().split("wheel_separation_multiplier:")[1].split()[0])
+    assert mult == pytest.approx(TRUE.wheelbase_m / 0.49, abs=5e-3)
+    assert set(d["time_offsets_s"]) == {"imu"}
+
+
+def test_gyro_text_without_a_still_period(synthetic, capsys):
+    # its standard error is None: the text says why instead of a TypeError
+    from dataclasses import replace
+
+    from odocal.app.fit_gyro import GyroFitResult
+    from odocal.cli.fit import _print_gyro
+
+    kind, path = synthetic
+    res = GyroFitResult(replace(fit_gyro_bag(path, odom_topic="/odom"),
+                                rotation_ratio_stderr=None), None, None)  # fmt: skip
+    assert _print_gyro(res, as_json=False) == 0
+    assert "no still period: bias unknown" in capsys.readouterr().out

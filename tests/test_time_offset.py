@@ -97,3 +97,13 @@ def test_helpers():
     assert time_blocks(np.linspace(0.0, 5.0, 51), blocks=10, min_block_s=2.0).max() == 1
     g = TimeOffset.given("slam", -0.2)
     assert g.as_dict()["offset_s"] == -0.2 and g.stderr_s is None and g.how == "given"
+
+
+def test_a_heading_can_stand_in_for_the_wheels():
+    # the gyro route has the odometry's heading, not two wheels: (heading, zeros) is a model
+    # with one coefficient (it was singular, and every candidate fitted nothing)
+    t, right, left = drive(seed=7)
+    heading = (0.5 * D_R * right - 0.5 * D_L * left) / B
+    a, b, dth = source_intervals(t, right, left, 0.09, 30.0, math.radians(0.1))
+    est = estimate_time_offset(t, heading, np.zeros_like(heading), a, b, dth, source="imu")
+    assert abs(est.offset_s - 0.09) < 0.005 and est.stderr_s < 0.005

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..calibration.gyro import GyroResult, gyro_calibration, integrate_rate
 from ..calibration.result import ABSURD_FRACTION
+from ..calibration.time_offset import TimeOffset, estimate_time_offset
 from ..core.model import WheelGeometry
 from ..core.odometry import wheel_heading
 from ..errors import CalibrationError, InputError
@@ -37,18 +38,30 @@ class GyroFitResult:
     nominal: WheelGeometry | None
     geometry: WheelGeometry | None
     written: tuple[Path, ...] = ()
+    time_offset: TimeOffset | None = None
+    base: str = ""
 
     method = "gyro"
 
     @property
     def warnings(self) -> tuple[str, ...]:
-        return tuple(self.gyro.warnings)
+        """The calibration's warnings and the clock offset's."""
+        own = tuple(self.gyro.warnings)
+        return own + (() if self.time_offset is None else tuple(self.time_offset.warnings))
+
+    @property
+    def time_offsets_s(self) -> dict[str, float]:
+        """{'imu': seconds} when the IMU's clock offset was found."""
+        return {} if self.time_offset is None else {"imu": self.time_offset.applied_s}
 
     def as_dict(self) -> dict[str, Any]:
         """The JSON of ``odocal fit BAG --method gyro --json``."""
         out = self.gyro.as_dict()
         if self.geometry is not None:
             out.update({f"calibrated_{k}": v for k, v in self.geometry.as_dict().items()})
+            out["calibrated_from"] = self.base
+        out["time_offsets_s"] = self.time_offsets_s
+        out["time_offsets"] = [] if self.time_offset is None else [self.time_offset.as_dict()]
         return out
 
 
@@ -147,6 +160,26 @@ def gyro_fit(
     return result
 
 
+def imu_offset(loaded: GyroBag, result: GyroResult, t_o: np.ndarray, yaw: np.ndarray) -> TimeOffset:
+    """The IMU's clock offset against the odometry: the gyro's yaw (its yaw axis, the bias
+    removed, integrated) registered on the odometry's heading
+    (:func:`~odocal.calibration.time_offset.estimate_time_offset`, the heading standing in for
+    the wheels). The rotation ratio compares whole turns between still periods, which an offset
+    hardly moves: it is reported, not applied."""
+    t_i = loaded.imu.time_s
+    rate = loaded.imu.values["angular_velocity"] @ np.asarray(result.yaw_axis_in_imu)
+    gyro_yaw = integrate_rate(t_i, rate - result.bias_rad_s)
+    window = max(0.25, float(np.median(np.diff(t_i))))
+    a = np.arange(t_i[0], t_i[-1] - window, window)
+    heading = np.interp(a + window, t_i, gyro_yaw) - np.interp(a, t_i, gyro_yaw)
+    try:
+        est = estimate_time_offset(t_o, yaw, np.zeros_like(yaw), a, a + window, heading,
+                                   source="imu")  # fmt: skip
+    except CalibrationError as exc:
+        return TimeOffset("imu", 0.0, None, "not estimated", warnings=(f"{exc}; taken as 0",))
+    return replace(est, applied=False, how=f"{est.how.split(',')[0]}; reported, not applied")
+
+
 def fit_gyro_bag(
     path: str | Path,
     *,
@@ -221,18 +254,29 @@ def fit_gyro(
     plan = OutputPlan([Path(bag), *_robot_file(robot)])
     exports.register(plan)
     nominal = load_robot(robot).nominal if robot else None
-    result = fit_gyro_bag(
+    loaded = read_gyro_bag(
         bag,
-        odom_topic=options.odom_topic or None,
-        imu_topic=options.imu_topic or None,
-        joint_topic=options.joint_topic or None,
-        imu_axis=options.imu_axis or None,
+        BagOptions(
+            joint_topic=options.joint_topic or None,
+            imu_topic=options.imu_topic or None,
+            odom_topic=options.odom_topic or None,
+            right_joint=options.right_joint or None,
+            left_joint=options.left_joint or None,
+        ),
+        have_geometry=nominal is not None,
+        mounting=not options.imu_axis,
+    )
+    result = gyro_fit(
+        loaded,
         wheel_geometry=nominal,
-        right_joint=options.right_joint or None,
-        left_joint=options.left_joint or None,
+        imu_axis=options.imu_axis or None,
         invert_right=options.invert_right,
         invert_left=options.invert_left,
     )
+    meta: dict[str, Any] = {}
+    t_o, yaw, _ = _odometry_heading(loaded, nominal, options.invert_right,
+                                    options.invert_left, meta)  # fmt: skip
+    offset = imu_offset(loaded, result, t_o, yaw)
     if (exports.out or exports.ros2) and nominal is None:
         raise InputError("--out/--ros2 with --method gyro need the nominal geometry: --robot")
     m = float(result.wheelbase_multiplier)
@@ -244,14 +288,25 @@ def fit_gyro(
         )
     geometry = None
     written: tuple[Path, ...] = ()
+    base = ""
     if nominal is not None:
+        # the odometry's rotation was computed through the joints with the nominal geometry,
+        # or by the controller with the geometry it ran with (multipliers included): the
+        # correction applies to that one
+        ran_with = load_robot(robot).believed_geometry if robot else nominal
+        ref = nominal if loaded.from_joints else ran_with
+        base = (
+            "nominal (joint states)"
+            if loaded.from_joints
+            else "the geometry the controller ran with"
+        )
         geometry = WheelGeometry(
-            nominal.diameter_right_m,
-            nominal.diameter_left_m,
-            nominal.wheelbase_m * result.wheelbase_multiplier,
+            ref.diameter_right_m,
+            ref.diameter_left_m,
+            ref.wheelbase_m * result.wheelbase_multiplier,
         )
         written = exports.write(plan, geometry, nominal, record={"method": "gyro"})
-    return GyroFitResult(result, nominal, geometry, written)
+    return GyroFitResult(result, nominal, geometry, written, offset, base)
 
 
 def _robot_file(robot: RobotSpec) -> list[Path]:

@@ -170,9 +170,12 @@ def _fit_rotation(phi_r: np.ndarray, phi_l: np.ndarray, dtheta: np.ndarray, scal
         b1 = np.sum(w * phi_r * dtheta, axis=1)
         b2 = np.sum(w * phi_l * dtheta, axis=1)
         det = a11 * a22 - a12 * a12
-        det = np.where(det > 0, det, np.inf)
-        j22 = (a22 * b1 - a12 * b2) / det
-        j21 = (a11 * b2 - a12 * b1) / det
+        # one regressor alone (a heading, not two wheels; or one wheel that never turns):
+        # its own coefficient, the other's zero
+        alone = ~(det > 1e-12 * np.maximum(a11 * a22, 1e-300))
+        det = np.where(alone, np.inf, det)
+        j22 = np.where(alone, b1 / np.where(a11 > 0, a11, np.inf), (a22 * b1 - a12 * b2) / det)
+        j21 = np.where(alone, 0.0, (a11 * b2 - a12 * b1) / det)
         res = dtheta - j22[:, None] * phi_r - j21[:, None] * phi_l
         w = 1.0 / (1.0 + (res / scale) ** 2)
     return res

@@ -198,7 +198,12 @@ def _print_gyro(res: GyroFitResult, as_json: bool) -> int:
     print_table(
         [
             ("rotation_ratio (gyro / odometry)", f"{g.rotation_ratio:.5f}"),
-            ("  its standard error from the bias", f"{g.rotation_ratio_stderr:.5f}"),
+            (
+                "  its standard error from the bias",
+                "- (no still period: bias unknown)"
+                if g.rotation_ratio_stderr is None
+                else f"{g.rotation_ratio_stderr:.5f}",
+            ),
             ("wheelbase_multiplier", f"{g.wheelbase_multiplier:.5f}"),
             ("gyro rotation (deg)", f"{math.degrees(g.gyro_rotation_rad):+.2f}"),
             ("odometry rotation (deg)", f"{math.degrees(g.odometry_rotation_rad):+.2f}"),
@@ -207,7 +212,14 @@ def _print_gyro(res: GyroFitResult, as_json: bool) -> int:
         ]
     )
     if res.geometry is not None:
-        print(f"  calibrated wheelbase_m: {float(res.geometry.wheelbase_m):.6f}")
+        print(
+            f"  calibrated wheelbase_m: {float(res.geometry.wheelbase_m):.6f} (the correction "
+            f"applied to {res.base})"
+        )
+    o = res.time_offset
+    if o is not None:
+        se = "" if o.stderr_s is None else f" +- {o.stderr_s:.4f}"
+        print(f"  clock offset of the imu: {o.offset_s:+.4f}{se} s ({o.how})")
     _print_written(res.written)
     return 0
 
