@@ -439,3 +439,12 @@ def test_read_bag_with_a_choice_function(written, monkeypatch):
     assert isinstance(bag.messages["/imu"][0][1], bag_decode.ImuRecord)
     with pytest.raises(InputError, match="no topic '/gone' in the bag"):
         bags.read_bag(path, lambda info: {"x": "/gone"})
+
+
+def test_an_old_ros1_format_is_named_not_called_corrupt(tmp_path, cli):
+    old = tmp_path / "old.bag"
+    old.write_bytes(b"#ROSRECORD V1.2\n" + bytes(200))
+    status, out, err = cli("bag-info", old)
+    assert status == 2 and out == ""
+    assert "unsupported ROS 1 bag format version 1.2" in err and "corrupt" not in err
+    assert err.count("\n") == 1

@@ -91,3 +91,15 @@ def test_truth_frames_only_with_the_relative_method(cli, slam_bag):
     cli("fit", slam_bag, "--truth-frames", "map:base_link", "--method", "trajectory").expect_error(
         "--method relative"
     )
+
+
+def test_plot_draws_the_clock_offset_and_the_held_out_check(cli, slam_bag, tmp_path):
+    robot = tmp_path / "robot.yaml"
+    robot.write_text("wheel_diameter_m: 0.066\nwheelbase_m: 0.160\n")
+    figs = tmp_path / "figs"
+    status, out, err = cli(
+        "fit", slam_bag, "--truth-frames", "map:base_link", "--robot", robot, "--plot", figs
+    )
+    assert status == 0, err
+    assert sorted(p.name for p in figs.iterdir()) == ["heldout.png", "time_offset.png"]
+    assert "held out" in out and "clock offset of the slam" in out

@@ -108,8 +108,12 @@ def _refuse_other_routes_outputs(
     method: FitMethod | None, plot: str | Path | None, robot_out: str | Path | None
 ) -> None:
     """The figure is a trajectory fit's; the measured robot needs runs with ground truth."""
-    if plot is not None and method not in (None, "trajectory"):
-        raise InputError("--plot draws the effective wheelbase of a trajectory fit", field="plot")
+    if plot is not None and method not in (None, "trajectory", "relative", "scan"):
+        raise InputError(
+            "--plot draws the effective wheelbase of a trajectory fit, or the clock offsets and "
+            "the held-out check of a bag route",
+            field="plot",
+        )
     if robot_out is not None and method in ("relative", "scan"):
         raise InputError("--robot-out needs runs with ground truth (not --method relative/scan)")
     if robot_out is not None and method == "gyro":
@@ -200,8 +204,14 @@ def fit(
             scan_interval_s=scan_interval_s,
             exports=exports,
             force=force,
+            plot=plot,
         )
     if route == "tuples":
+        if plot is not None:
+            raise InputError(
+                "--plot: .tuple files have no clock and no stretches to hold out; nothing to draw",
+                field="plot",
+            )
         return fit_tuple_files(paths, plan, robot=robot, exports=exports, force=force)
     if route == "slam":
         assert truth_frames is not None  # the route needs them
@@ -215,6 +225,7 @@ def fit(
             slam_stamp_offset_s=slam_stamp_offset_s,
             exports=exports,
             force=force,
+            plot=plot,
         )
     squares = squares if squares is not None else DEFAULT_SQUARES
     run_method: FitMethod = method or "trajectory"

@@ -271,6 +271,7 @@ def _export(
     exports: Exports,
     geometry: WheelGeometry | None = None,
     model: str = "full",
+    files: dict[Path, Any] | None = None,
 ) -> tuple[Path, ...]:
     """PARAMS.yaml and the ros2_control file of a relative-motion fit (the sensor's mounting
     beside the values): ``geometry`` (default the fit's) of ``model``."""
@@ -283,7 +284,24 @@ def _export(
     if model != "full":
         record["model"] = f"{model} (preferred by the held-out check)"
     chosen = result.geometry if geometry is None else geometry
-    return exports.write(plan, chosen, nominal, record=record)
+    return exports.write(plan, chosen, nominal, files=files, record=record)
+
+
+def _figures(res: RelativeFitResult, plot: str | Path | None) -> dict[Path, Any] | None:
+    """The bag route's figures for ``--plot`` (:mod:`odocal.plot.bag`); InputError when there
+    is nothing to draw."""
+    if plot is None:
+        return None
+    from ..plot.bag import bag_figures
+
+    figures = bag_figures(res.time_offsets, res.heldout, plot)
+    if not figures:
+        raise InputError(
+            "--plot: no clock offset was estimated and no held-out check was made (give "
+            "--robot for the check); nothing to draw",
+            field="plot",
+        )
+    return figures
 
 
 def _nominal(robot: RobotSpec) -> WheelGeometry | None:
@@ -432,6 +450,7 @@ def fit_slam_bags(
     slam_stamp_offset_s: float = 0.0,
     exports: Exports = NO_EXPORTS,
     force: bool = False,
+    plot: str | Path | None = None,
 ) -> RelativeFitResult:
     """``fit BAG ... --truth-frames PARENT:CHILD``: the relative motions between the SLAM's
     updates (docs/slam-truth.md); the truth frame is the base itself (no mounting)."""
@@ -460,7 +479,9 @@ def fit_slam_bags(
         time_offsets=tuple(b.time_offset for b in bags),
         load_warnings=tuple(w for b in bags for w in b.wheel_warnings), **checks,
     )  # fmt: skip
-    written = _export(plan, result, nominal, "relative", exports, res.geometry, res.model)
+    written = _export(
+        plan, result, nominal, "relative", exports, res.geometry, res.model, _figures(res, plot)
+    )
     return replace(res, written=written)
 
 
@@ -515,6 +536,7 @@ def fit_scan_bags(
     scan_interval_s: float = 0.5,
     exports: Exports = NO_EXPORTS,
     force: bool = False,
+    plot: str | Path | None = None,
 ) -> RelativeFitResult:
     """``fit BAG --method scan``: the laser's motion between scans ``scan_interval_s`` apart
     from scan matching, then the relative-motion calibration (the laser's mounting too). Needs
@@ -545,5 +567,7 @@ def fit_scan_bags(
         result, nominal, len(paths), "scan", scans=tuple(summaries), forced=forced,
         time_offsets=tuple(s.intervals.time_offset for s in summaries), **checks,
     )  # fmt: skip
-    written = _export(plan, result, nominal, "scan", exports, res.geometry, res.model)
+    written = _export(
+        plan, result, nominal, "scan", exports, res.geometry, res.model, _figures(res, plot)
+    )
     return replace(res, written=written)

@@ -163,7 +163,30 @@ def check_bag_path(path) -> Path:
         raise InputError(
             "not a ROS bag: expected a .bag, .mcap or .db3 file or a rosbag2 folder", p
         )
+    elif p.suffix.lower() == ".bag":
+        _check_ros1_version(p)
     return p
+
+
+def _check_ros1_version(p: Path) -> None:
+    """A ROS 1 bag of another format version than 2.0 (rosbags reads 2.0 only) is refused as
+    such, not as a corrupt file."""
+    try:
+        with p.open("rb") as f:
+            head = f.read(32)
+    except OSError:
+        return  # the reader says what is wrong
+    for magic in (b"#ROSBAG V", b"#ROSRECORD V"):
+        if head.startswith(magic):
+            version = head[len(magic) :].split(b"\n", 1)[0].decode("ascii", "replace").strip()
+            if version != "2.0":
+                raise InputError(
+                    f"unsupported ROS 1 bag format version {version} (odocal reads 2.0, the "
+                    "format of every ROS 1 release since 2010): rewrite it with ROS 1's rosbag, "
+                    "e.g. rosbag filter IN.bag OUT.bag 'True'",
+                    p,
+                )
+            return
 
 
 class _Bag:
