@@ -45,12 +45,13 @@ from ..core.odometry import body_increments, dead_reckon, wheel_jacobian, wheel_
 from ..core.recording import Recording
 from ..core.transforms import se2_conjugate
 from ..errors import CalibrationError
+from .trajectory import RESIDUALS, RUN_WEIGHTS, RunResiduals, relative_poses
 
 # The fit's residual layout (sample indices, segment marks, run weights), its relative-pose
 # helper and its unchecked geometry are private to trajectory.py; they are imported, not copied,
 # so that this check always describes exactly the residuals the fit uses (docs/check.md, "Open
 # points": they should become public).
-from .trajectory import RESIDUALS, RUN_WEIGHTS, RunResiduals, relative_poses
+from .turning import BAND_EDGES
 
 __all__ = [
     "NoiseModel",
@@ -121,8 +122,9 @@ class CheckThresholds:
     Curvature bands are judged on windows of ``window_m`` of mean absolute wheel travel (so that
     encoder quantisation does not make a straight line wiggle); a window is STRAIGHT when its
     turning radius is at least ``straight_radius_b`` wheelbases, a SPOT turn when at most
-    ``spot_radius_b`` wheelbases (the inner wheel turns backwards at half the outer's speed or
-    more), an ARC otherwise. Shares are of wheel travel.
+    ``spot_radius_b`` wheelbases, an ARC otherwise. The edges are those of the bands of motion
+    of ``fit`` (:mod:`odocal.calibration.turning`: spot up to 0.625 b, straight beyond 12.5 b),
+    so that both call the same driving the same thing. Shares are of wheel travel.
 
     ``max_condition``: directions whose Fisher information is below 1/max_condition of the best
     determined one are reported as not determined (a factor 100 in relative standard error).
@@ -131,8 +133,8 @@ class CheckThresholds:
     """
 
     window_m: float = 0.05
-    straight_radius_b: float = 20.0
-    spot_radius_b: float = 0.25
+    straight_radius_b: float = 0.5 / BAND_EDGES[-2]  # 12.5: the straight band's edge
+    spot_radius_b: float = 0.5 / BAND_EDGES[0]  # 0.625: the spot band's edge
     only_share: float = 0.95
     min_travel_m: float = 2.0
     min_rotation_rad: float = 2.0 * math.pi
