@@ -3,10 +3,12 @@ and geometries fitted to recorded runs (``GeometryFit``)."""
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, SupportsFloat
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.model import WheelGeometry
 from ..errors import CalibrationError
@@ -66,12 +68,12 @@ class CalibrationResult:
     def from_factors(
         cls,
         method: str,
-        E_b,
-        E_d,
+        E_b: float,
+        E_d: float,
         ran_with: WheelGeometry,
         uncertainty: CalibrationUncertainty | None = None,
-        **inputs,
-    ):
+        **inputs: Any,
+    ) -> CalibrationResult:
         if not (np.all(np.isfinite(E_b)) and np.all(np.isfinite(E_d))):
             raise CalibrationError(f"{method}: the equations are undefined for these errors")
         if not (np.all(np.asarray(E_b) > 0) and np.all(np.asarray(E_d) > 0)):
@@ -355,7 +357,7 @@ class GeometryFit:
         return out
 
 
-def _finite_or_none(a):
+def _finite_or_none(a: ArrayLike) -> list[Any]:
     """Nested lists of floats with non-finite entries as None (JSON has no NaN)."""
     return [
         _finite_or_none(v) if np.ndim(v) else (float(v) if np.isfinite(v) else None)
@@ -366,14 +368,16 @@ def _finite_or_none(a):
 _KEYS = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
 
 
-def stderr_dict(cov) -> dict:
+def stderr_dict(cov: np.ndarray | None) -> dict[str, float | None]:
     if cov is None:
         return dict.fromkeys(_KEYS)
     d = np.sqrt(np.clip(np.diag(cov), 0, None))
     return {k: (float(v) if np.isfinite(v) else None) for k, v in zip(_KEYS, d, strict=True)}
 
 
-def check_physical(values, nominal: WheelGeometry | None, method: str) -> list[str]:
+def check_physical(
+    values: Iterable[SupportsFloat], nominal: WheelGeometry | None, method: str
+) -> list[str]:
     """Raise CalibrationError for non-positive values (the classic sign of swapped wheels);
     return warnings for values far (> 25 %) from ``nominal``."""
     d_r, d_l, b = (float(v) for v in values)
@@ -391,7 +395,7 @@ def check_physical(values, nominal: WheelGeometry | None, method: str) -> list[s
 ABSURD_FRACTION = 0.25
 
 
-def far_from_nominal(values, nominal: WheelGeometry | None) -> list[str]:
+def far_from_nominal(values: Iterable[SupportsFloat], nominal: WheelGeometry | None) -> list[str]:
     """One message per value of ``values`` (D_R, D_L, b in m) further than
     :data:`ABSURD_FRACTION` from ``nominal`` (none without a nominal geometry)."""
     if nominal is None:
