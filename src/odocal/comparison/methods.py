@@ -234,7 +234,8 @@ def _umbmark_estimate(form: str) -> Estimator:
 
 def _bcpt_estimate(data: dict, ran_with: WheelGeometry) -> GeometryBatch:
     radius = data["cw"].group.size["radius_m"]
-    r = {d: fit_circle(data[d].points).radius_m.mean(axis=1) for d in ("cw", "ccw")}
+    # batched points (trials, runs, K, 2): the radii are an array (trials, runs)
+    r = {d: np.asarray(fit_circle(data[d].points).radius_m).mean(axis=1) for d in ("cw", "ccw")}
     E_b, E_d = bcpt_factors(r["cw"], r["ccw"], radius, ran_with.wheelbase_m)
     return _from_factors(ran_with, E_b, E_d)
 
