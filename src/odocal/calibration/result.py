@@ -74,6 +74,9 @@ class CalibrationResult:
         uncertainty: CalibrationUncertainty | None = None,
         **inputs: Any,
     ) -> CalibrationResult:
+        """The result of the factors ``E_b``, ``E_d`` for a robot that ran with ``ran_with``
+        (CalibrationError when they are not finite and positive); ``inputs``: what they were
+        computed from."""
         if not (np.all(np.isfinite(E_b)) and np.all(np.isfinite(E_d))):
             raise CalibrationError(f"{method}: the equations are undefined for these errors")
         if not (np.all(np.asarray(E_b) > 0) and np.all(np.asarray(E_d) > 0)):
@@ -113,6 +116,7 @@ class OptimizerReport:
     status: int
 
     def as_dict(self) -> dict[str, int]:
+        """JSON-ready (the ``optimizer`` object of ``odocal fit --json``)."""
         return {"nfev": self.nfev, "evaluations": self.evaluations, "status": self.status}
 
 
@@ -137,6 +141,8 @@ class LinearDetails:
     wheelbase_from_left_m: float
 
     def as_dict(self) -> dict[str, Any]:
+        """The linear fit's keys of ``odocal fit --json``: the coefficients by name, the condition
+        number and the wheelbase from each wheel (m)."""
         return {
             "coefficients": dict(
                 zip(("c_R1", "c_L1", "c_R2", "c_L2"), self.coefficients, strict=True)
@@ -159,6 +165,8 @@ class DataSetCalibration:
     calibration: CalibrationResult
 
     def as_dict(self) -> dict[str, Any]:
+        """JSON-ready (one entry of ``data_sets``): the runs, the factors, the parameters the runs
+        ran with and the calibrated geometry (m)."""
         res = self.calibration
         return {
             "data_set": self.data_set,
@@ -191,6 +199,8 @@ class SquaresDetails:
     umbmark_form: UmbmarkForm | None = None
 
     def as_dict(self) -> dict[str, Any]:
+        """The squares fit's keys of ``odocal fit --json``: every data set, how they are pooled and
+        the settings."""
         return {
             "data_sets": [d.as_dict() for d in self.data_sets],
             "pooling": SQUARES_POOLING,
@@ -213,6 +223,8 @@ class TrajectoryDetails:
     linear_start: str
 
     def as_dict(self) -> dict[str, Any]:
+        """The trajectory fit's keys of ``odocal fit --json``: its settings (``segment_m`` None for
+        the 'pose' residual), the residual RMS (m), the optimizer and its starts."""
         s = self.settings
         return {
             "residual": s.residual,
@@ -369,6 +381,8 @@ _KEYS = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
 
 
 def stderr_dict(cov: np.ndarray | None) -> dict[str, float | None]:
+    """Standard errors (m) of D_R, D_L and b by their JSON keys, from the square roots of the
+    diagonal of ``cov`` (None where not finite; all None without a covariance)."""
     if cov is None:
         return dict.fromkeys(_KEYS)
     d = np.sqrt(np.clip(np.diag(cov), 0, None))

@@ -157,6 +157,7 @@ class IntervalCounts:
 
     @property
     def dropped(self) -> int:
+        """Intervals dropped for any reason (jump + too_long + too_short)."""
         return self.jump + self.too_long + self.too_short
 
 

@@ -214,6 +214,8 @@ class BandEstimate:
     excited: bool
 
     def as_dict(self) -> dict:
+        """JSON-ready (one entry of ``bands`` in the ``effective_wheelbase`` object of ``odocal fit
+        --json``)."""
         return {
             "band": self.band,
             "radius_range_m": list(self.radius_range_m),
@@ -251,6 +253,7 @@ class EffectiveWheelbase:
     warnings: tuple[str, ...] = field(default_factory=tuple)
 
     def band(self, name: str) -> BandEstimate:
+        """The estimate of band ``name`` (one of :data:`BANDS`; KeyError for another name)."""
         for b in self.bands:
             if b.band == name:
                 return b
@@ -258,6 +261,7 @@ class EffectiveWheelbase:
 
     @property
     def excited(self) -> tuple[str, ...]:
+        """Names of the excited bands, tightest first."""
         return tuple(b.band for b in self.bands if b.excited)
 
     @property
@@ -266,6 +270,7 @@ class EffectiveWheelbase:
         return {b.band: b.rotation_share for b in self.bands}
 
     def as_dict(self) -> dict:
+        """JSON-ready (the ``effective_wheelbase`` object of ``odocal fit --json``)."""
         return {
             "reference": self.reference.as_dict(),
             "bands": [b.as_dict() for b in self.bands],
@@ -450,6 +455,7 @@ class MixChoice:
     unused: tuple[str, ...] = ()
 
     def as_dict(self) -> dict:
+        """JSON-ready (the ``motion_mix`` object of ``odocal fit --json``)."""
         return {
             "wheelbase_m": self.wheelbase_m,
             "mix": dict(self.mix),
