@@ -73,12 +73,15 @@ class Budget:
     straight_m: float | None = None
 
     def total_travel_m(self, robot: Robot) -> float:
+        """The travel (m) the budget allows ``robot`` in all: ``travel_m``, else ``runs`` runs of 16
+        m + pi b (b the wheelbase the robot believes, m)."""
         if self.travel_m is not None:
             return float(self.travel_m)
         b = float(np.mean(robot.believed_geometry.wheelbase_m))
         return self.runs * (16.0 + math.pi * b)
 
     def per_run_m(self, robot: Robot) -> float:
+        """The travel (m) the budget allows per run."""
         return self.total_travel_m(robot) / self.runs
 
 
