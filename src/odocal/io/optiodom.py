@@ -54,6 +54,7 @@ _RUN = re.compile(r"^(?P<id>.+)_run-(?P<n>\d+)\.csv$")
 
 
 def is_optiodom_dataset(folder) -> bool:
+    """True for a folder holding an OptiOdom data set (a ``*_metadata.csv`` file)."""
     folder = Path(folder)
     return folder.is_dir() and any(folder.glob("*_metadata.csv"))
 

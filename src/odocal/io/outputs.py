@@ -39,7 +39,10 @@ __all__ = ["OutputPlan", "Savable", "Content"]
 
 
 class Savable(Protocol):
-    def savefig(self, fname: Any, *, format: str, metadata: dict) -> None: ...  # noqa: A002
+    """What a figure output must offer: matplotlib's ``Figure.savefig``."""
+
+    def savefig(self, fname: Any, *, format: str, metadata: dict) -> None:  # noqa: A002
+        """Write the figure to ``fname`` in ``format`` with ``metadata`` (PNG text chunks)."""
 
 
 #: PNG text chunks of every figure: none (matplotlib would write its version as 'Software').
@@ -268,6 +271,7 @@ class OutputPlan:
 
     @property
     def files(self) -> list[Path]:
+        """The registered output files (not the folders)."""
         return [o.path for o in self._outputs if not o.is_folder]
 
     # ------------------------------------------------------------------ writing
