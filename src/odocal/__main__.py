@@ -1,3 +1,5 @@
+"""``python -m odocal``: the ``odocal`` command."""
+
 from .cli.main import entry
 
 entry()

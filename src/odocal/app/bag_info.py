@@ -12,10 +12,13 @@ __all__ = ["BagInfo", "bag_info"]
 
 @dataclass(frozen=True)
 class BagInfo:
+    """The topics of one bag: its path and, per topic, the name, message type and count."""
+
     path: str
     topics: tuple[TopicInfo, ...]
 
     def as_dict(self) -> dict:
+        """The JSON of ``odocal bag-info --json``."""
         return {
             "path": self.path,
             "topics": [{"name": t.name, "type": t.msgtype, "count": t.count} for t in self.topics],

@@ -56,6 +56,7 @@ class DesignRun:
 
     @property
     def warnings(self) -> tuple[str, ...]:
+        """The design's warnings (those of its result)."""
         return tuple(self.result.warnings)
 
     def as_dict(self) -> dict:

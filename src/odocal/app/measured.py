@@ -69,6 +69,10 @@ class MeasuredRobot:
         ) + (("k_r, k_l in metres",) if k.k_r_m else ())
 
     def as_dict(self) -> dict:
+        """JSON-ready: the measured robot (nominal geometry in m, systematic errors, wheel noise k
+        in m, the instrument's noise and its source), the tracker's jitter, the calibrated
+        geometry and the k estimate (``robot`` in ``odocal noise --json``, ``robot_measured`` in
+        ``odocal design --json``)."""
         r = self.robot
         return {
             "nominal": r.nominal.as_dict(),

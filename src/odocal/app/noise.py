@@ -89,6 +89,7 @@ class RecordedNoiseResult:
 
     @property
     def warnings(self) -> tuple[str, ...]:
+        """The warnings of the k estimate and of the trajectory fit behind the systematic errors."""
         return tuple(self.measured.noise.warnings) + tuple(self.measured.fit.warnings)
 
     def as_dict(self) -> dict[str, Any]:

@@ -35,6 +35,8 @@ class PlanResult:
     notes: tuple[str, ...] = ()
 
     def as_dict(self) -> dict:
+        """The JSON of ``odocal plan --json``: the floor plan, the run sheet written (``template``)
+        and the notes."""
         return self.floor_plan.as_dict() | {"template": str(self.sheet), "notes": list(self.notes)}
 
 

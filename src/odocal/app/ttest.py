@@ -25,9 +25,11 @@ class SampleInfo:
 
     @classmethod
     def of(cls, sample: ColumnSample) -> SampleInfo:
+        """The summary of ``sample``."""
         return cls(sample.path, sample.column, int(sample.values.size))
 
     def as_dict(self) -> dict:
+        """JSON-ready (the ``a`` and ``b`` objects of ``odocal ttest --json``)."""
         return {"path": self.path, "column": self.column, "n": self.n}
 
 
@@ -44,6 +46,7 @@ class TTestStatistics:
 
     @classmethod
     def of(cls, test: TTest) -> TTestStatistics:
+        """The statistics of ``test``, non-finite values as None."""
         return cls(
             _finite(test.t),
             _finite(test.df),
@@ -53,6 +56,7 @@ class TTestStatistics:
         )
 
     def as_dict(self) -> dict:
+        """JSON-ready (the ``student`` and ``welch`` objects of ``odocal ttest --json``)."""
         return {
             "t": self.t,
             "df": self.df,

@@ -46,6 +46,9 @@ class Validation:
     written: tuple[Path, ...] = ()
 
     def as_dict(self) -> dict[str, Any]:
+        """The JSON of ``odocal validate --json``: the per-run errors, their means (m, rad), the
+        nominal geometry's source and the parameters validated (m)."""
+
         def mean(key: str) -> float | None:
             vals = [r[key] for r in self.runs if r[key] is not None]
             return float(np.mean(vals)) if vals else None

@@ -99,13 +99,20 @@ def coefficients_trials(angles: Sequence[np.ndarray], finals: ArrayLike) -> tupl
     return c1, c2, cov1, cov2, ok1, ok2, cond
 
 
+def _final_truth(r: Recording) -> np.ndarray:
+    """The last ground-truth pose of ``r`` (x_m, y_m, theta_rad)."""
+    if r.ground_truth is None:
+        raise CalibrationError(f"{r.name}: linear needs ground truth")
+    return r.ground_truth[-1]
+
+
 def linear_coefficients(recordings: Sequence[Recording]) -> tuple[Any, ...]:
     """(c_R1, c_L1, c_R2, c_L2), their covariances (2x2 each or None) and cond(Phi^T Phi) of
     step 1. ``recordings`` need ground truth."""
     angles = [
         np.column_stack([r.wheel_angle_right_rad, r.wheel_angle_left_rad]) for r in recordings
     ]
-    finals = np.array([[r.ground_truth[-1] for r in recordings]], dtype=float)
+    finals = np.array([[_final_truth(r) for r in recordings]], dtype=float)
     c1, c2, cov1, cov2, ok1, ok2, cond = coefficients_trials(angles, finals)
     if not ok1:
         raise CalibrationError(
@@ -167,7 +174,7 @@ def fit_linear(
 
     for r in recordings:
         odo = dead_reckon(r.wheel_angle_right_rad, r.wheel_angle_left_rad, geometry)
-        e = r.ground_truth[-1] - odo[-1]
+        e = _final_truth(r) - odo[-1]
         per_run.append(
             {
                 "name": r.name,

@@ -3,10 +3,12 @@ and geometries fitted to recorded runs (``GeometryFit``)."""
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, SupportsFloat
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.model import WheelGeometry
 from ..errors import CalibrationError
@@ -67,12 +69,15 @@ class CalibrationResult:
     def from_factors(
         cls,
         method: str,
-        E_b,
-        E_d,
+        E_b: float,
+        E_d: float,
         ran_with: WheelGeometry,
         uncertainty: CalibrationUncertainty | None = None,
-        **inputs,
-    ):
+        **inputs: Any,
+    ) -> CalibrationResult:
+        """The result of the factors ``E_b``, ``E_d`` for a robot that ran with ``ran_with``
+        (CalibrationError when they are not finite and positive); ``inputs``: what they were
+        computed from."""
         if not (np.all(np.isfinite(E_b)) and np.all(np.isfinite(E_d))):
             raise CalibrationError(f"{method}: the equations are undefined for these errors")
         if not (np.all(np.asarray(E_b) > 0) and np.all(np.asarray(E_d) > 0)):
@@ -112,6 +117,7 @@ class OptimizerReport:
     status: int
 
     def as_dict(self) -> dict[str, int]:
+        """JSON-ready (the ``optimizer`` object of ``odocal fit --json``)."""
         return {"nfev": self.nfev, "evaluations": self.evaluations, "status": self.status}
 
 
@@ -136,6 +142,8 @@ class LinearDetails:
     wheelbase_from_left_m: float
 
     def as_dict(self) -> dict[str, Any]:
+        """The linear fit's keys of ``odocal fit --json``: the coefficients by name, the condition
+        number and the wheelbase from each wheel (m)."""
         return {
             "coefficients": dict(
                 zip(("c_R1", "c_L1", "c_R2", "c_L2"), self.coefficients, strict=True)
@@ -158,6 +166,8 @@ class DataSetCalibration:
     calibration: CalibrationResult
 
     def as_dict(self) -> dict[str, Any]:
+        """JSON-ready (one entry of ``data_sets``): the runs, the factors, the parameters the runs
+        ran with and the calibrated geometry (m)."""
         res = self.calibration
         return {
             "data_set": self.data_set,
@@ -190,6 +200,8 @@ class SquaresDetails:
     umbmark_form: UmbmarkForm | None = None
 
     def as_dict(self) -> dict[str, Any]:
+        """The squares fit's keys of ``odocal fit --json``: every data set, how they are pooled and
+        the settings."""
         return {
             "data_sets": [d.as_dict() for d in self.data_sets],
             "pooling": SQUARES_POOLING,
@@ -212,6 +224,8 @@ class TrajectoryDetails:
     linear_start: str
 
     def as_dict(self) -> dict[str, Any]:
+        """The trajectory fit's keys of ``odocal fit --json``: its settings (``segment_m`` None for
+        the 'pose' residual), the residual RMS (m), the optimizer and its starts."""
         s = self.settings
         return {
             "residual": s.residual,
@@ -375,7 +389,7 @@ class GeometryFit:
         return out
 
 
-def _finite_or_none(a):
+def _finite_or_none(a: ArrayLike) -> list[Any]:
     """Nested lists of floats with non-finite entries as None (JSON has no NaN)."""
     return [
         _finite_or_none(v) if np.ndim(v) else (float(v) if np.isfinite(v) else None)
@@ -386,14 +400,18 @@ def _finite_or_none(a):
 _KEYS = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
 
 
-def stderr_dict(cov) -> dict:
+def stderr_dict(cov: np.ndarray | None) -> dict[str, float | None]:
+    """Standard errors (m) of D_R, D_L and b by their JSON keys, from the square roots of the
+    diagonal of ``cov`` (None where not finite; all None without a covariance)."""
     if cov is None:
         return dict.fromkeys(_KEYS)
     d = np.sqrt(np.clip(np.diag(cov), 0, None))
     return {k: (float(v) if np.isfinite(v) else None) for k, v in zip(_KEYS, d, strict=True)}
 
 
-def check_physical(values, nominal: WheelGeometry | None, method: str) -> list[str]:
+def check_physical(
+    values: Iterable[SupportsFloat], nominal: WheelGeometry | None, method: str
+) -> list[str]:
     """Raise CalibrationError for non-positive values (the classic sign of swapped wheels);
     return warnings for values far (> 25 %) from ``nominal``."""
     d_r, d_l, b = (float(v) for v in values)
@@ -411,7 +429,7 @@ def check_physical(values, nominal: WheelGeometry | None, method: str) -> list[s
 ABSURD_FRACTION = 0.25
 
 
-def far_from_nominal(values, nominal: WheelGeometry | None) -> list[str]:
+def far_from_nominal(values: Iterable[SupportsFloat], nominal: WheelGeometry | None) -> list[str]:
     """One message per value of ``values`` (D_R, D_L, b in m) further than
     :data:`ABSURD_FRACTION` from ``nominal`` (none without a nominal geometry)."""
     if nominal is None:

@@ -57,6 +57,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.transforms import se2_compose, se2_inverse, se2_relative
 from ..errors import CalibrationError, InputError, ModelError
@@ -156,6 +157,7 @@ class IntervalCounts:
 
     @property
     def dropped(self) -> int:
+        """Intervals dropped for any reason (jump + too_long + too_short)."""
         return self.jump + self.too_long + self.too_short
 
 
@@ -245,7 +247,7 @@ class SlamMotions:
         )
 
 
-def _vector(a, name: str, m: int | None) -> np.ndarray:
+def _vector(a: ArrayLike, name: str, m: int | None) -> np.ndarray:
     v = np.asarray(a, dtype=float)
     if v.ndim != 1 or (m is not None and len(v) != m):
         want = f"({m},)" if m is not None else "(m,)"
@@ -255,7 +257,7 @@ def _vector(a, name: str, m: int | None) -> np.ndarray:
     return v
 
 
-def _poses(a, name: str, m: int) -> np.ndarray | None:
+def _poses(a: ArrayLike | None, name: str, m: int) -> np.ndarray | None:
     if a is None:
         return None
     p = np.asarray(a, dtype=float)
@@ -272,16 +274,16 @@ def _unwrapped(p: np.ndarray) -> np.ndarray:
 
 
 def slam_relative_motions(
-    stamp_s,
-    wheel_angle_right_rad,
-    wheel_angle_left_rad,
+    stamp_s: ArrayLike,
+    wheel_angle_right_rad: ArrayLike,
+    wheel_angle_left_rad: ArrayLike,
     *,
-    correction_pose=None,
-    odometry_pose=None,
-    truth_pose=None,
+    correction_pose: ArrayLike | None = None,
+    odometry_pose: ArrayLike | None = None,
+    truth_pose: ArrayLike | None = None,
     limits: SlamLimits | None = None,
     first_is_update: bool | None = None,
-    wheel_time_odometry_pose=None,
+    wheel_time_odometry_pose: ArrayLike | None = None,
 ) -> SlamMotions:
     """Relative motions between consecutive SLAM update instants (module docstring).
 
@@ -442,6 +444,7 @@ def _prepared(
     if corr is not None:
         corr = _unwrapped(corr)
         if odo is None:
+            assert truth is not None  # checked above: exactly one of odometry and truth
             odo = se2_compose(se2_inverse(corr), truth)
         odo = _unwrapped(odo)
         truth = se2_compose(corr, odo)  # yaw = unwrapped correction + unwrapped odometry

@@ -44,6 +44,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.model import WheelGeometry
 from ..core.recording import Recording
@@ -114,7 +115,7 @@ def solve_lm(fun: Callable[[np.ndarray], np.ndarray], x0: np.ndarray, **toleranc
 
     evaluations = 0
 
-    def counted(p):
+    def counted(p: np.ndarray) -> np.ndarray:
         nonlocal evaluations
         evaluations += 1
         return fun(p)
@@ -459,7 +460,9 @@ def fit_trajectory_model(
 # --- every Monte-Carlo trial at once ------------------------------------------------------------
 
 
-def _dead_reckon_trials(dphi_r, dphi_l, x: np.ndarray, jacobian: bool):
+def _dead_reckon_trials(
+    dphi_r: np.ndarray, dphi_l: np.ndarray, x: np.ndarray, jacobian: bool
+) -> tuple[np.ndarray, np.ndarray | None]:
     """Dead reckoning (the operations of :func:`odocal.core.odometry.dead_reckon`) of one run's
     wheel-angle increments ``dphi_r``, ``dphi_l`` (rad, shape (K-1,)) with every geometry of
     ``x`` (shape (M, 3): D_R, D_L, b in m).
@@ -529,7 +532,13 @@ class _TrialGroup:
         self.truth = np.moveaxis(truth[:, :, self.idx, :].mean(axis=1), -1, 0)  # (3, M, S)
 
 
-def _normal_equations(groups, x, trials, w_head, jacobian=True):
+def _normal_equations(
+    groups: Sequence[_TrialGroup],
+    x: np.ndarray,
+    trials: np.ndarray,
+    w_head: float,
+    jacobian: bool = True,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """cost (M,), J^T J (M, 3, 3) and J^T r (M, 3) of the weighted pose residuals of the trials
     ``trials`` at ``x`` (M, 3); r = ground truth - odometry, heading times ``w_head``."""
     scale = np.array([1.0, 1.0, w_head])[:, None, None]
@@ -542,7 +551,7 @@ def _normal_equations(groups, x, trials, w_head, jacobian=True):
         r = g.weight * scale * (g.truth[:, trials] - poses[:, :, idx])  # (3, M, S)
         r = np.moveaxis(r, 1, 0).reshape(len(x), -1)  # (M, 3 S)
         cost += np.einsum("mn,mn->m", r, r)
-        if jacobian:
+        if jac is not None:  # computed when ``jacobian``
             j = -g.weight * scale * jac[:, :, :, idx]  # (3, 3, M, S)
             j = np.moveaxis(j, 2, 0).reshape(len(x), 3, -1)  # (M, 3, 3 S)
             jtj += j @ np.swapaxes(j, 1, 2)
@@ -555,8 +564,8 @@ _COST_ROUNDING = 1e-10
 
 
 def fit_trajectory_trials(
-    angles,
-    truth,
+    angles: Sequence[ArrayLike],
+    truth: Sequence[ArrayLike],
     start: WheelGeometry,
     *,
     heading_weight_m: float = 0.1,

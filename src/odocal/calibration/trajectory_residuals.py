@@ -198,6 +198,8 @@ class TrajectoryResiduals:
         return np.concatenate(parts, axis=1)[:, self.order].T
 
     def __call__(self, p: Any) -> np.ndarray:
+        """The residual at ``p`` = (D_R, D_L, b) (m), flat, the runs' parts one after the other
+        (heading times ``w_head``, each run's part scaled by its weight when ``weighted``)."""
         odo = self.poses(p)
         if self.kind == "pose":
             e = self.truth - odo

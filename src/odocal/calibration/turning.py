@@ -51,10 +51,11 @@ band and overall (see its docstring).
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.model import WheelGeometry
 from ..core.recording import Recording
@@ -102,7 +103,11 @@ def _radius_range(index: int, wheelbase_m: float) -> tuple[float, float | None]:
 
 
 def band_of_increments(
-    angle_right_rad, angle_left_rad, time_s, reference: WheelGeometry, window_s: float = 0.5
+    angle_right_rad: ArrayLike,
+    angle_left_rad: ArrayLike,
+    time_s: ArrayLike,
+    reference: WheelGeometry,
+    window_s: float = 0.5,
 ) -> np.ndarray:
     """Band index (into :data:`BANDS`) of every increment of one run, shape (K - 1,); -1 where
     the robot stands still. ``angle_*``: cumulative wheel angles (rad), shape (K,)."""
@@ -125,7 +130,7 @@ def band_of_increments(
     return band
 
 
-def nearest_estimated_band(estimated) -> list[int]:
+def nearest_estimated_band(estimated: Iterable[int]) -> list[int]:
     """For every band index, the index of the nearest band in ``estimated`` (indices into
     :data:`BANDS`; ties go to the tighter band): where a banded model takes a band's wheelbase
     when that band was not estimated."""
@@ -136,16 +141,19 @@ def nearest_estimated_band(estimated) -> list[int]:
 
 
 def wheelbase_per_increment(
-    recording, band_wheelbases_m: dict, classify_with: WheelGeometry, window_s: float = 0.5
+    recording: Recording,
+    band_wheelbases_m: Mapping[str, float | None],
+    classify_with: WheelGeometry,
+    window_s: float = 0.5,
 ) -> np.ndarray:
     """The wheelbase (m) a banded model uses for every increment of ``recording``, shape
     (K - 1,): the band's value from ``band_wheelbases_m`` (band name -> m), or the nearest
     band's where a band has none. ``classify_with`` gives the diameters that classify the
     motion (:func:`band_of_increments`). Use as ``WheelGeometry.unchecked(D_R, D_L, b)`` in
     :func:`odocal.core.odometry.dead_reckon`."""
-    known = [i for i, name in enumerate(BANDS) if band_wheelbases_m.get(name) is not None]
-    nearest = nearest_estimated_band(known)
-    values = np.array([float(band_wheelbases_m[BANDS[nearest[i]]]) for i in range(len(BANDS))])
+    given = {name: v for name in BANDS if (v := band_wheelbases_m.get(name)) is not None}
+    nearest = nearest_estimated_band(BANDS.index(name) for name in given)
+    values = np.array([float(given[BANDS[nearest[i]]]) for i in range(len(BANDS))])
     band = band_of_increments(
         recording.wheel_angle_right_rad,
         recording.wheel_angle_left_rad,
@@ -157,7 +165,7 @@ def wheelbase_per_increment(
     return values[np.where(band < 0, nearest[0], band)]
 
 
-def _segments(band: np.ndarray):
+def _segments(band: np.ndarray) -> list[tuple[int, int, int]]:
     """(band, first increment, last increment + 1) of every maximal stretch of one band."""
     if len(band) == 0:
         return []
@@ -206,6 +214,8 @@ class BandEstimate:
     excited: bool
 
     def as_dict(self) -> dict:
+        """JSON-ready (one entry of ``bands`` in the ``effective_wheelbase`` object of ``odocal fit
+        --json``)."""
         return {
             "band": self.band,
             "radius_range_m": list(self.radius_range_m),
@@ -243,6 +253,7 @@ class EffectiveWheelbase:
     warnings: tuple[str, ...] = field(default_factory=tuple)
 
     def band(self, name: str) -> BandEstimate:
+        """The estimate of band ``name`` (one of :data:`BANDS`; KeyError for another name)."""
         for b in self.bands:
             if b.band == name:
                 return b
@@ -250,6 +261,7 @@ class EffectiveWheelbase:
 
     @property
     def excited(self) -> tuple[str, ...]:
+        """Names of the excited bands, tightest first."""
         return tuple(b.band for b in self.bands if b.excited)
 
     @property
@@ -258,6 +270,7 @@ class EffectiveWheelbase:
         return {b.band: b.rotation_share for b in self.bands}
 
     def as_dict(self) -> dict:
+        """JSON-ready (the ``effective_wheelbase`` object of ``odocal fit --json``)."""
         return {
             "reference": self.reference.as_dict(),
             "bands": [b.as_dict() for b in self.bands],
@@ -270,7 +283,7 @@ class EffectiveWheelbase:
 
 
 def effective_wheelbase(
-    recordings,
+    recordings: Iterable[Recording],
     reference: WheelGeometry,
     *,
     window_s: float = 0.5,
@@ -442,6 +455,7 @@ class MixChoice:
     unused: tuple[str, ...] = ()
 
     def as_dict(self) -> dict:
+        """JSON-ready (the ``motion_mix`` object of ``odocal fit --json``)."""
         return {
             "wheelbase_m": self.wheelbase_m,
             "mix": dict(self.mix),

@@ -63,6 +63,8 @@ class CalibrationUncertainty:
         return out
 
     def as_dict(self) -> dict:
+        """JSON-ready: standard errors, 95 % intervals and degrees of freedom by name (non-finite
+        values as None), the runs per direction and the method."""
         ci = self.ci95()
         return {
             "stderr": {n: _num(s) for n, s in zip(NAMES, self.stderr, strict=True)},

@@ -6,6 +6,7 @@ from .common import format_topics, print_json
 
 
 def add_parser(sub) -> None:
+    """Add ``odocal bag-info``, its arguments and help, to ``sub`` (argparse's subparsers)."""
     p = sub.add_parser(
         "bag-info",
         description="List the topics (name, message type, count) of a ROS 1 .bag or a ROS 2 "
@@ -18,6 +19,8 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
+    """Run ``odocal bag-info`` on the parsed ``args`` and print the result (text or ``--json``);
+    returns 0 (errors are raised: :func:`~odocal.cli.main.main` reports them)."""
     from ..app.bag_info import bag_info
 
     info = bag_info(args.bag)

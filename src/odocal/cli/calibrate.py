@@ -16,6 +16,7 @@ from .common import (
 
 
 def add_parser(sub) -> None:
+    """Add ``odocal calibrate``, its arguments and help, to ``sub`` (argparse's subparsers)."""
     p = sub.add_parser(
         "calibrate",
         description="Calibrate the wheelbase and wheel-diameter ratio from the measured final "
@@ -81,6 +82,8 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
+    """Run ``odocal calibrate`` on the parsed ``args`` and print the result (text or ``--json``);
+    returns 0 (errors are raised: :func:`~odocal.cli.main.main` reports them)."""
     from ..app.calibrate import calibrate
 
     res = calibrate(

@@ -24,6 +24,7 @@ if TYPE_CHECKING:
 
 
 def add_parser(sub) -> None:
+    """Add ``odocal compare``, its arguments and help, to ``sub`` (argparse's subparsers)."""
     p = sub.add_parser(
         "compare",
         description="Run every calibration method (heading, UMBmark x/y/mean, BCPT, Ivanjko, "
@@ -98,6 +99,8 @@ def _pm(centre: float | None, std: float | None, scale: float, f: str) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``odocal compare`` on the parsed ``args`` and print the result (text or ``--json``);
+    returns 0 (errors are raised: :func:`~odocal.cli.main.main` reports them)."""
     from ..app.compare import compare, comparison_document
 
     bar = ProgressBar("odocal compare", enabled=not (args.quiet or args.json))

@@ -100,6 +100,7 @@ def parse_validation(text: str) -> ValidationTrack:
 
 
 def add_parser(sub) -> None:
+    """Add ``odocal design``, its arguments and help, to ``sub`` (argparse's subparsers)."""
     p = sub.add_parser(
         "design",
         description="For each candidate polygon test track, simulate the calibration many times "
@@ -223,6 +224,8 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``odocal design`` on the parsed ``args`` and print the result (text or ``--json``);
+    returns 0 (errors are raised: :func:`~odocal.cli.main.main` reports them)."""
     from ..app.design import design
     from ..design.robust import RangeDesign
     from ..design.spec import DesignSpec

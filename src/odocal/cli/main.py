@@ -100,6 +100,9 @@ def _terminate(signum, frame):  # noqa: ARG001 - the signal module's API
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run ``odocal`` with ``argv`` (default ``sys.argv[1:]``); returns the exit code: 0, 2 for an
+    :class:`~odocal.errors.OdocalError` (one line on stderr), 128 + the signal number when
+    interrupted or terminated."""
     argv = sys.argv[1:] if argv is None else list(argv)
     args = build_parser(_command(argv)).parse_args(argv)
     installed = False

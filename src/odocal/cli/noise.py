@@ -21,6 +21,7 @@ from .common import (
 
 
 def add_parser(sub) -> None:
+    """Add ``odocal noise``, its arguments and help, to ``sub`` (argparse's subparsers)."""
     p = sub.add_parser(
         "noise",
         description="Estimate the non-systematic wheel-noise parameters (k in METRES; Chong & "
@@ -144,6 +145,8 @@ _UNITS = (
 
 
 def run(args) -> int:
+    """Run ``odocal noise`` on the parsed ``args`` and print the result (text or ``--json``);
+    returns 0 (errors are raised: :func:`~odocal.cli.main.main` reports them)."""
     if args.track is not None:
         return _run_sheet(args)
     if args.params is not None:

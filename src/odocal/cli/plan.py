@@ -21,6 +21,7 @@ DEFAULT_NOISE_RUNS = 20
 
 
 def add_parser(sub) -> None:
+    """Add ``odocal plan``, its arguments and help, to ``sub`` (argparse's subparsers)."""
     p = sub.add_parser(
         "plan",
         description="Print the protocol a person follows on the floor: what to drive, in which "
@@ -74,6 +75,8 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
+    """Run ``odocal plan`` on the parsed ``args`` and print the result (text or ``--json``); returns
+    0 (errors are raised: :func:`~odocal.cli.main.main` reports them)."""
     import numpy as np
 
     from ..app.plan import plan as make_plan

@@ -11,6 +11,7 @@ from .common import ProgressBar, print_json, seed_int, trials_int
 
 
 def add_parser(sub) -> None:
+    """Add ``odocal reproduce``, its arguments and help, to ``sub`` (argparse's subparsers)."""
     p = sub.add_parser(
         "reproduce",
         description="Regenerate the paper's simulations from its stated conditions (Figs. 3, 4, "
@@ -45,6 +46,8 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``odocal reproduce`` on the parsed ``args`` and print the result (text or ``--json``);
+    returns 0 (errors are raised: :func:`~odocal.cli.main.main` reports them)."""
     from ..app.reproduce import reproduce
 
     if args.out is None and not args.json:

@@ -16,6 +16,7 @@ from .common import (
 
 
 def add_parser(sub) -> None:
+    """Add ``odocal simulate``, its arguments and help, to ``sub`` (argparse's subparsers)."""
     p = sub.add_parser(
         "simulate",
         description="Drive a regular N-gon (or a track file) open loop with a simulated robot "
@@ -100,6 +101,8 @@ def _print_prediction(runs, predicted: dict) -> None:
 
 
 def run(args) -> int:
+    """Run ``odocal simulate`` on the parsed ``args`` and print the result (text or ``--json``);
+    returns 0 (errors are raised: :func:`~odocal.cli.main.main` reports them)."""
     from ..app.simulate import simulate
 
     res = simulate(

@@ -6,6 +6,7 @@ from .common import print_json, print_table, print_warnings
 
 
 def add_parser(sub) -> None:
+    """Add ``odocal ttest``, its arguments and help, to ``sub`` (argparse's subparsers)."""
     p = sub.add_parser(
         "ttest",
         description="Independent-samples t-tests of sample A against sample B (e.g. the final "
@@ -25,6 +26,8 @@ def add_parser(sub) -> None:
 
 
 def run(args) -> int:
+    """Run ``odocal ttest`` on the parsed ``args`` and print the result (text or ``--json``);
+    returns 0 (errors are raised: :func:`~odocal.cli.main.main` reports them)."""
     from ..app.ttest import ttest
 
     res = ttest(args.a_csv, args.b_csv, args.column)

@@ -19,6 +19,7 @@ from .common import (
 
 
 def add_parser(sub: Any) -> None:
+    """Add ``odocal validate``, its arguments and help, to ``sub`` (argparse's subparsers)."""
     p = sub.add_parser(
         "validate",
         description="Dead-reckon recorded runs with the given parameters and with the nominal "
@@ -46,6 +47,8 @@ def add_parser(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``odocal validate`` on the parsed ``args`` and print the result (text or ``--json``);
+    returns 0 (errors are raised: :func:`~odocal.cli.main.main` reports them)."""
     from ..app.validate import validate
 
     result = validate(

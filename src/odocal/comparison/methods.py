@@ -73,12 +73,15 @@ class Budget:
     straight_m: float | None = None
 
     def total_travel_m(self, robot: Robot) -> float:
+        """The travel (m) the budget allows ``robot`` in all: ``travel_m``, else ``runs`` runs of 16
+        m + pi b (b the wheelbase the robot believes, m)."""
         if self.travel_m is not None:
             return float(self.travel_m)
         b = float(np.mean(robot.believed_geometry.wheelbase_m))
         return self.runs * (16.0 + math.pi * b)
 
     def per_run_m(self, robot: Robot) -> float:
+        """The travel (m) the budget allows per run."""
         return self.total_travel_m(robot) / self.runs
 
 
@@ -234,7 +237,8 @@ def _umbmark_estimate(form: str) -> Estimator:
 
 def _bcpt_estimate(data: dict, ran_with: WheelGeometry) -> GeometryBatch:
     radius = data["cw"].group.size["radius_m"]
-    r = {d: fit_circle(data[d].points).radius_m.mean(axis=1) for d in ("cw", "ccw")}
+    # batched points (trials, runs, K, 2): the radii are an array (trials, runs)
+    r = {d: np.asarray(fit_circle(data[d].points).radius_m).mean(axis=1) for d in ("cw", "ccw")}
     E_b, E_d = bcpt_factors(r["cw"], r["ccw"], radius, ran_with.wheelbase_m)
     return _from_factors(ran_with, E_b, E_d)
 

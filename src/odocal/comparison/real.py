@@ -41,6 +41,7 @@ class DatasetCalibration:
     heldout_mean_final_error_m: float
 
     def as_dict(self) -> dict:
+        """JSON-ready: the data set, the calibrated geometry (m) and its held-out error (m)."""
         return {
             "dataset": self.dataset,
             **self.geometry.as_dict(),
@@ -58,6 +59,7 @@ class ErrorSpread:
     max: float | None
 
     def as_dict(self) -> dict:
+        """JSON-ready (m; None without errors)."""
         return {"mean": self.mean, "min": self.min, "max": self.max}
 
 
@@ -77,6 +79,9 @@ class RealMethodResult:
         return ErrorSpread(float(np.mean(errs)), float(np.min(errs)), float(np.max(errs)))
 
     def summary(self) -> dict:
+        """JSON-ready (one entry of the real data's ``methods`` in ``odocal compare --json``): the
+        name, the number of calibrations, their held-out errors (m) and every data set's
+        calibration."""
         return {
             "name": self.name,
             "calibrations": len(self.per_dataset),
@@ -93,6 +98,7 @@ class MethodFailure:
     error: str
 
     def as_dict(self) -> dict:
+        """JSON-ready: the method and its error message."""
         return {"method": self.method, "error": self.error}
 
 
@@ -104,6 +110,7 @@ class PublishedReference:
     heldout_mean_final_error_m: float
 
     def as_dict(self) -> dict:
+        """JSON-ready: the published geometry (m) and its held-out error (m)."""
         return {
             **self.geometry.as_dict(),
             "heldout_mean_final_error_m": self.heldout_mean_final_error_m,
@@ -221,12 +228,15 @@ class PublishedAgreement:
 
     @property
     def max_abs_difference_m(self) -> float:
+        """The largest absolute difference (m) of the three."""
         return max(
             abs(v)
             for v in (self.wheelbase_m, self.wheel_diameter_right_m, self.wheel_diameter_left_m)
         )
 
     def as_dict(self) -> dict:
+        """JSON-ready: the methods, the data set, the published geometry (m) and the differences
+        (m)."""
         return {
             "method": self.method,
             "published_method": self.published_method,

@@ -47,12 +47,14 @@ class ErrorStats:
 
     @classmethod
     def of(cls, values: np.ndarray) -> ErrorStats:
+        """The bias and spread of the finite entries of ``values``."""
         v = values[np.isfinite(values)]
         if len(v) == 0:
             return cls(None, None)
         return cls(float(v.mean()), float(v.std(ddof=1)) if len(v) > 1 else None)
 
     def as_dict(self) -> dict:
+        """JSON-ready."""
         return {"bias": self.bias, "std": self.std}
 
 
@@ -66,6 +68,7 @@ class Distribution:
 
     @classmethod
     def of(cls, values: np.ndarray, finite_only: bool = True) -> Distribution:
+        """The distribution of ``values`` (of their finite entries with ``finite_only``)."""
         v = values[np.isfinite(values)] if finite_only else values
         if len(v) == 0:
             return cls(None, None, None)
@@ -76,6 +79,7 @@ class Distribution:
         )
 
     def as_dict(self) -> dict:
+        """JSON-ready."""
         return {"mean": self.mean, "std": self.std, "p95": self.p95}
 
 
@@ -103,14 +107,17 @@ class MethodStats:
 
     @property
     def E_b_stats(self) -> ErrorStats:
+        """Bias and spread of E_b_error over the trials (dimensionless)."""
         return ErrorStats.of(self.E_b_error)
 
     @property
     def E_d_stats(self) -> ErrorStats:
+        """Bias and spread of E_d_error over the trials (dimensionless)."""
         return ErrorStats.of(self.E_d_error)
 
     @property
     def E_s_stats(self) -> ErrorStats:
+        """Bias and spread of E_s_error over the trials (dimensionless)."""
         return ErrorStats.of(self.E_s_error)
 
     @property
@@ -124,6 +131,8 @@ class MethodStats:
         return Distribution.of(self.systematic_error_m)
 
     def summary(self) -> dict:
+        """JSON-ready (one entry of ``methods`` in ``odocal compare --json``): what the method
+        drives and costs (m), its trials' failures, errors and final position errors (m)."""
         return {
             "name": self.name,
             "drives": self.drives,

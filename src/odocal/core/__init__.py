@@ -1,0 +1,3 @@
+"""The model and the math the other layers build on: wheel geometry and its errors, poses and SE(2)
+transforms, tracks, the simulator, dead reckoning, covariance propagation, measured runs,
+statistics and worker processes (numpy and scipy only)."""

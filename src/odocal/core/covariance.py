@@ -311,6 +311,8 @@ class OdometryCovariance:
     process_noise_per_s: dict
 
     def as_dict(self) -> dict:
+        """The JSON of these covariances (the ``ros2_covariance`` object of ``odocal noise
+        --json``)."""
         return {
             "k_r_m": self.k_r_m,
             "k_l_m": self.k_l_m,

@@ -210,10 +210,12 @@ class NonSystematicError:
 
     @property
     def is_zero(self) -> bool:
+        """Whether both wheels are noise-free (k_r_m = k_l_m = 0)."""
         return self.k_r_m == 0.0 and self.k_l_m == 0.0
 
     @property
     def k_sum_m(self) -> float:
+        """k_r_m + k_l_m (m): what the straight-line and turn variances grow with."""
         return self.k_r_m + self.k_l_m
 
 
@@ -238,10 +240,12 @@ class MeasurementNoise:
 
     @property
     def is_zero(self) -> bool:
+        """Whether the measurement is exact (no position or heading noise)."""
         return self.sigma_xy_m == 0.0 and self.sigma_theta_rad == 0.0
 
     @classmethod
     def from_degrees(cls, sigma_xy_m: float, sigma_theta_deg: float) -> MeasurementNoise:
+        """The noise from the heading's standard deviation in degrees (position in m)."""
         return cls(sigma_xy_m, math.radians(sigma_theta_deg))
 
 
@@ -268,10 +272,12 @@ class Robot:
 
     @property
     def true_geometry(self) -> WheelGeometry:
+        """The geometry the robot really drives with: nominal with the systematic errors applied."""
         return self.nominal.with_systematic(self.systematic)
 
     @property
     def believed_geometry(self) -> WheelGeometry:
+        """The geometry the robot's odometry uses: ``believed``, else the nominal one."""
         return self.nominal if self.believed is None else self.believed
 
     def with_believed(self, believed: WheelGeometry | None) -> Robot:

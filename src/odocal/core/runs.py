@@ -43,6 +43,7 @@ class EndPoseRuns:
         return np.array([e[:, 0].mean(), e[:, 1].mean(), float(circular_mean(e[:, 2]))])
 
     def count(self, direction: str) -> int:
+        """Number of runs in ``direction`` ('cw' or 'ccw')."""
         return int(sum(d == direction for d in self.directions))
 
 
@@ -62,13 +63,16 @@ class CircleRuns:
     radii_m: np.ndarray
 
     def select(self, direction: str) -> np.ndarray:
+        """Radii (m) of the runs in ``direction``, shape (k,)."""
         mask = np.array([d == direction for d in self.directions], dtype=bool)
         return np.asarray(self.radii_m, dtype=float)[mask]
 
     def count(self, direction: str) -> int:
+        """Number of runs in ``direction`` ('cw' or 'ccw')."""
         return int(sum(d == direction for d in self.directions))
 
     def mean(self, direction: str) -> float:
+        """Mean radius (m) of the runs in ``direction``; CalibrationError when there are none."""
         r = self.select(direction)
         if len(r) == 0:
             raise CalibrationError(

@@ -76,6 +76,8 @@ class TTest:
         return self.mean_a - self.mean_b
 
     def as_dict(self) -> dict:
+        """JSON-ready: the statistic, its p-values, the mean difference and the groups' summaries
+        (in the data's unit)."""
         return {
             "kind": self.kind,
             "t": self.t,

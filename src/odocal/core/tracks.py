@@ -56,6 +56,7 @@ class Segment:
 
     @property
     def kind(self) -> str:
+        """'straight' (no heading change), 'turn' (on the spot) or 'arc'."""
         d0 = np.all(np.asarray(self.distance_m) == 0)
         a0 = np.all(np.asarray(self.angle_rad) == 0)
         if a0:

@@ -99,6 +99,10 @@ class FloorPlan:
         return "\n".join(lines) + "\n"
 
     def as_dict(self) -> dict:
+        """JSON-ready (``odocal plan --json`` without the run sheet's path and notes): the protocol,
+        the runs in order and the predicted errors (m, deg), plus the calibration's prediction
+        and the typical errors when known."""
+
         def pose(v):
             return {"x_m": float(v[0]), "y_m": float(v[1]), "theta_deg": math.degrees(v[2])}
 

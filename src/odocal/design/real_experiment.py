@@ -172,13 +172,17 @@ class SquareCalibration:
 
     @property
     def heldout_error_m(self) -> float:
+        """Mean held-out final position error (m)."""
         return float(np.mean(self.heldout_errors_m))
 
     @property
     def turning_gain(self) -> float:
+        """mean(D) / b of the calibrated geometry (dimensionless)."""
         return float(self.geometry.mean_diameter_m / self.geometry.wheelbase_m)
 
     def as_dict(self) -> dict:
+        """JSON-ready (floats rounded): the runs, the factors, the geometry (m) and its held-out
+        errors (m), plus the firmware check for a data set's own calibration."""
         out = {
             "side_m": self.side_m,
             "method": self.method,
@@ -407,9 +411,12 @@ class GainPoint:
 
     @property
     def turning_gain(self) -> float:
+        """mean(D) / b of the parameter set (dimensionless)."""
         return float(self.geometry.mean_diameter_m / self.geometry.wheelbase_m)
 
     def as_dict(self) -> dict:
+        """JSON-ready (floats rounded): the label, the geometry (m), its turning gain and held-out
+        error (m)."""
         return {
             "label": self.label,
             **{k: rounded(v) for k, v in self.geometry.as_dict().items()},
@@ -501,6 +508,8 @@ class RealExperiment:
     def calibration(
         self, side_m: float, method: Method = "heading", scope: str = "pooled"
     ) -> SquareCalibration:
+        """The calibration from squares of side ``side_m`` (m) by ``method`` and ``scope``; KeyError
+        when there is none."""
         for c in self.calibrations:
             if math.isclose(c.side_m, side_m) and c.method == method and c.scope == scope:
                 return c

@@ -25,6 +25,7 @@ class MotionProfile:
     spot_turn_rate_rad_s: float | None
 
     def as_dict(self) -> dict:
+        """JSON-ready (m/s, rad/s; None where too few samples)."""
         return {
             "straight_speed_m_s": self.straight_speed_m_s,
             "spot_turn_rate_rad_s": self.spot_turn_rate_rad_s,
@@ -66,6 +67,7 @@ class ClosingHeading:
     other_error_rad: float
 
     def as_dict(self) -> dict:
+        """JSON-ready (rad)."""
         return {
             "spot_rotation_rad": self.spot_rotation_rad,
             "spot_error_rad": self.spot_error_rad,

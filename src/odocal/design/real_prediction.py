@@ -49,6 +49,8 @@ class PredictedTTest:
     kind: str = "paired"
 
     def as_dict(self) -> dict:
+        """JSON-ready: the two sides (m), the median statistics, the shares and the mean difference
+        (m) with its range."""
         return {
             "first_side_m": self.first_side_m,
             "second_side_m": self.second_side_m,
@@ -98,6 +100,7 @@ class Prediction:
 
     @property
     def preferred(self) -> Candidate:
+        """The candidate the recommendation rule picks from the sweep."""
         return self.sweep[self.recommendation.index]
 
 

@@ -425,6 +425,7 @@ class Pick:
     share: float
 
     def as_dict(self) -> dict:
+        """JSON-ready (lengths in m, rounded)."""
         return {
             "sides": self.sides,
             "side_m": rounded(self.side_m),
@@ -457,6 +458,8 @@ class Stability:
         return self.range_m[0] != self.range_m[1]
 
     def as_dict(self) -> dict:
+        """JSON-ready: the resamples, the picks and the ranges of side (m) and travel (m) that hold
+        90 % of them."""
         return {
             "resamples": self.resamples,
             "picks": [p.as_dict() for p in self.picks],

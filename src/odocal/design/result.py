@@ -63,6 +63,8 @@ class ErrorSummary:
 
     @classmethod
     def from_samples(cls, samples) -> ErrorSummary:
+        """The summary of the finite entries of ``samples`` (m): mean, std (ddof 1; NaN with one),
+        the central 95 % range and their number."""
         x = np.asarray(samples, dtype=float).ravel()
         x = x[np.isfinite(x)]
         if x.size == 0:
@@ -72,6 +74,7 @@ class ErrorSummary:
         return cls(float(x.mean()), std, (float(lo), float(hi)), int(x.size))
 
     def as_dict(self) -> dict:
+        """JSON-ready (m, rounded; NaN as None)."""
         return {
             "mean_m": rounded(self.mean_m),
             "std_m": rounded(self.std_m),
@@ -150,10 +153,12 @@ class Candidate:
 
     @property
     def label(self) -> str:
+        """Shape and side, e.g. 'square 1.5 m'."""
         return f"{shape_name(self.sides)} {self.side_m:g} m"
 
 
 def shape_name(sides: int) -> str:
+    """The name of a regular polygon of ``sides`` sides ('square', ...; 'N-gon' without one)."""
     return {3: "triangle", 4: "square", 5: "pentagon", 6: "hexagon", 8: "octagon"}.get(
         int(sides), f"{int(sides)}-gon"
     )
@@ -181,14 +186,17 @@ class ValidationTrack:
         direction_sign(self.direction)
 
     def track(self) -> Track:
+        """The polygon the robot drives (:func:`odocal.core.tracks.polygon`)."""
         return polygon(self.sides, self.side_m, self.direction.lower())
 
     @property
     def label(self) -> str:
+        """Side, shape and direction, e.g. '4 m x 4 m square CW'."""
         d = self.direction.upper()
         if self.sides == 4:
             return f"{self.side_m:g} m x {self.side_m:g} m square {d}"
         return f"{self.side_m:g} m {shape_name(self.sides)} {d}"
 
     def as_dict(self) -> dict:
+        """JSON-ready: the sides, the side length (m) and the direction ('cw' or 'ccw')."""
         return {"sides": self.sides, "side_m": self.side_m, "direction": self.direction.lower()}

@@ -136,6 +136,7 @@ class RangeDesign:
 
     @property
     def recommended(self) -> Candidate:
+        """The recommended candidate."""
         return self.candidates[self.index]
 
     @property
@@ -180,6 +181,8 @@ class RangeDesign:
 
     @property
     def warnings(self) -> tuple[str, ...]:
+        """The design's warnings: no candidate within the tolerance everywhere, and the plausible
+        robots that calibrating would not help."""
         out = []
         if not self.accepted:
             out.append(
@@ -197,6 +200,9 @@ class RangeDesign:
         return tuple(out)
 
     def as_dict(self) -> dict:
+        """The JSON of ``odocal design --json`` over a range of errors: the ranges and scenarios,
+        every candidate's worst regret and error range (m), the recommendation, the uncalibrated
+        and floor errors (m) and the settings."""
         r = self.recommended
         ranges = {k: self.level_range(k) for k in ("E_b", "E_d", "k_m")}
         worst, lo, hi = self.worst_regret, self.error_min_m, self.error_max_m
@@ -238,6 +244,8 @@ class RangeDesign:
         }
 
     def describe(self) -> str:
+        """One line: the recommended track and how close to the best it stays over the ranges (its
+        worst case)."""
         r = self.recommended
         w = self.scenarios[self.worst_scenario]
         return (

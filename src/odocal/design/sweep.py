@@ -103,6 +103,8 @@ class SimulationSettings:
         return cls(None, "midpoint", 0.01, False)
 
     def options(self) -> dict:
+        """The simulator's keyword arguments for these settings (steps, integration, largest step in
+        m)."""
         return {
             "steps_per_segment": self.steps_per_segment,
             "integration": self.integration,
@@ -110,11 +112,14 @@ class SimulationSettings:
         }
 
     def for_tests(self, method: Method) -> SimulationSettings:
+        """The settings for the test runs calibrated by ``method`` (one increment per segment for
+        the heading method when ``single_step_heading_tests``)."""
         if method == "heading" and self.single_step_heading_tests:
             return replace(self, steps_per_segment=1)
         return self
 
     def describe(self) -> str:
+        """The integration in words, e.g. '10 exact increments per segment'."""
         if self.steps_per_segment is not None:
             return f"{self.steps_per_segment} {self.integration} increments per segment"
         step = float(self.max_step_m or 0.0)
@@ -169,6 +174,7 @@ class DesignResult:
 
     @property
     def recommended(self) -> Candidate:
+        """The candidate the recommendation rule picks."""
         return self.candidates[self.recommendation.index]
 
     @property

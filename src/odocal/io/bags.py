@@ -127,6 +127,7 @@ class BagContents:
     picked: dict = field(default_factory=dict)
 
     def msgtype(self, topic: str) -> str | None:
+        """The message type of ``topic`` (None when the bag has no such topic)."""
         return next((t.msgtype for t in self.topics if t.name == topic), None)
 
 
@@ -153,6 +154,8 @@ def _why(exc: BaseException) -> str:
 
 
 def check_bag_path(path) -> Path:
+    """``path`` as a Path when it is a bag (a .bag, .mcap or .db3 file or a rosbag2 folder);
+    InputError otherwise."""
     p = Path(path)
     if not p.exists():
         raise InputError("no such file or folder", p)

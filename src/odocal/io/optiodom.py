@@ -54,6 +54,7 @@ _RUN = re.compile(r"^(?P<id>.+)_run-(?P<n>\d+)\.csv$")
 
 
 def is_optiodom_dataset(folder) -> bool:
+    """True for a folder holding an OptiOdom data set (a ``*_metadata.csv`` file)."""
     folder = Path(folder)
     return folder.is_dir() and any(folder.glob("*_metadata.csv"))
 
@@ -315,7 +316,9 @@ def load_optiodom_split(folder, calibration_circle_set: str | None = None):
     return datasets, heldout
 
 
-def load_optiodom_experiment(folder):
+def load_optiodom_experiment(
+    folder: str | Path,
+) -> tuple[dict[float, list[Recording]], list[Recording], list[Recording], str]:
     """The runs of the real experiment of ``odocal reproduce --realdata`` from an
     ``optiodom_diff`` folder.
 
@@ -330,7 +333,7 @@ def load_optiodom_experiment(folder):
     if not folder.is_dir():
         raise InputError("not a folder (expected an optiodom_diff folder)", folder)
 
-    def sets(kind):
+    def sets(kind: str) -> list[Path]:
         base = folder / kind
         if not base.is_dir():
             raise InputError(

@@ -25,10 +25,11 @@ import io
 import os
 import signal
 import tempfile
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from types import FrameType
 from typing import Any, Protocol
 
 from ..core.parallel import run_tasks
@@ -38,7 +39,10 @@ __all__ = ["OutputPlan", "Savable", "Content"]
 
 
 class Savable(Protocol):
-    def savefig(self, fname: Any, *, format: str, metadata: dict) -> None: ...  # noqa: A002
+    """What a figure output must offer: matplotlib's ``Figure.savefig``."""
+
+    def savefig(self, fname: Any, *, format: str, metadata: dict) -> None:  # noqa: A002
+        """Write the figure to ``fname`` in ``format`` with ``metadata`` (PNG text chunks)."""
 
 
 #: PNG text chunks of every figure: none (matplotlib would write its version as 'Software').
@@ -81,7 +85,7 @@ class _Output:
 
 
 @contextmanager
-def _signals_held():
+def _signals_held() -> Iterator[None]:
     """Hold SIGINT and SIGTERM back: their Python handlers run when the block ends.
 
     Done with Python-level handlers, not a thread signal mask: a process-directed signal may be
@@ -89,7 +93,7 @@ def _signals_held():
     main thread anyway, so a mask on the main thread alone would not hold it."""
     pending: list[int] = []
 
-    def note(signum, frame):  # noqa: ARG001 - the signal module's API
+    def note(signum: int, frame: FrameType | None) -> None:  # noqa: ARG001 - signal's API
         pending.append(signum)
 
     held = (signal.SIGINT, signal.SIGTERM)
@@ -267,6 +271,7 @@ class OutputPlan:
 
     @property
     def files(self) -> list[Path]:
+        """The registered output files (not the folders)."""
         return [o.path for o in self._outputs if not o.is_folder]
 
     # ------------------------------------------------------------------ writing

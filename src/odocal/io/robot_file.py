@@ -73,6 +73,7 @@ def _check_proportions(doc: YamlDoc, g: WheelGeometry, prefix: str = "") -> None
 
 
 def robot_from_doc(doc: YamlDoc) -> Robot:
+    """The Robot a parsed ROBOT.yaml describes, every key checked (InputError naming the line)."""
     d = doc.data
     doc.check_keys(d, _TOP)
     if "name" in d:

@@ -211,6 +211,7 @@ class Table:
         return LineNumbers(self)
 
     def has(self, name: str) -> bool:
+        """Whether the header has a column ``name``."""
         return name in self.header
 
     def index(self, name: str) -> int:

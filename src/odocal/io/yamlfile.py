@@ -102,6 +102,7 @@ class YamlDoc:
         self.data, self.lines, self.path = data, lines, path
 
     def error(self, key: str, message: str) -> InputError:
+        """An InputError at ``key``'s line of the file."""
         return InputError(message, self.path, self.lines.get(key), key)
 
     def section(self, key: str, allowed: tuple[str, ...]) -> dict:
@@ -115,6 +116,8 @@ class YamlDoc:
         return value
 
     def check_keys(self, mapping: dict, allowed: tuple[str, ...], prefix: str = "") -> None:
+        """InputError for the first key of ``mapping`` not in ``allowed`` (``prefix`` + key: its
+        dotted path)."""
         for k in mapping:
             if k not in allowed:
                 raise self.error(
