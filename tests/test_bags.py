@@ -754,3 +754,15 @@ def test_gyro_text_without_a_still_period(synthetic, capsys):
                                 rotation_ratio_stderr=None), None, None)  # fmt: skip
     assert _print_gyro(res, as_json=False) == 0
     assert "no still period: bias unknown" in capsys.readouterr().out
+
+
+def test_the_wheel_odometry_is_never_its_own_ground_truth(tmp_path, run, cli):
+    path = write_bag(tmp_path / "odom_only.bag", "ros1", run, truth=False, odom=True)
+    status, out, err = cli("fit", path)
+    assert status == 2 and err.count("\n") == 1
+    assert "cannot be its own reference" in err and "--truth-topic" in err
+    assert "This bag allows: gyro" in err  # the routes it does allow, with why
+    robot = tmp_path / "robot.yaml"
+    robot.write_text("wheel_diameter_m: 0.2\nwheelbase_m: 0.5\n")
+    status, out, err = cli("check", path, "--robot", robot)
+    assert status in (0, 3) and "cannot be its own reference" in err  # a warning: wheels only

@@ -12,7 +12,7 @@ def _ivanjko(realdata, runs):
 
 def test_straight_runs_alone_are_not_enough(cli, realdata):
     status, out, err = cli("check", *_ivanjko(realdata, range(1, 6)), "--json")
-    assert status == 0, err
+    assert status == 3, err  # NOT enough: the documented status, also with --json
     d = json.loads(out)
     assert d["ok"] is False
     codes = {g["code"] for g in d["degeneracies"]}
@@ -24,7 +24,7 @@ def test_straight_runs_alone_are_not_enough(cli, realdata):
 
 def test_spins_alone_are_not_enough_and_the_text_says_why(cli, realdata):
     status, out, err = cli("check", *_ivanjko(realdata, range(6, 11)))
-    assert status == 0, err
+    assert status == 3, err
     assert "NOT enough" in out and "only spot turns" in out and "suggestion:" in out
     assert "turns only right" in out
 

@@ -103,3 +103,27 @@ def test_plot_draws_the_clock_offset_and_the_held_out_check(cli, slam_bag, tmp_p
     assert status == 0, err
     assert sorted(p.name for p in figs.iterdir()) == ["heldout.png", "time_offset.png"]
     assert "held out" in out and "clock offset of the slam" in out
+
+
+def test_check_of_a_slam_bag_uses_the_logs_own_noise_and_the_routes_model(cli, run, tmp_path):
+    # a SLAM pose with 1 cm / 0.5 deg noise: the check names where its noise came from and
+    # predicts the SLAM route's standard errors, close to what the fit then states
+    import numpy as np
+
+    path = tmp_path / "noisy"
+    write_ros2_bag(path, run, map_odom_every=25, imu=False, slam_noise=(0.01, 0.0087),
+                   rng=np.random.default_rng(3))  # fmt: skip
+    robot = tmp_path / "robot.yaml"
+    robot.write_text("wheel_diameter_m: 0.066\nwheelbase_m: 0.160\n")
+    status, out, err = cli("check", path, "--truth-frames", "map:base_link", "--robot", robot,
+                           "--json")  # fmt: skip
+    assert status in (0, 3), err
+    d = json.loads(out)
+    assert "from the log's own residuals" in d["noise_source"]
+    assert "relative-motion fit" in d["settings"]["prediction"]
+    status, out, err = cli("fit", path, "--truth-frames", "map:base_link", "--robot", robot,
+                           "--json", "--force")  # fmt: skip
+    assert status == 0, err
+    fit = json.loads(out)
+    ratio = d["stderr"]["wheelbase_m"] / fit["stderr"]["wheelbase_m"]
+    assert 0.33 < ratio < 3.0, ratio

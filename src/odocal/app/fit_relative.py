@@ -59,6 +59,7 @@ class TupleInput:
     tuples: int
 
     def as_dict(self) -> dict[str, Any]:
+        """JSON-ready: the file and its tuple count."""
         return {"path": self.path, "tuples": self.tuples}
 
 
@@ -77,6 +78,7 @@ class ScanSummary:
     warnings: tuple[str, ...]
 
     def as_dict(self) -> dict[str, Any]:
+        """JSON-ready: this bag's entry of ``scan`` in ``fit --method scan --json``."""
         iv = self.intervals
         x, y, yaw = self.mount_guess
         return {

@@ -268,7 +268,8 @@ def fit_runs(
         recordings, method, nominal=nominal, ran_with=ran_with, settings=settings, squares=squares
     )
     log_check = None
-    heldout, notes = None, ()
+    heldout: HeldOut | None = None
+    notes: tuple[str, ...] = ()
     if method == "trajectory":
         fit, log_check = _with_log_check(recordings, fit, robot, settings)
         if heldout_check:

@@ -188,6 +188,7 @@ class SensorOdometryFit:
 
     @property
     def tuples_dropped(self) -> int:
+        """How many tuples the outlier rule dropped."""
         return len(self.dropped_indices)
 
     def as_dict(self) -> dict:

@@ -257,6 +257,7 @@ def choose_bias(
             f"no still period of at least {min_still_s:g} s: gyro bias not removed "
             "(record some seconds standing still before and after driving)",
         )
+    assert stderr is not None  # an estimate comes with its standard error
     if mode == "still" or abs(estimate) > 2.0 * stderr:
         return float(estimate), "still", None
     return 0.0, "none (still-period estimate not significant)", None
@@ -300,6 +301,8 @@ class GyroResult:
         return self.odometry_rotation_rad / (2.0 * math.pi)
 
     def as_dict(self) -> dict:
+        """The JSON of ``odocal fit BAG --method gyro --json`` (non-finite values as None)."""
+
         def num(v: float | None) -> float | None:
             return None if v is None or not math.isfinite(v) else float(v)
 

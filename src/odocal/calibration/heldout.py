@@ -36,6 +36,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.model import WheelGeometry
 from ..core.odometry import dead_reckon, dead_reckon_rows
@@ -276,7 +277,9 @@ def fit_base_motion(
     return BaseMotionFit(model, geometry, m @ cov @ m.T, dof)
 
 
-def _robust_covariance(fun, q: np.ndarray, start_s: np.ndarray) -> tuple[np.ndarray | None, int]:
+def _robust_covariance(
+    fun: Callable[[np.ndarray], np.ndarray], q: np.ndarray, start_s: np.ndarray
+) -> tuple[np.ndarray | None, int]:
     """The cluster-robust covariance of the M-estimate with the soft-L1 loss at ``q``
     (psi(r) = r / sqrt(1 + r^2), psi'(r) = (1 + r^2)^-3/2), over time blocks."""
     f = fun(q)
@@ -330,15 +333,15 @@ def _split_long(chains: list[np.ndarray], max_intervals: int) -> list[np.ndarray
 
 
 def heldout_check(
-    start_s,
-    end_s,
-    inc_r,
-    inc_l,
-    motion,
+    start_s: ArrayLike,
+    end_s: ArrayLike,
+    inc_r: ArrayLike,
+    inc_l: ArrayLike,
+    motion: ArrayLike,
     nominal: WheelGeometry,
     calibrated: WheelGeometry,
     *,
-    fit_mask=None,
+    fit_mask: ArrayLike | None = None,
     folds: int = 4,
     chain_s: float | None = None,
     fit_full: Callable[[np.ndarray], WheelGeometry] | None = None,
@@ -416,7 +419,7 @@ def heldout_check(
                 g = nominal
             errors[mod].append(_chain_end_errors(test, g, r, lft, m))
         durations.extend(float(b[c[-1]] - a[c[0]]) for c in test)
-    wholes = {
+    wholes: dict[str, BaseMotionFit] = {
         mod: BaseMotionFit("full", calibrated)
         if mod == "full"
         else fit_base_motion(mod, r[usable], lft[usable], m[usable], nominal, a[usable])

@@ -45,6 +45,7 @@ from ..core.odometry import body_increments, dead_reckon, wheel_jacobian, wheel_
 from ..core.recording import Recording
 from ..core.transforms import se2_conjugate
 from ..errors import CalibrationError
+from .fit_methods import Residual, RunWeight
 from .trajectory import RESIDUALS, RUN_WEIGHTS, RunResiduals, relative_poses
 
 # The fit's residual layout (sample indices, segment marks, run weights), its relative-pose
@@ -54,6 +55,7 @@ from .trajectory import RESIDUALS, RUN_WEIGHTS, RunResiduals, relative_poses
 from .turning import BAND_EDGES
 
 __all__ = [
+    "with_prediction",
     "NoiseModel",
     "CheckThresholds",
     "MotionSummary",
@@ -106,6 +108,7 @@ class NoiseModel:
             raise CalibrationError(f"turn_rad must be finite and >= 0, got {self.turn_rad!r}")
 
     def as_dict(self) -> dict:
+        """JSON-ready (k in m, the tracker noise in m and degrees)."""
         return {
             "k_r_m": float(self.wheel.k_r_m),
             "k_l_m": float(self.wheel.k_l_m),
@@ -173,6 +176,7 @@ class MotionSummary:
     ratio_concentration: float
 
     def as_dict(self) -> dict:
+        """JSON-ready."""
         d = {k: _json(v) for k, v in self.__dict__.items()}
         for k in ("rotation_rad", "rotation_left_rad", "rotation_right_rad"):
             d[k.replace("_rad", "_deg")] = _json(math.degrees(getattr(self, k)))
@@ -195,6 +199,7 @@ class Degeneracy:
     message: str
 
     def as_dict(self) -> dict:
+        """JSON-ready."""
         return dict(self.__dict__)
 
 
@@ -847,8 +852,31 @@ def _imprecise(
         what,
         "predicted standard error "
         + ", ".join(f"{words[k]} {100 * v:.2g} %" for k, v in loose.items())
-        + f" (> {100 * th.max_relative_stderr:.2g} % of the value) with the stated noise",
+        + f" (> {100 * th.max_relative_stderr:.2g} % of the value) with the noise below",
     ), [_tip_for(direction, b) + ", or simply more of the same runs"]
+
+
+def with_prediction(check: LogCheck, covariance: np.ndarray, what: str) -> LogCheck:
+    """``check`` with the predicted covariance of another estimator (e.g. the relative-motion fit
+    of a SLAM truth, whose residuals are not the trajectory fit's): its standard errors, and the
+    'imprecise' finding judged again on them; ``what`` names it (in ``settings['prediction']``).
+    The motion, the blind directions and the other findings stay the trajectory fit's."""
+    th = CheckThresholds()
+    cov = np.asarray(covariance, dtype=float)
+    se = np.sqrt(np.abs(np.diag(cov)))
+    values = np.asarray(check.values, dtype=float)[: len(se)]
+    keys = GEOMETRY_PARAMETERS[: len(se)]
+    stderr = dict(check.stderr) | {k: float(v) for k, v in zip(keys, se, strict=True)}
+    kept = tuple(d for d in check.degeneracies if d.code != "imprecise")
+    finding = _imprecise(check.condition_number, list(se), values, float(values[-1]), th)
+    suggestions = check.suggestions
+    if finding is not None:
+        kept = (*kept, finding[0])
+        suggestions = tuple(dict.fromkeys((*suggestions, *finding[1])))
+    return replace(
+        check, stderr=stderr, degeneracies=kept, suggestions=suggestions,
+        settings=dict(check.settings) | {"prediction": what},
+    )  # fmt: skip
 
 
 def _tip_for(weakest: str, b: float) -> str:
@@ -875,11 +903,11 @@ def check_recordings(
     geometry: WheelGeometry,
     *,
     noise: NoiseModel | None = None,
-    residual: str = "pose",
+    residual: Residual = "pose",
     segment_m: float = 1.0,
     heading_weight_m: float = 0.1,
     samples_per_run: int = 200,
-    run_weight: str = "travel",
+    run_weight: RunWeight = "travel",
     mounting: bool = False,
     residual_scale: str = "stated",
     thresholds: CheckThresholds | None = None,
@@ -963,11 +991,11 @@ class _Settings:
     """The check's settings: the trajectory fit's it predicts for (``fit_trajectory``), the
     mounting and the source of the noise scale."""
 
-    residual: str
+    residual: Residual
     segment_m: float
     heading_weight_m: float
     samples_per_run: int
-    run_weight: str
+    run_weight: RunWeight
     mounting: bool
     residual_scale: str
 

@@ -33,6 +33,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.covariance import propagate_increments
 from ..core.model import NonSystematicError, WheelGeometry
@@ -41,7 +42,7 @@ from ..core.transforms import se2_compose
 from ..errors import CalibrationError
 from .time_offset import time_blocks
 
-__all__ = ["IntervalNoise", "estimate_interval_noise"]
+__all__ = ["IntervalNoise", "estimate_interval_noise", "predicted_covariance"]
 
 #: Fewest intervals for a noise estimate.
 MIN_INTERVALS = 30
@@ -156,13 +157,13 @@ def _stretches(
 
 
 def estimate_interval_noise(
-    inc_r,
-    inc_l,
-    motion,
+    inc_r: ArrayLike,
+    inc_l: ArrayLike,
+    motion: ArrayLike,
     geometry: WheelGeometry,
-    start_s,
+    start_s: ArrayLike,
     *,
-    end_s=None,
+    end_s: ArrayLike | None = None,
     rng: np.random.Generator | None = None,
 ) -> IntervalNoise:
     """k and the truth's noise (module docstring) from intervals a calibration used.
@@ -219,3 +220,40 @@ def estimate_interval_noise(
     # the boundary): widen it to do so
     lo, hi = min(lo, float(k)), max(hi, float(k))
     return IntervalNoise(float(k), (lo, hi), float(math.sqrt(r_xy)), float(math.sqrt(r_th)), n, nb)
+
+
+def predicted_covariance(
+    inc_r: ArrayLike,
+    inc_l: ArrayLike,
+    geometry: WheelGeometry,
+    noise: IntervalNoise,
+) -> np.ndarray:
+    """The covariance (3, 3) of (D_R, D_L, b) a relative-motion fit of these intervals would
+    have under ``noise`` (the wheels' k and the truth's noise per interval): the inverse of
+    sum_i J_i^T S_i^-1 J_i, with J_i the derivative of interval i's dead-reckoned motion and
+    S_i = k C_i + R its covariance (module docstring). NaN where singular."""
+    r = np.asarray(inc_r, dtype=float)
+    lft = np.asarray(inc_l, dtype=float)
+    p0 = np.array([geometry.diameter_right_m, geometry.diameter_left_m, geometry.wheelbase_m])
+    jac = np.empty((len(r), 3, 3))
+    for j in range(3):
+        h = 1e-6 * p0[j]
+        up, down = p0.copy(), p0.copy()
+        up[j] += h
+        down[j] -= h
+        plus = dead_reckon_rows(r, lft, WheelGeometry.unchecked(*up))[:, :, -1].T
+        minus = dead_reckon_rows(r, lft, WheelGeometry.unchecked(*down))[:, :, -1].T
+        jac[:, :, j] = (plus - minus) / (2 * h)
+    dr, dl = 0.5 * geometry.diameter_right_m * r, 0.5 * geometry.diameter_left_m * lft
+    _, c = propagate_increments(dr, dl, geometry.wheelbase_m, NonSystematicError(0.5, 0.5))
+    s = (
+        noise.k_sum_m * c
+        + np.diag(
+            [noise.truth_sigma_xy_m**2, noise.truth_sigma_xy_m**2, noise.truth_sigma_theta_rad**2]
+        )[None, :, :]
+    )
+    info = np.einsum("nij,njk,nkl->il", jac.transpose(0, 2, 1), np.linalg.inv(s), jac)
+    try:
+        return np.linalg.inv(info)
+    except np.linalg.LinAlgError:
+        return np.full((3, 3), np.nan)

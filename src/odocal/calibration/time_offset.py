@@ -38,6 +38,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..core.pose import start_frame
 from ..core.recording import Recording
@@ -144,7 +145,9 @@ def wheel_rotations(
     return r, lft
 
 
-def time_blocks(time_s: np.ndarray, blocks: int = _BLOCKS, min_block_s: float = _MIN_BLOCK_S):
+def time_blocks(
+    time_s: np.ndarray, blocks: int = _BLOCKS, min_block_s: float = _MIN_BLOCK_S
+) -> np.ndarray:
     """Block index (0, 1, ...) of each instant: ``blocks`` contiguous blocks of equal duration
     over the span, fewer when a block would be shorter than ``min_block_s``; empty blocks are
     dropped from the numbering."""
@@ -159,7 +162,9 @@ def time_blocks(time_s: np.ndarray, blocks: int = _BLOCKS, min_block_s: float = 
     return idx.astype(int)
 
 
-def _fit_rotation(phi_r: np.ndarray, phi_l: np.ndarray, dtheta: np.ndarray, scale: float):
+def _fit_rotation(
+    phi_r: np.ndarray, phi_l: np.ndarray, dtheta: np.ndarray, scale: float
+) -> np.ndarray:
     """Robust (Cauchy IRLS) fit of dtheta = J22 phi_R + J21 phi_L at every candidate (rows);
     returns the residuals, shape (G, n)."""
     w = np.ones_like(phi_r)
@@ -194,7 +199,16 @@ def _argmin_refined(grid: np.ndarray, loss: np.ndarray) -> float:
     return float(grid[k] + 0.5 * step * (y0 - y2) / den)
 
 
-def _losses(t, right, left, a, b, dth, grid, scale):
+def _losses(
+    t: np.ndarray,
+    right: np.ndarray,
+    left: np.ndarray,
+    a: np.ndarray,
+    b: np.ndarray,
+    dth: np.ndarray,
+    grid: np.ndarray,
+    scale: float | None,
+) -> tuple[np.ndarray, float]:
     """Each interval's robust loss at each candidate offset, shape (G, n), and the scale used
     (given, else the smallest MAD over the candidates of the plain fits' residuals)."""
     phi_r, phi_l = wheel_rotations(
@@ -207,7 +221,17 @@ def _losses(t, right, left, a, b, dth, grid, scale):
     return np.log1p((res / scale) ** 2), scale
 
 
-def _polish(t, right, left, a, b, dth, scale, rough: float, step_s: float) -> float:
+def _polish(
+    t: np.ndarray,
+    right: np.ndarray,
+    left: np.ndarray,
+    a: np.ndarray,
+    b: np.ndarray,
+    dth: np.ndarray,
+    scale: float,
+    rough: float,
+    step_s: float,
+) -> float:
     """The minimum of the continuous loss within a grid step of ``rough`` (bounded Brent): the
     grid's parabola is off by a fraction of a step where the loss is not a parabola."""
     from scipy.optimize import minimize_scalar  # here: a slow import
@@ -222,7 +246,9 @@ def _polish(t, right, left, a, b, dth, scale, rough: float, step_s: float) -> fl
     return float(sol.x) if sol.fun <= loss(rough) else rough
 
 
-def _block_bootstrap(grid, per, start_s, rng) -> tuple[float, int]:
+def _block_bootstrap(
+    grid: np.ndarray, per: np.ndarray, start_s: np.ndarray, rng: np.random.Generator | None
+) -> tuple[float, int]:
     """Standard error of the profile's minimum over resampled time blocks, and the blocks."""
     gen = rng if rng is not None else np.random.default_rng(0)
     blk = time_blocks(start_s)
@@ -236,12 +262,12 @@ def _block_bootstrap(grid, per, start_s, rng) -> tuple[float, int]:
 
 
 def estimate_time_offset(
-    wheel_time_s,
-    wheel_angle_right_rad,
-    wheel_angle_left_rad,
-    start_s,
-    end_s,
-    heading_change_rad,
+    wheel_time_s: ArrayLike,
+    wheel_angle_right_rad: ArrayLike,
+    wheel_angle_left_rad: ArrayLike,
+    start_s: ArrayLike,
+    end_s: ArrayLike,
+    heading_change_rad: ArrayLike,
     *,
     source: str,
     max_offset_s: float = MAX_OFFSET_S,

@@ -282,10 +282,10 @@ def _row_clusters(
     if len(runs) >= MIN_CLUSTERS:
         return np.repeat(np.repeat(np.arange(len(runs)), counts), 3), f"{len(runs)} runs"
     per_run = max(1, -(-2 * MIN_CLUSTERS // max(len(runs), 1)))  # ceil
-    labels = np.concatenate(
+    blocks = np.concatenate(
         [i * per_run + (np.arange(c) * per_run) // max(c, 1) for i, c in enumerate(counts)]
     )
-    return np.repeat(labels, 3), f"{len(np.unique(labels))} time blocks of {len(runs)} run(s)"
+    return np.repeat(blocks, 3), f"{len(np.unique(blocks))} time blocks of {len(runs)} run(s)"
 
 
 def _consistency(

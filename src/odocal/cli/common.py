@@ -170,6 +170,7 @@ def motion_mix(text: str) -> dict[str, float]:
 
 
 def add_robot_args(p: argparse.ArgumentParser, params_help: str) -> None:
+    """``--robot`` and ``--params`` (with the command's own help for ``--params``)."""
     from ..presets import DEFAULT_ROBOT, PRESETS
 
     names = ", ".join(f"{n} (default)" if n == DEFAULT_ROBOT else n for n in PRESETS)
@@ -180,6 +181,7 @@ def add_robot_args(p: argparse.ArgumentParser, params_help: str) -> None:
 
 
 def add_track_args(p: argparse.ArgumentParser, default_sides=4, default_side=4.0) -> None:
+    """``--sides``, ``--side-length`` and ``--track`` with the command's defaults."""
     p.add_argument(
         "--sides",
         type=sides_int,
@@ -223,6 +225,12 @@ def add_recording_args(p: argparse.ArgumentParser) -> None:
         help="encoder ticks per wheel revolution for tick inputs that do not give it",
     )
     add_bag_args(p)
+
+
+#: Exit status of a command whose answer is given but not to be trusted: ``check`` on a log
+#: that is NOT enough, ``fit --method auto`` when its routes disagree or its checks fail
+#: (2 is an error: nothing was answered).
+NOT_ENOUGH = 3
 
 
 def add_bag_args(p: argparse.ArgumentParser) -> None:
@@ -413,6 +421,7 @@ class ProgressBar:
         self.start = time.monotonic()
 
     def __call__(self, done: int, total: int, what: str = "") -> None:
+        """Show ``done`` of ``total`` (and what is being done) on stderr."""
         if not self.enabled:
             return
         width = 24
@@ -423,6 +432,7 @@ class ProgressBar:
         self.stream.flush()
 
     def close(self) -> None:
+        """End the bar's line."""
         if self.enabled:
             self.stream.write("\r\033[K")
             self.stream.flush()

@@ -43,6 +43,7 @@ if TYPE_CHECKING:
 
 
 def add_parser(sub: Any) -> None:
+    """Register ``odocal fit`` on the subcommand parser ``sub``."""
     p = sub.add_parser(
         "fit",
         description="Calibrate D_R, D_L and b from recorded runs: generic run CSVs, OptiOdom "
@@ -239,6 +240,7 @@ def _list_topics(paths: list[str]) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
+    """Run ``odocal fit``: calibrate, print (text or JSON), return the exit status."""
     if args.list_topics:
         return _list_topics(args.paths)
     from ..app.fit import GyroFitResult, RelativeFitResult, fit
@@ -469,11 +471,11 @@ def _print_checks(res: RelativeFitResult) -> None:
     if res.heldout is not None:
         print(f"  {res.heldout.verdict()}")
     if res.model != "full":
-        g, se = res.geometry, res.geometry_stderr
+        g, errs = res.geometry, res.geometry_stderr
         cells = [
             f"{name} {v:.6f}" + (" (nominal)" if not e else f" +- {e:.2e}")
             for name, v, e in zip(("D_R", "D_L", "b"), (g.diameter_right_m, g.diameter_left_m,
-                                                        g.wheelbase_m), se, strict=True)
+                                                        g.wheelbase_m), errs, strict=True)
         ]  # fmt: skip
         print(f"  the answer is the '{res.model}' model: {', '.join(cells)} m")
     if res.noise is not None:

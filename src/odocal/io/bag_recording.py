@@ -169,14 +169,25 @@ def load_bag_recording(
     ``invert_right``/``invert_left`` negate a joint whose axis is mirrored. Times start at 0.
     """
     p = check_bag_path(path)
+    unnamed: list[str] = []
 
     def choose(info):
         jt = pick_topic(info, joint_topic, (JOINT_STATE,), "wheel joints", p, "--joint-topic")
         gt = truth_topic
         if gt is None:
             gt = pick_topic(info, None, POSE_TYPES, "ground truth", p, "--truth-topic", False)
-            if gt is None:
-                gt = pick_topic(info, None, (ODOMETRY,), "ground truth", p, "--truth-topic", False)
+            odom = [t.name for t in info if t.msgtype == ODOMETRY]
+            if gt is None and odom:
+                # an Odometry topic is the robot's own odometry unless the user says otherwise:
+                # never a reference for itself (the run has no truth; a fit says why)
+                from .bag_survey import survey
+
+                unnamed.append(
+                    f"no ground truth named: the Odometry topic(s) {', '.join(odom)} may be the "
+                    "wheel odometry itself, which cannot be its own reference; name an external "
+                    "one with --truth-topic (motion capture, GPS). This bag allows: "
+                    f"{survey(p).allowed()}"
+                )
         else:
             pick_topic(info, gt, (*POSE_TYPES, ODOMETRY), "ground truth", p, "--truth-topic")
         it = pick_topic(info, imu_topic, (IMU,), "gyro", p, "--imu-topic", required=False)
@@ -195,6 +206,8 @@ def load_bag_recording(
         **joints.meta,
         "start_time_ns": bag.start_ns,
     }
+    if unnamed:
+        meta["no_truth"] = unnamed[0]
     warnings: list[str] = []
     gt = None
     if gt_topic:
@@ -216,11 +229,6 @@ def load_bag_recording(
         yaw = np.interp(t, ps.time_s, ps.values["yaw"])
         gt = start_frame(x, y, yaw)
         meta["truth_topic"] = gt_topic
-        if bag.msgtype(gt_topic) == ODOMETRY and truth_topic is None:
-            warnings.append(
-                f"ground truth taken from the Odometry topic '{gt_topic}': make sure it is an "
-                "external reference, not the wheel odometry"
-            )
         warnings += _check_wheel_signs(
             t,
             right - right[0],

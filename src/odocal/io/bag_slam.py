@@ -79,8 +79,11 @@ class SlamBag:
     def relative_motions(self) -> RelativeMotions:
         """The intervals as the relative-motion calibration takes them (the truth frame is the
         base itself)."""
-        m = self.motions
-        return RelativeMotions(m.phi_right_rad, m.phi_left_rad, m.sensor_motion, self.increments)
+        m, d = self.motions, self.time_offset.applied_s
+        return RelativeMotions(
+            m.phi_right_rad, m.phi_left_rad, m.sensor_motion, self.increments,
+            np.asarray(m.start_s) - d, np.asarray(m.end_s) - d,
+        )  # fmt: skip
 
     def as_dict(self) -> dict[str, Any]:
         """What ``odocal fit --truth-frames --json`` reports of this bag (its ``slam`` entry)."""

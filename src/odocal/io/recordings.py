@@ -263,6 +263,9 @@ def require_ground_truth(recordings: Sequence[Recording], purpose: str) -> None:
     """InputError naming the first run without ground truth (``purpose`` says who needs it)."""
     for r in recordings:
         if r.ground_truth is None:
+            why = r.meta.get("no_truth") if r.meta else None
             raise InputError(
-                f"{purpose} needs ground truth (x_m, y_m, theta_rad or a truth topic)", r.name
+                f"{purpose} needs ground truth (x_m, y_m, theta_rad or a truth topic)"
+                + (f"; {why}" if why else ""),
+                r.name,
             )

@@ -1,0 +1,152 @@
+"""Which calibration routes a bag allows, from what it recorded.
+
+A route needs the wheels (joint states, or the controller's odometry inverted through the
+geometry it ran with) and a reference that did not come from the wheels: a SLAM pose on ``/tf``
+(``map -> odom``), a 2D laser (scan matching), an IMU (the gyro: the wheelbase only), or an
+external pose topic (motion capture, GPS: ``--truth-topic``). The robot's own odometry is never
+a reference for itself. :func:`survey` says, for each route, whether the bag has what it needs
+and why not; it reads the topic list and, when the bag has ``/tf``, its edges.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from .bag_options import BagOptions
+from .bags import (
+    IMU,
+    JOINT_STATE,
+    LASER_SCAN,
+    ODOMETRY,
+    POSE_TYPES,
+    TopicInfo,
+    check_bag_path,
+    list_topics,
+    read_bag,
+    tf_messages,
+)
+
+__all__ = ["RouteOption", "BagSurvey", "survey", "ROUTES"]
+
+#: The bag routes, in the order the one-command fit prefers them.
+ROUTES = ("trajectory", "slam", "scan", "gyro")
+
+
+@dataclass(frozen=True)
+class RouteOption:
+    """One route: its name, whether the bag allows it, and why (or why not)."""
+
+    name: str
+    usable: bool
+    reason: str
+
+    def as_dict(self) -> dict[str, object]:
+        """The JSON contract's route object (``name``, ``used``, ``reason``; ``used`` is set by
+        the caller that runs it)."""
+        return {"name": self.name, "usable": self.usable, "reason": self.reason}
+
+
+@dataclass(frozen=True)
+class BagSurvey:
+    """What a bag recorded, and the routes it allows.
+
+    Attributes
+    ----------
+    path : Path
+    topics : tuple of TopicInfo
+    wheels : str or None
+        Where the wheel rotations would come from (None: nowhere).
+    slam_edge : tuple of str or None
+        The ``/tf`` edge above the odometry frame (e.g. ('map', 'odom')), if any.
+    routes : tuple of RouteOption
+        One per entry of :data:`ROUTES`.
+    """
+
+    path: Path
+    topics: tuple[TopicInfo, ...]
+    wheels: str | None
+    slam_edge: tuple[str, str] | None
+    routes: tuple[RouteOption, ...]
+
+    def route(self, name: str) -> RouteOption:
+        """The option of route ``name``."""
+        return next(r for r in self.routes if r.name == name)
+
+    def allowed(self) -> str:
+        """The routes the bag allows, in words, for error messages."""
+        ok = [f"{r.name} ({r.reason})" for r in self.routes if r.usable]
+        return "; ".join(ok) if ok else "none (" + "; ".join(r.reason for r in self.routes) + ")"
+
+
+def _of(topics: list[TopicInfo], types: tuple[str, ...]) -> list[str]:
+    return [t.name for t in topics if t.msgtype in types]
+
+
+def _slam_edge(path: Path) -> tuple[str, str] | None:
+    """The dynamic /tf edge whose child is the odometry frame (``odom``), if any."""
+    bag = read_bag(path, ["/tf"])
+    for parent, child in tf_messages(bag):
+        if child == "odom" and parent != "odom":
+            return parent, child
+    return None
+
+
+def survey(path: str | Path, options: BagOptions | None = None) -> BagSurvey:
+    """The routes ``path`` allows (module docstring); ``options`` name topics explicitly."""
+    opts = options if options is not None else BagOptions()
+    p = check_bag_path(path)
+    topics = list_topics(p)
+    names = {t.name for t in topics}
+    joints = _of(topics, (JOINT_STATE,))
+    odoms = _of(topics, (ODOMETRY,))
+    wheels: str | None = None
+    if opts.joint_topic or joints:
+        wheels = f"joint states on {opts.joint_topic or joints[0]}"
+    elif opts.odom_topic or len(odoms) == 1:
+        wheels = f"the odometry on {opts.odom_topic or odoms[0]} (inverted: needs --robot)"
+    elif len(odoms) > 1:
+        wheels = None
+    elif "/tf" in names:
+        wheels = "odom -> base_link on /tf (inverted: needs --robot)"
+    edge = _slam_edge(p) if "/tf" in names else None
+    no_wheels = (
+        f"no wheel data (several Odometry topics: {', '.join(odoms)}; name the wheel odometry "
+        "with --odom-topic)"
+        if len(odoms) > 1 and not joints
+        else "no wheel data (no JointState, no Odometry)"
+    )
+    truth = opts.truth_topic or next(iter(_of(topics, POSE_TYPES)), None)
+    routes = []
+    if truth and wheels:
+        routes.append(RouteOption("trajectory", True, f"truth {truth}, wheels from {wheels}"))
+    else:
+        why = no_wheels if not wheels else (
+            "no external pose topic (PoseStamped, PoseWithCovarianceStamped, TransformStamped; "
+            "an Odometry that is not the wheel odometry: --truth-topic)"
+        )  # fmt: skip
+        routes.append(RouteOption("trajectory", False, why))
+    if edge and wheels:
+        routes.append(
+            RouteOption(
+                "slam", True, f"SLAM correction {edge[0]} -> {edge[1]} on /tf, wheels from {wheels}"
+            )  # fmt: skip
+        )
+    else:
+        routes.append(RouteOption("slam", False, no_wheels if not wheels else
+                                  "no SLAM correction (a map -> odom edge) on /tf"))  # fmt: skip
+    scans = [opts.scan_topic] if opts.scan_topic else _of(topics, (LASER_SCAN,))
+    if scans and wheels:
+        routes.append(RouteOption("scan", True, f"laser scans on {scans[0]}, wheels from {wheels}"))
+    else:
+        routes.append(RouteOption("scan", False, no_wheels if not wheels else
+                                  "no sensor_msgs/LaserScan"))  # fmt: skip
+    imus = [opts.imu_topic] if opts.imu_topic else _of(topics, (IMU,))
+    if imus and (wheels or odoms):
+        routes.append(
+            RouteOption("gyro", True, f"IMU on {imus[0]} (the wheelbase only: no diameters)")
+        )
+    else:
+        routes.append(RouteOption("gyro", False, no_wheels if not (wheels or odoms) else
+                                  "no sensor_msgs/Imu"))  # fmt: skip
+    return BagSurvey(p, tuple(topics), wheels, edge, tuple(routes))
