@@ -86,7 +86,9 @@ def runs():
 
 
 def test_the_registry_lists_every_method_with_its_words():
-    assert FIT_METHODS == ("trajectory", "linear", "umbmark", "heading", "gyro", "relative", "scan")
+    assert FIT_METHODS == (
+        "trajectory", "linear", "umbmark", "heading", "gyro", "relative", "scan", "auto"
+    )  # fmt: skip
     assert set(METHOD_HELP) == set(FIT_METHODS)
     assert "umbmark / heading (recorded CW and CCW squares)" in methods_help()
 

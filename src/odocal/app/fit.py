@@ -38,6 +38,7 @@ from ..io.outputs import OutputPlan
 from ..io.recordings import refuse_repeated
 from ..io.ros2_export import DEFAULT_CONTROLLER
 from .common import Exports, RobotSpec, input_paths
+from .fit_auto import AutoFitResult, fit_auto
 from .fit_gyro import GyroFitResult, fit_gyro, fit_gyro_bag, gyro_fit
 from .fit_relative import (
     RelativeFitResult,
@@ -54,6 +55,7 @@ __all__ = [
     "FitResult",
     "RelativeFitResult",
     "GyroFitResult",
+    "AutoFitResult",
     "choose_route",
     "fit",
     "fit_recordings",
@@ -102,6 +104,19 @@ def choose_route(
     if truth_frames is not None:
         raise InputError("--truth-frames is for bags; .tuple files hold relative motions")
     return "tuples"
+
+
+def _is_auto(
+    paths: Sequence[str | Path],
+    method: FitMethod | None,
+    truth_frames: tuple[str, str] | None,
+    bag: BagOptions,
+) -> bool:
+    """The one-command route: asked for, or bags with no method and no truth named."""
+    if method == "auto":
+        return True
+    named = truth_frames is not None or bag.truth_topic is not None
+    return method is None and not named and bool(paths) and all(is_bag(p) for p in paths)
 
 
 def _refuse_other_routes_outputs(
@@ -158,7 +173,7 @@ def fit(
     plot: str | Path | None = None,
     robot_out: str | Path | None = None,
     force: bool = False,
-) -> FitResult | RelativeFitResult | GyroFitResult:
+) -> FitResult | RelativeFitResult | GyroFitResult | AutoFitResult:
     """Load the runs in ``paths`` and calibrate with ``method`` (None: the trajectory fit, or
     the relative-motion fit for ``.tuple`` files and ``truth_frames``); write PARAMS.yaml to
     ``out``, a ros2_control file to ``ros2``, the effective-wheelbase figure (trajectory fits)
@@ -183,8 +198,27 @@ def fit(
     (:mod:`odocal.calibration.scan_matching`), then the same relative-motion calibration, the
     laser's mounting included. Needs the nominal geometry (``robot``) for the matcher's start.
 
-    The gyro (``method='gyro'``): one bag, :func:`odocal.app.fit_gyro.fit_gyro`."""
+    The gyro (``method='gyro'``): one bag, :func:`odocal.app.fit_gyro.fit_gyro`.
+
+    One bag with no method and no truth named (or ``method='auto'``): every route the bag
+    allows, cross-checked, one answer (:func:`odocal.app.fit_auto.fit_auto`; ``out`` is then a
+    folder for its report)."""
     paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
+    if _is_auto(paths, method, truth_frames, bag) and (
+        method == "auto"
+        or (settings in (None, DEFAULT_TRAJECTORY) and squares in (None, DEFAULT_SQUARES))
+    ):
+        if len(paths) != 1:
+            raise InputError(
+                "--method auto (the default for bags when no method and no truth are named) "
+                "takes one bag; name the method or the truth for several",
+                field="paths",
+            )
+        if plot is not None or robot_out is not None:
+            raise InputError("--method auto writes its figures into --out DIR (a report)")
+        return fit_auto(paths[0], robot=robot, options=bag, out=out, ros2=ros2,
+                        controller_name=controller_name, scan_interval_s=scan_interval_s,
+                        force=force)  # fmt: skip
     exports = Exports(out, ros2, controller_name)
     _refuse_other_routes_outputs(method, plot, robot_out)
     if method == "gyro":

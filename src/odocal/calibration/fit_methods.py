@@ -43,7 +43,9 @@ __all__ = [
 ]
 
 #: A calibration method of ``odocal fit``.
-FitMethod = Literal["trajectory", "linear", "umbmark", "heading", "gyro", "relative", "scan"]
+FitMethod = Literal[
+    "trajectory", "linear", "umbmark", "heading", "gyro", "relative", "scan", "auto"
+]
 #: Every fit method, in the order of ``odocal fit --help``.
 FIT_METHODS: tuple[FitMethod, ...] = get_args(FitMethod)
 
@@ -58,6 +60,8 @@ METHOD_HELP: dict[FitMethod, str] = {
     "relative": "Censi et al. 2013: relative motions with the sensor's mounting; the default "
     "for .tuple files and --truth-frames",
     "scan": "bags with a 2D laser: scan matching, then relative; the laser's mounting too",
+    "auto": "one bag: every route it allows, cross-checked, one answer (the default for a "
+    "bag when no method and no truth are named)",
 }
 
 #: Methods that fit recorded runs against their ground truth (or a gyro heading): one route.

@@ -18,6 +18,7 @@ from ..calibration.fit_methods import (
 )
 from ..errors import InputError
 from .common import (
+    NOT_ENOUGH,
     add_export_args,
     add_recording_args,
     add_slam_args,
@@ -36,7 +37,7 @@ from .common import (
 )
 
 if TYPE_CHECKING:
-    from ..app.fit import FitResult, GyroFitResult, RelativeFitResult
+    from ..app.fit import AutoFitResult, FitResult, GyroFitResult, RelativeFitResult
     from ..calibration.result import GeometryFit
     from ..calibration.time_offset import TimeOffset
     from ..calibration.turning import EffectiveWheelbase
@@ -243,7 +244,7 @@ def run(args: argparse.Namespace) -> int:
     """Run ``odocal fit``: calibrate, print (text or JSON), return the exit status."""
     if args.list_topics:
         return _list_topics(args.paths)
-    from ..app.fit import GyroFitResult, RelativeFitResult, fit
+    from ..app.fit import AutoFitResult, GyroFitResult, RelativeFitResult, fit
     from ..calibration.fit_settings import SquareSettings, TrajectorySettings
 
     res = fit(
@@ -280,6 +281,8 @@ def run(args: argparse.Namespace) -> int:
     )
     if isinstance(res, GyroFitResult):
         return _print_gyro(res, args.json)
+    if isinstance(res, AutoFitResult):
+        return _print_auto(res, args.json)
     print_warnings(res.load_warnings)
     print_warnings(res.warnings)
     if args.json:
@@ -488,3 +491,51 @@ def _print_checks(res: RelativeFitResult) -> None:
         )
     for note in res.notes:
         print(f"  {note}")
+
+
+def _print_auto(res: AutoFitResult, as_json: bool) -> int:
+    """The one-command answer: the routes, the parameters, the checks, the verdict; exit 0
+    when it can be trusted, :data:`NOT_ENOUGH` when not."""
+    print_warnings(res.warnings)
+    status = 0 if res.enough else NOT_ENOUGH
+    if as_json:
+        print_json(res.as_dict())
+        return status
+    print(f"one answer for {res.bag} (every route it allows, cross-checked)")
+    for r in res.routes:
+        print(f"  {r.name:10s} {'used' if r.used else 'not used'}: {r.reason}")
+    a = res.answer
+    if a is not None and a.geometry is not None:
+        print(f"parameters (the {a.name} route's):")
+        nom, g = res.nominal.as_dict(), a.geometry.as_dict()
+        rows = [("", "nominal", "calibrated", "std. error")]
+        for key, se in zip(("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m"),
+                           a.stderr, strict=True):  # fmt: skip
+            rows.append(
+                (key, f"{nom[key]:.6f}", f"{g[key]:.6f}", "-" if se is None else f"{se:.2e}")
+            )
+        print_table(rows)
+    for o in res.time_offsets:
+        pm = "" if o.stderr_s is None else f" +- {o.stderr_s:.4f}"
+        print(f"clock offset of the {o.source}: {o.offset_s:+.4f}{pm} s ({o.how})")
+    if res.heldout is not None:
+        print(res.heldout.verdict())
+    for c in res.cross_checks:
+        word = "agree" if c.agree else "DISAGREE"
+        print(
+            f"{c.routes[0]} vs {c.routes[1]} on {c.quantity}: {c.z:+.2f} standard errors ({word})"
+        )
+    if res.covariance is not None:
+        cov = res.covariance
+        print(f"covariances for diff_drive_controller: pose {list(cov.pose_diagonal)}, twist "
+              f"{list(cov.twist_diagonal)} (k_r = k_l = {cov.k_r_m:.3g} m)")  # fmt: skip
+    if res.enough:
+        print("verdict: trustworthy")
+    else:
+        print("verdict: NOT to be trusted:")
+        for reason in res.reasons:
+            print(f"  - {reason}")
+        if not res.written:
+            print("nothing written (--force writes the files anyway)")
+    _print_written(res.written)
+    return status

@@ -58,7 +58,7 @@ class BagSurvey:
     wheels : str or None
         Where the wheel rotations would come from (None: nowhere).
     slam_edge : tuple of str or None
-        The ``/tf`` edge above the odometry frame (e.g. ('map', 'odom')), if any.
+        The truth frames of a SLAM pose on ``/tf`` (e.g. ('map', 'base_link')), if any.
     routes : tuple of RouteOption
         One per entry of :data:`ROUTES`.
     """
@@ -83,13 +83,14 @@ def _of(topics: list[TopicInfo], types: tuple[str, ...]) -> list[str]:
     return [t.name for t in topics if t.msgtype in types]
 
 
-def _slam_edge(path: Path) -> tuple[str, str] | None:
-    """The dynamic /tf edge whose child is the odometry frame (``odom``), if any."""
+def _slam_frames(path: Path) -> tuple[str, str] | None:
+    """The truth frames of a SLAM pose on /tf: (the parent of the odometry frame ``odom``, the
+    odometry's child, the base), if /tf has both edges."""
     bag = read_bag(path, ["/tf"])
-    for parent, child in tf_messages(bag):
-        if child == "odom" and parent != "odom":
-            return parent, child
-    return None
+    edges = list(tf_messages(bag))
+    parent = next((a for a, b in edges if b == "odom" and a != "odom"), None)
+    base = next((b for a, b in edges if a == "odom" and b != "odom"), None)
+    return (parent, base) if parent and base else None
 
 
 def survey(path: str | Path, options: BagOptions | None = None) -> BagSurvey:
@@ -109,7 +110,7 @@ def survey(path: str | Path, options: BagOptions | None = None) -> BagSurvey:
         wheels = None
     elif "/tf" in names:
         wheels = "odom -> base_link on /tf (inverted: needs --robot)"
-    edge = _slam_edge(p) if "/tf" in names else None
+    edge = _slam_frames(p) if "/tf" in names else None
     no_wheels = (
         f"no wheel data (several Odometry topics: {', '.join(odoms)}; name the wheel odometry "
         "with --odom-topic)"
