@@ -252,10 +252,15 @@ def _gyro_stderr(res: GyroFitResult) -> tuple[float | None, float | None, float 
 
 
 def cross_checks(runs: Sequence[RouteRun]) -> tuple[CrossCheck, ...]:
-    """Every pair of routes that ran, on every quantity both estimate (the gyro's wheelbase is
-    compared at its own diameters: the other route's b scaled by the diameters' ratio)."""
+    """Every pair of routes that ran, on every quantity both estimate. The gyro's wheelbase
+    takes the diameters as nominal (it sees only the rotation): it is compared (at its own
+    diameters, the other route's b scaled by the diameters' ratio) only when no route that ran
+    measured the diameters, since a left/right difference turns the robot as a wheelbase error
+    does and the gyro cannot tell them apart."""
     out = []
     used = [r for r in runs if r.used and r.geometry is not None]
+    if any(r.name != "gyro" for r in used):
+        used = [r for r in used if r.name != "gyro"]
     for i, a in enumerate(used):
         for b in used[i + 1 :]:
             ga, gb = a.geometry, b.geometry

@@ -1,0 +1,111 @@
+"""`odocal fit BAG --method auto`: one bag, every route it allows, one answer (synthetic bags
+with known clock offsets, written by tests/synthetic_robot.py)."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from synthetic_robot import Gyro, Laser, default_track, repeat_run, simulate_robot, write_ros2_bag
+
+from odocal.core.model import WheelGeometry
+
+TRUE = WheelGeometry(0.0505, 0.0495, 0.262)
+BELIEVED = WheelGeometry.symmetric(0.050, 0.250)
+DELAY_S = 0.1  # the laser's and the SLAM's stamps run 0.1 s late
+
+
+@pytest.fixture(scope="module")
+def bag(tmp_path_factory):
+    rng = np.random.default_rng(11)
+    run = simulate_robot(
+        default_track(), TRUE, BELIEVED, laser=Laser(every=10, n_rays=180),
+        gyro=Gyro(0.002, 0.001), rng=rng,
+    )  # fmt: skip
+    path = tmp_path_factory.mktemp("auto") / "bag"
+    write_ros2_bag(path, repeat_run(run, 3), map_odom_every=25, laser_delay_s=DELAY_S,
+                   slam_delay_s=DELAY_S, slam_noise=(0.002, 0.001), rng=rng)  # fmt: skip
+    return path
+
+
+@pytest.fixture(scope="module")
+def robot(tmp_path_factory):
+    path = tmp_path_factory.mktemp("robot") / "robot.yaml"
+    path.write_text("wheel_diameter_m: 0.050\nwheelbase_m: 0.250\n")
+    return path
+
+
+@pytest.fixture(scope="module")
+def result(bag, robot, tmp_path_factory):
+    from odocal.app.fit_auto import fit_auto
+
+    out = tmp_path_factory.mktemp("report") / "report"
+    ros2 = out.parent / "dd.yaml"
+    return fit_auto(bag, robot=str(robot), out=out, ros2=ros2), out, ros2
+
+
+@pytest.fixture(scope="module")
+def answer(result):
+    from odocal.cli.fit import _print_auto
+
+    res, out, ros2 = result
+    status = _print_auto(res, as_json=True)  # the JSON the command prints, and its status
+    return status, json.loads(json.dumps(res.as_dict())), out, ros2
+
+
+def test_the_json_contract(answer):
+    status, d, _, _ = answer
+    assert status == 0, d["verdict"]
+    assert [r["name"] for r in d["routes"]] == ["trajectory", "slam", "scan", "gyro"]
+    assert all(set(r) >= {"name", "used", "reason"} for r in d["routes"])
+    used = {r["name"]: r["used"] for r in d["routes"]}
+    assert used == {"trajectory": False, "slam": True, "scan": True, "gyro": True}
+    for key in ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m"):
+        assert set(d["parameters"][key]) == {"value", "std_error"}
+    assert set(d["heldout"]) >= {"nominal_final_error_m", "calibrated_final_error_m"}
+    assert set(d["verdict"]) == {"enough", "reasons"} and d["verdict"]["enough"] is True
+
+
+def test_the_clock_offsets_are_found(answer):
+    _, d, _, _ = answer
+    # within 10 ms of the 0.1 s written (a tenth of the scan period)
+    assert d["time_offsets_s"]["slam"] == pytest.approx(DELAY_S, abs=0.010)
+    assert d["time_offsets_s"]["laser"] == pytest.approx(DELAY_S, abs=0.010)
+
+
+def test_the_parameters_within_their_stated_uncertainty(answer):
+    _, d, _, _ = answer
+    for key, true in TRUE.as_dict().items():
+        p = d["parameters"][key]
+        assert abs(p["value"] - true) < 4 * p["std_error"], (key, p, true)
+    # and the routes agree with each other
+    assert all(c["agree"] for c in d["cross_checks"])
+
+
+def test_the_held_out_check_and_the_covariances(answer):
+    _, d, out, ros2 = answer
+    h = d["heldout"]
+    assert h["calibrated_final_error_m"] < h["nominal_final_error_m"]
+    assert d["covariance"]["pose_covariance_diagonal"][0] > 0
+    assert sorted(p.name for p in out.iterdir()) == [
+        "heldout.png", "params.yaml", "report.md", "time_offset.png"
+    ]  # fmt: skip
+    text = ros2.read_text()
+    assert "pose_covariance_diagonal" in text and "wheel_separation_multiplier" in text
+    assert "Verdict: trustworthy" in (out / "report.md").read_text()
+
+
+def test_text_output_and_refusals(result, bag, robot, cli, capsys):
+    from odocal.cli.fit import _print_auto
+
+    capsys.readouterr()
+    assert _print_auto(result[0], as_json=False) == 0
+    out = capsys.readouterr().out
+    assert "verdict: trustworthy" in out and "clock offset of the slam" in out
+    # without the robot file there is nothing to hold the calibration against
+    status, out, err = cli("fit", bag)
+    assert status == 2 and "--robot" in err and err.count("\n") == 1
+    # a bag and another input: one bag only
+    status, out, err = cli("fit", bag, bag, "--robot", robot, "--method", "auto")
+    assert status == 2 and "one bag" in err
