@@ -18,7 +18,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from _boundary_files import (
+
+from odocal.errors import InputError
+from odocal.io import limits
+from odocal.io.yamlfile import MAX_DEPTH, load_yaml
+from tests.support.boundary_files import (
     OPTI_ID,
     OPTI_METADATA,
     PARAMS_YAML,
@@ -28,10 +32,6 @@ from _boundary_files import (
     generic_csv_text,
     write_optiodom,
 )
-
-from odocal.errors import InputError
-from odocal.io import limits
-from odocal.io.yamlfile import MAX_DEPTH, load_yaml
 
 pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
 
@@ -402,7 +402,7 @@ def test_optiodom_run_files_are_checked(cli, tmp_path, edit, needle):
 
 @pytest.fixture(scope="module")
 def bag_run():
-    from test_bags import TRACK, make_run
+    from tests.io.test_bags import TRACK, make_run
 
     return make_run(TRACK)
 
@@ -416,9 +416,8 @@ def bag_run():
     ],
 )
 def test_bag_absurd_values_are_named(tmp_path, bag_run, what, needle):
-    from test_bags import write_bag
-
     from odocal.io.bag_recording import load_bag_recording
+    from tests.io.test_bags import write_bag
 
     kw: dict = {}
     if what == "joint":
@@ -446,9 +445,8 @@ def test_bag_absurd_values_are_named(tmp_path, bag_run, what, needle):
 
 @pytest.mark.parametrize("start_s", [1e-6, 2.0e9], ids=["tiny", "huge"])
 def test_bag_tiny_and_huge_stamps(tmp_path, bag_run, start_s):
-    from test_bags import write_bag
-
     from odocal.io.bag_recording import load_bag_recording
+    from tests.io.test_bags import write_bag
 
     shifted = dataclasses.replace(bag_run, time_s=bag_run.time_s - bag_run.time_s[0] + start_s)
     path = write_bag(tmp_path / "t.bag", "ros1", shifted, imu=False)
@@ -459,9 +457,8 @@ def test_bag_tiny_and_huge_stamps(tmp_path, bag_run, start_s):
 
 
 def test_bag_clocks_that_do_not_overlap(tmp_path, bag_run):
-    from test_bags import write_bag
-
     from odocal.io.bag_recording import load_bag_recording
+    from tests.io.test_bags import write_bag
 
     # wheel joints stamped in simulated time (from 0 s), the ground truth in wall-clock time
     wall = dataclasses.replace(bag_run, time_s=bag_run.time_s + 1.7e9)
@@ -484,7 +481,7 @@ def test_bag_clocks_that_do_not_overlap(tmp_path, bag_run):
     ],
 )
 def test_tuples_through_the_command_line(cli, tmp_path, line, needle):
-    from _boundary_files import tuples_text
+    from tests.support.boundary_files import tuples_text
 
     f = write(tmp_path / "m.tuple", tuples_text(10) + line + "\n")
     cli("fit", f).expect_error(str(f), "line 11", needle)
@@ -519,7 +516,7 @@ def test_the_same_run_twice_is_refused(cli, tmp_path):
         cli("fit", *paths, "--method", "linear").expect_error("given", "count twice")
     params = write(tmp_path / "p.yaml", PARAMS_YAML)
     cli("validate", a, a, "--params", params).expect_error("given twice")
-    from _boundary_files import tuples_text
+    from tests.support.boundary_files import tuples_text
 
     t = write(tmp_path / "m.tuple", tuples_text())
     cli("fit", t, tmp_path / "." / "m.tuple").expect_error("count twice")

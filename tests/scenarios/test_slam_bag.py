@@ -1,4 +1,4 @@
-"""A SLAM pose on /tf as ground truth, end to end: bags written by tests/synthetic_robot.py
+"""A SLAM pose on /tf as ground truth, end to end: bags written by tests/support/synthetic_robot.py
 (map -> odom updated at a low rate, odom -> base_link from the wheel odometry with the believed
 geometry), `odocal fit BAG --truth-frames map:base_link` and `odocal validate ... --truth-frames`.
 """
@@ -8,9 +8,9 @@ from __future__ import annotations
 import json
 
 import pytest
-from synthetic_robot import Laser, default_track, simulate_robot, write_ros2_bag
 
 from odocal.core.model import WheelGeometry
+from tests.support.synthetic_robot import Laser, default_track, simulate_robot, write_ros2_bag
 
 TRUE = WheelGeometry(0.0655, 0.0662, 0.163)  # TurtleBot3-sized, 0.8 % / 0.3 % / 1.9 % off
 BELIEVED = WheelGeometry.symmetric(0.066, 0.160)

@@ -396,7 +396,7 @@ def test_the_readme_instrument_table_is_what_the_analytic_design_gives():
 
     from odocal.design.reproduce import precision_sweep
 
-    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
     rows = [line for line in readme.splitlines() if line.startswith("| ") and " deg | " in line]
     sweep = precision_sweep(PRESETS["paper-fig5"])
     heading = sweep.recommended_side_m[("heading", "error")]

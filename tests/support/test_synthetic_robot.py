@@ -1,5 +1,6 @@
-"""The synthetic robot bag (tests/synthetic_robot.py): it is a readable ROS 2 bag whose messages
-agree with the simulated truth, and the scans in it match back to the true laser motion."""
+"""The synthetic robot bag (tests/support/synthetic_robot.py): it is a readable ROS 2 bag whose
+messages agree with the simulated truth, and the scans in it match back to the true laser
+motion."""
 
 from __future__ import annotations
 
@@ -8,7 +9,10 @@ import math
 import numpy as np
 import pytest
 from rosbags.highlevel import AnyReader
-from synthetic_robot import (
+
+from odocal.calibration.scan_matching import match_intervals, scan_points
+from odocal.core.model import NonSystematicError, WheelGeometry
+from tests.support.synthetic_robot import (
     TOPICS,
     Gyro,
     Laser,
@@ -18,9 +22,6 @@ from synthetic_robot import (
     simulate_robot,
     write_ros2_bag,
 )
-
-from odocal.calibration.scan_matching import match_intervals, scan_points
-from odocal.core.model import NonSystematicError, WheelGeometry
 
 NOMINAL = WheelGeometry.symmetric(0.2, 0.5)  # believed: D = 0.2 m, b = 0.5 m
 TRUE = WheelGeometry(0.2 * 1.01, 0.2 * 0.99, 0.5 * 1.04)  # E_d ~ 1.02, E_b = 1.04

@@ -15,7 +15,8 @@ import threading
 from pathlib import Path
 
 import pytest
-from _boundary_files import (
+
+from tests.support.boundary_files import (
     OPTI_ID,
     PARAMS_YAML,
     ROBOT_YAML,

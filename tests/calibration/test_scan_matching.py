@@ -14,7 +14,6 @@ import math
 
 import numpy as np
 import pytest
-from support.room import Room, box_segments, ray_cast
 
 from odocal.calibration.scan_matching import (
     MIN_POINTS,
@@ -25,6 +24,7 @@ from odocal.calibration.scan_matching import (
     scan_points,
 )
 from odocal.errors import CalibrationError, ModelError
+from tests.support.room import Room, box_segments, ray_cast
 
 ROOM = Room.default()
 N_RAYS = 720

@@ -9,10 +9,10 @@ import math
 
 import numpy as np
 import pytest
-from synthetic_robot import Gyro, Laser, simulate_robot, write_ros2_bag
 
 from odocal.core.model import WheelGeometry
 from odocal.core.tracks import polygon
+from tests.support.synthetic_robot import Gyro, Laser, simulate_robot, write_ros2_bag
 
 TRUE = WheelGeometry(0.0655, 0.0662, 0.163)
 BELIEVED = WheelGeometry.symmetric(0.066, 0.160)

@@ -7,9 +7,9 @@ import math
 
 import numpy as np
 import pytest
-from support.room import Room, box_segments, ray_cast
 
 from odocal.errors import ModelError
+from tests.support.room import Room, box_segments, ray_cast
 
 # A 4 m x 2 m room, nothing inside: exact ranges are easy to write down.
 EMPTY = Room.rectangle(4.0, 2.0)

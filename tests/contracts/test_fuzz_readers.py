@@ -24,7 +24,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from _boundary_files import (
+
+from tests.support.boundary_files import (
     OPTI_ID,
     PARAMS_YAML,
     ROBOT_YAML,
@@ -403,7 +404,7 @@ def test_one_line_contract(cli, tmp_path, reader, kinds, seed):
 
 @pytest.fixture(scope="module")
 def bags(tmp_path_factory):
-    from test_bags import TRACK, make_run, write_bag
+    from tests.io.test_bags import TRACK, make_run, write_bag
 
     folder = tmp_path_factory.mktemp("bags")
     run = make_run(TRACK)

@@ -6,7 +6,8 @@ from contextlib import redirect_stderr, redirect_stdout
 
 import pytest
 import yaml
-from test_bags import read_husky_once
+
+from tests.io.test_bags import read_husky_once
 
 BAGS = ["husky_test1.bag", "husky_test1_ros2"]
 

@@ -29,13 +29,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from support.room import Room, ray_cast
 
 from odocal.core.model import NonSystematicError, WheelGeometry
 from odocal.core.odometry import dead_reckon
 from odocal.core.simulate import drive
 from odocal.core.tracks import Track, arc, spot_turn, straight
 from odocal.errors import ModelError
+from tests.support.room import Room, ray_cast
 
 __all__ = [
     "Laser",

@@ -18,15 +18,15 @@ import time
 from pathlib import Path
 
 import pytest
-from _boundary_files import (
+
+from odocal.io import outputs
+from tests.support.boundary_files import (
     PARAMS_YAML,
     ROBOT_YAML,
     RUNS_CSV,
     generic_csv_text,
     write_optiodom,
 )
-
-from odocal.io import outputs
 
 
 def write(path: Path, text: str) -> Path:

@@ -9,7 +9,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-SRC = Path(__file__).resolve().parents[1] / "src" / "odocal"
+SRC = Path(__file__).resolve().parents[2] / "src" / "odocal"
 
 # The layers from the top; a layer may import the layers below it, never one above it or a
 # sibling (io and plot; comparison and design). presets (built-in robots) sits just above core;

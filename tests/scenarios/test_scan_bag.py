@@ -1,6 +1,6 @@
-"""Laser scan matching end to end: a bag written by tests/synthetic_robot.py (wheel joints and a
-2D laser mounted off-centre in a synthetic room, 1 cm range noise), `odocal fit BAG --method
-scan` recovers the wheel geometry and the laser's mounting."""
+"""Laser scan matching end to end: a bag written by tests/support/synthetic_robot.py (wheel
+joints and a 2D laser mounted off-centre in a synthetic room, 1 cm range noise), `odocal fit BAG
+--method scan` recovers the wheel geometry and the laser's mounting."""
 
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ import json
 
 import numpy as np
 import pytest
-from synthetic_robot import Laser, default_track, simulate_robot, write_ros2_bag
 
 from odocal.core.model import WheelGeometry
+from tests.support.synthetic_robot import Laser, default_track, simulate_robot, write_ros2_bag
 
 TRUE = WheelGeometry(0.0655, 0.0662, 0.163)
 BELIEVED = WheelGeometry.symmetric(0.066, 0.160)
