@@ -1,8 +1,7 @@
-"""BCPT (reconstructed) and the circle fit: exactness, signs, real-data golden values, CLI."""
+"""BCPT (reconstructed): exactness, signs, recorded circles, real-data golden values."""
 
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
@@ -15,7 +14,7 @@ from odocal.calibration.bcpt import (
     calibrate_bcpt_recordings,
 )
 from odocal.calibration.circle_fit import fit_circle
-from odocal.core.model import ModelError, Robot, SystematicError, WheelGeometry
+from odocal.core.model import Robot, SystematicError, WheelGeometry
 from odocal.core.recording import Recording
 from odocal.core.runs import CircleRuns
 from odocal.core.simulate import simulate
@@ -30,58 +29,6 @@ def _radius(robot, radius, direction, integration="exact"):
         circle(radius, direction), robot, 1, None, trajectory=True, integration=integration
     )
     return fit_circle(res.trajectory[0, :, :2]).radius_m
-
-
-# --- circle fit ------------------------------------------------------------------------------
-
-
-@pytest.mark.parametrize("algebraic", ["kasa", "pratt"])
-@pytest.mark.parametrize("geometric", [False, True])
-@pytest.mark.parametrize("span", [2 * math.pi, math.pi / 2])
-def test_circle_fit_exact_points(algebraic, geometric, span):
-    t = np.linspace(0.3, 0.3 + span, 40)
-    pts = np.c_[1.3 + 2.5 * np.cos(t), -0.7 + 2.5 * np.sin(t)]
-    f = fit_circle(pts, algebraic, geometric)
-    assert f.center_x_m == pytest.approx(1.3, abs=1e-10)
-    assert f.center_y_m == pytest.approx(-0.7, abs=1e-10)
-    assert f.radius_m == pytest.approx(2.5, abs=1e-10)
-    assert f.rms_residual_m < 1e-10
-
-
-def test_circle_fit_batched_matches_single():
-    rng = np.random.default_rng(3)
-    t = np.linspace(0, 2 * math.pi, 60)
-    pts = np.c_[np.cos(t), np.sin(t)] * np.array([[1.0], [3.0]])[:, :, None] / 1.0
-    pts = pts + 0.01 * rng.standard_normal(pts.shape)
-    batch = fit_circle(pts)
-    for i in range(2):
-        single = fit_circle(pts[i])
-        assert batch.radius_m[i] == pytest.approx(single.radius_m, rel=1e-12)
-
-
-def test_circle_fit_noisy_semicircle_bias():
-    # 400 seeded fits of 100 points on a semicircle of radius 2 m, sigma 2 cm per coordinate.
-    # The standard error of the mean radius is std/sqrt(400) ~ 0.24 mm; the geometric and Pratt
-    # fits must be unbiased to within 3 standard errors, while Kasa's known under-estimate of the
-    # radius on arcs shows (about -1 mm here, more than 3 standard errors).
-    rng = np.random.default_rng(7)
-    t = np.linspace(0, math.pi, 100)
-    pts = np.c_[2 * np.cos(t), 2 * np.sin(t)] + rng.normal(0, 0.02, (400, 100, 2))
-    for algebraic, geometric in (("pratt", True), ("pratt", False)):
-        r = fit_circle(pts, algebraic, geometric).radius_m
-        sem = r.std(ddof=1) / math.sqrt(len(r))
-        assert abs(r.mean() - 2.0) < 3 * sem
-    r = fit_circle(pts, "kasa", False).radius_m
-    assert r.mean() - 2.0 < -3 * r.std(ddof=1) / math.sqrt(len(r))
-
-
-def test_circle_fit_rejects_degenerate_points():
-    with pytest.raises(ModelError, match="at least 3"):
-        fit_circle([[0, 0], [1, 1]])
-    with pytest.raises(ModelError, match="circle"):
-        fit_circle([[0, 0], [1, 1], [2, 2], [3, 3]])
-    with pytest.raises(ModelError, match="finite"):
-        fit_circle([[0, 0], [1, np.nan], [2, 0]])
 
 
 # --- BCPT equations --------------------------------------------------------------------------
@@ -226,76 +173,3 @@ def test_optiodom_circle_golden(realdata):
     assert res.corrected.wheelbase_m == pytest.approx(0.20199, abs=2e-5)
     assert res.E_d == pytest.approx(0.99902, abs=2e-5)
     assert all(a["radius_ccw_m"] > a["radius_cw_m"] for a in arcs)  # E_d < 1 widens CCW
-
-
-# --- CLI -------------------------------------------------------------------------------------
-
-
-def _write(path, text):
-    path.write_text(text)
-    return path
-
-
-def test_cli_bcpt_json(cli, tmp_path):
-    robot = _write(tmp_path / "robot.yaml", "wheel_diameter_m: 0.15\nwheelbase_m: 0.34\n")
-    runs = _write(tmp_path / "runs.csv", "direction,radius_m,run\ncw,1.015798,1\nccw,1.004270,2\n")
-    out = tmp_path / "params.yaml"
-    status, stdout, stderr = cli(
-        "calibrate",
-        runs,
-        "--method",
-        "bcpt",
-        "--radius",
-        1.0,
-        "--robot",
-        robot,
-        "--json",
-        "--out",
-        out,
-    )
-    assert status == 0, stderr
-    doc = json.loads(stdout)
-    assert doc["method"] == "bcpt"
-    assert doc["E_b"] == pytest.approx(1.01, abs=2e-6)
-    assert doc["wheelbase_m"] == pytest.approx(0.34 * 1.01, abs=1e-6)
-    assert out.exists()
-    status, stdout, _ = cli("calibrate", runs, "--method", "bcpt", "--radius", 1, "--robot", robot)
-    assert status == 0 and "first order" in stdout
-
-
-@pytest.mark.parametrize(
-    "text, args, message",
-    [
-        ("direction,radius_m\ncw,1.01\nccw,1.0\n", [], "--radius"),
-        ("direction,radius_m\ncw,abc\nccw,1.0\n", ["--radius", "1"], "line 2, field 'radius_m'"),
-        ("direction,radius_m\ncw,-1\nccw,1.0\n", ["--radius", "1"], "line 2, field 'radius_m'"),
-        ("direction,radius_m\nup,1.0\nccw,1.0\n", ["--radius", "1"], "line 2, field 'direction'"),
-        ("direction,r\ncw,1.0\n", ["--radius", "1"], "missing column(s) radius_m"),
-        ("direction,radius_m\ncw,1.0,9\n", ["--radius", "1"], "line 2"),
-        ("direction,radius_m\n", ["--radius", "1"], "no runs"),
-        ("direction,radius_m\ncw,1.0\ncw,1.1\n", ["--radius", "1"], "no CCW runs"),
-        ("direction,radius_m\ncw,0.11\nccw,0.1\n", ["--radius", "0.1"], "half the wheelbase"),
-        ("direction,radius_m\ncw,1.0\nccw,1.0\n", ["--radius", "0.1"], "a diameter for a radius"),
-        ("direction,radius_m\ncw,1.0\nccw,1.0\n", ["--radius", "-2"], "--radius"),
-    ],
-)
-def test_cli_bcpt_bad_input(cli, tmp_path, text, args, message):
-    runs = _write(tmp_path / "runs.csv", text)
-    out = tmp_path / "params.yaml"
-    status, stdout, stderr = cli("calibrate", runs, "--method", "bcpt", *args, "--out", out)
-    assert status == 2
-    assert stderr.startswith("odocal: error:") and stderr.count("\n") == 1
-    assert message in stderr
-    assert "Traceback" not in stderr
-    assert not out.exists()
-    if "line" in message or "column" in message or "no runs" in message:
-        assert str(runs) in stderr
-
-
-def test_cli_radius_without_bcpt_is_an_error(cli, tmp_path):
-    runs = _write(
-        tmp_path / "runs.csv", "direction,x_m,y_m,theta_deg\ncw,0.1,0.1,1\nccw,0.1,-0.1,-1\n"
-    )
-    status, _, err = cli("calibrate", runs, "--radius", 1.0)
-    assert status == 2 and err.count("\n") == 1
-    assert "--radius is only used with --method bcpt" in err

@@ -1,10 +1,8 @@
-"""k_r, k_l from repeated straight runs: estimators, intervals, checks, and ``odocal noise``."""
+"""k_r, k_l from repeated straight runs (calibration.noise): estimators, intervals, checks."""
 
 from __future__ import annotations
 
-import json
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,7 +13,6 @@ from odocal.core.runs import EndPoseRuns
 from odocal.core.simulate import measure, simulate
 from odocal.core.tracks import out_and_back, straight_line
 from odocal.errors import CalibrationError
-from odocal.io.runs_csv import write_runs
 from odocal.presets import TETRA_DS2
 
 B = 0.385
@@ -159,67 +156,6 @@ def test_lateral_spread_from_a_misaligned_start_is_a_warning():
     e[:, 1] += 10.0 * delta
     est = estimate_k(EndPoseRuns(runs.directions, e), "straight", 10.0, B)
     assert any("lateral spread" in w for w in est.warnings)
-
-
-def _write(tmp_path: Path, runs: EndPoseRuns) -> Path:
-    p = tmp_path / "k-runs.csv"
-    write_runs(p, runs)
-    return p
-
-
-def test_cli_json_contract(cli, tmp_path):
-    robot = _robot()
-    path = _write(tmp_path, _runs(robot, out_and_back(10.0), 12, seed=11))
-    status, out, err = cli(
-        "noise", path, "--robot", "paper-fig5", "--track", "out-and-back:10", "--json"
-    )
-    assert status == 0, err
-    doc = json.loads(out)
-    assert {"k_sum_m", "k_sum_ci95", "k_r_m", "k_l_m", "runs"} <= set(doc)
-    assert doc["runs"] == 12 and doc["k_r_m"] is None and doc["k_l_m"] is None
-    lo, hi = doc["k_sum_ci95"]
-    assert lo < doc["k_sum_m"] < hi
-    status, out, err = cli("noise", path, "--robot", "paper-fig5", "--track", "out-and-back:10")
-    assert status == 0
-    assert "not identifiable" in out and "m^0.5" in out
-
-
-@pytest.mark.parametrize(
-    ("args", "needle"),
-    [
-        (("--track", "circle:10"), "out-and-back:D or straight:D"),
-        (("--track", "straight:-1"), "> 0 m"),
-        (("--track", "straight:ten"), "not a distance"),
-    ],
-)
-def test_cli_bad_track(cli, tmp_path, args, needle):
-    path = _write(tmp_path, _runs(_robot(), straight_line(2.0), 5, seed=1))
-    status, out, err = cli("noise", path, *args)
-    assert status == 2 and needle in err
-    assert err.startswith("odocal: error:") and "Traceback" not in err
-
-
-def test_cli_bad_inputs(cli, tmp_path):
-    status, _, err = cli("noise", tmp_path / "missing.csv", "--track", "straight:5")
-    assert status == 2 and "missing.csv" in err and "no such file" in err
-    p = tmp_path / "cw.csv"
-    p.write_text("direction,x_m,y_m,theta_deg\ncw,0,0,1\nfwd,0,0,2\nfwd,0,0,3\n")
-    status, _, err = cli("noise", p, "--track", "straight:5")
-    assert status == 2 and "line 2" in err and "direction" in err and "fwd" in err
-    p.write_text("direction,x_m,y_m,theta_deg\nfwd,0,0,1\nfwd,0,0,2\n")
-    status, _, err = cli("noise", p, "--track", "straight:5")
-    assert status == 2 and "at least 3" in err and len(err.strip().splitlines()) == 1
-
-
-def test_cli_force_turns_the_error_into_a_warning(cli, tmp_path):
-    runs = _runs(_robot(), out_and_back(10.0), 15, seed=4)
-    bad = EndPoseRuns(runs.directions, runs.errors + [0.0, 0.0, math.radians(2.0)])
-    path = _write(tmp_path, bad)
-    status, _, err = cli("noise", path, "--track", "out-and-back:10")
-    assert status == 2 and "--force" in err
-    status, out, err = cli("noise", path, "--track", "out-and-back:10", "--force", "--json")
-    assert status == 0 and "odocal: warning:" in err
-    assert json.loads(out)["warnings"]
 
 
 def test_the_statistics_without_scipy_stats_are_scipy_stats_numbers():

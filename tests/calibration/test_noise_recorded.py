@@ -1,14 +1,13 @@
-"""Steps 2-3 of the paper from recordings: k from repeated recorded runs, the tracker's noise, the
-measured robot (ROBOT.yaml, design --robot-from) and the covariances for the robot stack."""
+"""Steps 2-3 of the paper from recordings (calibration.noise): k from repeated recorded runs, the
+tracker's noise, and the covariances for the robot stack (the measured robot through ``noise``,
+``design --robot-from`` and ``fit --robot-out`` is tested in tests/cli)."""
 
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
 import pytest
-import yaml
 
 from odocal.calibration.noise import estimate_k_from_recordings, tracker_noise
 from odocal.core.covariance import odometry_covariance, straight_line_covariance
@@ -16,8 +15,6 @@ from odocal.core.model import MeasurementNoise, WheelGeometry
 from odocal.core.odometry import dead_reckon
 from odocal.core.recording import Recording
 from odocal.errors import CalibrationError
-from odocal.io.robot_file import load_robot
-from odocal.io.ros2_export import read_ros2_params
 
 TRUE = WheelGeometry(0.0837, 0.0838, 0.2015)
 K = 2.0e-6  # k_r = k_l (m)
@@ -147,68 +144,3 @@ def test_ros2_covariance_formulas():
     assert c.process_noise_per_s["yaw"] == pytest.approx(4e-6 * 0.5 / 0.04)
     with pytest.raises(Exception, match="speed_m_s"):
         odometry_covariance(1e-6, 1e-6, 0.2, speed_m_s=0.0)
-
-
-def test_noise_cli_on_optiodom_writes_robot_and_ros2(cli, realdata, tmp_path):
-    sq = realdata / "optiodom_diff" / "square"
-    robot, ros2 = tmp_path / "robot.yaml", tmp_path / "dd.yaml"
-    status, out, err = cli("noise", sq, "--robot-out", robot, "--ros2", ros2, "--json")
-    assert status == 0, err
-    d = json.loads(out)
-    # golden (bench_real_experiment.py): k_r + k_l 2.44e-6 m from 40 repeated runs, 28 dof
-    assert d["runs"] == 40 and d["dof"] == 28
-    assert d["k_sum_m"] == pytest.approx(2.44e-6, rel=0.01)
-    lo, hi = d["k_sum_ci95"]
-    assert lo < d["k_sum_m"] < hi and hi / lo < 4
-    assert d["k_r_m"] is None  # not identifiable from squares
-    r = load_robot(robot)
-    assert r.nominal == WheelGeometry(0.084, 0.084, 0.2)
-    assert r.nonsystematic.k_r_m == pytest.approx(d["k_sum_m"] / 2, rel=1e-6)
-    assert r.systematic.E_b == pytest.approx(1.00689, abs=1e-5)
-    assert 0 < r.measurement.sigma_theta_rad < math.radians(0.5)
-    params = yaml.safe_load(ros2.read_text())["diff_drive_controller"]["ros__parameters"]
-    assert len(params["pose_covariance_diagonal"]) == 6
-    assert params["twist_covariance_diagonal"][5] == pytest.approx(
-        d["ros2_covariance"]["twist_covariance_diagonal"][5]
-    )
-    assert read_ros2_params(ros2).wheelbase_m == pytest.approx(
-        d["robot"]["calibrated"]["wheelbase_m"], rel=1e-12
-    )
-    # the measured robot designs like any ROBOT.yaml
-    status, out, err = cli("design", "--robot", robot, "--side-lengths", "0.5:1.5:0.5",
-                           "--trials", "30", "--json")  # fmt: skip
-    assert status == 0, err
-
-
-def test_noise_cli_bad_inputs(cli, realdata, tmp_path):
-    sq = realdata / "optiodom_diff" / "square" / "231220200045"  # one CW and one CCW run
-    cli("noise", sq).expect_error("no group of repeated runs")
-    cli("noise", sq, sq, "--track", "straight:2").expect_error("exactly one RUNS.csv")
-    cli("noise", sq, "--params", tmp_path / "p.yaml").expect_error("--params is for RUNS.csv")
-
-
-def test_design_robot_from_recordings(cli, realdata):
-    sq = realdata / "optiodom_diff" / "square" / "231220200029"
-    status, out, err = cli("design", "--robot-from", sq, "--side-lengths", "0.5:1.5:0.5",
-                           "--trials", "30", "--sigma-theta-deg", "0.5", "--json")  # fmt: skip
-    assert status == 0, err
-    d = json.loads(out)
-    m = d["robot_measured"]
-    assert m["measurement"]["source"] == "given"
-    assert m["measurement"]["sigma_theta_deg"] == pytest.approx(0.5)
-    assert m["nominal"]["wheelbase_m"] == 0.2
-    assert m["systematic"]["E_b"] > 1.0  # the robot turns less than nominal says
-    assert d["robot"].startswith("robot measured from")
-
-
-def test_fit_robot_out(cli, realdata, tmp_path):
-    sq = realdata / "optiodom_diff" / "square"
-    out = tmp_path / "robot.yaml"
-    status, _, err = cli("fit", sq, "--method", "heading", "--robot-out", out)
-    assert status == 0, err
-    r = load_robot(out)
-    # the heading method cannot see the scale (E_s 1); k as odocal noise measures it
-    assert r.systematic.E_s == 1.0 and r.systematic.E_b == pytest.approx(1.00889, abs=1e-5)
-    assert r.nonsystematic.k_r_m == pytest.approx(1.22e-6, rel=0.01)
-    one = realdata / "optiodom_diff" / "square" / "231220200045"  # one run per direction
-    cli("fit", one, "--robot-out", tmp_path / "r2.yaml").expect_error("no group of repeated")

@@ -201,16 +201,3 @@ def test_optiodom_arcs_turn_less_than_spot_turns(realdata):
         assert arc.excited
         assert arc.ci95_m[0] > spot.ci95_m[1]
         assert 0.003 < arc.wheelbase_m / spot.wheelbase_m - 1 < 0.007
-
-
-def test_fit_cli_bands_refusal_and_plot(cli, realdata, tmp_path):
-    sq = realdata / "optiodom_diff" / "square" / "231220200029"
-    cli("fit", sq, "--wheelbase-model", "banded").expect_error("at least two bands", "spot")
-    status, out, err = cli("fit", sq, "--motion-mix", "spot=1,bogus=2")
-    assert status == 2 and "BAND=SHARE" in err
-    status, out, err = cli("fit", sq, "--plot", tmp_path / "p", "--motion-mix", "spot=0.3,wide=0.7")
-    assert status == 0, err
-    assert (tmp_path / "p" / "effective_wheelbase.png").stat().st_size > 1000
-    assert "single wheelbase for the motion mix" in out
-    # the mix asks for a band these runs do not excite: the nearest excited band is used, said
-    assert "wide" in err and "do not excite" in err

@@ -1,4 +1,5 @@
-"""`odocal simulate` and `odocal calibrate`: contracts, composition and every bad input."""
+"""``odocal calibrate``: its JSON and text, composed with ``simulate``, every bad run sheet,
+``python -m odocal``, and the BCPT circles."""
 
 import json
 import math
@@ -22,40 +23,6 @@ def robot(tmp_path):
     p = tmp_path / "robot.yaml"
     p.write_text(ROBOT)
     return p
-
-
-def test_simulate_json_contract(cli, robot):
-    status, out, err = cli(
-        "simulate",
-        "--robot",
-        robot,
-        "--sides",
-        4,
-        "--side-length",
-        4,
-        "--direction",
-        "cw",
-        "--runs",
-        7,
-        "--seed",
-        3,
-        "--json",
-    )
-    assert status == 0, err
-    data = json.loads(out)
-    assert data["runs"] == 7
-    assert set(data["mean"]) == {"x_m", "y_m", "theta_deg"} == set(data["std"])
-    # a CW square ends with heading error 4 alpha + 4 beta (model.md; 7 runs, sigma ~ 0.4 deg)
-    alpha = math.pi / 2 - (math.pi / 2) / 1.028
-    beta = 2 * 4.0 * (0.999 - 1) / (1.999 * 1.028 * 0.385)
-    assert data["mean"]["theta_deg"] == pytest.approx(math.degrees(4 * (alpha + beta)), abs=1.0)
-    # same seed, same numbers
-    assert (
-        cli("simulate", "--robot", robot, "--direction", "cw", "--runs", 7, "--seed", 3, "--json")[
-            1
-        ]
-        == out
-    )
 
 
 def test_simulate_then_calibrate_composes(cli, robot, tmp_path):
@@ -126,11 +93,6 @@ def test_table_output_and_python_dash_m(robot, tmp_path):
     assert "E_b" in proc.stdout and "calibrated" in proc.stdout
 
 
-def test_default_robot_is_builtin(cli):
-    status, out, _ = cli("simulate", "--runs", 2, "--json")
-    assert status == 0 and json.loads(out)["runs"] == 4
-
-
 BAD_RUNS = {
     "short row": ("direction,x_m,y_m,theta_deg\ncw,0.1,0.2\nccw,0,0,0\n", ["line 2"]),
     "long row": ("direction,x_m,y_m,theta_deg\ncw,0.1,0.2,1,9\nccw,0,0,0\n", ["line 2"]),
@@ -179,65 +141,6 @@ def test_binary_garbage_and_missing_file(cli, robot, tmp_path):
     cli("calibrate", latin, "--robot", robot).expect_error("UTF-8", "line 2")
 
 
-BAD_ROBOTS = {
-    "missing wheelbase": ("wheel_diameter_m: 0.15\n", ["wheelbase_m"]),
-    "negative diameter": (
-        "wheel_diameter_m: -0.15\nwheelbase_m: 0.4\n",
-        ["wheel_diameter_m", "line 1", "> 0"],
-    ),
-    "string value": ("wheel_diameter_m: 0.15\nwheelbase_m: wide\n", ["wheelbase_m", "line 2"]),
-    "bool value": ("wheel_diameter_m: 0.15\nwheelbase_m: true\n", ["wheelbase_m"]),
-    "nan": ("wheel_diameter_m: .nan\nwheelbase_m: 0.4\n", ["wheel_diameter_m", "finite"]),
-    "unknown key": (
-        "wheel_diameter_m: 0.15\nwheelbase_m: 0.4\nsystematic: {E_B: 1.0}\n",
-        ["systematic.E_B", "line 3", "unknown key"],
-    ),
-    "zero E_b": (
-        "wheel_diameter_m: 0.15\nwheelbase_m: 0.4\nsystematic:\n  E_b: 0\n",
-        ["systematic.E_b", "line 4"],
-    ),
-    "negative k": (
-        "wheel_diameter_m: 0.15\nwheelbase_m: 0.4\nnonsystematic: {k_r_m: -1}\n",
-        ["nonsystematic.k_r_m", ">= 0"],
-    ),
-    "section not mapping": (
-        "wheel_diameter_m: 0.15\nwheelbase_m: 0.4\nmeasurement: 3\n",
-        ["measurement", "mapping"],
-    ),
-    "invalid yaml": ("wheel_diameter_m: [0.15\nwheelbase_m: 0.4\n", ["invalid YAML", "line"]),
-    "not a mapping": ("- 1\n- 2\n", ["mapping"]),
-    "empty": ("", ["empty"]),
-}
-
-
-@pytest.mark.parametrize("case", sorted(BAD_ROBOTS))
-def test_bad_robot_yaml(cli, tmp_path, case):
-    text, needles = BAD_ROBOTS[case]
-    robot = tmp_path / "robot.yaml"
-    robot.write_text(text)
-    out = tmp_path / "runs.csv"
-    cli("simulate", "--robot", robot, "--out", out).expect_error(str(robot), *needles)
-    assert not out.exists()
-
-
-@pytest.mark.parametrize(
-    "args,needle",
-    [
-        (["simulate", "--sides", "2"], "--sides"),
-        (["simulate", "--side-length", "-1"], "--side-length"),
-        (["simulate", "--side-length", "nan"], "--side-length"),
-        (["simulate", "--runs", "0"], "--runs"),
-        (["simulate", "--direction", "up"], "--direction"),
-        (["simulate", "--seed", "x"], "--seed"),
-        (["calibrate"], "RUNS.csv"),
-        (["calibrate", "r.csv", "--method", "magic"], "--method"),
-        (["frobnicate"], "frobnicate"),
-    ],
-)
-def test_bad_arguments(cli, args, needle):
-    cli(*args).expect_error(needle)
-
-
 def test_umbmark_needs_a_square(cli, robot, tmp_path):
     p = tmp_path / "r.csv"
     p.write_text(GOOD_RUNS)
@@ -247,53 +150,6 @@ def test_umbmark_needs_a_square(cli, robot, tmp_path):
         "calibrate", p, "--robot", robot, "--method", "umbmark", "--sides", 5, "--side-length", 4
     )
     result.expect_error("squares")
-
-
-def test_output_into_missing_folder_leaves_nothing(cli, robot, tmp_path):
-    target = tmp_path / "no" / "such" / "dir" / "runs.csv"
-    cli("simulate", "--robot", robot, "--out", target).expect_error("does not exist")
-    assert not target.parent.exists()
-
-
-def test_failed_write_keeps_previous_file(cli, robot, tmp_path, monkeypatch):
-    out = tmp_path / "runs.csv"
-    out.write_text("previous\n")
-    import odocal.app.simulate as app_simulate
-
-    def boom(*a, **k):
-        raise OSError("disk full")
-
-    monkeypatch.setattr(app_simulate, "runs_csv_text", boom)
-    with pytest.raises(OSError):
-        cli("simulate", "--robot", robot, "--out", out)
-    assert out.read_text() == "previous\n"
-    assert [p.name for p in tmp_path.iterdir() if p.name.endswith(".tmp")] == []
-
-
-def test_track_file(cli, tmp_path):
-    track = tmp_path / "track.yaml"
-    track.write_text(
-        "name: L\nsegments:\n  - straight_m: 2\n  - turn_deg: 90\n"
-        "  - arc: {radius_m: 1, angle_deg: 90}\n"
-    )
-    status, out, err = cli("simulate", "--track", track, "--runs", 3, "--json")
-    assert status == 0, err
-    assert json.loads(out)["by_direction"].keys() == {"ccw"}
-    track.write_text("segments:\n  - jump: 2\n")
-    cli("simulate", "--track", track).expect_error(str(track), "jump")
-
-
-def test_outputs_get_the_usual_file_mode(cli, robot, tmp_path):
-    import os
-    import stat
-
-    out = tmp_path / "runs.csv"
-    old = os.umask(0o022)
-    try:
-        assert cli("simulate", "--robot", robot, "--out", out)[0] == 0
-    finally:
-        os.umask(old)
-    assert stat.S_IMODE(out.stat().st_mode) == 0o644
 
 
 def test_heading_method_needs_only_headings_and_blank_cells_say_so(cli, robot, tmp_path):
@@ -315,29 +171,74 @@ def test_heading_method_needs_only_headings_and_blank_cells_say_so(cli, robot, t
     )
 
 
-def test_help_is_complete_and_imports_no_command_module():
-    # 'odocal --help' lists every command with its line without importing any command module
-    # (nor numpy); every module still builds its own parser under its name
-    import subprocess
-    import sys
+# --- BCPT: circles of a commanded radius ------------------------------------------------------
 
-    from odocal.cli.main import COMMANDS, build_parser
 
-    code = (
-        "import sys, contextlib, io\n"
-        "from odocal.cli.main import main\n"
-        "buf = io.StringIO()\n"
-        "with contextlib.redirect_stdout(buf):\n"
-        "    try:\n"
-        "        main(['--help'])\n"
-        "    except SystemExit:\n"
-        "        pass\n"
-        "print(buf.getvalue())\n"
-        "print('LOADED', sorted(m for m in sys.modules if m.startswith('odocal.cli.') "
-        "or m == 'numpy'))\n"
+def _write(path, text):
+    path.write_text(text)
+    return path
+
+
+def test_cli_bcpt_json(cli, tmp_path):
+    robot = _write(tmp_path / "robot.yaml", "wheel_diameter_m: 0.15\nwheelbase_m: 0.34\n")
+    runs = _write(tmp_path / "runs.csv", "direction,radius_m,run\ncw,1.015798,1\nccw,1.004270,2\n")
+    out = tmp_path / "params.yaml"
+    status, stdout, stderr = cli(
+        "calibrate",
+        runs,
+        "--method",
+        "bcpt",
+        "--radius",
+        1.0,
+        "--robot",
+        robot,
+        "--json",
+        "--out",
+        out,
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True).stdout
-    assert all(name in out for name in COMMANDS)
-    assert "LOADED ['odocal.cli.main']" in out
-    sub = next(a for a in build_parser()._actions if hasattr(a, "choices") and a.choices)
-    assert list(sub.choices) == list(COMMANDS)
+    assert status == 0, stderr
+    doc = json.loads(stdout)
+    assert doc["method"] == "bcpt"
+    assert doc["E_b"] == pytest.approx(1.01, abs=2e-6)
+    assert doc["wheelbase_m"] == pytest.approx(0.34 * 1.01, abs=1e-6)
+    assert out.exists()
+    status, stdout, _ = cli("calibrate", runs, "--method", "bcpt", "--radius", 1, "--robot", robot)
+    assert status == 0 and "first order" in stdout
+
+
+@pytest.mark.parametrize(
+    "text, args, message",
+    [
+        ("direction,radius_m\ncw,1.01\nccw,1.0\n", [], "--radius"),
+        ("direction,radius_m\ncw,abc\nccw,1.0\n", ["--radius", "1"], "line 2, field 'radius_m'"),
+        ("direction,radius_m\ncw,-1\nccw,1.0\n", ["--radius", "1"], "line 2, field 'radius_m'"),
+        ("direction,radius_m\nup,1.0\nccw,1.0\n", ["--radius", "1"], "line 2, field 'direction'"),
+        ("direction,r\ncw,1.0\n", ["--radius", "1"], "missing column(s) radius_m"),
+        ("direction,radius_m\ncw,1.0,9\n", ["--radius", "1"], "line 2"),
+        ("direction,radius_m\n", ["--radius", "1"], "no runs"),
+        ("direction,radius_m\ncw,1.0\ncw,1.1\n", ["--radius", "1"], "no CCW runs"),
+        ("direction,radius_m\ncw,0.11\nccw,0.1\n", ["--radius", "0.1"], "half the wheelbase"),
+        ("direction,radius_m\ncw,1.0\nccw,1.0\n", ["--radius", "0.1"], "a diameter for a radius"),
+        ("direction,radius_m\ncw,1.0\nccw,1.0\n", ["--radius", "-2"], "--radius"),
+    ],
+)
+def test_cli_bcpt_bad_input(cli, tmp_path, text, args, message):
+    runs = _write(tmp_path / "runs.csv", text)
+    out = tmp_path / "params.yaml"
+    status, stdout, stderr = cli("calibrate", runs, "--method", "bcpt", *args, "--out", out)
+    assert status == 2
+    assert stderr.startswith("odocal: error:") and stderr.count("\n") == 1
+    assert message in stderr
+    assert "Traceback" not in stderr
+    assert not out.exists()
+    if "line" in message or "column" in message or "no runs" in message:
+        assert str(runs) in stderr
+
+
+def test_cli_radius_without_bcpt_is_an_error(cli, tmp_path):
+    runs = _write(
+        tmp_path / "runs.csv", "direction,x_m,y_m,theta_deg\ncw,0.1,0.1,1\nccw,0.1,-0.1,-1\n"
+    )
+    status, _, err = cli("calibrate", runs, "--radius", 1.0)
+    assert status == 2 and err.count("\n") == 1
+    assert "--radius is only used with --method bcpt" in err

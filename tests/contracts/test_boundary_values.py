@@ -402,7 +402,7 @@ def test_optiodom_run_files_are_checked(cli, tmp_path, edit, needle):
 
 @pytest.fixture(scope="module")
 def bag_run():
-    from tests.io.test_bags import TRACK, make_run
+    from tests.support.bag_files import TRACK, make_run
 
     return make_run(TRACK)
 
@@ -417,7 +417,7 @@ def bag_run():
 )
 def test_bag_absurd_values_are_named(tmp_path, bag_run, what, needle):
     from odocal.io.bag_recording import load_bag_recording
-    from tests.io.test_bags import write_bag
+    from tests.support.bag_files import write_bag
 
     kw: dict = {}
     if what == "joint":
@@ -446,7 +446,7 @@ def test_bag_absurd_values_are_named(tmp_path, bag_run, what, needle):
 @pytest.mark.parametrize("start_s", [1e-6, 2.0e9], ids=["tiny", "huge"])
 def test_bag_tiny_and_huge_stamps(tmp_path, bag_run, start_s):
     from odocal.io.bag_recording import load_bag_recording
-    from tests.io.test_bags import write_bag
+    from tests.support.bag_files import write_bag
 
     shifted = dataclasses.replace(bag_run, time_s=bag_run.time_s - bag_run.time_s[0] + start_s)
     path = write_bag(tmp_path / "t.bag", "ros1", shifted, imu=False)
@@ -458,7 +458,7 @@ def test_bag_tiny_and_huge_stamps(tmp_path, bag_run, start_s):
 
 def test_bag_clocks_that_do_not_overlap(tmp_path, bag_run):
     from odocal.io.bag_recording import load_bag_recording
-    from tests.io.test_bags import write_bag
+    from tests.support.bag_files import write_bag
 
     # wheel joints stamped in simulated time (from 0 s), the ground truth in wall-clock time
     wall = dataclasses.replace(bag_run, time_s=bag_run.time_s + 1.7e9)

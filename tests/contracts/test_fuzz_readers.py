@@ -404,7 +404,7 @@ def test_one_line_contract(cli, tmp_path, reader, kinds, seed):
 
 @pytest.fixture(scope="module")
 def bags(tmp_path_factory):
-    from tests.io.test_bags import TRACK, make_run, write_bag
+    from tests.support.bag_files import TRACK, make_run, write_bag
 
     folder = tmp_path_factory.mktemp("bags")
     run = make_run(TRACK)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
@@ -24,7 +23,6 @@ from odocal.core.model import (
 )
 from odocal.core.simulate import drive, measure, simulate
 from odocal.core.tracks import Track, arc, out_and_back, polygon, spot_turn, straight, straight_line
-from odocal.presets import PRESETS
 
 GEOM = WheelGeometry.symmetric(0.15, 0.5)
 
@@ -185,32 +183,3 @@ def test_measurement_noise_is_kept_apart():
     extra = p.measured_covariance - p.covariance
     np.testing.assert_allclose(np.diag(extra), [4e-6, 4e-6, math.radians(0.2) ** 2])
     assert p.std(measured=False)[2] < p.std(measured=True)[2]
-
-
-def test_simulate_predict_cli(cli):
-    status, out, err = cli(
-        "simulate", "--robot", "paper-experiment", "--runs", "50", "--max-step", "0.05", "--predict"
-    )
-    assert status == 0, err
-    assert "predicted" in out and "MC (50 runs)" in out
-    status, out, err = cli(
-        "simulate",
-        "--robot",
-        "paper-experiment",
-        "--runs",
-        "50",
-        "--max-step",
-        "0.05",
-        "--predict",
-        "--json",
-        "--direction",
-        "ccw",
-    )
-    assert status == 0, err
-    doc = json.loads(out)
-    pred = doc["predicted"]["ccw"]
-    robot_pred = predict(polygon(4, 4.0, "ccw"), PRESETS["paper-experiment"], max_step_m=0.05)
-    assert pred["std"]["theta_deg"] == pytest.approx(math.degrees(robot_pred.std()[2]))
-    assert set(pred["correlation"]) == {"x_y", "x_theta", "y_theta"}
-    assert len(doc["monte_carlo_covariance"]["ccw"]) == 3
-    assert "cw" not in doc["predicted"]

@@ -1,14 +1,14 @@
-"""t-tests: the model.md / methods-notes TV6 check values, scipy agreement, and ``odocal ttest``."""
+"""core.stats: the t-tests (the model.md / methods-notes TV6 check values, scipy agreement, paired
+tests), the t distribution without scipy, the circular mean."""
 
 from __future__ import annotations
 
-import json
 import math
 
 import numpy as np
 import pytest
 
-from odocal.core.stats import ttest_from_stats, ttest_samples
+from odocal.core.stats import circular_mean, ttest_from_stats, ttest_paired, ttest_samples
 from odocal.errors import ModelError
 
 A = [12.1, 15.3, 9.8, 14.2, 11.0]
@@ -79,67 +79,6 @@ def test_bad_samples():
         ttest_samples([1.0, math.inf], [1.0, 2.0])
 
 
-# --- odocal ttest -------------------------------------------------------------------------
-
-
-@pytest.fixture
-def samples(tmp_path):
-    a = tmp_path / "a.csv"
-    b = tmp_path / "b.csv"
-    a.write_text("run,label,error_mm\n" + "".join(f"{i},x,{v}\n" for i, v in enumerate(A)))
-    b.write_text("# second method\nerror_mm,note\n" + "".join(f"{v},y\n" for v in B))
-    return a, b
-
-
-def test_cli_ttest_check_value(cli, samples):
-    a, b = samples
-    status, out, err = cli("ttest", a, b, "--column", "error_mm")
-    assert status == 0, err
-    assert "-4.396112" in out and "0.00229867" in out and "0.00114934" in out
-    assert "7.1369" in out and "0.00302735" in out
-
-
-def test_cli_ttest_json(cli, samples):
-    a, b = samples
-    status, out, _ = cli("ttest", a, b, "--column", "error_mm", "--json")
-    assert status == 0
-    d = json.loads(out)
-    assert d["student"]["t"] == pytest.approx(-4.396112, abs=1e-6)
-    assert d["welch"]["df"] == pytest.approx(7.136864, abs=1e-6)
-    assert d["mean_difference"] == pytest.approx(-7.78)
-    assert d["a"]["n"] == 5 and d["b"]["column"] == "error_mm"
-
-
-def test_cli_ttest_default_column_is_first_numeric_and_is_named(cli, samples):
-    a, b = samples
-    status, out, _ = cli("ttest", a, b)
-    assert status == 0
-    # A's first numeric column is 'run'; B has no 'run' and uses its own first numeric column
-    assert "column 'run'" in out and "column 'error_mm'" in out
-    assert "first numeric column" in out
-
-
-def test_cli_ttest_bad_inputs(cli, tmp_path, samples):
-    a, _ = samples
-    cli("ttest", a, tmp_path / "missing.csv").expect_error("missing.csv", "no such file")
-    cli("ttest", a, a, "--column", "nope").expect_error("no column 'nope'")
-    bad = tmp_path / "bad.csv"
-    bad.write_text("error_mm\n1.0\nabc\n")
-    cli("ttest", a, bad, "--column", "error_mm").expect_error("bad.csv", "line 3", "error_mm")
-    one = tmp_path / "one.csv"
-    one.write_text("error_mm\n1.0\n")
-    cli("ttest", one, a, "--column", "error_mm").expect_error("one.csv", "at least 2")
-    empty = tmp_path / "empty.csv"
-    empty.write_text("")
-    cli("ttest", empty, a).expect_error("empty.csv", "empty file")
-    text = tmp_path / "text.csv"
-    text.write_text("name\nfoo\nbar\n")
-    cli("ttest", text, a).expect_error("text.csv", "no numeric column")
-    ragged = tmp_path / "ragged.csv"
-    ragged.write_text("a,b\n1,2\n3\n")
-    cli("ttest", ragged, a).expect_error("ragged.csv", "line 3")
-
-
 @pytest.mark.parametrize("df", [0.7, 1, 2, 7.7, 30, 1598.2, 1e5])
 def test_student_t_tail_and_quantile_without_scipy_agree_with_scipy(df):
     from scipy import stats
@@ -154,3 +93,22 @@ def test_student_t_tail_and_quantile_without_scipy_agree_with_scipy(df):
         assert student_t_sf(-t, df) == pytest.approx(sf(-t), rel=1e-12)
     for p in (1e-6, 0.025, 0.5, 0.9, 0.975):
         assert student_t_quantile(p, df) == pytest.approx(stats.t.ppf(p, df), rel=1e-10, abs=1e-14)
+
+
+def test_circular_mean_keeps_unwrapped_scale():
+    a = np.array([-2 * math.pi + 0.01, -2 * math.pi - 0.01, -2 * math.pi + 0.03])
+    assert circular_mean(a) == pytest.approx(-2 * math.pi + 0.01, abs=1e-4)
+    # samples either side of the +-pi cut: the mean is pi, not 0
+    assert circular_mean(np.array([3.1, -3.1])) == pytest.approx(math.pi, abs=1e-12)
+
+
+def test_paired_ttest_matches_scipy():
+    from scipy import stats
+
+    rng = np.random.default_rng(4)
+    a = rng.normal(0.03, 0.01, 19)
+    b = a - rng.normal(0.02, 0.01, 19)
+    t = ttest_paired(a, b)
+    ref = stats.ttest_rel(a, b)
+    assert t.t == pytest.approx(ref.statistic) and t.p_two_sided == pytest.approx(ref.pvalue)
+    assert t.df == 18 and t.kind == "paired"

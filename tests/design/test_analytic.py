@@ -22,6 +22,7 @@ from odocal.core.simulate import drive, measure
 from odocal.core.tracks import polygon
 from odocal.design.analytic import (
     analytic_design,
+    analytic_design_result,
     analytic_reference,
     norm_stats,
 )
@@ -30,6 +31,8 @@ from odocal.design.metrics import (
     leg_heading_systematic_rad,
     systematic_share,
 )
+from odocal.design.spec import DesignSpec
+from odocal.design.sweep import run_design
 from odocal.presets import PRESETS
 
 VALIDATE = polygon(4, 4.0, "ccw")
@@ -245,3 +248,31 @@ def test_bad_arguments():
         analytic_design(robot, 4, [0.0, 1.0], 5, "heading", VALIDATE)
     with pytest.raises(ModelError, match="runs_per_direction"):
         analytic_design(robot, 4, [1.0], 0, "heading", VALIDATE)
+
+
+def test_analytic_agrees_with_monte_carlo_candidate_by_candidate():
+    robot = PRESETS["paper-fig5"]
+    lengths = [0.5, 2.0, 6.0]
+    spec = DesignSpec(side_lengths_m=tuple(lengths), trials=3000)
+    mc = run_design(robot, spec, np.random.default_rng(5))
+    an = analytic_design_result(robot, spec)
+    for m, a in zip(mc.candidates, an.candidates, strict=True):
+        # Monte-Carlo standard errors at 3000 trials: ~1.1 % of the mean error, ~1.3 % of a std
+        assert a.post_error_mean_m == pytest.approx(m.post_error_mean_m, rel=0.05)
+        assert a.residual_error_mean_m == pytest.approx(m.residual_error_mean_m, rel=0.05)
+        assert a.E_b_std == pytest.approx(m.E_b_std, rel=0.08)
+        assert a.E_d_std == pytest.approx(m.E_d_std, rel=0.08)
+    assert an.floor.mean_m == pytest.approx(mc.floor.mean_m, rel=0.05)
+    assert an.uncalibrated.mean_m == pytest.approx(mc.uncalibrated.mean_m, rel=0.02)
+
+
+def test_recommended_size_grows_with_a_poorer_instrument():
+    from odocal.design.reproduce import precision_sweep
+
+    sweep = precision_sweep(
+        PRESETS["paper-fig5"], levels=((0.001, 0.1), (0.01, 1.0), (0.03, 3.0)), trials=800
+    )
+    for key, sides in sweep.recommended_side_m.items():
+        # never smaller with a worse instrument, and strictly larger from 0.1 deg to 3 deg
+        assert list(sides) == sorted(sides), key
+        assert sides[-1] > sides[0], key

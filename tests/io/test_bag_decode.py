@@ -27,7 +27,7 @@ from odocal.errors import InputError
 from odocal.io import bag_decode, bags
 from odocal.io.bag_recording import load_bag_recording
 from odocal.io.bag_slam import load_slam_bag
-from tests.io.test_bags import KINDS, TRACK, BagWriter, bag_path, make_run, write_bag
+from tests.support.bag_files import KINDS, TRACK, BagWriter, bag_path, make_run, write_bag
 from tests.support.synthetic_robot import Gyro, Laser, simulate_robot, write_ros2_bag
 
 IMU, ODOMETRY = bag_decode.IMU, bag_decode.ODOMETRY

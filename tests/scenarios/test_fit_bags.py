@@ -7,7 +7,7 @@ from contextlib import redirect_stderr, redirect_stdout
 import pytest
 import yaml
 
-from tests.io.test_bags import read_husky_once
+from tests.support.bag_files import read_husky_once
 
 BAGS = ["husky_test1.bag", "husky_test1_ros2"]
 
