@@ -10,6 +10,8 @@ import pytest
 
 from odocal.app.common import make_robot
 from odocal.app.design import design
+from odocal.app.measured import MeasuredRobot
+from odocal.core.model import MeasurementNoise
 from odocal.design.recommend import recommend
 from odocal.design.robust import RangeDesign
 from odocal.design.spec import CRITERIA, ENGINES, METHODS, DesignSpec, scaled_sizes
@@ -97,3 +99,18 @@ def test_the_range_design_exposes_its_ranges():
     j = run.as_dict()
     assert j["error_range"]["ranges"]["E_b"] == [0.97, 1.03]
     assert [c["worst_regret"] for c in j["candidates"]] == pytest.approx(list(d.worst_regret))
+
+
+def test_design_robot_from_recordings(realdata):
+    sq = realdata / "optiodom_diff" / "square" / "231220200029"
+    spec = DesignSpec(side_lengths_m=(0.5, 1.0, 1.5), trials=30)
+    run = design(spec=spec, robot_from=[sq], measurement=MeasurementNoise.from_degrees(0.0, 0.5))
+    m = run.measured
+    assert isinstance(m, MeasuredRobot)
+    assert m.measurement_source == "given"
+    assert math.degrees(m.robot.measurement.sigma_theta_rad) == pytest.approx(0.5)
+    assert m.robot.nominal.wheelbase_m == 0.2
+    assert m.robot.systematic.E_b > 1.0  # the robot turns less than nominal says
+    assert run.robot.startswith("robot measured from")
+    d = run.as_dict()
+    assert d["robot_measured"] == m.as_dict() and d["robot"] == run.robot

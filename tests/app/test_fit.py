@@ -1,6 +1,7 @@
 """The routes of ``odocal fit`` as library functions, tested on their typed results: the router's
 choice, the settings validated once, the I/O-free route functions and what moved down from the
-app (wheel increments, the wheel-angle heading, the band step, the figure choice)."""
+app (wheel increments, the wheel-angle heading, the band step, the figure choice); ``fit`` on
+files: the exports, the measured robot, the real-data goldens."""
 
 from __future__ import annotations
 
@@ -10,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from odocal.app.common import make_robot
 from odocal.app.fit import choose_route, fit
 from odocal.app.fit_gyro import GyroFitResult
 from odocal.app.fit_relative import RelativeFitResult, fit_relative
@@ -34,6 +36,10 @@ from odocal.core.odometry import dead_reckon, wheel_heading
 from odocal.core.recording import Recording
 from odocal.errors import CalibrationError, InputError, ModelError
 from odocal.io.bag_options import BagOptions
+from odocal.io.generic_csv import write_generic_csv
+from odocal.io.robot_file import load_params, load_robot
+from odocal.io.ros2_export import read_ros2_params
+from tests.support.recorded_runs import mixed_runs, values
 
 NOMINAL = WheelGeometry(0.15, 0.15, 0.385)
 TRUE = NOMINAL.with_systematic(SystematicError(E_b=1.02, E_d=1.004, E_s=0.99))
@@ -316,3 +322,62 @@ def test_the_gyro_route_takes_its_topics_from_bag_options(realdata):
     assert res.gyro.axis == "y" and res.gyro.mounting_source == "flag"
     assert res.geometry is None  # no nominal geometry given
     assert res.as_dict()["method"] == "gyro"
+
+
+def test_the_runs_fit_writes_the_true_geometry_to_params_and_ros2(tmp_path):
+    folder = tmp_path / "runs"
+    folder.mkdir()
+    for r in mixed_runs():
+        write_generic_csv(folder / f"{r.name}.csv", r)
+    out, ros2 = tmp_path / "params.yaml", tmp_path / "ros2.yaml"
+    res = fit(folder, robot=make_robot(0.15, 0.385), out=out, ros2=ros2)
+    assert isinstance(res, FitResult) and res.fit.method == "trajectory" and res.recordings == 6
+    assert res.nominal == NOMINAL and set(res.written) == {out, ros2}
+    # the CSV stores 10 significant digits, so the fit is exact to about 1e-8
+    np.testing.assert_allclose(values(res.fit.geometry), values(TRUE), rtol=1e-7)
+    np.testing.assert_allclose(values(load_params(out)), values(TRUE), rtol=1e-7)
+    np.testing.assert_allclose(values(read_ros2_params(ros2)), values(load_params(out)), rtol=1e-8)
+    linear = fit(folder, "linear", robot=make_robot(0.15, 0.385))
+    assert linear.fit.method == "linear" and linear.recordings == 6
+
+
+def test_fit_robot_out(realdata, tmp_path):
+    sq = realdata / "optiodom_diff" / "square"
+    out = tmp_path / "robot.yaml"
+    res = fit(sq, "heading", robot_out=out)
+    assert res.written == (out,) and res.measured is not None
+    r = load_robot(out)
+    # the heading method cannot see the scale (E_s 1); k as odocal noise measures it
+    assert r.systematic.E_s == 1.0 and r.systematic.E_b == pytest.approx(1.00889, abs=1e-5)
+    assert r.nonsystematic.k_r_m == pytest.approx(1.22e-6, rel=0.01)
+    assert r.nonsystematic.k_r_m == pytest.approx(res.measured.robot.nonsystematic.k_r_m)
+    one = realdata / "optiodom_diff" / "square" / "231220200045"  # one run per direction
+    with pytest.raises(CalibrationError, match="no group of repeated"):
+        fit(one, robot_out=tmp_path / "r2.yaml")
+    assert not (tmp_path / "r2.yaml").exists()
+
+
+def test_real_data_umbmark_reproduces_the_published_values(realdata):
+    # reference_results_diff.csv, UMBmark row of square/230620202042 (x-form)
+    path = realdata / "optiodom_diff" / "square" / "230620202042"
+    res = fit(path, "umbmark", squares=SquareSettings(umbmark_form="x"))
+    g = res.fit.geometry
+    assert res.fit.method == "umbmark"
+    assert g.wheelbase_m == pytest.approx(0.201458, abs=1e-6)
+    assert g.diameter_right_m == pytest.approx(0.083954, abs=1e-6)
+    assert g.diameter_left_m == pytest.approx(0.084046, abs=1e-6)
+
+
+def test_real_data_trajectory_golden(realdata):
+    base = realdata / "optiodom_diff"
+    res = fit([base / "square" / "231220200048", base / "ivanjko" / "231220200104"])
+    g = res.fit.geometry
+    # golden values of this commit (5 runs); the published OptiOdom fits of these categories
+    # give D 0.0834-0.0840 m and b 0.2000-0.2025 m
+    assert g.diameter_right_m == pytest.approx(GOLDEN[0], abs=2e-6)
+    assert g.diameter_left_m == pytest.approx(GOLDEN[1], abs=2e-6)
+    assert g.wheelbase_m == pytest.approx(GOLDEN[2], abs=5e-6)
+    assert len(res.fit.runs) == res.recordings == 5
+
+
+GOLDEN = (0.083884, 0.083923, 0.201740)

@@ -8,35 +8,22 @@ import numpy as np
 import pytest
 
 from odocal.calibration.noise import estimate_k
-from odocal.core.model import MeasurementNoise, NonSystematicError, Robot, SystematicError
+from odocal.core.model import MeasurementNoise
 from odocal.core.runs import EndPoseRuns
-from odocal.core.simulate import measure, simulate
+from odocal.core.simulate import simulate
 from odocal.core.tracks import out_and_back, straight_line
 from odocal.errors import CalibrationError
-from odocal.presets import TETRA_DS2
+from tests.support.noise_runs import fwd_runs, noise_robot
 
 B = 0.385
-
-
-def _robot(k_r=2e-6, k_l=2e-6, meas=None):
-    # systematic errors present on purpose: they must not leak into k. The nominal wheelbase
-    # is the true one (E_b = 1) so the estimators' b is exact.
-    meas = meas or MeasurementNoise()
-    return Robot(TETRA_DS2, SystematicError(1.0, 1.004), NonSystematicError(k_r, k_l), meas)
-
-
-def _runs(robot, track, n, seed):
-    rng = np.random.default_rng(seed)
-    e = measure(simulate(track, robot, n, rng, max_step_m=0.05).errors, robot, rng)
-    return EndPoseRuns(("fwd",) * n, e)
 
 
 @pytest.mark.parametrize(
     ("kind", "make"), [("out-and-back", out_and_back), ("straight", straight_line)]
 )
 def test_recovers_k_within_the_chi_square_interval(kind, make):
-    robot = _robot(3e-6, 1e-6, MeasurementNoise.from_degrees(0.001, 0.05))
-    est = estimate_k(_runs(robot, make(10.0), 30, seed=7), kind, 10.0, B, robot.measurement)
+    robot = noise_robot(3e-6, 1e-6, MeasurementNoise.from_degrees(0.001, 0.05))
+    est = estimate_k(fwd_runs(robot, make(10.0), 30, seed=7), kind, 10.0, B, robot.measurement)
     lo, hi = est.k_sum_ci95_m
     assert lo < 4e-6 < hi
     # the interval is the chi-square one: for 29 degrees of freedom it spans a factor 2.85
@@ -47,7 +34,7 @@ def test_recovers_k_within_the_chi_square_interval(kind, make):
 def test_interval_coverage_over_many_seeds():
     # (N - 1) s^2 / sigma^2 is exactly chi-square here (the heading is linear in the noise), so
     # 400 independent experiments cover the truth 95 % of the time: binomial sd 1.1 %, 4 sd
-    robot = _robot()
+    robot = noise_robot()
     rng = np.random.default_rng(3)
     res = simulate(out_and_back(5.0), robot, 400 * 12, rng, max_step_m=0.5)
     e = res.errors.reshape(400, 12, 3)
@@ -75,8 +62,8 @@ def test_worked_example_and_units():
 
 
 def test_instrument_noise_is_subtracted():
-    robot = _robot(meas=MeasurementNoise.from_degrees(0.0, 0.3))
-    runs = _runs(robot, out_and_back(10.0), 20, seed=1)
+    robot = noise_robot(meas=MeasurementNoise.from_degrees(0.0, 0.3))
+    runs = fwd_runs(robot, out_and_back(10.0), 20, seed=1)
     raw = estimate_k(runs, "out-and-back", 10.0, B)
     sub = estimate_k(runs, "out-and-back", 10.0, B, robot.measurement)
     expected = raw.k_sum_m - B**2 * math.radians(0.3) ** 2 / 20.0
@@ -98,8 +85,8 @@ def _curvature(robot):
 def test_k_r_and_k_l_separately_when_the_runs_allow_it(kind, make):
     # E_d = 1.004 curves the path enough to flip the sign of s_xtheta over 10 m: the split must
     # use the propagated coefficients, not the straight-path closed forms
-    robot = _robot(3e-6, 1e-6)
-    runs = _runs(robot, make(10.0), 600, seed=5)
+    robot = noise_robot(3e-6, 1e-6)
+    runs = fwd_runs(robot, make(10.0), 600, seed=5)
     est = estimate_k(runs, kind, 10.0, B, curvature_rad_per_m=_curvature(robot))
     assert est.k_r_m is not None and est.k_l_m is not None
     # k_r = (K+ + K-)/2: 4 standard errors of K-/2, plus 4 of K+/2 (chi-square, 600 runs: 5.8 %)
@@ -119,8 +106,8 @@ def test_k_r_and_k_l_separately_when_the_runs_allow_it(kind, make):
 
 
 def test_too_few_runs_is_an_error_and_few_runs_a_warning():
-    robot = _robot()
-    runs = _runs(robot, out_and_back(10.0), 5, seed=2)
+    robot = noise_robot()
+    runs = fwd_runs(robot, out_and_back(10.0), 5, seed=2)
     with pytest.raises(CalibrationError, match="at least 3"):
         estimate_k(EndPoseRuns(("fwd",) * 2, runs.errors[:2]), "out-and-back", 10.0, B)
     est = estimate_k(runs, "out-and-back", 10.0, B)
@@ -128,8 +115,8 @@ def test_too_few_runs_is_an_error_and_few_runs_a_warning():
 
 
 def test_systematic_part_that_did_not_cancel_is_an_error():
-    robot = _robot()
-    runs = _runs(robot, out_and_back(10.0), 15, seed=4)
+    robot = noise_robot()
+    runs = fwd_runs(robot, out_and_back(10.0), 15, seed=4)
     shifted = runs.errors + [0.0, 0.0, math.radians(2.0)]  # e.g. turned between the legs
     bad = EndPoseRuns(runs.directions, shifted)
     with pytest.raises(CalibrationError, match="standard errors from zero"):
@@ -139,8 +126,8 @@ def test_systematic_part_that_did_not_cancel_is_an_error():
 
 
 def test_drift_with_run_order_is_an_error():
-    robot = _robot()
-    runs = _runs(robot, straight_line(10.0), 15, seed=6)
+    robot = noise_robot()
+    runs = fwd_runs(robot, straight_line(10.0), 15, seed=6)
     drift = runs.errors.copy()
     drift[:, 2] += np.radians(0.4) * np.arange(15)  # e.g. a tyre warming up
     with pytest.raises(CalibrationError, match="drift with run order"):
@@ -148,8 +135,8 @@ def test_drift_with_run_order_is_an_error():
 
 
 def test_lateral_spread_from_a_misaligned_start_is_a_warning():
-    robot = _robot()
-    runs = _runs(robot, straight_line(10.0), 20, seed=8)
+    robot = noise_robot()
+    runs = fwd_runs(robot, straight_line(10.0), 20, seed=8)
     e = runs.errors.copy()
     # start heading misaligned by ~1 deg (random per run): y grows by d * delta
     delta = np.radians(1.0) * np.random.default_rng(9).standard_normal(20)

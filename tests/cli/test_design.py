@@ -6,26 +6,26 @@ import json
 
 import pytest
 
+import odocal.app.design as app_design
 from odocal.design import (
     Candidate,
     ValidationTrack,
     design_json,
     recommend,
 )
+from tests.support.printed import as_printed
 
 
-def test_design_robot_from_recordings(cli, realdata):
+def test_cli_design_robot_from_prints_the_measured_robot(cli, realdata, returned):
+    results = returned(app_design, "design")
     sq = realdata / "optiodom_diff" / "square" / "231220200029"
     status, out, err = cli("design", "--robot-from", sq, "--side-lengths", "0.5:1.5:0.5",
                            "--trials", "30", "--sigma-theta-deg", "0.5", "--json")  # fmt: skip
     assert status == 0, err
     d = json.loads(out)
-    m = d["robot_measured"]
-    assert m["measurement"]["source"] == "given"
-    assert m["measurement"]["sigma_theta_deg"] == pytest.approx(0.5)
-    assert m["nominal"]["wheelbase_m"] == 0.2
-    assert m["systematic"]["E_b"] > 1.0  # the robot turns less than nominal says
-    assert d["robot"].startswith("robot measured from")
+    assert d == as_printed(results[0].as_dict())  # its numbers: tests/app/test_design.py
+    assert d["robot_measured"]["measurement"]["source"] == "given"
+    assert d["robot"] == f"robot measured from {sq}"
 
 
 def cand(side, mean, std=0.01, n=800, sides=4):
@@ -48,12 +48,14 @@ def test_cli_design_defaults_print_a_recommendation(cli):
     assert err == ""  # no progress bar when stderr is not a terminal
 
 
-def test_cli_design_json_is_identical_for_identical_seeds(cli):
+def test_cli_design_json_is_identical_for_identical_seeds(cli, returned):
+    results = returned(app_design, "design")
     args = ("design", "--side-lengths", "1:3:1", "--trials", "40", "--json", "--seed", "3")
     s1, out1, _ = cli(*args)
     s2, out2, _ = cli(*args)
     assert s1 == s2 == 0 and out1 == out2
     d = json.loads(out1)
+    assert d == as_printed(results[0].as_dict())  # the app's typed result, printed
     assert [c["side_m"] for c in d["candidates"]] == [1.0, 2.0, 3.0]
     assert d["seed"] == 3 and d["trials"] == 40 and d["validation"]["direction"] == "ccw"
 

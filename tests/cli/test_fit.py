@@ -5,30 +5,14 @@ from __future__ import annotations
 import json
 
 import numpy as np
-import pytest
 
+import odocal.app.fit as app_fit
 from odocal.core.recording import Recording
 from odocal.io.generic_csv import write_generic_csv
-from odocal.io.robot_file import load_params, load_robot
+from odocal.io.robot_file import load_params
 from odocal.io.ros2_export import read_ros2_params
-from tests.support.recorded_runs import (
-    TRUE,
-    mixed_runs,
-    values,
-)
-
-
-def test_fit_robot_out(cli, realdata, tmp_path):
-    sq = realdata / "optiodom_diff" / "square"
-    out = tmp_path / "robot.yaml"
-    status, _, err = cli("fit", sq, "--method", "heading", "--robot-out", out)
-    assert status == 0, err
-    r = load_robot(out)
-    # the heading method cannot see the scale (E_s 1); k as odocal noise measures it
-    assert r.systematic.E_s == 1.0 and r.systematic.E_b == pytest.approx(1.00889, abs=1e-5)
-    assert r.nonsystematic.k_r_m == pytest.approx(1.22e-6, rel=0.01)
-    one = realdata / "optiodom_diff" / "square" / "231220200045"  # one run per direction
-    cli("fit", one, "--robot-out", tmp_path / "r2.yaml").expect_error("no group of repeated")
+from tests.support.printed import as_printed
+from tests.support.recorded_runs import mixed_runs, values
 
 
 def test_fit_cli_bands_refusal_and_plot(cli, realdata, tmp_path):
@@ -51,7 +35,8 @@ def _write_runs(folder, runs):
     return folder
 
 
-def test_fit_cli_json_out_and_ros2(tmp_path, cli):
+def test_fit_cli_json_out_and_ros2(tmp_path, cli, returned):
+    results = returned(app_fit, "fit")
     folder = _write_runs(tmp_path / "runs", mixed_runs())
     robot = tmp_path / "robot.yaml"
     robot.write_text("wheel_diameter_m: 0.15\nwheelbase_m: 0.385\n")
@@ -71,8 +56,12 @@ def test_fit_cli_json_out_and_ros2(tmp_path, cli):
     ):
         assert key in d
     assert d["method"] == "trajectory" and len(d["runs"]) == 6
-    # the CSV stores 10 significant digits, so the fit is exact to about 1e-8
-    np.testing.assert_allclose(values(load_params(out)), values(TRUE), rtol=1e-7)
+    # the app's typed result, printed (its numbers: tests/app/test_fit.py), and the files of
+    # --out and --ros2 hold the geometry printed (nine significant digits)
+    assert d == as_printed(results[0].as_dict())
+    assert set(results[0].written) == {out, ros2}
+    printed = [d["wheel_diameter_right_m"], d["wheel_diameter_left_m"], d["wheelbase_m"]]
+    np.testing.assert_allclose(values(load_params(out)), printed, rtol=1e-8)
     np.testing.assert_allclose(values(read_ros2_params(ros2)), values(load_params(out)), rtol=1e-8)
     status, stdout, _ = cli("fit", folder, "--robot", robot, "--method", "linear")
     assert status == 0 and "linear fit from 6 run(s)" in stdout
@@ -93,6 +82,10 @@ def test_fit_cli_errors(tmp_path, cli):
     status, _, err = cli("fit", folder, "--method", "linear", "--out", out)
     assert status == 2 and "swapped" in err and err.count("\n") == 1 and not out.exists()
     good = _write_runs(tmp_path / "good", runs)
+    # --robot-out needs repeated runs for k: none here (the measured robot: tests/app)
+    cli("fit", good, "--robot", "paper-fig5", "--robot-out", tmp_path / "r.yaml").expect_error(
+        "no group of repeated"
+    )
     status, _, err = cli("fit", good, "--ros2", tmp_path / "r.yaml")
     # no nominal geometry known (no metadata in the CSVs, no --robot): needed for --ros2
     assert status == 2 and "--robot" in err and not (tmp_path / "r.yaml").exists()
@@ -109,35 +102,6 @@ def test_fit_cli_errors(tmp_path, cli):
         "1bad name",
     )
     assert status == 2 and "controller name" in err and not (tmp_path / "r.yaml").exists()
-
-
-def test_real_data_umbmark_reproduces_the_published_values(realdata, cli):
-    # reference_results_diff.csv, UMBmark row of square/230620202042 (x-form)
-    path = realdata / "optiodom_diff" / "square" / "230620202042"
-    status, out, err = cli("fit", path, "--method", "umbmark", "--umbmark-form", "x", "--json")
-    assert status == 0, err
-    d = json.loads(out)
-    assert d["wheelbase_m"] == pytest.approx(0.201458, abs=1e-6)
-    assert d["wheel_diameter_right_m"] == pytest.approx(0.083954, abs=1e-6)
-    assert d["wheel_diameter_left_m"] == pytest.approx(0.084046, abs=1e-6)
-
-
-def test_real_data_trajectory_golden(realdata, cli):
-    base = realdata / "optiodom_diff"
-    status, out, err = cli(
-        "fit", base / "square" / "231220200048", base / "ivanjko" / "231220200104", "--json"
-    )
-    assert status == 0, err
-    d = json.loads(out)
-    # golden values of this commit (5 runs); the published OptiOdom fits of these categories
-    # give D 0.0834-0.0840 m and b 0.2000-0.2025 m
-    assert d["wheel_diameter_right_m"] == pytest.approx(GOLDEN[0], abs=2e-6)
-    assert d["wheel_diameter_left_m"] == pytest.approx(GOLDEN[1], abs=2e-6)
-    assert d["wheelbase_m"] == pytest.approx(GOLDEN[2], abs=5e-6)
-    assert len(d["runs"]) == 5
-
-
-GOLDEN = (0.083884, 0.083923, 0.201740)
 
 
 def test_list_topics_needs_a_bag(tmp_path, cli):

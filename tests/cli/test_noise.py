@@ -6,37 +6,17 @@ import json
 import math
 from pathlib import Path
 
-import numpy as np
 import pytest
 import yaml
 
-from odocal.core.model import (
-    MeasurementNoise,
-    NonSystematicError,
-    Robot,
-    SystematicError,
-    WheelGeometry,
-)
+import odocal.app.noise as app_noise
 from odocal.core.runs import EndPoseRuns
-from odocal.core.simulate import measure, simulate
 from odocal.core.tracks import out_and_back, straight_line
 from odocal.io.robot_file import load_robot
 from odocal.io.ros2_export import read_ros2_params
 from odocal.io.runs_csv import write_runs
-from odocal.presets import TETRA_DS2
-
-
-def _robot(k_r=2e-6, k_l=2e-6, meas=None):
-    # systematic errors present on purpose: they must not leak into k. The nominal wheelbase
-    # is the true one (E_b = 1) so the estimators' b is exact.
-    meas = meas or MeasurementNoise()
-    return Robot(TETRA_DS2, SystematicError(1.0, 1.004), NonSystematicError(k_r, k_l), meas)
-
-
-def _runs(robot, track, n, seed):
-    rng = np.random.default_rng(seed)
-    e = measure(simulate(track, robot, n, rng, max_step_m=0.05).errors, robot, rng)
-    return EndPoseRuns(("fwd",) * n, e)
+from tests.support.noise_runs import fwd_runs, noise_robot
+from tests.support.printed import as_printed
 
 
 def _write(tmp_path: Path, runs: EndPoseRuns) -> Path:
@@ -45,9 +25,10 @@ def _write(tmp_path: Path, runs: EndPoseRuns) -> Path:
     return p
 
 
-def test_cli_json_contract(cli, tmp_path):
-    robot = _robot()
-    path = _write(tmp_path, _runs(robot, out_and_back(10.0), 12, seed=11))
+def test_cli_json_contract(cli, tmp_path, returned):
+    results = returned(app_noise, "noise")
+    robot = noise_robot()
+    path = _write(tmp_path, fwd_runs(robot, out_and_back(10.0), 12, seed=11))
     status, out, err = cli(
         "noise", path, "--robot", "paper-fig5", "--track", "out-and-back:10", "--json"
     )
@@ -55,8 +36,8 @@ def test_cli_json_contract(cli, tmp_path):
     doc = json.loads(out)
     assert {"k_sum_m", "k_sum_ci95", "k_r_m", "k_l_m", "runs"} <= set(doc)
     assert doc["runs"] == 12 and doc["k_r_m"] is None and doc["k_l_m"] is None
-    lo, hi = doc["k_sum_ci95"]
-    assert lo < doc["k_sum_m"] < hi
+    # the app's typed estimate, printed (its numbers: tests/app/test_noise.py)
+    assert doc == as_printed(results[0].as_dict())
     status, out, err = cli("noise", path, "--robot", "paper-fig5", "--track", "out-and-back:10")
     assert status == 0
     assert "not identifiable" in out and "m^0.5" in out
@@ -71,7 +52,7 @@ def test_cli_json_contract(cli, tmp_path):
     ],
 )
 def test_cli_bad_track(cli, tmp_path, args, needle):
-    path = _write(tmp_path, _runs(_robot(), straight_line(2.0), 5, seed=1))
+    path = _write(tmp_path, fwd_runs(noise_robot(), straight_line(2.0), 5, seed=1))
     status, out, err = cli("noise", path, *args)
     assert status == 2 and needle in err
     assert err.startswith("odocal: error:") and "Traceback" not in err
@@ -90,7 +71,7 @@ def test_cli_bad_inputs(cli, tmp_path):
 
 
 def test_cli_force_turns_the_error_into_a_warning(cli, tmp_path):
-    runs = _runs(_robot(), out_and_back(10.0), 15, seed=4)
+    runs = fwd_runs(noise_robot(), out_and_back(10.0), 15, seed=4)
     bad = EndPoseRuns(runs.directions, runs.errors + [0.0, 0.0, math.radians(2.0)])
     path = _write(tmp_path, bad)
     status, _, err = cli("noise", path, "--track", "out-and-back:10")
@@ -100,23 +81,21 @@ def test_cli_force_turns_the_error_into_a_warning(cli, tmp_path):
     assert json.loads(out)["warnings"]
 
 
-def test_noise_cli_on_optiodom_writes_robot_and_ros2(cli, realdata, tmp_path):
-    sq = realdata / "optiodom_diff" / "square"
+def test_noise_cli_on_optiodom_writes_robot_and_ros2(cli, realdata, tmp_path, returned):
+    # one OptiOdom data set (6 repeated runs): what the command prints and writes; the golden
+    # numbers of all the squares are tests/app/test_noise.py's
+    results = returned(app_noise, "noise_recordings")
+    sq = realdata / "optiodom_diff" / "square" / "231220200029"
     robot, ros2 = tmp_path / "robot.yaml", tmp_path / "dd.yaml"
     status, out, err = cli("noise", sq, "--robot-out", robot, "--ros2", ros2, "--json")
     assert status == 0, err
     d = json.loads(out)
-    # golden (bench_real_experiment.py): k_r + k_l 2.44e-6 m from 40 repeated runs, 28 dof
-    assert d["runs"] == 40 and d["dof"] == 28
-    assert d["k_sum_m"] == pytest.approx(2.44e-6, rel=0.01)
-    lo, hi = d["k_sum_ci95"]
-    assert lo < d["k_sum_m"] < hi and hi / lo < 4
-    assert d["k_r_m"] is None  # not identifiable from squares
+    assert d == as_printed(results[0].as_dict())
+    assert set(d["written"]) == {str(ros2), str(robot)}
+    # the files written are the numbers printed
     r = load_robot(robot)
-    assert r.nominal == WheelGeometry(0.084, 0.084, 0.2)
     assert r.nonsystematic.k_r_m == pytest.approx(d["k_sum_m"] / 2, rel=1e-6)
-    assert r.systematic.E_b == pytest.approx(1.00689, abs=1e-5)
-    assert 0 < r.measurement.sigma_theta_rad < math.radians(0.5)
+    assert r.systematic.E_b == pytest.approx(d["robot"]["systematic"]["E_b"], rel=1e-6)
     params = yaml.safe_load(ros2.read_text())["diff_drive_controller"]["ros__parameters"]
     assert len(params["pose_covariance_diagonal"]) == 6
     assert params["twist_covariance_diagonal"][5] == pytest.approx(
