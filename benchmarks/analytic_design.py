@@ -3,7 +3,7 @@
     .venv/bin/python benchmarks/analytic_design.py [--trials 4000]
 
 Prints: the time of a whole analytic sweep (20 side lengths, square and octagon), the analytic vs
-Monte-Carlo agreement per robot (the robots of tests/test_analytic.py), and how the post-
+Monte-Carlo agreement per robot (the robots of tests/design/test_analytic.py), and how the post-
 calibration error depends on the ground-truth instrument (motion capture vs tape measure).
 """
 
@@ -18,13 +18,12 @@ from dataclasses import replace
 
 import numpy as np
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests"))
-
-from test_analytic import SLOPPY, SMALL, TAPE, VALIDATE, monte_carlo  # noqa: E402
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))  # the tests package
 
 from odocal.core.model import MeasurementNoise  # noqa: E402
 from odocal.design.analytic import analytic_design, analytic_reference  # noqa: E402
 from odocal.presets import PRESETS  # noqa: E402
+from tests.design.test_analytic import SLOPPY, SMALL, TAPE, VALIDATE, monte_carlo  # noqa: E402
 
 
 def main() -> None:

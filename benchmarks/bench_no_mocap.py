@@ -3,8 +3,8 @@
     .venv/bin/python benchmarks/bench_no_mocap.py [--seeds 5]
 
 A TurtleBot3-sized robot (true D_R 0.0655 m, D_L 0.0662 m, b 0.163 m; it believes 0.066 m and
-0.160 m) drives in the synthetic room of tests/synthetic_robot.py; every route writes a ROS 2
-bag and runs `odocal fit` on it, as a user would:
+0.160 m) drives in the synthetic room of tests/support/synthetic_robot.py; every route writes a
+ROS 2 bag and runs `odocal fit` on it, as a user would:
 
 - SLAM: the 8.3 m room tour, `map -> odom` updated at 2 Hz from the true pose plus SLAM noise
   (0 and 1 cm / 0.5 deg per update), `fit BAG --truth-frames map:base_link`;
@@ -30,18 +30,17 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT))  # the tests package
 
-from synthetic_robot import (  # noqa: E402
+from odocal.core.model import WheelGeometry  # noqa: E402
+from odocal.core.tracks import polygon  # noqa: E402
+from tests.support.synthetic_robot import (  # noqa: E402
     Gyro,
     Laser,
     default_track,
     simulate_robot,
     write_ros2_bag,
 )
-
-from odocal.core.model import WheelGeometry  # noqa: E402
-from odocal.core.tracks import polygon  # noqa: E402
 
 TRUE = WheelGeometry(0.0655, 0.0662, 0.163)
 BELIEVED = WheelGeometry.symmetric(0.066, 0.160)

@@ -27,8 +27,8 @@ import numpy as np
 
 from odocal.calibration.scan_matching import match_scans, prepare_scan, scan_points
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests"))
-from support.room import Room, ray_cast  # noqa: E402  (a test helper, not in the package)
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the tests package
+from tests.support.room import Room, ray_cast  # noqa: E402  (a test helper, not in the package)
 
 ROOM = Room.default()
 ANGLES = np.linspace(-math.pi, math.pi, 720, endpoint=False)

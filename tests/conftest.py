@@ -106,3 +106,25 @@ def cli(capsys):
         return CliResult((status, out, err))
 
     return run
+
+
+@pytest.fixture
+def returned(monkeypatch):
+    """Spy on an app function: ``returned(odocal.app.check, "check")`` is the list of what each
+    later call of ``odocal.app.check.check`` returns. Every command imports its app function when
+    it runs, so the spy sees the command's call: a CLI test checks that the command printed the
+    typed result it got, computed once (the numbers themselves are tested in tests/app)."""
+
+    def spy(module, name: str) -> list:
+        results: list = []
+        real = getattr(module, name)
+
+        def record(*args, **kwargs):
+            result = real(*args, **kwargs)
+            results.append(result)
+            return result
+
+        monkeypatch.setattr(module, name, record)
+        return results
+
+    return spy

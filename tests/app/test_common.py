@@ -1,0 +1,73 @@
+"""What the commands share (odocal.app.common): the robot they are given, the paths they read,
+the refusal of an absurd calibration."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from odocal.app.common import (
+    input_paths,
+    make_robot,
+    optional_robot,
+    refuse_absurd,
+    resolve_robot,
+    robot_label,
+)
+from odocal.core.model import WheelGeometry
+from odocal.errors import CalibrationError, InputError
+from odocal.io.robot_file import load_robot, params_yaml
+from odocal.presets import DEFAULT_ROBOT, PRESETS
+
+ROBOT_YAML = """\
+wheel_diameter_m: 0.15
+wheelbase_m: 0.385
+systematic: {E_b: 1.028, E_d: 0.999}
+nonsystematic: {k_r_m: 1.69e-6, k_l_m: 1.69e-6}
+measurement: {sigma_xy_m: 0.001, sigma_theta_deg: 0.1}
+"""
+
+
+def test_make_robot_is_the_robot_file_of_the_same_values(tmp_path):
+    path = tmp_path / "robot.yaml"
+    path.write_text(ROBOT_YAML)
+    made = make_robot(
+        0.15, 0.385, E_b=1.028, E_d=0.999, k_r_m=1.69e-6, sigma_xy_m=0.001, sigma_theta_deg=0.1
+    )
+    assert made == load_robot(path)
+    # the file's checks: a diameter in millimetres against a wheelbase in metres cannot pass
+    with pytest.raises(InputError, match="wheelbase_m"):
+        make_robot(150.0, 0.385)
+
+
+def test_the_robot_given_and_the_parameters_it_ran_with(tmp_path):
+    assert resolve_robot() == PRESETS[DEFAULT_ROBOT]
+    assert optional_robot(None) is None
+    ran_with = WheelGeometry(0.151, 0.149, 0.39)
+    r = resolve_robot("paper-experiment", ran_with)
+    assert r.nominal == PRESETS["paper-experiment"].nominal and r.believed_geometry == ran_with
+    params = tmp_path / "params.yaml"
+    params.write_text(params_yaml(ran_with))
+    assert resolve_robot("paper-experiment", params).believed_geometry == ran_with
+    assert robot_label(None) == f"{DEFAULT_ROBOT} (built-in)"
+    assert robot_label("robot.yaml", params) == f"robot.yaml running with {params}"
+    assert robot_label(r) == "given robot"
+
+
+def test_only_file_system_paths_are_inputs():
+    g = WheelGeometry(0.15, 0.15, 0.385)
+    assert input_paths(None, "paper-fig5", g, PRESETS["paper-fig5"], ["a.csv", ("b", None)]) == [
+        Path("a.csv"),
+        Path("b"),
+    ]
+
+
+def test_a_calibration_far_from_nominal_is_refused_unless_forced():
+    nominal = WheelGeometry(0.15, 0.15, 0.385)
+    assert refuse_absurd(WheelGeometry(0.151, 0.149, 0.39), nominal, force=False) == []
+    absurd = WheelGeometry(0.15, 0.15, 0.6)
+    with pytest.raises(CalibrationError, match="--force"):
+        refuse_absurd(absurd, nominal, force=False)
+    (problem,) = refuse_absurd(absurd, nominal, force=True)
+    assert "wheelbase" in problem

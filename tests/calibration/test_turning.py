@@ -1,0 +1,203 @@
+"""The effective wheelbase per band of motion: the segment estimator, the banded fit, the single
+wheelbase for a motion mix; synthetic robots whose wheelbase depends on the motion, and the real
+OptiOdom robot."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from odocal.calibration.banded import fit_banded
+from odocal.calibration.fit_settings import TrajectorySettings
+from odocal.calibration.turning import (
+    BANDS,
+    effective_wheelbase,
+    parse_motion_mix,
+    wheelbase_for_mix,
+    wheelbase_per_increment,
+)
+from odocal.core.model import WheelGeometry
+from odocal.core.odometry import dead_reckon
+from odocal.core.recording import Recording
+from odocal.errors import CalibrationError
+
+D, B = 0.084, 0.200
+REFERENCE = WheelGeometry(D, D, B)
+# the "true" robot: it turns less per wheel rotation on arcs than on the spot (as OptiOdom)
+TRUE_BANDS = {"spot": 0.2010, "tight": 0.2025, "wide": 0.2020, "straight": 0.2020}
+
+
+def wheel_angles(primitives, step_m=0.005):
+    """Cumulative wheel angles (rad) of ('straight', d), ('spin', psi), ('arc', rho, psi) at
+    ``step_m`` of wheel travel per sample (20 Hz)."""
+    r_list, l_list = [np.zeros(1)], [np.zeros(1)]
+    for p in primitives:
+        if p[0] == "straight":
+            s_r = s_l = p[1]
+        elif p[0] == "spin":
+            s_r, s_l = p[1] * B / 2, -p[1] * B / 2
+        else:
+            rho, psi = p[1], p[2]
+            s_r, s_l = (rho + B / 2) * psi, (rho - B / 2) * psi
+        n = max(2, int(math.ceil(max(abs(s_r), abs(s_l)) / step_m)))
+        f = np.arange(1, n + 1) / n
+        r_list.append(r_list[-1][-1] + f * 2 * s_r / D)
+        l_list.append(l_list[-1][-1] + f * 2 * s_l / D)
+    return np.concatenate(r_list), np.concatenate(l_list)
+
+
+def banded_run(name, primitives, bands=TRUE_BANDS):
+    """A run whose ground truth turns with the wheelbase of each increment's band."""
+    right, left = wheel_angles(primitives)
+    bare = Recording(name, np.arange(len(right)) * 0.05, right, left)
+    b = wheelbase_per_increment(bare, bands, REFERENCE)
+    gt = dead_reckon(right, left, WheelGeometry.unchecked(D, D, b))
+    return Recording(name, bare.time_s, right, left, ground_truth=gt, meta={"dataset": "syn"})
+
+
+def mixed(sign):
+    return [
+        ("straight", 0.5),
+        ("spin", sign * math.pi / 2),
+        ("straight", 0.5),
+        ("arc", 0.35, sign * math.pi),  # tight: R 0.35 m = 1.75 b
+        ("straight", 0.5),
+        ("arc", 1.0, -sign * math.pi / 2),  # wide: R 1 m = 5 b
+        ("straight", 0.5),
+        ("spin", -sign * math.pi),
+    ]
+
+
+@pytest.fixture(scope="module")
+def runs():
+    return [banded_run(f"r{i}", mixed(s)) for i, s in enumerate((1, -1, 1, -1))]
+
+
+def test_the_estimator_recovers_each_band_exactly_without_noise(runs):
+    table = effective_wheelbase(runs, REFERENCE)
+    for name in ("spot", "tight", "wide"):
+        b = table.band(name)
+        assert b.excited, name
+        # every segment lies in one band and its truth turns with that band's wheelbase, so the
+        # ratio is exact up to rounding
+        assert b.wheelbase_m == pytest.approx(TRUE_BANDS[name], rel=1e-9)
+        assert b.ci95_m[0] <= b.wheelbase_m <= b.ci95_m[1]
+        assert b.turning_gain == pytest.approx(D / TRUE_BANDS[name], rel=1e-9)
+    # straight driving turns too little to show a wheelbase
+    assert not table.band("straight").excited
+    # radius ranges follow the wheelbase: spot R <= 0.625 b, tight up to 2.5 b, wide to 12.5 b
+    assert table.band("tight").radius_range_m == pytest.approx((0.625 * B, 2.5 * B))
+    assert table.band("straight").radius_range_m[1] is None
+    assert sum(table.motion_mix.values()) == pytest.approx(1.0)
+
+
+def test_a_one_wheelbase_robot_gives_one_value_in_every_band():
+    flat = dict.fromkeys(BANDS, 0.2013)
+    runs = [banded_run(f"f{i}", mixed(s), flat) for i, s in enumerate((1, -1, 1))]
+    table = effective_wheelbase(runs, REFERENCE)
+    for b in table.bands:
+        if b.excited:
+            assert b.wheelbase_m == pytest.approx(0.2013, rel=1e-9)
+
+
+def test_tracker_noise_widens_the_interval_but_not_the_estimate(runs):
+    rng = np.random.default_rng(5)
+    noisy = []
+    for r in runs * 3:
+        gt = r.ground_truth.copy()
+        gt[1:, 2] += rng.normal(0, math.radians(0.2), len(gt) - 1)  # 0.2 deg heading jitter
+        noisy.append(
+            Recording(
+                r.name + "n",
+                r.time_s,
+                r.wheel_angle_right_rad,
+                r.wheel_angle_left_rad,
+                ground_truth=gt,
+            )
+        )
+    table = effective_wheelbase(noisy, REFERENCE)
+    spot = table.band("spot")
+    # 0.2 deg per end of a 1.6-3.1 rad segment: about 0.2 % per segment, averaged over 24
+    assert spot.wheelbase_m == pytest.approx(TRUE_BANDS["spot"], rel=2e-3)
+    assert spot.ci95_m[0] < TRUE_BANDS["spot"] < spot.ci95_m[1]
+    assert spot.ci95_m[1] - spot.ci95_m[0] > 1e-6
+
+
+def test_banded_fit_recovers_the_bands_and_exports_the_mix(runs):
+    fit = fit_banded(runs, WheelGeometry(0.0838, 0.0841, 0.2005), nominal=REFERENCE)
+    bw = fit.banded.band_wheelbase_m
+    assert set(bw) == {"spot", "tight", "wide"}
+    for name, value in bw.items():
+        assert value == pytest.approx(TRUE_BANDS[name], rel=1e-6)
+    assert fit.geometry.diameter_right_m == pytest.approx(D, rel=1e-6)
+    # the exported single value is the runs' own mix of the three bands
+    mix = fit.motion_mix
+    assert min(bw.values()) < fit.geometry.wheelbase_m < max(bw.values())
+    assert fit.geometry.wheelbase_m == pytest.approx(mix.wheelbase_m)
+    # a stated mix: all on arcs -> between the arcs' values
+    arcs = fit_banded(
+        runs, REFERENCE, settings=TrajectorySettings(motion_mix={"tight": 0.5, "wide": 0.5})
+    )
+    assert TRUE_BANDS["wide"] < arcs.geometry.wheelbase_m < TRUE_BANDS["tight"]
+
+
+def test_banded_fit_refuses_runs_that_turn_only_on_the_spot():
+    square = [("straight", 1.0), ("spin", math.pi / 2)] * 4
+    runs = [banded_run(f"s{i}", square) for i in range(4)]
+    with pytest.raises(CalibrationError, match="at least two bands") as exc:
+        fit_banded(runs, REFERENCE)
+    assert "spot" in str(exc.value) and "circles or arcs" in str(exc.value)
+
+
+def test_wheelbase_for_a_mix():
+    b1, b2 = 0.200, 0.204
+    c = wheelbase_for_mix({"spot": b1, "wide": b2}, {"spot": 0.5, "wide": 0.5})
+    # minimiser of sum w (1 - b_j / b)^2: b = sum w b_j^2 / sum w b_j
+    assert c.wheelbase_m == pytest.approx((b1**2 + b2**2) / (b1 + b2))
+    # spot turns (true b smaller) turn more than the odometry with the single value reads:
+    # actual - odometric > 0; the arcs less
+    assert c.heading_error_deg_per_turn["spot"] > 0 > c.heading_error_deg_per_turn["wide"]
+    assert c.rms_heading_error_deg_per_turn == pytest.approx(360 * 0.01, rel=0.01)
+    one = wheelbase_for_mix({"spot": b1, "wide": b2}, {"spot": 1.0})
+    assert one.wheelbase_m == pytest.approx(b1, rel=1e-12)
+    assert one.rms_heading_error_deg_per_turn == pytest.approx(0, abs=1e-9)
+    with pytest.raises(CalibrationError, match="has an effective-wheelbase estimate"):
+        wheelbase_for_mix({"spot": b1}, {"tight": 1.0})
+
+
+@pytest.mark.parametrize(
+    "text, msg",
+    [
+        ("spot", "BAND=SHARE"),
+        ("curly=1", "BAND=SHARE"),
+        ("spot=-1", ">= 0"),
+        ("spot=0", "not all be 0"),
+        ("spot=1,spot=2", "twice"),
+        ("spot=x", "not a number"),
+    ],
+)
+def test_motion_mix_parsing(text, msg):
+    with pytest.raises(CalibrationError, match=msg):
+        parse_motion_mix(text)
+    assert parse_motion_mix("spot=1,wide=3") == {"spot": 0.25, "wide": 0.75}
+
+
+def test_optiodom_arcs_turn_less_than_spot_turns(realdata):
+    """The real robot: circles (both sessions) have a larger effective wheelbase than the spot
+    turns of the squares, with 95 % intervals apart (README, docs/real-robots.md)."""
+    from odocal.io.recordings import load_recordings
+
+    base = realdata / "optiodom_diff"
+    ref = WheelGeometry(0.083695, 0.083743, 0.201428)  # odocal fit of squares + Ivanjko
+    squares = effective_wheelbase(load_recordings([base / "square"]), ref)
+    circles = effective_wheelbase(load_recordings([base / "circular"]), ref)
+    spot = squares.band("spot")
+    assert squares.excited == ("spot",)
+    assert spot.wheelbase_m == pytest.approx(0.20117, abs=3e-5)
+    for name in ("tight", "wide"):
+        arc = circles.band(name)
+        assert arc.excited
+        assert arc.ci95_m[0] > spot.ci95_m[1]
+        assert 0.003 < arc.wheelbase_m / spot.wheelbase_m - 1 < 0.007

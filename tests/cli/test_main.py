@@ -1,0 +1,50 @@
+"""The command line as a whole (cli.main): unknown commands and bad arguments are one-line
+errors; --help lists every command without importing one."""
+
+import pytest
+
+
+@pytest.mark.parametrize(
+    "args,needle",
+    [
+        (["simulate", "--sides", "2"], "--sides"),
+        (["simulate", "--side-length", "-1"], "--side-length"),
+        (["simulate", "--side-length", "nan"], "--side-length"),
+        (["simulate", "--runs", "0"], "--runs"),
+        (["simulate", "--direction", "up"], "--direction"),
+        (["simulate", "--seed", "x"], "--seed"),
+        (["calibrate"], "RUNS.csv"),
+        (["calibrate", "r.csv", "--method", "magic"], "--method"),
+        (["frobnicate"], "frobnicate"),
+    ],
+)
+def test_bad_arguments(cli, args, needle):
+    cli(*args).expect_error(needle)
+
+
+def test_help_is_complete_and_imports_no_command_module():
+    # 'odocal --help' lists every command with its line without importing any command module
+    # (nor numpy); every module still builds its own parser under its name
+    import subprocess
+    import sys
+
+    from odocal.cli.main import COMMANDS, build_parser
+
+    code = (
+        "import sys, contextlib, io\n"
+        "from odocal.cli.main import main\n"
+        "buf = io.StringIO()\n"
+        "with contextlib.redirect_stdout(buf):\n"
+        "    try:\n"
+        "        main(['--help'])\n"
+        "    except SystemExit:\n"
+        "        pass\n"
+        "print(buf.getvalue())\n"
+        "print('LOADED', sorted(m for m in sys.modules if m.startswith('odocal.cli.') "
+        "or m == 'numpy'))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True).stdout
+    assert all(name in out for name in COMMANDS)
+    assert "LOADED ['odocal.cli.main']" in out
+    sub = next(a for a in build_parser()._actions if hasattr(a, "choices") and a.choices)
+    assert list(sub.choices) == list(COMMANDS)

@@ -1,0 +1,1 @@
+"""Tests of odocal.core, one file per module (test_<module>.py)."""

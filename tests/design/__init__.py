@@ -1,0 +1,1 @@
+"""Tests of odocal.design, one file per module (test_<module>.py)."""

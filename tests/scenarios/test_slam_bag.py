@@ -1,0 +1,129 @@
+"""A SLAM pose on /tf as ground truth, end to end: bags written by tests/support/synthetic_robot.py
+(map -> odom updated at a low rate, odom -> base_link from the wheel odometry with the believed
+geometry), `odocal fit BAG --truth-frames map:base_link` and `odocal validate ... --truth-frames`.
+"""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from odocal.core.model import WheelGeometry
+from tests.support.synthetic_robot import Laser, default_track, simulate_robot, write_ros2_bag
+
+TRUE = WheelGeometry(0.0655, 0.0662, 0.163)  # TurtleBot3-sized, 0.8 % / 0.3 % / 1.9 % off
+BELIEVED = WheelGeometry.symmetric(0.066, 0.160)
+
+
+@pytest.fixture(scope="module")
+def run():
+    # the SLAM route reads no scan: an 8-ray laser instead of the default 720 rays (noise-free,
+    # so the wheel angles, the poses and /tf are the same)
+    return simulate_robot(default_track(), TRUE, BELIEVED, laser=Laser(n_rays=8))
+
+
+@pytest.fixture(scope="module")
+def slam_bag(run, tmp_path_factory):
+    path = tmp_path_factory.mktemp("slam") / "bag"
+    write_ros2_bag(path, run, map_odom_every=25, imu=False)  # SLAM updates at 2 Hz
+    return path
+
+
+def test_fit_recovers_the_true_geometry_from_the_slam_updates(cli, slam_bag):
+    status, out, err = cli("fit", slam_bag, "--truth-frames", "map:base_link", "--json")
+    assert status == 0, err
+    d = json.loads(out)
+    assert d["method"] == "relative" and d["sensor_pose_fixed"] is True
+    # noise-free updates and the odometry integrated over the wheel samples of each interval:
+    # the geometry is recovered to rounding (the arc model alone would be 0.4 % off here, since
+    # the intervals mix straights, spot turns and arcs)
+    for key, true in TRUE.as_dict().items():
+        assert d[key] == pytest.approx(true, rel=1e-9), key
+    slam = d["slam"][0]
+    assert slam["chain"] == "map -> odom -> base_link" and slam["correction_edge"] == "map -> odom"
+    assert slam["used"] >= 30 and slam["jump"] == 0
+    # the text report says what was used
+    status, out, _ = cli("fit", slam_bag, "--truth-frames", "map:base_link")
+    assert status == 0 and "SLAM updates" in out and "wheelbase_m" in out
+
+
+def test_validate_against_the_slam_pose(cli, slam_bag, tmp_path):
+    good = tmp_path / "true.yaml"
+    bad = tmp_path / "believed.yaml"
+    for path, g in ((good, TRUE), (bad, BELIEVED)):
+        path.write_text("".join(f"{k}: {v}\n" for k, v in g.as_dict().items()))
+    errs = {}
+    for name, params in (("true", good), ("believed", bad)):
+        status, out, err = cli(
+            "validate", slam_bag, "--params", params, "--truth-frames", "map:base_link", "--json"
+        )
+        assert status == 0, err
+        errs[name] = json.loads(out)["mean_final_error_m"]
+    # the true geometry matches the SLAM pose at its updates (to the midpoint rule's error over
+    # the wheel samples); the believed one drifts by centimetres over the 8 m tour
+    assert errs["true"] < 1e-4 < 0.01 < errs["believed"]
+
+
+@pytest.mark.parametrize(
+    "frames, needles",
+    [
+        ("map:nowhere", ["frame 'nowhere' never appears", "base_link"]),
+        ("map", ["PARENT:CHILD"]),
+        ("laser:laser", ["must differ"]),
+    ],
+)
+def test_bad_truth_frames(cli, slam_bag, frames, needles):
+    cli("fit", slam_bag, "--truth-frames", frames).expect_error(*needles)
+
+
+def test_a_bag_without_slam_updates(cli, run, tmp_path):
+    path = tmp_path / "nomap"
+    write_ros2_bag(path, run, map_odom_every=None, imu=False)
+    cli("fit", path, "--truth-frames", "map:base_link").expect_error("frame 'map'")
+    # too few updates for a calibration: the counts are named
+    few = tmp_path / "few"
+    write_ros2_bag(few, run, map_odom_every=400, imu=False)
+    cli("fit", few, "--truth-frames", "map:base_link").expect_error("usable SLAM intervals")
+
+
+def test_truth_frames_only_with_the_relative_method(cli, slam_bag):
+    cli("fit", slam_bag, "--truth-frames", "map:base_link", "--method", "trajectory").expect_error(
+        "--method relative"
+    )
+
+
+def test_plot_draws_the_clock_offset_and_the_held_out_check(cli, slam_bag, tmp_path):
+    robot = tmp_path / "robot.yaml"
+    robot.write_text("wheel_diameter_m: 0.066\nwheelbase_m: 0.160\n")
+    figs = tmp_path / "figs"
+    status, out, err = cli(
+        "fit", slam_bag, "--truth-frames", "map:base_link", "--robot", robot, "--plot", figs
+    )
+    assert status == 0, err
+    assert sorted(p.name for p in figs.iterdir()) == ["heldout.png", "time_offset.png"]
+    assert "held out" in out and "clock offset of the slam" in out
+
+
+def test_check_of_a_slam_bag_uses_the_logs_own_noise_and_the_routes_model(cli, run, tmp_path):
+    # a SLAM pose with 1 cm / 0.5 deg noise: the check names where its noise came from and
+    # predicts the SLAM route's standard errors, close to what the fit then states
+    import numpy as np
+
+    path = tmp_path / "noisy"
+    write_ros2_bag(path, run, map_odom_every=25, imu=False, slam_noise=(0.01, 0.0087),
+                   rng=np.random.default_rng(3))  # fmt: skip
+    robot = tmp_path / "robot.yaml"
+    robot.write_text("wheel_diameter_m: 0.066\nwheelbase_m: 0.160\n")
+    status, out, err = cli("check", path, "--truth-frames", "map:base_link", "--robot", robot,
+                           "--json")  # fmt: skip
+    assert status in (0, 3), err
+    d = json.loads(out)
+    assert "from the log's own residuals" in d["noise_source"]
+    assert "relative-motion fit" in d["settings"]["prediction"]
+    status, out, err = cli("fit", path, "--truth-frames", "map:base_link", "--robot", robot,
+                           "--json", "--force")  # fmt: skip
+    assert status == 0, err
+    fit = json.loads(out)
+    ratio = d["stderr"]["wheelbase_m"] / fit["stderr"]["wheelbase_m"]
+    assert 0.33 < ratio < 3.0, ratio
