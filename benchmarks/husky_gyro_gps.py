@@ -3,7 +3,7 @@
     python benchmarks/husky_gyro_gps.py [BAG]
     (default BAG: ../shared/realdata/husky/husky_test1.bag; a ROS 2 bag works too)
 
-1. The gyro calibration (odocal.io.bags.fit_gyro_from_bag) with bias 'auto', 'still' and 'none'.
+1. The gyro calibration (odocal.app.fit_gyro.fit_gyro_bag) with bias 'auto', 'still' and 'none'.
 2. An independent heading scale from GPS: dead-reckon the wheel odometry's speed with its heading
    change scaled by k, fit the track to the GPS fixes (best rotation, translation and distance
    scale, closed form), and find the k with the smallest RMS residual. If the gyro is right, k is
@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from odocal.app.fit import fit_gyro_from_bag
+from odocal.app.fit_gyro import fit_gyro_bag
 from odocal.io.bags import pose_series, read_bag
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -46,7 +46,7 @@ def gps_residual(k, t_o, speed, yaw, t_g, gps_xy):
 
 def main(path: Path) -> None:
     for bias in ("auto", "still", "none"):
-        r = fit_gyro_from_bag(path, bias=bias)
+        r = fit_gyro_bag(path, bias=bias)
         print(
             f"gyro, bias {bias:5s}: rotation_ratio {r.rotation_ratio:.4f} "
             f"(bias removed {r.bias_rad_s:+.2e} rad/s, {r.bias_source}; "

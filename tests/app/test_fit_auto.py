@@ -7,9 +7,16 @@ import json
 
 import numpy as np
 import pytest
-from synthetic_robot import Gyro, Laser, default_track, repeat_run, simulate_robot, write_ros2_bag
 
 from odocal.core.model import WheelGeometry
+from tests.support.synthetic_robot import (
+    Gyro,
+    Laser,
+    default_track,
+    repeat_run,
+    simulate_robot,
+    write_ros2_bag,
+)
 
 TRUE = WheelGeometry(0.0505, 0.0495, 0.262)
 BELIEVED = WheelGeometry.symmetric(0.050, 0.250)
