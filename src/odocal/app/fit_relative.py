@@ -17,12 +17,18 @@ from typing import Any, Literal
 
 import numpy as np
 
-from ..calibration.censi import SensorOdometryFit, fit_censi
+from ..calibration.censi import PARAMETERS, SensorOdometryFit, fit_censi
 from ..calibration.heldout import HeldOut, heldout_check
 from ..calibration.interval_noise import IntervalNoise, estimate_interval_noise
-from ..calibration.relative_motions import RelativeMotions, stack_motions
+from ..calibration.relative_motions import RelativeMotions, stack_motions, wheel_increments
 from ..calibration.scan_matching import ScanIntervals, scan_interval_motions
-from ..calibration.time_offset import TimeOffset, TimingCheck, time_blocks, timing_consistency
+from ..calibration.time_offset import (
+    TimeOffset,
+    TimingCheck,
+    offset_covariance,
+    time_blocks,
+    timing_consistency,
+)
 from ..core.model import WheelGeometry
 from ..core.transforms import se2_compose, se2_inverse
 from ..errors import CalibrationError, InputError
@@ -360,6 +366,45 @@ def _refit(motions: RelativeMotions, result: SensorOdometryFit) -> Any:
     return fit
 
 
+def with_offset_error(
+    result: SensorOdometryFit,
+    offset: TimeOffset,
+    t: np.ndarray,
+    right: np.ndarray,
+    left: np.ndarray,
+    start_s: np.ndarray,
+    end_s: np.ndarray,
+    motion: np.ndarray,
+) -> SensorOdometryFit:
+    """``result`` with the clock offset's uncertainty added to its covariance
+    (:func:`~odocal.calibration.time_offset.offset_covariance`): the same intervals (their
+    stamps, before the offset) refitted with the wheels taken one standard error earlier and
+    later, the outliers the fit dropped left out."""
+    keep = np.setdiff1d(np.arange(len(start_s)), result.dropped_indices)
+    pose = result.sensor_pose if result.sensor_pose_fixed else None
+
+    def fit_at(d: float) -> np.ndarray:
+        inc_r, inc_l = wheel_increments(t, right, left, start_s[keep] - d, end_s[keep] - d)
+        f = fit_censi(inc_r.sum(axis=1), inc_l.sum(axis=1), motion[keep], sensor_pose=pose,
+                      wheel_increments=(inc_r, inc_l), outlier_iterations=0)  # fmt: skip
+        return f.parameters
+
+    try:
+        added = offset_covariance(fit_at, offset)
+    except CalibrationError:
+        return result
+    if added is None:
+        return result
+    cov = np.array(result.covariance, dtype=float)
+    free = np.isfinite(np.diag(cov))
+    cov[np.ix_(free, free)] += added[np.ix_(free, free)]
+    se = {k: (float(np.sqrt(cov[i, i])) if free[i] else None) for i, k in enumerate(PARAMETERS)}
+    return replace(
+        result, covariance=cov, stderr=se,
+        uncertainty=f"{result.uncertainty}, and the clock offset's own uncertainty",
+    )  # fmt: skip
+
+
 def relative_checks(
     motions: RelativeMotions,
     usable: np.ndarray,
@@ -472,6 +517,13 @@ def fit_slam_bags(
     result, forced = fit_relative(
         [b.relative_motions for b in bags], nominal, sensor_pose=(0.0, 0.0, 0.0), force=force
     )
+    if len(bags) == 1 and bags[0].wheel_series is not None:
+        b0 = bags[0]
+        t, right, left = b0.wheel_series
+        m0 = b0.motions
+        result = with_offset_error(
+            result, b0.time_offset, t, right, left, m0.start_s, m0.end_s, m0.sensor_motion
+        )
     every, usable = _slam_chains(bags, result)
     checks = relative_checks(
         every, usable, np.zeros(3), result, nominal, source="SLAM", force=force

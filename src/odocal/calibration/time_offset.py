@@ -34,7 +34,7 @@ interval-by-interval resampling would hide.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -50,6 +50,7 @@ __all__ = [
     "timing_consistency",
     "truth_offset",
     "shift_truth",
+    "offset_covariance",
     "estimate_time_offset",
     "wheel_rotations",
     "time_blocks",
@@ -530,3 +531,18 @@ def shift_truth(recording: Recording, offset_s: float) -> Recording:
     q = np.clip(t + offset_s, t[0], t[-1])
     moved = np.column_stack([np.interp(q, t, gt[:, k]) for k in range(3)])
     return replace(recording, ground_truth=start_frame(moved[:, 0], moved[:, 1], moved[:, 2]))
+
+
+def offset_covariance(
+    fit_at: Callable[[float], np.ndarray], offset: TimeOffset
+) -> np.ndarray | None:
+    """What the clock offset's own uncertainty adds to the covariance of parameters fitted at
+    it: J J^T se^2, with J = (p(d + se) - p(d - se)) / (2 se) from two refits ``fit_at(d)``
+    (the parameters, shape (p,), with the wheels taken ``d`` earlier). None when the offset was
+    given (no uncertainty) or its standard error is unknown."""
+    se = offset.stderr_s
+    if offset.how == "given" or se is None or not math.isfinite(se) or se <= 0:
+        return None
+    d = offset.applied_s
+    jac = (np.asarray(fit_at(d + se)) - np.asarray(fit_at(d - se))) / (2.0 * se)
+    return np.outer(jac, jac) * se * se

@@ -74,6 +74,7 @@ class SlamBag:
     every_increments: tuple[np.ndarray, np.ndarray] | None = None
     wheels: str = ""
     wheel_warnings: tuple[str, ...] = ()
+    wheel_series: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     @property
     def relative_motions(self) -> RelativeMotions:
@@ -270,7 +271,7 @@ def load_slam_bag(
     every = wheel_increments(t_j, right, left, motions.every_start_s - d, motions.every_end_s - d)
     return SlamBag(
         str(p), motions, recording, chain_text, meta["correction_edge"], increments, meta,
-        offset, every, wheels.describe(), wheels.warnings,
+        offset, every, wheels.describe(), wheels.warnings, (t_j, right, left),
     )  # fmt: skip
 
 
