@@ -322,8 +322,6 @@ def _reasons(
             out.append(f"{answer.name}: the log's parts disagree beyond their uncertainty")
         if res.log_check is not None and not res.log_check.check.ok:
             out.append(f"{answer.name}: the log check says NOT enough")
-    if isinstance(res, GyroFitResult):
-        out.append("gyro only: the wheel diameters are not calibrated (no truth, SLAM or laser)")
     for x in checks:
         if not x.agree:
             out.append(
@@ -381,6 +379,11 @@ def fit_auto(
         cov = odometry_covariance(k, k, b, speed_m_s=speed or 0.5)
     reasons = _reasons(answer, runs, checks)
     warnings = tuple(w for r in runs if r.used for w in getattr(r.result, "warnings", ()))
+    if answer is not None and isinstance(answer.result, GyroFitResult):
+        warnings += (
+            "the gyro route calibrates the wheelbase only: the wheel diameters stay nominal "
+            "(record a SLAM pose, a laser or a truth topic to calibrate them)",
+        )
     result = AutoFitResult(found.path, tuple(runs), answer, nominal, checks, noise, cov,
                            tuple(reasons), (), warnings)  # fmt: skip
     if (out is None and ros2 is None) or answer is None or answer.geometry is None:

@@ -398,7 +398,7 @@ def _drive_block(
     exact arcs and, on straight legs, cos and sin of the whole mid heading.
 
     This is the midpoint update of :mod:`odocal.core.odometry` (its one home), unrolled by
-    segment for speed; tests/test_odometry.py equates the two.
+    segment for speed; tests/core/test_odometry.py equates the two.
     """
     start = 0  # increments driven before the segment
     for s_r, s_l, n in segments:
