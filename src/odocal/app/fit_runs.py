@@ -112,11 +112,12 @@ class FitResult:
 
     @property
     def time_offsets_s(self) -> dict[str, float]:
-        """Source -> clock offset (s): the truth's, weighted over the data sets by their
-        standard errors (each data set's own in ``time_offsets``)."""
+        """Source -> clock offset (s): the truth's estimate, weighted over the data sets by
+        their standard errors (each data set's own, and whether it was applied, in
+        ``time_offsets``)."""
         if not self.time_offsets:
             return {}
-        values = [o.applied_s for o in self.time_offsets]
+        values = [o.offset_s for o in self.time_offsets]
         errs = [o.stderr_s for o in self.time_offsets]
         if all(e is not None and e > 0 and np.isfinite(e) for e in errs):
             w = np.array([1.0 / float(e) ** 2 for e in errs if e is not None])
