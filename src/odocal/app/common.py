@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ..calibration.heldout import HeldOut
 from ..calibration.result import far_from_nominal
 from ..core.model import Robot, WheelGeometry
 from ..core.recording import Recording
@@ -28,6 +29,9 @@ __all__ = [
     "write_exports",
     "make_robot",
     "refuse_absurd",
+    "refuse_untrusted",
+    "robot_nominal",
+    "robot_ran_with",
     "load_warnings",
     "Exports",
     "NO_EXPORTS",
@@ -141,6 +145,27 @@ def refuse_absurd(geometry: WheelGeometry, nominal: WheelGeometry | None, force:
             f"{problems[0]}{more}; nothing written (--force accepts the result anyway)"
         )
     return problems
+
+
+def refuse_untrusted(heldout: HeldOut | None, force: bool) -> None:
+    """A calibration that no model can make beat the nominal geometry on data it did not fit
+    (the held-out check) is refused (CalibrationError, nothing written) unless ``force``."""
+    if heldout is not None and heldout.preferred is None and not force:
+        raise CalibrationError(
+            f"{heldout.verdict()}; nothing written (--force exports the calibration anyway)"
+        )
+
+
+def robot_nominal(robot: RobotSpec) -> WheelGeometry | None:
+    """The nominal geometry of ``robot``, or None when none is given."""
+    return load_robot(robot).nominal if robot else None
+
+
+def robot_ran_with(robot: RobotSpec) -> WheelGeometry | None:
+    """The geometry the robot's controller ran with (its odometry is inverted through it when a
+    bag has no joint states): ROBOT.yaml's ``believed``, else its nominal; None without a
+    robot."""
+    return load_robot(robot).believed_geometry if robot else None
 
 
 def register_exports(

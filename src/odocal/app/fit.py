@@ -8,8 +8,9 @@ inputs and method                                      route
 =====================================================  ======================================
 runs with ground truth: trajectory (default), linear,  :mod:`odocal.app.fit_runs`
 umbmark, heading
-``.tuple`` files, ``--truth-frames`` (a SLAM pose),    :mod:`odocal.app.fit_relative`
-``--method relative``, ``--method scan``
+``.tuple`` files, ``--method relative``                :mod:`odocal.app.fit_relative`
+``--truth-frames`` (a SLAM pose)                       :mod:`odocal.app.fit_slam`
+``--method scan``                                      :mod:`odocal.app.fit_scan`
 ``--method gyro`` (one bag)                            :mod:`odocal.app.fit_gyro`
 =====================================================  ======================================
 
@@ -40,14 +41,10 @@ from ..io.ros2_export import DEFAULT_CONTROLLER
 from .common import Exports, RobotSpec, input_paths
 from .fit_auto import AutoFitResult, fit_auto
 from .fit_gyro import GyroFitResult, fit_gyro, fit_gyro_bag, gyro_fit
-from .fit_relative import (
-    RelativeFitResult,
-    fit_scan_bags,
-    fit_slam_bags,
-    fit_tuple_files,
-    is_tuple_file,
-)
+from .fit_relative import RelativeFitResult, fit_tuple_files, is_tuple_file
 from .fit_runs import FitResult, check_heading_source, fit_recordings, fit_run_files, fit_runs
+from .fit_scan import fit_scan_bags
+from .fit_slam import fit_slam_bags
 
 __all__ = [
     "METHODS",

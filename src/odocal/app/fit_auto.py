@@ -41,8 +41,10 @@ from ..io.robot_file import load_robot, params_yaml
 from ..io.ros2_export import DEFAULT_CONTROLLER, ros2_params_yaml
 from .common import RobotSpec, input_paths
 from .fit_gyro import GyroFitResult, fit_gyro
-from .fit_relative import RelativeFitResult, fit_scan_bags, fit_slam_bags
+from .fit_relative import RelativeFitResult
 from .fit_runs import FitResult, fit_run_files
+from .fit_scan import fit_scan_bags
+from .fit_slam import fit_slam_bags
 
 __all__ = ["AutoFitResult", "RouteRun", "fit_auto", "KEYS", "MAX_Z"]
 

@@ -86,6 +86,17 @@ class SlamBag:
             np.asarray(m.start_s) - d, np.asarray(m.end_s) - d,
         )  # fmt: skip
 
+    @property
+    def every_motions(self) -> RelativeMotions:
+        """Every interval between the SLAM's updates, dropped ones included (for the held-out
+        check; which of them are the fit's is ``motions.every_used``), on the wheels' clock."""
+        m, inc, d = self.motions, self.every_increments, self.time_offset.applied_s
+        assert inc is not None  # the loader sets them
+        return RelativeMotions(
+            inc[0].sum(axis=1), inc[1].sum(axis=1), np.asarray(m.every_motion), inc,
+            np.asarray(m.every_start_s) - d, np.asarray(m.every_end_s) - d,
+        )  # fmt: skip
+
     def as_dict(self) -> dict[str, Any]:
         """What ``odocal fit --truth-frames --json`` reports of this bag (its ``slam`` entry)."""
         m = self.motions
