@@ -14,9 +14,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from ..calibration.banded import banded_after_constant
+from ..calibration.banded import fit_trajectory_bands
 from ..calibration.fit_methods import FitMethod, HeadingSource
 from ..calibration.fit_settings import (
     DEFAULT_SQUARES,
@@ -28,9 +26,8 @@ from ..calibration.heldout import HeldOut, heldout_runs
 from ..calibration.linear import fit_linear
 from ..calibration.result import GeometryFit
 from ..calibration.squares import fit_recorded_squares
-from ..calibration.time_offset import TimeOffset, shift_truth, truth_offset
-from ..calibration.trajectory import fit_trajectory, fit_trajectory_model
-from ..calibration.turning import with_bands
+from ..calibration.time_offset import TimeOffset, pooled_offset_s, truth_on_wheel_clock
+from ..calibration.trajectory import fit_trajectory_model
 from ..core.model import Robot, WheelGeometry
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
@@ -46,6 +43,7 @@ from .common import (
     nominal_geometry,
     optional_robot,
     refuse_absurd,
+    refuse_untrusted,
 )
 from .measured import MeasuredRobot, measure_robot
 
@@ -115,14 +113,7 @@ class FitResult:
         """Source -> clock offset (s): the truth's estimate, weighted over the data sets by
         their standard errors (each data set's own, and whether it was applied, in
         ``time_offsets``)."""
-        if not self.time_offsets:
-            return {}
-        values = [o.offset_s for o in self.time_offsets]
-        errs = [o.stderr_s for o in self.time_offsets]
-        if all(e is not None and e > 0 and np.isfinite(e) for e in errs):
-            w = np.array([1.0 / float(e) ** 2 for e in errs if e is not None])
-            return {"truth": float(np.sum(w * np.array(values)) / np.sum(w))}
-        return {"truth": float(np.median(values))}
+        return {"truth": pooled_offset_s(self.time_offsets)} if self.time_offsets else {}
 
     def as_dict(self) -> dict[str, Any]:
         """The JSON of ``odocal fit --json``."""
@@ -158,18 +149,6 @@ def _check_method_settings(
     check_heading_source(method, squares.heading_source)
 
 
-def _trajectory_fit(
-    recordings: Sequence[Recording], nominal: WheelGeometry | None, settings: TrajectorySettings
-) -> GeometryFit:
-    """The trajectory fit, with its effective wheelbase per band of motion (and the single
-    wheelbase for a motion mix), or the banded model started from it."""
-    fit = fit_trajectory(recordings, nominal=nominal, settings=settings)
-    used = [r for r in recordings if r.name in set(fit.runs)]
-    if settings.wheelbase_model == "banded":
-        return banded_after_constant(fit, used, nominal, settings)
-    return with_bands(fit, used, settings.motion_mix)
-
-
 def fit_recordings(
     recordings: Sequence[Recording],
     method: FitMethod = "trajectory",
@@ -194,7 +173,7 @@ def fit_recordings(
     if method == "linear":
         return fit_linear(recordings, nominal)
     if method == "trajectory":
-        return _trajectory_fit(recordings, nominal, settings)
+        return fit_trajectory_bands(recordings, nominal, settings)
     if method in ("umbmark", "heading"):
         return fit_recorded_squares(
             recordings,
@@ -264,7 +243,7 @@ def fit_runs(
     ran_with = None if robot is None else robot.believed_geometry
     offsets: tuple[TimeOffset, ...] = ()
     if method == "trajectory":
-        recordings, offsets = _on_wheel_clock(recordings, truth_offset_s)
+        recordings, offsets = truth_on_wheel_clock(recordings, truth_offset_s)
     fit = fit_recordings(
         recordings, method, nominal=nominal, ran_with=ran_with, settings=settings, squares=squares
     )
@@ -296,36 +275,6 @@ def fit_runs(
     )
 
 
-def _on_wheel_clock(
-    recordings: Sequence[Recording], given: float | None
-) -> tuple[list[Recording], tuple[TimeOffset, ...]]:
-    """The runs with their truth moved onto the wheels' clock: one offset per data set (one
-    recording setup), estimated (:func:`~odocal.calibration.time_offset.truth_offset`) unless
-    ``given``; a data set whose offset cannot be estimated keeps its truth (a warning says
-    so)."""
-    by_set: dict[str, list[Recording]] = {}
-    for r in recordings:
-        if r.ground_truth is not None:
-            by_set.setdefault(r.dataset, []).append(r)
-    offsets: dict[str, TimeOffset] = {}
-    for name, runs in by_set.items():
-        if given is not None:
-            offsets[name] = TimeOffset.given(f"truth ({name})", given)
-            continue
-        try:
-            est = truth_offset(runs)
-            offsets[name] = replace(est, source=f"truth ({name})")
-        except CalibrationError as exc:
-            offsets[name] = TimeOffset(
-                f"truth ({name})", 0.0, None, "not estimated", warnings=(f"{exc}; taken as 0",)
-            )
-    moved = [
-        shift_truth(r, offsets[r.dataset].applied_s) if r.dataset in offsets else r
-        for r in recordings
-    ]
-    return moved, tuple(offsets.values())
-
-
 def _heldout(
     runs: Sequence[Recording],
     nominal: WheelGeometry | None,
@@ -346,10 +295,7 @@ def _heldout(
         )  # fmt: skip
     except CalibrationError as exc:
         return None, (f"no held-out check: {exc}",)
-    if h.preferred is None and not force:
-        raise CalibrationError(
-            f"{h.verdict()}; nothing written (--force exports the calibration anyway)"
-        )
+    refuse_untrusted(h, force)
     return h, ()
 
 

@@ -34,7 +34,7 @@ from ..core.recording import Recording
 from ..errors import CalibrationError
 from .fit_settings import DEFAULT_TRAJECTORY, TrajectorySettings
 from .result import BandedDetails, GeometryFit, check_physical
-from .trajectory import optimizer_report, solve_lm
+from .trajectory import fit_trajectory, optimizer_report, solve_lm
 from .turning import (
     BANDS,
     MIN_ROTATION_RAD,
@@ -44,9 +44,10 @@ from .turning import (
     effective_wheelbase,
     nearest_estimated_band,
     wheelbase_for_mix,
+    with_bands,
 )
 
-__all__ = ["fit_banded", "banded_after_constant"]
+__all__ = ["fit_banded", "banded_after_constant", "fit_trajectory_bands"]
 
 
 class _Run:
@@ -202,3 +203,17 @@ def banded_after_constant(
         warnings=list(constant.warnings) + list(banded.warnings),
         constant_fit=constant.geometry,
     )
+
+
+def fit_trajectory_bands(
+    recordings: Sequence[Recording], nominal: WheelGeometry | None, settings: TrajectorySettings
+) -> GeometryFit:
+    """The trajectory fit (:func:`~odocal.calibration.trajectory.fit_trajectory`) with its
+    effective wheelbase per band of motion (and the single wheelbase for a motion mix,
+    :func:`~odocal.calibration.turning.with_bands`), or with ``settings.wheelbase_model``
+    'banded' the banded model started from it (:func:`banded_after_constant`)."""
+    fit = fit_trajectory(recordings, nominal=nominal, settings=settings)
+    used = [r for r in recordings if r.name in set(fit.runs)]
+    if settings.wheelbase_model == "banded":
+        return banded_after_constant(fit, used, nominal, settings)
+    return with_bands(fit, used, settings.motion_mix)

@@ -50,6 +50,8 @@ __all__ = [
     "timing_consistency",
     "truth_offset",
     "shift_truth",
+    "truth_on_wheel_clock",
+    "pooled_offset_s",
     "offset_covariance",
     "estimate_time_offset",
     "wheel_rotations",
@@ -531,6 +533,49 @@ def shift_truth(recording: Recording, offset_s: float) -> Recording:
     q = np.clip(t + offset_s, t[0], t[-1])
     moved = np.column_stack([np.interp(q, t, gt[:, k]) for k in range(3)])
     return replace(recording, ground_truth=start_frame(moved[:, 0], moved[:, 1], moved[:, 2]))
+
+
+def truth_on_wheel_clock(
+    recordings: Sequence[Recording], given: float | None
+) -> tuple[list[Recording], tuple[TimeOffset, ...]]:
+    """The runs with their truth moved onto the wheels' clock (:func:`shift_truth`): one offset
+    per data set (one recording setup, ``Recording.dataset``), estimated
+    (:func:`truth_offset`) unless ``given``; a data set whose offset cannot be estimated keeps
+    its truth (a warning says so). Returns the runs and each data set's offset, sources named
+    'truth (DATASET)'."""
+    by_set: dict[str, list[Recording]] = {}
+    for r in recordings:
+        if r.ground_truth is not None:
+            by_set.setdefault(r.dataset, []).append(r)
+    offsets: dict[str, TimeOffset] = {}
+    for name, runs in by_set.items():
+        if given is not None:
+            offsets[name] = TimeOffset.given(f"truth ({name})", given)
+            continue
+        try:
+            est = truth_offset(runs)
+            offsets[name] = replace(est, source=f"truth ({name})")
+        except CalibrationError as exc:
+            offsets[name] = TimeOffset(
+                f"truth ({name})", 0.0, None, "not estimated", warnings=(f"{exc}; taken as 0",)
+            )
+    moved = [
+        shift_truth(r, offsets[r.dataset].applied_s) if r.dataset in offsets else r
+        for r in recordings
+    ]
+    return moved, tuple(offsets.values())
+
+
+def pooled_offset_s(offsets: Sequence[TimeOffset]) -> float:
+    """One clock offset (s) from several estimates of it (e.g. one per data set): their mean
+    weighted by the inverse squared standard errors when every one has a finite positive error,
+    else their median."""
+    values = [o.offset_s for o in offsets]
+    errs = [o.stderr_s for o in offsets]
+    if all(e is not None and e > 0 and np.isfinite(e) for e in errs):
+        w = np.array([1.0 / float(e) ** 2 for e in errs if e is not None])
+        return float(np.sum(w * np.array(values)) / np.sum(w))
+    return float(np.median(values))
 
 
 def offset_covariance(
