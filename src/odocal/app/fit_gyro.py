@@ -255,16 +255,7 @@ def fit_gyro(
     exports.register(plan)
     nominal = load_robot(robot).nominal if robot else None
     loaded = read_gyro_bag(
-        bag,
-        BagOptions(
-            joint_topic=options.joint_topic or None,
-            imu_topic=options.imu_topic or None,
-            odom_topic=options.odom_topic or None,
-            right_joint=options.right_joint or None,
-            left_joint=options.left_joint or None,
-        ),
-        have_geometry=nominal is not None,
-        mounting=not options.imu_axis,
+        bag, _topics(options), have_geometry=nominal is not None, mounting=not options.imu_axis
     )
     result = gyro_fit(
         loaded,
@@ -279,34 +270,51 @@ def fit_gyro(
     offset = imu_offset(loaded, result, t_o, yaw)
     if (exports.out or exports.ros2) and nominal is None:
         raise InputError("--out/--ros2 with --method gyro need the nominal geometry: --robot")
-    m = float(result.wheelbase_multiplier)
+    _refuse_absurd(float(result.wheelbase_multiplier), force)
+    if nominal is None:
+        return GyroFitResult(result, nominal, None, (), offset, "")
+    geometry, base = _corrected(loaded, result, nominal, robot)
+    written = exports.write(plan, geometry, nominal, record={"method": "gyro"})
+    return GyroFitResult(result, nominal, geometry, written, offset, base)
+
+
+def _topics(options: BagOptions) -> BagOptions:
+    """The topics and joints of ``options`` for the reader (an empty name: none given)."""
+    return BagOptions(
+        joint_topic=options.joint_topic or None,
+        imu_topic=options.imu_topic or None,
+        odom_topic=options.odom_topic or None,
+        right_joint=options.right_joint or None,
+        left_joint=options.left_joint or None,
+    )
+
+
+def _refuse_absurd(m: float, force: bool) -> None:
+    """A wheelbase multiplier ``m`` more than 25 % from 1 is absurd for a calibration:
+    CalibrationError (nothing written) unless ``force``."""
     if abs(m - 1) > ABSURD_FRACTION and not force:
         raise CalibrationError(
             f"wheelbase_multiplier = {m:.6g} is {100 * (m - 1):+.0f} % from 1: absurd for a "
             "calibration; check the IMU axis and the wheel joints; nothing written (--force "
             "accepts the result anyway)"
         )
-    geometry = None
-    written: tuple[Path, ...] = ()
-    base = ""
-    if nominal is not None:
-        # the odometry's rotation was computed through the joints with the nominal geometry,
-        # or by the controller with the geometry it ran with (multipliers included): the
-        # correction applies to that one
-        ran_with = load_robot(robot).believed_geometry if robot else nominal
-        ref = nominal if loaded.from_joints else ran_with
-        base = (
-            "nominal (joint states)"
-            if loaded.from_joints
-            else "the geometry the controller ran with"
-        )
-        geometry = WheelGeometry(
-            ref.diameter_right_m,
-            ref.diameter_left_m,
-            ref.wheelbase_m * result.wheelbase_multiplier,
-        )
-        written = exports.write(plan, geometry, nominal, record={"method": "gyro"})
-    return GyroFitResult(result, nominal, geometry, written, offset, base)
+
+
+def _corrected(
+    loaded: GyroBag, result: GyroResult, nominal: WheelGeometry, robot: RobotSpec
+) -> tuple[WheelGeometry, str]:
+    """The calibrated geometry and what it corrects: the odometry's rotation was computed
+    through the joints with the nominal geometry, or by the controller with the geometry it ran
+    with (multipliers included): the correction applies to that one."""
+    ran_with = load_robot(robot).believed_geometry if robot else nominal
+    ref = nominal if loaded.from_joints else ran_with
+    base = (
+        "nominal (joint states)" if loaded.from_joints else "the geometry the controller ran with"
+    )
+    geometry = WheelGeometry(
+        ref.diameter_right_m, ref.diameter_left_m, ref.wheelbase_m * result.wheelbase_multiplier
+    )
+    return geometry, base
 
 
 def _robot_file(robot: RobotSpec) -> list[Path]:
