@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -10,7 +9,6 @@ from typing import Any
 
 import numpy as np
 
-from ..calibration.censi import fit_censi
 from ..calibration.fit_settings import DEFAULT_TRAJECTORY, TrajectorySettings
 from ..calibration.identifiability import (
     MAX_BLOCKS_PER_RUN,
@@ -19,21 +17,17 @@ from ..calibration.identifiability import (
     check_recordings,
     with_prediction,
 )
-from ..calibration.interval_noise import (
-    IntervalNoise,
-    estimate_interval_noise,
-    predicted_covariance,
-)
 from ..calibration.relative_motions import stack_motions
-from ..core.model import MeasurementNoise, NonSystematicError, Robot, WheelGeometry
+from ..calibration.slam_noise import SLAM_POSE_NOISE, slam_noise_model
+from ..core.model import Robot, WheelGeometry
 from ..core.recording import Recording
-from ..errors import CalibrationError, InputError
+from ..errors import InputError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
 from ..io.bag_slam import SlamBag, load_slam_bags
 from ..io.recordings import load_recordings
 from .common import RobotSpec, load_warnings, nominal_geometry, optional_robot
 
-__all__ = ["CheckResult", "check", "check_loaded", "noise_model"]
+__all__ = ["CheckResult", "check", "check_loaded", "noise_model", "slam_noise", "SLAM_POSE_NOISE"]
 
 
 @dataclass(frozen=True)
@@ -148,65 +142,12 @@ def check(
     return replace(res, load_warnings=tuple(notes) + no_truth + load_warnings(recordings))
 
 
-#: The stated noise of a SLAM pose when the log's own residuals cannot give it: scan matching
-#: places a pose to a centimetre or two and a degree.
-SLAM_POSE_NOISE = MeasurementNoise(0.02, math.radians(1.0))
-
-
 def slam_noise(
     bags: Sequence[SlamBag], robot: Robot | None, geometry: WheelGeometry | None = None
 ) -> tuple[NoiseModel, str, np.ndarray | None]:
-    """The noise of a SLAM-truth check: the robot file's where it states it; the rest from the
-    log's own residuals (:func:`~odocal.calibration.interval_noise.estimate_interval_noise`
-    after a relative-motion fit: the wheels' k, and the SLAM pose's noise as half the variance
-    of a relative motion's); else :data:`SLAM_POSE_NOISE` and the default k, said so. With
-    ``geometry``, also the covariance of (D_R, D_L, b) that the SLAM route's relative-motion fit
-    would have with that noise (:func:`~odocal.calibration.interval_noise.predicted_covariance`
-    at ``geometry``), else None."""
-    stated, source = noise_model(robot)
-    given_k = robot is not None and not robot.nonsystematic.is_zero
-    given_m = robot is not None and not robot.measurement.is_zero
-    m = stack_motions([b.relative_motions for b in bags])
-    assert m.increments is not None and m.start_s is not None
-    est: IntervalNoise | None = None
-    problem = ""
-    try:
-        fit = fit_censi(m.phi_right_rad, m.phi_left_rad, m.sensor_motion, sensor_pose=(0, 0, 0),
-                        wheel_increments=m.increments)  # fmt: skip
-        keep = np.setdiff1d(np.arange(len(m.phi_right_rad)), fit.dropped_indices)
-        est = estimate_interval_noise(
-            m.increments[0][keep], m.increments[1][keep], m.sensor_motion[keep], fit.geometry,
-            m.start_s[keep], end_s=None if m.end_s is None else m.end_s[keep],
-        )  # fmt: skip
-    except CalibrationError as exc:
-        problem = str(exc)
-    k_sum = stated.wheel.k_sum_m if given_k or est is None else est.k_sum_m
-    if given_m or est is None:
-        meas = stated.measurement if given_m else SLAM_POSE_NOISE
-    else:
-        meas = MeasurementNoise(est.truth_sigma_xy_m / math.sqrt(2.0),
-                                est.truth_sigma_theta_rad / math.sqrt(2.0))  # fmt: skip
-    parts = [
-        "ROBOT.yaml nonsystematic" if given_k else (
-            f"k {0.5 * k_sum:.3g} m per wheel" if est is not None else "default k"
-        ),
-        "ROBOT.yaml measurement" if given_m else (
-            f"SLAM pose {1e3 * meas.sigma_xy_m:.3g} mm and "
-            f"{math.degrees(meas.sigma_theta_rad):.3g} deg"
-            + ("" if est is not None else " (stated default)")
-        ),
-    ]  # fmt: skip
-    where = (
-        f" (from the log's own residuals over {est.intervals} SLAM intervals)"
-        if est is not None
-        else f"; the log's own residuals could not give it ({problem})"
-    )
-    model = NoiseModel(NonSystematicError(0.5 * k_sum, 0.5 * k_sum), meas)
-    cov = None
-    if geometry is not None:
-        per_interval = IntervalNoise(
-            k_sum, (k_sum, k_sum), math.sqrt(2.0) * meas.sigma_xy_m,
-            math.sqrt(2.0) * meas.sigma_theta_rad, len(m.phi_right_rad), 0,
-        )  # fmt: skip
-        cov = predicted_covariance(m.increments[0], m.increments[1], geometry, per_interval)
-    return model, ", ".join(parts) + where, cov
+    """The noise of a SLAM-truth check and where it came from
+    (:func:`~odocal.calibration.slam_noise.slam_noise_model` over the intervals between the
+    SLAM's updates of every bag); with ``geometry``, also the covariance of (D_R, D_L, b) that
+    the SLAM route's relative-motion fit would have with that noise, else None."""
+    noise = slam_noise_model(stack_motions([b.relative_motions for b in bags]), robot, geometry)
+    return noise.model, noise.description, noise.covariance

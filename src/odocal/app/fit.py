@@ -108,12 +108,31 @@ def _is_auto(
     method: FitMethod | None,
     truth_frames: tuple[str, str] | None,
     bag: BagOptions,
+    settings: TrajectorySettings | None,
+    squares: SquareSettings | None,
 ) -> bool:
-    """The one-command route: asked for, or bags with no method and no truth named."""
+    """The one-command route: asked for, or bags with no method, no truth and no fit settings
+    named."""
     if method == "auto":
         return True
     named = truth_frames is not None or bag.truth_topic is not None
-    return method is None and not named and bool(paths) and all(is_bag(p) for p in paths)
+    if method is not None or named or not paths or not all(is_bag(p) for p in paths):
+        return False
+    return settings in (None, DEFAULT_TRAJECTORY) and squares in (None, DEFAULT_SQUARES)
+
+
+def _refuse_for_auto(
+    paths: Sequence[str | Path], plot: str | Path | None, robot_out: str | Path | None
+) -> None:
+    """The one-command route takes one bag and writes its figures into its report."""
+    if len(paths) != 1:
+        raise InputError(
+            "--method auto (the default for bags when no method and no truth are named) "
+            "takes one bag; name the method or the truth for several",
+            field="paths",
+        )
+    if plot is not None or robot_out is not None:
+        raise InputError("--method auto writes its figures into --out DIR (a report)")
 
 
 def _refuse_other_routes_outputs(
@@ -201,18 +220,8 @@ def fit(
     allows, cross-checked, one answer (:func:`odocal.app.fit_auto.fit_auto`; ``out`` is then a
     folder for its report)."""
     paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
-    if _is_auto(paths, method, truth_frames, bag) and (
-        method == "auto"
-        or (settings in (None, DEFAULT_TRAJECTORY) and squares in (None, DEFAULT_SQUARES))
-    ):
-        if len(paths) != 1:
-            raise InputError(
-                "--method auto (the default for bags when no method and no truth are named) "
-                "takes one bag; name the method or the truth for several",
-                field="paths",
-            )
-        if plot is not None or robot_out is not None:
-            raise InputError("--method auto writes its figures into --out DIR (a report)")
+    if _is_auto(paths, method, truth_frames, bag, settings, squares):
+        _refuse_for_auto(paths, plot, robot_out)
         return fit_auto(paths[0], robot=robot, options=bag, out=out, ros2=ros2,
                         controller_name=controller_name, scan_interval_s=scan_interval_s,
                         force=force)  # fmt: skip
