@@ -10,9 +10,12 @@ import pytest
 from odocal.calibration.time_offset import (
     TimeOffset,
     estimate_time_offset,
+    pooled_offset_s,
     time_blocks,
+    truth_on_wheel_clock,
     wheel_rotations,
 )
+from odocal.core.recording import Recording
 from odocal.errors import CalibrationError
 
 D_R, D_L, B = 0.101, 0.099, 0.42  # the true geometry the source sees
@@ -107,3 +110,35 @@ def test_a_heading_can_stand_in_for_the_wheels():
     a, b, dth = source_intervals(t, right, left, 0.09, 30.0, math.radians(0.1))
     est = estimate_time_offset(t, heading, np.zeros_like(heading), a, b, dth, source="imu")
     assert abs(est.offset_s - 0.09) < 0.005 and est.stderr_s < 0.005
+
+
+def test_several_estimates_are_pooled():
+    a = TimeOffset("truth (a)", 0.10, 0.01, "estimated")
+    b = TimeOffset("truth (b)", 0.04, 0.02, "estimated")
+    assert pooled_offset_s([a, b]) == pytest.approx((0.10 / 1e-4 + 0.04 / 4e-4) / (1e4 + 2.5e3))
+    c = TimeOffset("truth (c)", 0.0, None, "not estimated")
+    assert pooled_offset_s([a, b, c]) == pytest.approx(0.04)  # the median
+
+
+def test_each_data_set_s_truth_moves_onto_the_wheels_clock():
+    t, right, left = drive(duration_s=60.0)
+    gt = np.column_stack([np.zeros_like(t), np.zeros_like(t), (t / t[-1]) ** 2])
+    runs = [
+        Recording("a1", t, right, left, ground_truth=gt, meta={"dataset": "a"}),
+        Recording("b1", t, right, left, ground_truth=gt, meta={"dataset": "b"}),
+        Recording("b2", t, right, left, meta={"dataset": "b"}),  # no truth: as it was
+    ]
+    moved, offsets = truth_on_wheel_clock(runs, 0.2)
+    assert [o.source for o in offsets] == ["truth (a)", "truth (b)"]
+    assert all(o.how == "given" and o.applied_s == 0.2 for o in offsets)
+    assert moved[2] is runs[2]
+    assert moved[0].ground_truth[0, 2] == pytest.approx(0.0)
+    # the truth taken 0.2 s later (relative to its first pose)
+    expected = ((t[10] + 0.2) / t[-1]) ** 2 - ((t[0] + 0.2) / t[-1]) ** 2
+    assert moved[0].ground_truth[10, 2] == pytest.approx(expected, rel=1e-6)
+    # a truth that cannot be aligned keeps its stamps, with a warning
+    still = [Recording("c1", t[:3], right[:3], left[:3], ground_truth=gt[:3],
+                       meta={"dataset": "c"})]  # fmt: skip
+    kept, (offset,) = truth_on_wheel_clock(still, None)
+    assert offset.how == "not estimated" and offset.applied_s == 0.0
+    assert offset.warnings[0].endswith("; taken as 0") and kept[0] is still[0]

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from odocal.calibration.banded import fit_banded
+from odocal.calibration.banded import fit_banded, fit_trajectory_bands
 from odocal.calibration.fit_settings import TrajectorySettings
 from odocal.calibration.turning import (
     BANDS,
@@ -141,6 +141,16 @@ def test_banded_fit_recovers_the_bands_and_exports_the_mix(runs):
         runs, REFERENCE, settings=TrajectorySettings(motion_mix={"tight": 0.5, "wide": 0.5})
     )
     assert TRUE_BANDS["wide"] < arcs.geometry.wheelbase_m < TRUE_BANDS["tight"]
+
+
+def test_the_trajectory_fit_with_its_bands_or_the_banded_model(runs):
+    constant = fit_trajectory_bands(runs, REFERENCE, TrajectorySettings())
+    assert constant.banded is None and constant.effective_wheelbase is not None
+    assert all(constant.effective_wheelbase.band(n).excited for n in ("spot", "tight", "wide"))
+    banded = fit_trajectory_bands(runs, REFERENCE, TrajectorySettings(wheelbase_model="banded"))
+    assert banded.constant_fit == constant.geometry
+    for name, value in banded.banded.band_wheelbase_m.items():
+        assert value == pytest.approx(TRUE_BANDS[name], rel=1e-5)
 
 
 def test_banded_fit_refuses_runs_that_turn_only_on_the_spot():
