@@ -300,3 +300,26 @@ def test_ttest_of_constant_samples_warns(cli, tmp_path):
     assert status == 0, err
     assert json.loads(out)["welch"]["t"] is None  # undefined, not a number that lies
     assert err.startswith("odocal: warning: both samples have zero spread")
+
+
+def test_bag_route_bad_inputs_are_one_line_errors(tmp_path, cli):
+    """Issue 22's bad inputs: an implausible clock offset, a log too short for a held-out
+    block: one line naming the input, exit 2, nothing written."""
+    from odocal.core.model import WheelGeometry
+    from tests.support.synthetic_robot import Laser, default_track, simulate_robot, write_ros2_bag
+
+    run = simulate_robot(default_track(), WheelGeometry(0.0655, 0.0662, 0.163),
+                         WheelGeometry.symmetric(0.066, 0.160), laser=Laser(n_rays=8))  # fmt: skip
+    bag = tmp_path / "short"
+    write_ros2_bag(bag, run, map_odom_every=60, imu=False)  # about 17 SLAM intervals
+    robot = tmp_path / "robot.yaml"
+    robot.write_text("wheel_diameter_m: 0.066\nwheelbase_m: 0.160\n")
+    out = tmp_path / "params.yaml"
+    status, _, err = cli("fit", bag, "--truth-frames", "map:base_link", "--robot", robot,
+                         "--time-offset", "slam=3", "--out", out)  # fmt: skip
+    assert status == 2 and "outside any plausible clock offset" in err and err.count("\n") == 1
+    status, _, err = cli("fit", bag, "--truth-frames", "map:base_link", "--robot", robot,
+                         "--out", out)  # fmt: skip
+    assert status == 2 and err.count("\n") == 1
+    assert "too short for a held-out check" in err and str(bag) in err
+    assert not out.exists()

@@ -302,6 +302,7 @@ def relative_checks(
     *,
     source: str,
     force: bool = False,
+    where: str | Path | None = None,
 ) -> RelativeChecks:
     """The held-out check and the one-log noise estimate of a bag route
     (:func:`~odocal.calibration.relative_checks.check_relative_fit`). A log too short for the
@@ -310,7 +311,7 @@ def relative_checks(
     written)."""
     checks = check_relative_fit(motions, usable, mount, result, nominal, source=source)
     if checks.heldout_problem is not None and not force:
-        raise InputError(f"{checks.heldout_problem} (--force fits without it)")
+        raise InputError(f"{checks.heldout_problem} (--force fits without it)", where)
     refuse_untrusted(checks.heldout, force)
     return checks
 

@@ -113,7 +113,10 @@ def fit_scan_bags(
     usable = np.ones(len(stacked.phi_right_rad), dtype=bool)
     usable[list(result.dropped_indices)] = False
     mount = np.array([result.sensor_x_m, result.sensor_y_m, result.sensor_yaw_rad])
-    checks = relative_checks(stacked, usable, mount, result, nominal, source="laser", force=force)
+    checks = relative_checks(
+        stacked, usable, mount, result, nominal, source="laser", force=force,
+        where=paths[0] if len(paths) == 1 else None,
+    )  # fmt: skip
     res = RelativeFitResult(
         result, nominal, len(paths), "scan", scans=tuple(summaries), forced=forced,
         time_offsets=tuple(s.intervals.time_offset for s in summaries),

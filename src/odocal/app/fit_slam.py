@@ -68,8 +68,9 @@ def fit_slam_bags(
         result.dropped_indices,
     )
     checks = relative_checks(
-        every, usable, np.zeros(3), result, nominal, source="SLAM", force=force
-    )
+        every, usable, np.zeros(3), result, nominal, source="SLAM", force=force,
+        where=paths[0] if len(paths) == 1 else None,
+    )  # fmt: skip
     res = RelativeFitResult(
         result, nominal, len(paths), "slam", slam_bags=tuple(bags), forced=forced,
         time_offsets=tuple(b.time_offset for b in bags),
