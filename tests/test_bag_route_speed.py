@@ -3,9 +3,21 @@ themselves live in benchmarks/bench_bag_route.py)."""
 
 from __future__ import annotations
 
-import numpy as np
+import math
 
+import numpy as np
+import pytest
+from synthetic_robot import write_ros2_bag
+from test_bags import TRACK, make_run, write_bag
+
+from odocal.app.check import check, check_loaded
 from odocal.calibration.relative_motions import wheel_increments
+from odocal.core.model import WheelGeometry
+from odocal.core.tracks import Track, spot_turn, straight
+from odocal.io import bags
+from odocal.io.bag_options import BagOptions
+from odocal.io.bag_recording import load_bag_recording, without_gyro
+from odocal.io.bag_scan import read_scan_bag
 
 
 def _wheel_increments_loop(t, right, left, start_s, end_s):
@@ -53,3 +65,91 @@ def test_wheel_increments_of_no_interval_and_of_nan_ends():
     got = wheel_increments(t, t, -t, a, b)
     for w, g in zip(want, got, strict=True):
         np.testing.assert_array_equal(g, w)
+
+
+# ------------------------------------------------------------------ what the routes read
+
+
+@pytest.fixture(scope="module")
+def scan_bags(tmp_path_factory):
+    """A short drive with a 60-beam laser: the mounting on /tf_static (as written by the
+    synthetic robot), and a copy whose mounting is published on /tf instead (in every tenth
+    /tf message)."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.rosbag2 import Writer
+    from synthetic_robot import Laser, simulate_robot
+
+    g = WheelGeometry.symmetric(0.066, 0.16)
+    track = Track("short", (straight(0.5), spot_turn(math.pi / 2), straight(0.3)))
+    run = simulate_robot(track, g, g, laser=Laser(n_rays=60, mount=(0.15, 0.05, 0.1)))
+    folder = tmp_path_factory.mktemp("scan")
+    static = folder / "static"
+    write_ros2_bag(static, run, map_odom_every=25)
+    dynamic = folder / "dynamic"
+    tf = "tf2_msgs/msg/TFMessage"
+    with AnyReader([static]) as r, Writer(dynamic, version=9) as w:
+        ts = r.typestore
+        conns = {
+            c.id: w.add_connection(c.topic, c.msgtype, typestore=ts)
+            for c in r.connections
+            if c.topic != "/tf_static"
+        }
+        static_msg = next(
+            ts.deserialize_cdr(raw, tf) for c, _, raw in r.messages() if c.topic == "/tf_static"
+        )
+        laser_tf = [t for t in static_msg.transforms if t.child_frame_id == "laser"]
+        k = 0
+        for c, t, raw in r.messages():
+            if c.topic == "/tf" and k % 10 == 0:
+                msg = ts.deserialize_cdr(raw, tf)
+                msg.transforms.extend(laser_tf)
+                raw = ts.serialize_cdr(msg, tf)
+            k += c.topic == "/tf"
+            if c.id in conns:
+                w.write(conns[c.id], t, raw)
+    return static, dynamic
+
+
+def _topics_read(monkeypatch) -> list:
+    read = []
+    real = bags._Bag.read
+
+    def spy(self, topics, fast=True):
+        read.append(sorted(topics))
+        return real(self, topics, fast)
+
+    monkeypatch.setattr(bags._Bag, "read", spy)
+    return read
+
+
+def test_the_scan_route_reads_tf_only_when_tf_static_lacks_the_mounting(scan_bags, monkeypatch):
+    static, dynamic = scan_bags
+    read = _topics_read(monkeypatch)
+    a = read_scan_bag(static, BagOptions(), None)
+    assert read == [["/joint_states", "/scan", "/tf_static"]]  # no /tf
+    b = read_scan_bag(dynamic, BagOptions(), None)
+    assert read[1:] == [["/joint_states", "/scan"], ["/tf"]]  # then /tf, on the same open bag
+    np.testing.assert_allclose(a.mount, [0.15, 0.05, 0.1], atol=1e-12)
+    np.testing.assert_array_equal(a.mount, b.mount)
+    assert a.mount_source == b.mount_source == "tf (base_link -> laser)"
+    # what reading /tf too would have given
+    full = bags.read_bag(static, ["/tf", "/tf_static"])
+    buf = bags.transform_buffer(full)
+    want = buf.lookup("base_link", "laser", a.scans.time_s[:1], max_extrapolation_s=1e9)
+    np.testing.assert_array_equal(a.mount, want.planar()[0])
+
+
+def test_check_does_not_read_the_imu(tmp_path, monkeypatch):
+    path = write_bag(tmp_path / "run.bag", "ros1", make_run(TRACK))
+    robot = tmp_path / "robot.yaml"
+    robot.write_text("wheel_diameter_m: 0.2\nwheelbase_m: 0.5\n")
+    read = _topics_read(monkeypatch)
+    res = check(path, robot=robot)
+    assert read == [["/joint_states", "/mocap/pose"]]
+    assert load_bag_recording(path).gyro_yaw_rad is not None  # outside check, as before
+    assert read[1] == ["/imu", "/joint_states", "/mocap/pose", "/tf_static"]
+    with without_gyro():
+        assert load_bag_recording(path).gyro_yaw_rad is None
+    # what the check says does not depend on the gyro
+    with_gyro = check_loaded([load_bag_recording(path)], WheelGeometry.symmetric(0.2, 0.5))
+    assert with_gyro.check.as_dict() == res.check.as_dict()

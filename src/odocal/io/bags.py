@@ -351,15 +351,25 @@ def list_topics(path) -> list[TopicInfo]:
 TopicChoice = Callable[[list[TopicInfo]], Mapping[str, str | None]]
 
 
-def read_bag(path, topics: Iterable[str] | TopicChoice = (), *, fast: bool = True) -> BagContents:
+def read_bag(
+    path,
+    topics: Iterable[str] | TopicChoice = (),
+    *,
+    fast: bool = True,
+    then: Callable[[BagContents], Mapping[str, str | None]] | None = None,
+) -> BagContents:
     """Read the messages of some topics of a bag, opening it once.
 
     ``topics``: topic names (each must exist), or a function of the bag's topic list returning
     role -> topic name (None: that role has no topic; nothing is read for it), which picks the
     topics on the open bag (with :func:`pick_topic`, whose errors it raises); the roles are kept
     in :attr:`BagContents.picked`. ``fast``: decode ``sensor_msgs/Imu`` and ``nav_msgs/Odometry``
-    of the standard definition with :mod:`odocal.io.bag_decode` (the same numbers as rosbags);
+    of the standard definition with :mod:`odocal.io.bag_decode` and JointState, TFMessage and
+    LaserScan into columns with :mod:`odocal.io.bag_columns` (the same numbers as rosbags);
     False: every message through rosbags (the reference the tests and benchmarks compare with).
+    ``then``: a function of what was read returning more roles -> topics (None: not needed),
+    read in a second pass over the open bag (a topic only some bags need: ``/tf`` when
+    ``/tf_static`` lacks a transform).
     """
     with _Bag(path) as bag:
         info = bag.topics()
@@ -369,13 +379,25 @@ def read_bag(path, topics: Iterable[str] | TopicChoice = (), *, fast: bool = Tru
             wanted = list(dict.fromkeys(picked.values()))
         else:
             wanted = list(topics)
-        names = {t.name for t in info}
-        for t in wanted:
-            if t not in names:
-                raise InputError(f"no topic '{t}' in the bag; {_available(info)}", bag.path)
+        _check_present(wanted, info, bag.path)
         messages = bag.read(wanted, fast)
         start = int(bag.reader.start_time) if info else 0
-    return BagContents(bag.path, info, messages, start, picked)
+        contents = BagContents(bag.path, info, messages, start, picked)
+        if then is not None:
+            more = {role: t for role, t in then(contents).items() if t is not None}
+            extra = [t for t in dict.fromkeys(more.values()) if t not in messages]
+            _check_present(extra, info, bag.path)
+            if extra:
+                messages.update(bag.read(extra, fast))
+            picked.update(more)
+    return contents
+
+
+def _check_present(wanted: Iterable[str], info: Sequence[TopicInfo], path: Path) -> None:
+    names = {t.name for t in info}
+    for t in wanted:
+        if t not in names:
+            raise InputError(f"no topic '{t}' in the bag; {_available(info)}", path)
 
 
 def present(topics: Sequence[TopicInfo], name: str) -> str | None:
