@@ -3,7 +3,9 @@ themselves live in benchmarks/bench_bag_route.py)."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import weakref
 
 import numpy as np
 import pytest
@@ -14,6 +16,7 @@ from odocal.app.check import check, check_loaded
 from odocal.calibration.relative_motions import wheel_increments
 from odocal.core.model import WheelGeometry
 from odocal.core.tracks import Track, spot_turn, straight
+from odocal.errors import CalibrationError
 from odocal.io import bags
 from odocal.io.bag_options import BagOptions
 from odocal.io.bag_recording import load_bag_recording, without_gyro
@@ -153,3 +156,67 @@ def test_check_does_not_read_the_imu(tmp_path, monkeypatch):
     # what the check says does not depend on the gyro
     with_gyro = check_loaded([load_bag_recording(path)], WheelGeometry.symmetric(0.2, 0.5))
     assert with_gyro.check.as_dict() == res.check.as_dict()
+
+
+# ------------------------------------------------------------------------- the matcher's memory
+
+
+def _sequence_scans(n=24):
+    from odocal.calibration.scan_matching import scan_points
+    from odocal.core.room import Room, ray_cast
+
+    rng = np.random.default_rng(4)
+    steps = np.column_stack(
+        [rng.uniform(0, 0.05, n), rng.uniform(-0.02, 0.02, n), rng.uniform(-0.05, 0.05, n)]
+    )
+    poses = np.cumsum(steps, axis=0) + [3.0, 2.5, 0.0]
+    angles = -math.pi + 2 * math.pi / 180 * np.arange(180)
+    scans = [
+        scan_points(ray_cast(Room.default(), p, angles, 12.0, rng, 0.01), -math.pi,
+                    2 * math.pi / 180, 0.05, 12.0)
+        for p in poses
+    ]  # fmt: skip
+    return 0.1 * np.arange(n), scans
+
+
+def test_match_intervals_prepares_each_start_once_and_keeps_few(monkeypatch):
+    from odocal.calibration import scan_matching as sm
+
+    times, scans = _sequence_scans()
+    intervals = np.array([(i, i + 1) for i in range(20)] + [(0, 3), (5, 9), (0, 2)])
+    made, alive, live = [], [], []
+    real = sm.prepare_scan
+
+    def counting(points, **kw):
+        made.append(1)
+        out = real(points, **kw)
+        alive.append(weakref.ref(out))
+        live.append(sum(r() is not None for r in alive))
+        return out
+
+    monkeypatch.setattr(sm, "prepare_scan", counting)
+    res = sm.match_intervals(times, scans, intervals)
+    assert len(made) == 20  # starts 0..19, each once (0 and 5 are used again later)
+    assert max(live) <= 3  # not all 20: a start is dropped after its last interval
+    monkeypatch.setattr(sm, "prepare_scan", real)
+    want = [sm.match_scans(scans[i], scans[j]) for i, j in intervals]
+    np.testing.assert_array_equal(res.motion, [m.motion for m in want])
+
+
+def test_match_intervals_on_several_workers_gives_the_same_bytes(monkeypatch):
+    from odocal.calibration import scan_matching as sm
+
+    times, scans = _sequence_scans()
+    intervals = np.array([(i, i + 1) for i in range(23)] + [(i, i + 4) for i in range(0, 20, 2)])
+    monkeypatch.setenv("ODOCAL_THREADS", "1")
+    one = sm.match_intervals(times, scans, intervals)
+    monkeypatch.setenv("ODOCAL_THREADS", "2")
+    monkeypatch.setattr(sm, "PARALLEL_MIN_INTERVALS", 4)
+    assert len(sm._chunks(len(intervals))) == 8
+    two = sm.match_intervals(times, scans, intervals)
+    for f in dataclasses.fields(one):
+        a, b = getattr(one, f.name), getattr(two, f.name)
+        assert a.dtype == b.dtype and a.tobytes() == b.tobytes(), f.name
+    bad = [*scans[:-1], scans[-1][:3]]  # too few points in the last scan: the same error
+    with pytest.raises(CalibrationError, match=r"interval 22 \(scans 22 -> 23\)"):
+        sm.match_intervals(times, bad, intervals)
