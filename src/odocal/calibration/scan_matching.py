@@ -265,8 +265,12 @@ def prepare_scan(
     found = np.isfinite(dist)  # (n, k); missing neighbours have index n
     nb = np.concatenate([p, np.zeros((1, 2))])[idx]  # (n, k, 2); a missing neighbour: 0.0
     count = found.sum(axis=1)
-    mean = nb.sum(axis=1) / count[:, None]
-    d = np.where(found[..., None], nb - mean[:, None, :], 0.0)
+    total = nb[:, 0].copy()  # the neighbours' sum in order, as nb.sum(axis=1) adds them
+    for i in range(1, k):
+        total += nb[:, i]
+    mean = total / count[:, None]
+    d = nb - mean[:, None, :]
+    d[~found] = 0.0
     sxx = np.einsum("nk,nk->n", d[..., 0], d[..., 0])
     syy = np.einsum("nk,nk->n", d[..., 1], d[..., 1])
     sxy = np.einsum("nk,nk->n", d[..., 0], d[..., 1])
