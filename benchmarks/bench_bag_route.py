@@ -13,16 +13,19 @@ Writes synthetic ROS 2 bags with tests/synthetic_robot.py: the room tour driven 
 folder), so a rerun does not write them again (a 60-minute bag takes a few minutes to write
 and 250 MB of disk).
 
-Each command runs as its own process, as a user runs it; its wall time and its peak resident
-memory (``ru_maxrss`` of that child, from ``os.wait4``) are measured:
+Each command runs as its own process, as a user runs it; its wall time, its CPU time (user +
+system, its worker processes included) and its peak resident memory (``ru_maxrss`` of that
+child and its workers, the largest one, from ``os.wait4``) are measured:
 
 - ``check``: ``odocal check BAG --truth-frames map:base_link --robot R.yaml``;
 - ``slam``: ``odocal fit BAG --truth-frames map:base_link --robot R.yaml --json``;
 - ``scan``: ``odocal fit BAG --method scan --robot R.yaml --json`` (default interval, 0.5 s);
 - ``scan-every``: the same with ``--scan-interval 0.1`` (every scan matched).
 
-Printed: per route and version, the time (s) and peak memory (MB) at each length, and the
-slope of a straight line through them (s and MB per hour of bag) with its intercept. With
+Printed: the machine and its load average, then per route and version the wall time (s), the
+CPU time (s) and the peak memory (MB) at each length, and the slope of a straight line through
+them (per hour of bag) with its intercept. On a machine shared with other jobs the wall time
+follows the load; the CPU time much less so. With
 several ``--repeat`` the median is printed. With several ``--odocal`` executables the commands
 alternate between them (A B A B ...) and the ratio to the first is printed per length: the
 machine's speed drifts, so compare ratios from one run, not absolute times across runs.
@@ -128,8 +131,8 @@ def write_bag(folder: Path, minutes: float) -> Path:
     return path
 
 
-def timed(argv: list[str]) -> tuple[float, float, int]:
-    """Wall time (s), peak resident memory (MB) and exit status of one process."""
+def timed(argv: list[str]) -> tuple[float, float, int, float]:
+    """Wall time (s), peak resident memory (MB), exit status and CPU time (s) of one process."""
     t0 = time.perf_counter()
     proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     _, status, usage = os.wait4(proc.pid, 0)
@@ -141,7 +144,31 @@ def timed(argv: list[str]) -> tuple[float, float, int]:
     if proc.returncode not in (0,):
         last = err.strip().splitlines()[-1:] or ["(no message)"]
         print(f"# exit {proc.returncode}: {' '.join(argv)}: {last[0]}", file=sys.stderr)
-    return wall, usage.ru_maxrss / 1024.0, proc.returncode
+    return wall, usage.ru_maxrss / 1024.0, proc.returncode, usage.ru_utime + usage.ru_stime
+
+
+def machine() -> str:
+    """The machine, its load and the software, for the record."""
+    import platform
+
+    try:
+        cpus = len(os.sched_getaffinity(0))
+    except AttributeError:
+        cpus = os.cpu_count() or 1
+    load = " ".join(f"{x:.2f}" for x in os.getloadavg())
+    try:
+        commit = subprocess.run(
+            ["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
+            capture_output=True,
+            text=True,
+        ).stdout.strip()
+    except OSError:
+        commit = "?"
+    return (
+        f"\nmachine: {cpus} usable cores, {platform.processor() or platform.machine()}, load "
+        f"average {load}; Python {platform.python_version()}, numpy {np.__version__}; commit "
+        f"{commit or '?'}"
+    )
 
 
 def slope(hours: list[float], values: list[float]) -> tuple[float, float]:
@@ -178,17 +205,18 @@ def main() -> None:
     robot.write_text(ROBOT_YAML)
     bags = {m: write_bag(args.cache, m) for m in minutes}
 
-    # (route, exe, minutes) -> list of (wall, mb, status)
-    runs: dict[tuple[str, int, float], list[tuple[float, float, int]]] = {}
+    # (route, exe, minutes) -> list of (wall, mb, status, cpu)
+    runs: dict[tuple[str, int, float], list[tuple[float, float, int, float]]] = {}
     for route in args.routes:
         for m in minutes:
             for _ in range(args.repeat):
                 for i, exe in enumerate(exes):
                     argv = [exe] + [a.format(bag=bags[m], robot=robot) for a in ROUTES[route]]
                     runs.setdefault((route, i, m), []).append(timed(argv))
-                    w, mb, st = runs[(route, i, m)][-1]
+                    w, mb, st, cpu = runs[(route, i, m)][-1]
                     print(
-                        f"# {route:<10} v{i} {m:4g} min: {w:7.2f} s {mb:7.0f} MB exit {st}",
+                        f"# {route:<10} v{i} {m:4g} min: {w:7.2f} s ({cpu:6.2f} s CPU) "
+                        f"{mb:7.0f} MB exit {st}",
                         file=sys.stderr,
                         flush=True,
                     )
@@ -197,17 +225,18 @@ def main() -> None:
         return statistics.median(r[k] for r in runs[key])
 
     head = "".join(f"{m:>8g}m" for m in minutes)
-    print(f"\nbag length (minutes): {', '.join(f'{m:g}' for m in minutes)}; "
+    print(machine())
+    print(f"bag length (minutes): {', '.join(f'{m:g}' for m in minutes)}; "
           f"median of {args.repeat} run(s); versions: "
           + ", ".join(f"v{i} = {e}" for i, e in enumerate(exes)))  # fmt: skip
-    for label, k, unit in (("wall time", 0, "s"), ("peak memory", 1, "MB")):
+    for label, k, unit in (("wall time", 0, "s"), ("CPU time", 3, "s"), ("peak memory", 1, "MB")):
         print(f"\n{label} ({unit})")
         print(f"{'route':<12}{'ver':<4}{head}{'per hour':>10}{'at 0':>8}")
         for route in args.routes:
             for i in range(len(exes)):
                 vals = [med((route, i, m), k) for m in minutes]
                 a, b = slope([m / 60 for m in minutes], vals)
-                fmt = "{:9.2f}" if k == 0 else "{:9.0f}"
+                fmt = "{:9.0f}" if k == 1 else "{:9.2f}"
                 print(
                     f"{route:<12}v{i:<3}"
                     + "".join(fmt.format(v) for v in vals)

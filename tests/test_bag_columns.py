@@ -22,6 +22,7 @@ from odocal.core.model import WheelGeometry
 from odocal.errors import InputError
 from odocal.io import bag_columns, bags
 from odocal.io.bag_columns import JOINT_STATE, LASER_SCAN, TF, ColumnBuilder
+from odocal.io.bag_decode import stamp_ns
 
 STORES = {}
 
@@ -331,3 +332,39 @@ def test_a_broken_joint_state_in_a_bag_is_refused_as_before(tmp_path):
         errors.append(str(exc.value))
     assert errors[0] == errors[1]
     assert "after 6 good messages, the last on '/joint_states'" in errors[0]
+
+
+def test_columns_iterate_as_messages_with_rosbags_fields():
+    """Code that reads a column topic one message at a time (``for t, m in bag.messages[...]``)
+    sees the fields rosbags' messages have, with the same values."""
+    rng = np.random.default_rng(8)
+    for msgtype in bag_columns.COLUMN_TYPES:
+        msgs = messages(msgtype, False, rng, 14)
+        raws = [serialize(msgtype, m, False) for m in msgs]
+        cols, _ = build(msgtype, raws, False, True, chunk=5)
+        got = list(cols)
+        assert len(got) == len(msgs) and [t for t, _ in got] == [1000 + i for i in range(14)]
+        assert cols[-1][0] == got[-1][0]
+        for (_, view), raw in zip(got, raws, strict=True):
+            m = store(False).deserialize_cdr(raw, msgtype)  # as rosbags reads it
+            if msgtype == TF:
+                assert len(view.transforms) == len(m.transforms)
+                pairs = list(zip(view.transforms, m.transforms, strict=True))
+            else:
+                pairs = [(view, m)]
+            for v, w in pairs:
+                assert stamp_ns(v.header) == stamp_ns(w.header)
+                assert v.header.frame_id == w.header.frame_id
+                if msgtype == JOINT_STATE:
+                    assert v.name == tuple(w.name)
+                    assert v.position.tobytes() == np.asarray(w.position).tobytes()
+                elif msgtype == TF:
+                    assert v.child_frame_id == w.child_frame_id
+                    for a in ("translation", "rotation"):
+                        x, y = getattr(v.transform, a), getattr(w.transform, a)
+                        assert all(getattr(x, f) == getattr(y, f) for f in x._fields)
+                else:
+                    assert (v.angle_min, v.angle_increment, v.range_min, v.range_max) == (
+                        w.angle_min, w.angle_increment, w.range_min, w.range_max
+                    )  # fmt: skip
+                    assert v.ranges.tobytes() == w.ranges.tobytes()

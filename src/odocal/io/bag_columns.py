@@ -28,10 +28,10 @@ nanoseconds, float64 or float32 values). Stamps are kept as integer nanoseconds.
 from __future__ import annotations
 
 import struct
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from functools import cache
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -68,8 +68,87 @@ _NATIVE = {"i4": np.int64, "u4": np.int64, "f4": np.float32, "f8": np.float64}
 # --------------------------------------------------------------------------- columns
 
 
+class _Stamp(NamedTuple):
+    sec: int
+    nanosec: int
+
+
+class _Header(NamedTuple):
+    stamp: _Stamp
+    frame_id: str
+
+
+def _header(stamp_ns: int, frame_id: str) -> _Header:
+    sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
+    return _Header(_Stamp(sec, nanosec), frame_id)
+
+
+class _Vector(NamedTuple):
+    x: float
+    y: float
+    z: float
+
+
+class _Quaternion(NamedTuple):
+    x: float
+    y: float
+    z: float
+    w: float
+
+
+class _Transform(NamedTuple):
+    translation: _Vector
+    rotation: _Quaternion
+
+
+class _TransformStamped(NamedTuple):
+    header: _Header
+    child_frame_id: str
+    transform: _Transform
+
+
+class JointStateView(NamedTuple):
+    """One message of :class:`JointStates` with the attributes of rosbags' message that odocal
+    reads (``header.stamp``, ``header.frame_id``, ``name``, ``position``)."""
+
+    header: _Header
+    name: tuple[str, ...]
+    position: np.ndarray
+
+
+class TFMessageView(NamedTuple):
+    """One message of :class:`Transforms`: ``transforms``, each with ``header``,
+    ``child_frame_id``, ``transform.translation`` and ``transform.rotation``."""
+
+    transforms: list
+
+
+class LaserScanView(NamedTuple):
+    """One message of :class:`LaserScans`: ``header``, ``angle_min``, ``angle_increment``,
+    ``range_min``, ``range_max`` and ``ranges``."""
+
+    header: _Header
+    angle_min: float
+    angle_increment: float
+    range_min: float
+    range_max: float
+    ranges: np.ndarray
+
+
+class _Messages:
+    """Iterating a column object gives (log_time_ns, message view) pairs, in recording order, as
+    the lists of :class:`~odocal.io.bags.BagContents` do for the other types (slow: for code
+    that wants one message at a time; the series functions read the columns)."""
+
+    def __iter__(self) -> Iterator[tuple[int, Any]]:
+        return (self[i] for i in range(len(self)))  # type: ignore[arg-type]
+
+    def __getitem__(self, i: int) -> tuple[int, Any]:
+        raise NotImplementedError
+
+
 @dataclass(frozen=True, eq=False)
-class JointStates:
+class JointStates(_Messages):
     """The messages of a ``sensor_msgs/JointState`` topic, in recording order.
 
     ``log_ns``, ``stamp_ns`` (n,) int64: log time and header stamp (ns); ``layout`` (n,) index
@@ -86,16 +165,22 @@ class JointStates:
     def __len__(self) -> int:
         return len(self.log_ns)
 
+    def __getitem__(self, i: int) -> tuple[int, JointStateView]:
+        i = range(len(self))[i]
+        frame, names = self.layouts[self.layout[i]]
+        pos = self.position[i, : self.count[i]]
+        return int(self.log_ns[i]), JointStateView(_header(self.stamp_ns[i], frame), names, pos)
+
 
 @dataclass(frozen=True, eq=False)
-class Transforms:
+class Transforms(_Messages):
     """The transforms of a ``tf2_msgs/TFMessage`` topic, one row each, in publishing order.
 
     ``messages``: how many messages (some may hold no transform); ``message`` (r,) the index
     of the message holding each; ``log_ns``, ``stamp_ns`` (r,) int64 its log time and the
     transform's header stamp (ns); ``edge`` (r,) index into ``edges``, each (frame_id,
     child_frame_id) as published; ``values`` (r, 7) float64: translation x, y, z and rotation
-    x, y, z, w."""
+    x, y, z, w; ``message_log_ns`` (messages,) every message's log time."""
 
     messages: int
     message: np.ndarray
@@ -104,13 +189,25 @@ class Transforms:
     edge: np.ndarray
     edges: tuple[tuple[str, str], ...]
     values: np.ndarray
+    message_log_ns: np.ndarray
 
     def __len__(self) -> int:
         return self.messages
 
+    def __getitem__(self, i: int) -> tuple[int, TFMessageView]:
+        i = range(len(self))[i]
+        lo, hi = np.searchsorted(self.message, [i, i + 1])
+        out = []
+        for r in range(int(lo), int(hi)):
+            parent, child = self.edges[self.edge[r]]
+            v = self.values[r].tolist()
+            tr = _Transform(_Vector(*v[:3]), _Quaternion(*v[3:]))
+            out.append(_TransformStamped(_header(self.stamp_ns[r], parent), child, tr))
+        return int(self.message_log_ns[i]), TFMessageView(out)
+
 
 @dataclass(frozen=True, eq=False)
-class LaserScans:
+class LaserScans(_Messages):
     """The messages of a ``sensor_msgs/LaserScan`` topic, in recording order.
 
     ``log_ns``, ``stamp_ns`` (n,) int64; ``layout`` (n,) index into ``frames`` (frame_id);
@@ -126,6 +223,12 @@ class LaserScans:
 
     def __len__(self) -> int:
         return len(self.log_ns)
+
+    def __getitem__(self, i: int) -> tuple[int, LaserScanView]:
+        i = range(len(self))[i]
+        a_min, a_inc, r_min, r_max = self.params[i].tolist()
+        head = _header(self.stamp_ns[i], self.frames[self.layout[i]])
+        return int(self.log_ns[i]), LaserScanView(head, a_min, a_inc, r_min, r_max, self.ranges[i])
 
 
 # --------------------------------------------------------------------------- parsing
@@ -573,6 +676,9 @@ def _joint_states(blocks: list) -> JointStates:
 
 
 def _transforms(blocks: list, messages: int) -> Transforms:
+    message_log = np.zeros(messages, dtype=np.int64)
+    for seq, logs, _, _ in blocks:
+        message_log[seq] = logs
     edges: dict[tuple[str, str], int] = {}
     parts: list[tuple] = []  # (message seq, place in the message, log, stamp, edge, values)
     for seq, logs, layout, values in blocks:
@@ -582,7 +688,7 @@ def _transforms(blocks: list, messages: int) -> Transforms:
             parts.append((seq, np.full(len(seq), j), logs, _stamps(values, 4 * j), e, vals))
     if not parts:
         z = _empty_int()
-        return Transforms(messages, z, z, z, z, (), np.zeros((0, 7)))
+        return Transforms(messages, z, z, z, z.astype(np.intp), (), np.zeros((0, 7)), message_log)
     seq = np.concatenate([p[0] for p in parts])
     place = np.concatenate([p[1] for p in parts])
     order = np.lexsort((place, seq))
@@ -596,6 +702,7 @@ def _transforms(blocks: list, messages: int) -> Transforms:
         edge,
         names,
         np.concatenate([p[5] for p in parts])[order],
+        message_log,
     )
 
 

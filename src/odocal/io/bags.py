@@ -125,7 +125,12 @@ class BagContents:
     messages : dict
         topic -> list of (log_time_ns, message), in recording order; ``sensor_msgs/Imu`` and
         ``nav_msgs/Odometry`` messages as :class:`~odocal.io.bag_decode.ImuRecord` and
-        :class:`~odocal.io.bag_decode.OdometryRecord` (the fields odocal reads).
+        :class:`~odocal.io.bag_decode.OdometryRecord` (the fields odocal reads). A
+        ``sensor_msgs/JointState``, ``tf2_msgs/TFMessage`` or ``sensor_msgs/LaserScan`` topic as
+        columns instead (:class:`~odocal.io.bag_columns.JointStates`, ``Transforms``,
+        ``LaserScans``): read them with :func:`joint_series`, :func:`tf_messages`,
+        :func:`transform_buffer`, :func:`static_rotation` and :func:`scan_series`; iterating
+        one still gives (log_time_ns, message) pairs with rosbags' field names, slowly.
     start_ns : int
         The bag's start time (ns since the epoch); times in seconds are relative to it.
     picked : dict
