@@ -261,11 +261,12 @@ def main() -> None:
                             "version": i,
                             "minutes": m,
                             "wall_s": w,
+                            "cpu_s": cpu,
                             "peak_mb": mb,
                             "status": st,
-                        }  # fmt: skip
+                        }
                         for (r, i, m), v in runs.items()
-                        for w, mb, st in v
+                        for w, mb, st, cpu in v
                     ],
                 },
                 indent=1,

@@ -46,7 +46,7 @@ _READ_GYRO: ContextVar[bool] = ContextVar("odocal_read_gyro", default=True)
 def without_gyro() -> Iterator[None]:
     """Within this block, :func:`load_bag_recording` does not read the bags' IMU (no
     ``gyro_yaw_rad``, no gyro facts or warnings): for a caller that does not use the gyro
-    heading (``odocal check``), an hour's IMU is a third of the bag. The IMU topic is still
+    heading (``odocal check``): an IMU is often most of a bag's messages. The IMU topic is still
     chosen, so a wrong ``--imu-topic`` is the same error."""
     token = _READ_GYRO.set(False)
     try:
