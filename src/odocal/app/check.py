@@ -23,6 +23,7 @@ from ..core.model import Robot, WheelGeometry
 from ..core.recording import Recording
 from ..errors import InputError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
+from ..io.bag_recording import without_gyro
 from ..io.bag_slam import SlamBag, load_slam_bags
 from ..io.recordings import load_recordings
 from .common import RobotSpec, load_warnings, nominal_geometry, optional_robot
@@ -123,7 +124,10 @@ def check(
         )
         recordings = [b.recording for b in slam]
     else:
-        recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, warnings=notes, bag=bag)
+        with without_gyro():  # the check does not use the gyro heading
+            recordings = load_recordings(
+                paths, ticks_per_rev=ticks_per_rev, warnings=notes, bag=bag
+            )
     geometry = nominal_geometry(r, recordings)
     if geometry is None:
         raise InputError(

@@ -50,19 +50,33 @@ def wheel_increments(
     t: np.ndarray, right: np.ndarray, left: np.ndarray, start_s: np.ndarray, end_s: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """The wheel rotations of each interval [start_s, end_s] as sampled: the differences of the
-    wheel angles (rad; ``right``, ``left`` at times ``t``, s) at the interval's ends and at every
-    wheel sample between them. Two arrays of shape (n, K), rows zero padded; each row sums to the
-    interval's rotation."""
-    rows_r, rows_l = [], []
-    for a, b in zip(start_s, end_s, strict=True):
-        inside = t[(t > a) & (t < b)]
-        tt = np.r_[a, inside, b]
-        rows_r.append(np.diff(np.interp(tt, t, right)))
-        rows_l.append(np.diff(np.interp(tt, t, left)))
-    k = max((len(x) for x in rows_r), default=1)
-    out_r, out_l = np.zeros((len(rows_r), k)), np.zeros((len(rows_r), k))
-    for i, (x, y) in enumerate(zip(rows_r, rows_l, strict=True)):
-        out_r[i, : len(x)], out_l[i, : len(y)] = x, y
+    wheel angles (rad; ``right``, ``left`` at times ``t``, s, increasing) at the interval's ends
+    and at every wheel sample between them. Two arrays of shape (n, K), rows zero padded; each
+    row sums to the interval's rotation.
+
+    All intervals at once: the samples strictly inside each are found by bisection, and every
+    row's instants (start, the samples inside, end, then the end repeated as padding) are
+    interpolated in one call; the padding's differences are set to zero."""
+    t = np.asarray(t, dtype=float)
+    a = np.asarray(start_s, dtype=float).reshape(-1)
+    b = np.asarray(end_s, dtype=float).reshape(-1)
+    if a.shape != b.shape:
+        raise ValueError(f"{a.size} interval starts for {b.size} ends")
+    if len(a) == 0:
+        return np.zeros((0, 1)), np.zeros((0, 1))
+    lo = np.searchsorted(t, a, side="right")  # the first sample after the start
+    hi = np.searchsorted(t, b, side="left")  # the first sample at or after the end
+    with np.errstate(invalid="ignore"):
+        inside = np.where(a < b, np.maximum(hi - lo, 0), 0)  # NaN ends: nothing inside
+    k = int(inside.max()) + 1  # increments of the longest row
+    col = np.arange(k + 1)
+    # column 0 the start, 1..inside the samples, then the end (repeated to the row's width)
+    idx = np.minimum(lo[:, None] + col[None, :] - 1, len(t) - 1)
+    tt = np.where(col[None, :] <= inside[:, None], t[np.maximum(idx, 0)], b[:, None])
+    tt[:, 0] = a
+    used = col[None, :-1] <= inside[:, None]
+    out_r = np.where(used, np.diff(np.interp(tt, t, right), axis=1), 0.0)
+    out_l = np.where(used, np.diff(np.interp(tt, t, left), axis=1), 0.0)
     return out_r, out_l
 
 

@@ -23,6 +23,7 @@ scatter at the solution (see ``_covariance``).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -32,6 +33,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..core.model import WheelGeometry
+from ..core.parallel import can_fork, run_tasks, workers
 from ..errors import CalibrationError, ModelError
 from .relative_motions import RelativeMotions, wheel_increments
 from .time_offset import TimeOffset, estimate_time_offset
@@ -123,6 +125,9 @@ class PreparedScan:
         The point lies on a fitted line.
     tree : scipy.spatial.cKDTree
         k-d tree of ``points_m``.
+    matchable : ndarray of bool, shape (n + 1,)
+        ``has_normal`` and False at index n (the index the tree gives a point with no neighbour
+        within the correspondence gate): one lookup tells which correspondences count.
     """
 
     points_m: np.ndarray
@@ -131,6 +136,13 @@ class PreparedScan:
     neighbor_count: np.ndarray
     has_normal: np.ndarray
     tree: cKDTree = field(repr=False)
+    matchable: np.ndarray = field(repr=False, default_factory=lambda: np.zeros(1, dtype=bool))
+
+    def __post_init__(self) -> None:
+        if len(self.matchable) != len(self.has_normal) + 1:
+            ext = np.append(np.asarray(self.has_normal, dtype=bool), False)
+            ext.setflags(write=False)
+            object.__setattr__(self, "matchable", ext)
 
 
 @dataclass(frozen=True)
@@ -253,10 +265,14 @@ def prepare_scan(
     k = min(normal_neighbors, p.shape[0])
     dist, idx = tree.query(p, k=k, distance_upper_bound=normal_radius_m)
     found = np.isfinite(dist)  # (n, k); missing neighbours have index n
-    nb = np.where(found[..., None], p[np.minimum(idx, p.shape[0] - 1)], 0.0)
+    nb = np.concatenate([p, np.zeros((1, 2))])[idx]  # (n, k, 2); a missing neighbour: 0.0
     count = found.sum(axis=1)
-    mean = nb.sum(axis=1) / count[:, None]
-    d = np.where(found[..., None], nb - mean[:, None, :], 0.0)
+    total = nb[:, 0].copy()  # the neighbours' sum in order, as nb.sum(axis=1) adds them
+    for i in range(1, k):
+        total += nb[:, i]
+    mean = total / count[:, None]
+    d = nb - mean[:, None, :]
+    d[~found] = 0.0
     sxx = np.einsum("nk,nk->n", d[..., 0], d[..., 0])
     syy = np.einsum("nk,nk->n", d[..., 1], d[..., 1])
     sxy = np.einsum("nk,nk->n", d[..., 0], d[..., 1])
@@ -268,9 +284,10 @@ def prepare_scan(
     with np.errstate(invalid="ignore", divide="ignore"):
         is_line = (count >= 3) & (lam_min <= max_line_ratio * lam_max) & (lam_max > 0)
     normals[~is_line] = np.nan
-    for a in (p, normals, mean, count, is_line):
+    matchable = np.append(is_line, False)
+    for a in (p, normals, mean, count, is_line, matchable):
         a.setflags(write=False)
-    return PreparedScan(p, normals, mean, count, is_line, tree)
+    return PreparedScan(p, normals, mean, count, is_line, tree, matchable)
 
 
 def match_scans(
@@ -405,6 +422,7 @@ def _match(ref: PreparedScan, cur: np.ndarray, pose: np.ndarray, opt: _Settings)
     pose = pose.copy()
     # lever for comparing rotation with translation: the rms distance of the current points
     lever_m = max(float(np.sqrt(np.mean(np.sum(cur**2, axis=1)))), 1e-3)
+    d = np.array([1.0, 1.0, 1.0 / lever_m])  # theta * lever is a length
     floor = np.array([opt.tol_m, opt.tol_m, opt.tol_rad])
     converged = degenerate = False
     iterations = 0
@@ -413,7 +431,7 @@ def _match(ref: PreparedScan, cur: np.ndarray, pose: np.ndarray, opt: _Settings)
         lin = _linearise(ref, cur, pose, opt)
         if lin is None:  # no overlap left
             break
-        step, degenerate, inverse_diag = _solve(lin.hessian, lin.gradient, lever_m)
+        step, degenerate, inverse_diag = _solve(lin.hessian(), lin.gradient(), d)
         pose -= step
         # Converged when the step is below the absolute tolerances or, for noisy scans whose
         # correspondences end up switching back and forth in a small cycle, below STEP_SIGMAS
@@ -435,25 +453,40 @@ def _match(ref: PreparedScan, cur: np.ndarray, pose: np.ndarray, opt: _Settings)
     return ScanMatch(pose, covariance, iterations, converged, degenerate, inlier_fraction, rms)
 
 
-@dataclass(frozen=True)
 class _Linearisation:
     """Weighted least-squares problem at one pose: residuals (m), Jacobian rows
     d residual / d (x, y, theta), robust weights, the robust scale (m), and the reference
     point of each correspondence."""
 
-    residual: np.ndarray
-    jacobian: np.ndarray
-    weight: np.ndarray
-    scale: float
-    ref_index: np.ndarray
+    __slots__ = ("residual", "jacobian", "weight", "scale", "ref_index")
 
-    @property
+    def __init__(
+        self,
+        residual: np.ndarray,
+        jacobian: np.ndarray,
+        weight: np.ndarray,
+        scale: float,
+        ref_index: np.ndarray,
+    ) -> None:
+        self.residual, self.jacobian, self.weight = residual, jacobian, weight
+        self.scale, self.ref_index = scale, ref_index
+
     def hessian(self) -> np.ndarray:
         return self.jacobian.T @ (self.weight[:, None] * self.jacobian)
 
-    @property
     def gradient(self) -> np.ndarray:
         return self.jacobian.T @ (self.weight * self.residual)
+
+
+def _median(a: np.ndarray) -> float:
+    """``np.median`` of a 1-D float array without NaN, the same number (the middle value, or
+    the mean of the two middle values), without its general machinery."""
+    n = a.size
+    h = n // 2
+    if n % 2:
+        return float(np.partition(a, h)[h])
+    part = np.partition(a, (h - 1, h))
+    return float((part[h - 1] + part[h]) / 2.0)
 
 
 def _linearise(
@@ -464,10 +497,10 @@ def _linearise(
     c, s = math.cos(pose[2]), math.sin(pose[2])
     rotated = cur @ np.array([[c, s], [-s, c]])  # rows R q
     moved = rotated + pose[:2]
-    dist, idx = ref.tree.query(moved, k=1, distance_upper_bound=opt.gate_m)
-    ok = np.isfinite(dist)
-    ok[ok] = ref.has_normal[idx[ok]]
-    if np.count_nonzero(ok) < 4:
+    _, idx = ref.tree.query(moved, k=1, distance_upper_bound=opt.gate_m)
+    ok = ref.matchable[idx]  # a neighbour within the gate (else index n), on a line
+    m = np.count_nonzero(ok)
+    if m < 4:
         return None
     j = idx[ok]
     normal = ref.normals[j]
@@ -476,11 +509,11 @@ def _linearise(
     res = np.einsum("ij,ij->i", normal, moved[ok] - ref.centroids_m[j])
     rq = rotated[ok]
     # d(R q + t)/d theta = perp(R q) = (-(R q)_y, (R q)_x)
-    jac = np.column_stack(
-        [normal[:, 0], normal[:, 1], normal[:, 1] * rq[:, 0] - normal[:, 0] * rq[:, 1]]
-    )
+    jac = np.empty((m, 3))
+    jac[:, :2] = normal
+    jac[:, 2] = normal[:, 1] * rq[:, 0] - normal[:, 0] * rq[:, 1]
     absr = np.abs(res)
-    scale = max(_MAD_TO_SIGMA * float(np.median(absr)), opt.min_scale_m)
+    scale = max(_MAD_TO_SIGMA * _median(absr), opt.min_scale_m)
     huber = _HUBER_K * scale
     w = np.where(absr <= huber, 1.0, huber / np.maximum(absr, huber))
     w[absr > max(opt.outlier_sigmas * scale, opt.min_outlier_m)] = 0.0
@@ -504,20 +537,19 @@ def _covariance(lin: _Linearisation, neighbors: float) -> np.ndarray | None:
     s2 = float(np.sum(lin.weight * lin.residual**2)) / dof
     sigma2 = s2 * neighbors / (neighbors + 1.0)
     try:
-        cov = 2.0 * sigma2 * np.linalg.inv(lin.hessian)
+        cov = 2.0 * sigma2 * np.linalg.inv(lin.hessian())
     except np.linalg.LinAlgError:
         return None
     return 0.5 * (cov + cov.T)
 
 
 def _solve(
-    hessian: np.ndarray, gradient: np.ndarray, lever_m: float
+    hessian: np.ndarray, gradient: np.ndarray, d: np.ndarray
 ) -> tuple[np.ndarray, bool, np.ndarray]:
     """Gauss-Newton step (x, y, theta) from H step = g, whether a direction is unconstrained,
     and the diagonal of the (pseudo-)inverse of H. Directions the scene does not constrain
-    (relative eigenvalue below DEGENERATE_RATIO, with theta scaled by ``lever_m``) get no
-    step."""
-    d = np.array([1.0, 1.0, 1.0 / lever_m])  # theta * lever is a length
+    (relative eigenvalue below DEGENERATE_RATIO, with theta scaled: ``d`` = (1, 1, 1 / lever))
+    get no step."""
     vals, vecs = np.linalg.eigh(hessian * d[:, None] * d[None, :])
     if not vals[-1] > 0:
         return np.zeros(3), True, np.full(3, np.inf)
@@ -550,9 +582,12 @@ def match_intervals(
     **options
         Passed to :func:`match_scans` (and to :func:`prepare_scan` for the line fits).
 
-    Each distinct start scan is prepared (tree, line fits) once. A scan with too few valid
-    points raises :class:`CalibrationError` naming its index; a match that fails to converge
-    is returned with ``converged`` False (see :attr:`IntervalMatches.usable`).
+    Each distinct start scan is prepared (tree, line fits) once, and kept only until its last
+    interval. Many intervals are matched on the cores the process may use
+    (:func:`odocal.core.parallel.run_tasks`, ``ODOCAL_THREADS``; the same numbers whatever
+    their count). A scan with too few valid points raises :class:`CalibrationError` naming its
+    index (the first such interval); a match that fails to converge is returned with
+    ``converged`` False (see :attr:`IntervalMatches.usable`).
     """
     t = np.asarray(times_s, dtype=float).reshape(-1)
     if t.size != len(scans):
@@ -573,26 +608,27 @@ def match_intervals(
 
     prep_keys = ("normal_neighbors", "normal_radius_m", "max_line_ratio")
     prep_options = {key: options.pop(key) for key in prep_keys if key in options}
-    prepared: dict[int, PreparedScan] = {}
-    motion = np.full((k, 3), np.nan)
-    cov = np.full((k, 3, 3), np.nan)
-    converged = np.zeros(k, dtype=bool)
-    degenerate = np.zeros(k, dtype=bool)
-    iterations = np.zeros(k, dtype=int)
-    inliers = np.zeros(k)
-    rms = np.full(k, np.nan)
-    for row, (i0, i1) in enumerate(iv.tolist()):
-        try:
-            if i0 not in prepared:
-                prepared[i0] = prepare_scan(scans[i0], **prep_options)
-            m = match_scans(prepared[i0], scans[i1], guesses[row], **options)
-        except CalibrationError as exc:
-            raise CalibrationError(f"interval {row} (scans {i0} -> {i1}): {exc}") from exc
-        motion[row] = m.motion
-        if m.covariance is not None:
-            cov[row] = m.covariance
-        converged[row], degenerate[row] = m.converged, m.degenerate
-        iterations[row], inliers[row], rms[row] = m.iterations, m.inlier_fraction, m.rms_m
+    bounds = _chunks(k)
+    parts = run_tasks(
+        [
+            functools.partial(_match_rows, scans, iv, guesses, a, b, prep_options, options)
+            for a, b in bounds
+        ]
+    )
+    motion, cov, converged, degenerate, iterations, inliers, rms = (
+        np.concatenate([part[f] for part in parts]) if parts else empty
+        for f, empty in enumerate(
+            (
+                np.full((0, 3), np.nan),
+                np.full((0, 3, 3), np.nan),
+                np.zeros(0, dtype=bool),
+                np.zeros(0, dtype=bool),
+                np.zeros(0, dtype=int),
+                np.zeros(0),
+                np.full(0, np.nan),
+            )
+        )
+    )
     return IntervalMatches(
         iv.astype(int),
         t[iv[:, 0]],
@@ -605,6 +641,60 @@ def match_intervals(
         inliers,
         rms,
     )
+
+
+#: Intervals below which match_intervals stays in this process (a worker costs about 0.1 s).
+PARALLEL_MIN_INTERVALS = 200
+
+
+def _chunks(k: int) -> list[tuple[int, int]]:
+    """Rows [a, b) of the tasks the intervals are matched in: one task in this process for few
+    intervals or one worker; else a few per worker (the faster worker takes more)."""
+    n = workers() if k >= PARALLEL_MIN_INTERVALS and can_fork() else 1
+    pieces = 1 if n == 1 else 4 * n
+    edges = np.linspace(0, k, pieces + 1).round().astype(int)
+    return [(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a]
+
+
+def _match_rows(
+    scans: Any,
+    iv: np.ndarray,
+    guesses: np.ndarray,
+    lo: int,
+    hi: int,
+    prep_options: dict,
+    options: dict,
+) -> tuple[np.ndarray, ...]:
+    """Match intervals ``lo`` to ``hi`` (exclusive) of ``iv``: the columns of
+    :class:`IntervalMatches` for those rows. A start scan is prepared once and kept only until
+    its last interval here (a drive's intervals run in order: one at a time), not for the
+    whole drive: an hour's prepared scans would take gigabytes."""
+    k = hi - lo
+    motion = np.full((k, 3), np.nan)
+    cov = np.full((k, 3, 3), np.nan)
+    converged = np.zeros(k, dtype=bool)
+    degenerate = np.zeros(k, dtype=bool)
+    iterations = np.zeros(k, dtype=int)
+    inliers = np.zeros(k)
+    rms = np.full(k, np.nan)
+    rows = iv[lo:hi].tolist()
+    last = {i0: r for r, (i0, _) in enumerate(rows)}  # the last row each start scan is used in
+    prepared: dict[int, PreparedScan] = {}
+    for r, (i0, i1) in enumerate(rows):
+        try:
+            if i0 not in prepared:
+                prepared[i0] = prepare_scan(scans[i0], **prep_options)
+            m = match_scans(prepared[i0], scans[i1], guesses[lo + r], **options)
+        except CalibrationError as exc:
+            raise CalibrationError(f"interval {lo + r} (scans {i0} -> {i1}): {exc}") from exc
+        if last[i0] == r:
+            del prepared[i0]
+        motion[r] = m.motion
+        if m.covariance is not None:
+            cov[r] = m.covariance
+        converged[r], degenerate[r] = m.converged, m.degenerate
+        iterations[r], inliers[r], rms[r] = m.iterations, m.inlier_fraction, m.rms_m
+    return motion, cov, converged, degenerate, iterations, inliers, rms
 
 
 #: Fewest matched scan intervals a relative-motion fit takes from one drive.

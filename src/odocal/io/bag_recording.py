@@ -8,6 +8,9 @@ truth; integrates the gyro with :func:`odocal.calibration.gyro.gyro_heading`. Ev
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
+from contextvars import ContextVar
 
 import numpy as np
 
@@ -33,7 +36,23 @@ from .bags import (
     static_rotation,
 )
 
-__all__ = ["load_bag_recording"]
+__all__ = ["load_bag_recording", "without_gyro"]
+
+# False within without_gyro(): the IMU topic is chosen (and checked) but not read
+_READ_GYRO: ContextVar[bool] = ContextVar("odocal_read_gyro", default=True)
+
+
+@contextmanager
+def without_gyro() -> Iterator[None]:
+    """Within this block, :func:`load_bag_recording` does not read the bags' IMU (no
+    ``gyro_yaw_rad``, no gyro facts or warnings): for a caller that does not use the gyro
+    heading (``odocal check``): an IMU is often most of a bag's messages. The IMU topic is still
+    chosen, so a wrong ``--imu-topic`` is the same error."""
+    token = _READ_GYRO.set(False)
+    try:
+        yield
+    finally:
+        _READ_GYRO.reset(token)
 
 
 def _check_wheel_signs(time_s, right, left, gt, path, topic, names) -> list[str]:
@@ -191,7 +210,10 @@ def load_bag_recording(
         else:
             pick_topic(info, gt, (*POSE_TYPES, ODOMETRY), "ground truth", p, "--truth-topic")
         it = pick_topic(info, imu_topic, (IMU,), "gyro", p, "--imu-topic", required=False)
-        return {"joints": jt, "truth": gt, "imu": it, "tf_static": present(info, "/tf_static")}
+        if not _READ_GYRO.get():
+            it = None
+        tf_static = present(info, "/tf_static") if it else None  # the IMU's mounting only
+        return {"joints": jt, "truth": gt, "imu": it, "tf_static": tf_static}
 
     bag = read_bag(p, choose)
     jt: str = bag.picked["joints"]  # required: chosen or an error

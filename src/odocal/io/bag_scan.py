@@ -1,6 +1,10 @@
 """What the scan-matching fit reads from a bag: the wheel joints, the laser scans and the laser's
-mounting on the base from ``/tf`` (a guess for the matcher's start; the fit estimates it). The
-matching itself is :func:`odocal.calibration.scan_matching.scan_interval_motions`."""
+mounting on the base from ``/tf_static`` (a guess for the matcher's start; the fit estimates it).
+The matching itself is :func:`odocal.calibration.scan_matching.scan_interval_motions`.
+
+``/tf`` (in a long bag most of the messages besides the scans and joints) is read only when
+``/tf_static`` does not place the laser under ``base_link`` (a laser whose mounting is published
+on ``/tf``, or a robot whose base frame is another one)."""
 
 from __future__ import annotations
 
@@ -9,11 +13,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import InputError
+from .bag_columns import LaserScans
 from .bag_options import BagOptions
 from .bags import (
     BASE_FRAMES,
     JOINT_STATE,
     LASER_SCAN,
+    BagContents,
     ScanSeries,
     TopicInfo,
     TopicSeries,
@@ -68,11 +75,13 @@ def read_scan_bag(path: str | Path, options: BagOptions, ticks_per_rev: float | 
             "scan": pick_topic(
                 info, options.scan_topic, (LASER_SCAN,), "laser scans", p, "--scan-topic"
             ),
-            "tf": present(info, "/tf"),
             "tf_static": present(info, "/tf_static"),
         }
 
-    bag = read_bag(p, choose)
+    def tf_if_needed(bag: BagContents) -> dict[str, str | None]:
+        return {"tf": None if _static_mount(bag) else present(bag.topics, "/tf")}
+
+    bag = read_bag(p, choose, then=tf_if_needed)
     jt, st = bag.picked["joints"], bag.picked["scan"]
     joints = joint_series(bag, jt, options.right_joint, options.left_joint, ticks_per_rev)
     scans = scan_series(bag, st)
@@ -91,3 +100,18 @@ def read_scan_bag(path: str | Path, options: BagOptions, ticks_per_rev: float | 
             "starts as if the laser sat at the base origin"
         )
     return ScanBag(p, joints, scans, mount, mount_source, tuple(warnings))
+
+
+def _static_mount(bag: BagContents) -> bool:
+    """Whether ``/tf_static`` alone links ``base_link`` (the base frame the lookup prefers: /tf
+    cannot make it pick another) to the laser's frame, so that ``/tf`` need not be read."""
+    scans = bag.messages.get(bag.picked.get("scan", ""))
+    if not isinstance(scans, LaserScans) or not len(scans) or "tf_static" not in bag.picked:
+        return False
+    frame = scans.frames[scans.layout[0]].lstrip("/")
+    try:
+        buf = transform_buffer(bag)
+        base = BASE_FRAMES[0]
+        return base in buf.frames and all(s.static for s in buf.chain(base, frame))
+    except InputError:
+        return False

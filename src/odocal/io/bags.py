@@ -21,8 +21,9 @@ Runs are assembled from these series in :mod:`odocal.io.bag_recording`. Every pr
 
 from __future__ import annotations
 
+import gc
 import math
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence, Sized
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -31,6 +32,16 @@ import numpy as np
 
 from ..calibration.gyro import rotation_from_quaternion
 from ..errors import InputError, OdocalError
+from .bag_columns import (
+    CHUNK,
+    COLUMN_TYPES,
+    ColumnBuilder,
+    JointStates,
+    LaserScans,
+    NonStandard,
+    Transforms,
+    is_standard,
+)
 from .bag_decode import RECORD_TYPES, ImuRecord, OdometryRecord, decoder, record, stamp_ns
 from .limits import (
     POSITION_MAX_M,
@@ -62,6 +73,7 @@ __all__ = [
     "tf_messages",
     "transform_buffer",
     "ScanSeries",
+    "ScanPoints",
     "scan_series",
     "LASER_SCAN",
     "JOINT_STATE",
@@ -113,7 +125,12 @@ class BagContents:
     messages : dict
         topic -> list of (log_time_ns, message), in recording order; ``sensor_msgs/Imu`` and
         ``nav_msgs/Odometry`` messages as :class:`~odocal.io.bag_decode.ImuRecord` and
-        :class:`~odocal.io.bag_decode.OdometryRecord` (the fields odocal reads).
+        :class:`~odocal.io.bag_decode.OdometryRecord` (the fields odocal reads). A
+        ``sensor_msgs/JointState``, ``tf2_msgs/TFMessage`` or ``sensor_msgs/LaserScan`` topic as
+        columns instead (:class:`~odocal.io.bag_columns.JointStates`, ``Transforms``,
+        ``LaserScans``): read them with :func:`joint_series`, :func:`tf_messages`,
+        :func:`transform_buffer`, :func:`static_rotation` and :func:`scan_series`; iterating
+        one still gives (log_time_ns, message) pairs with rosbags' field names, slowly.
     start_ns : int
         The bag's start time (ns since the epoch); times in seconds are relative to it.
     picked : dict
@@ -229,19 +246,41 @@ class _Bag:
     def read(self, topics: Iterable[str], fast: bool = True) -> dict:
         """topic -> [(log_time_ns, message)]; Imu and Odometry as records
         (:mod:`odocal.io.bag_decode`), decoded there unless ``fast`` is False or the message is
-        not of the standard form (then by rosbags, as every other type)."""
+        not of the standard form (then by rosbags, as every other type); JointState, TFMessage
+        and LaserScan topics as columns (:mod:`odocal.io.bag_columns`, parsed there on the same
+        terms).
+
+        The garbage collector is paused during the read: it would otherwise walk the messages
+        read so far again and again (half the time of a long read), and they hold no cycles."""
         wanted = set(topics)
-        out: dict[str, list] = {t: [] for t in wanted}
+        out: dict[str, Any] = {t: [] for t in wanted}
         conns = [c for c in self.reader.connections if c.topic in wanted]
         deserialize = self.reader.deserialize
         ros1 = not self.reader.is2
-        decoders = {
-            c.id: decoder(c.msgtype, self.reader.typestore, ros1) if fast else None for c in conns
-        }
+        typestore = self.reader.typestore
+        decoders = {c.id: decoder(c.msgtype, typestore, ros1) if fast else None for c in conns}
+        builders = self._builders(conns, fast)
+        parse = {c.id: fast and is_standard(c.msgtype, typestore, ros1) for c in conns}
+        targets = {c.id: builders[c.topic] for c in conns if c.topic in builders}
         topic, count = None, 0
+        paused = gc.isenabled()
+        gc.disable()
         try:
             for conn, t_ns, raw in self.reader.messages(connections=conns):
                 topic = conn.topic
+                builder = targets.get(conn.id)
+                if builder is not None:  # a column topic: decoded a chunk at a time
+                    if not parse[conn.id]:
+                        builder.slow.append(len(builder.raws))
+                    builder.raws.append(raw)
+                    builder.logs.append(t_ns)
+                    builder.index.append(count)
+                    count += 1
+                    if len(builder.raws) >= CHUNK:
+                        builder.flush()
+                        if builder.failures:
+                            self._first_failure(builders)
+                    continue
                 fast_decode = decoders[conn.id]
                 msg = fast_decode(raw) if fast_decode else None
                 if msg is None:
@@ -250,16 +289,77 @@ class _Bag:
                         msg = self._record(conn.msgtype, msg, topic)
                 out[topic].append((int(t_ns), msg))
                 count += 1
+            for builder in builders.values():
+                builder.flush()
+            self._first_failure(builders)
         except OdocalError:
+            self._first_failure(builders)
             raise
         except Exception as exc:
+            self._first_failure(builders)
             last = f", the last on '{topic}'" if topic else ""
             raise InputError(
                 f"cannot read the bag after {count} good messages{last} ({_why(exc)}); is it "
                 "truncated or corrupt?",
                 self.path,
             ) from None
+        finally:
+            if paused:
+                gc.enable()
+        for name, builder in builders.items():
+            out[name] = builder.finish()
         return out
+
+    def _builders(self, conns, fast: bool) -> dict[str, ColumnBuilder]:
+        """topic -> the builder of its columns, for the topics of a column type (all their
+        connections of that one type)."""
+        types: dict[str, set[str]] = {}
+        for c in conns:
+            types.setdefault(c.topic, set()).add(c.msgtype)
+        ros1 = not self.reader.is2
+        deserialize = self.reader.deserialize
+        max_sequence = int(getattr(self.reader.typestore, "max_sequence_length", 2**32 - 1))
+        builders = {}
+        for topic, kinds in types.items():
+            (msgtype,) = kinds if len(kinds) == 1 else (None,)
+            if msgtype in COLUMN_TYPES:
+                builders[topic] = ColumnBuilder(
+                    topic,
+                    msgtype,
+                    ros1,
+                    lambda raw, mt=msgtype: deserialize(raw, mt),
+                    max_sequence,
+                )
+            elif any(k in COLUMN_TYPES for k in kinds):
+                raise InputError(
+                    f"topic '{topic}' carries several message types ({', '.join(sorted(kinds))})",
+                    self.path,
+                )
+        return builders
+
+    def _first_failure(self, builders: Mapping[str, ColumnBuilder]) -> None:
+        """Raise the first message (in reading order) the column builders could not decode,
+        as the read would have at that message; nothing when none failed."""
+        if not any(b.failures for b in builders.values()):
+            return
+        for b in builders.values():
+            b.flush()  # a message read earlier, still waiting in a chunk, may have failed too
+        first = min((f for b in builders.values() for f in b.failures), key=lambda f: f.index)
+        exc = first.exc
+        if isinstance(exc, NonStandard):
+            raise InputError(
+                f"{_short(exc.msgtype)} of a non-standard definition: it has no field '{exc.name}'",
+                self.path,
+                None,
+                first.topic,
+            ) from None
+        if isinstance(exc, OdocalError):
+            raise exc
+        raise InputError(
+            f"cannot read the bag after {first.index} good messages, the last on "
+            f"'{first.topic}' ({_why(exc)}); is it truncated or corrupt?",
+            self.path,
+        ) from None
 
     def _record(self, msgtype: str, msg, topic: str):
         try:
@@ -282,15 +382,25 @@ def list_topics(path) -> list[TopicInfo]:
 TopicChoice = Callable[[list[TopicInfo]], Mapping[str, str | None]]
 
 
-def read_bag(path, topics: Iterable[str] | TopicChoice = (), *, fast: bool = True) -> BagContents:
+def read_bag(
+    path,
+    topics: Iterable[str] | TopicChoice = (),
+    *,
+    fast: bool = True,
+    then: Callable[[BagContents], Mapping[str, str | None]] | None = None,
+) -> BagContents:
     """Read the messages of some topics of a bag, opening it once.
 
     ``topics``: topic names (each must exist), or a function of the bag's topic list returning
     role -> topic name (None: that role has no topic; nothing is read for it), which picks the
     topics on the open bag (with :func:`pick_topic`, whose errors it raises); the roles are kept
     in :attr:`BagContents.picked`. ``fast``: decode ``sensor_msgs/Imu`` and ``nav_msgs/Odometry``
-    of the standard definition with :mod:`odocal.io.bag_decode` (the same numbers as rosbags);
+    of the standard definition with :mod:`odocal.io.bag_decode` and JointState, TFMessage and
+    LaserScan into columns with :mod:`odocal.io.bag_columns` (the same numbers as rosbags);
     False: every message through rosbags (the reference the tests and benchmarks compare with).
+    ``then``: a function of what was read returning more roles -> topics (None: not needed),
+    read in a second pass over the open bag (a topic only some bags need: ``/tf`` when
+    ``/tf_static`` lacks a transform).
     """
     with _Bag(path) as bag:
         info = bag.topics()
@@ -300,13 +410,25 @@ def read_bag(path, topics: Iterable[str] | TopicChoice = (), *, fast: bool = Tru
             wanted = list(dict.fromkeys(picked.values()))
         else:
             wanted = list(topics)
-        names = {t.name for t in info}
-        for t in wanted:
-            if t not in names:
-                raise InputError(f"no topic '{t}' in the bag; {_available(info)}", bag.path)
+        _check_present(wanted, info, bag.path)
         messages = bag.read(wanted, fast)
         start = int(bag.reader.start_time) if info else 0
-    return BagContents(bag.path, info, messages, start, picked)
+        contents = BagContents(bag.path, info, messages, start, picked)
+        if then is not None:
+            more = {role: t for role, t in then(contents).items() if t is not None}
+            extra = [t for t in dict.fromkeys(more.values()) if t not in messages]
+            _check_present(extra, info, bag.path)
+            if extra:
+                messages.update(bag.read(extra, fast))
+            picked.update(more)
+    return contents
+
+
+def _check_present(wanted: Iterable[str], info: Sequence[TopicInfo], path: Path) -> None:
+    names = {t.name for t in info}
+    for t in wanted:
+        if t not in names:
+            raise InputError(f"no topic '{t}' in the bag; {_available(info)}", path)
 
 
 def present(topics: Sequence[TopicInfo], name: str) -> str | None:
@@ -389,10 +511,17 @@ def _frame_id(msg) -> str:
 def _times(msgs: list, path: Path, topic: str, start_ns: int) -> np.ndarray:
     """Header stamps (or log times when the stamps are zero) in s relative to ``start_ns``;
     InputError unless strictly increasing."""
-    stamps = [_stamp_ns(m) for _, m in msgs]
-    if any(s == 0 for s in stamps):
-        stamps = [t for t, _ in msgs]
-    t = (np.array(stamps, dtype=np.int64) - np.int64(start_ns)).astype(float) * 1e-9
+    stamps = np.array([_stamp_ns(m) for _, m in msgs], dtype=np.int64)
+    return _seconds(stamps, np.array([t for t, _ in msgs], dtype=np.int64), path, topic, start_ns)
+
+
+def _seconds(
+    stamps: np.ndarray, log_ns: np.ndarray, path: Path, topic: str, start_ns: int
+) -> np.ndarray:
+    """:func:`_times` of header stamps and log times (int64 ns)."""
+    if np.any(stamps == 0):
+        stamps = log_ns
+    t = (np.asarray(stamps, dtype=np.int64) - np.int64(start_ns)).astype(float) * 1e-9
     d = np.diff(t)
     bad = np.nonzero(d <= 0)[0]
     if len(bad):
@@ -429,7 +558,7 @@ def _finite(arr: np.ndarray, path: Path, topic: str, what: str, limit: float | N
             )
 
 
-def _need(msgs: list, path: Path, topic: str, n: int = 2) -> None:
+def _need(msgs: Sized, path: Path, topic: str, n: int = 2) -> None:
     if len(msgs) < n:
         raise InputError(f"needs at least {n} messages, got {len(msgs)}", path, None, topic)
 
@@ -545,11 +674,11 @@ def joint_series(
     Messages that do not carry both joints are skipped (several publishers may share
     ``/joint_states``). ``values``: 'right', 'left' (rad, cumulative, unwrapped).
     """
-    msgs = bag.messages[topic]
+    js: JointStates = bag.messages[topic]
     path = bag.path
     names: set[str] = set()
-    for _, m in msgs:
-        names.update(m.name)
+    for _, nm in js.layouts:
+        names.update(nm)
     right = right_joint or _side_joint(names, "right", path, topic)
     left = left_joint or _side_joint(names, "left", path, topic)
     for j in (right, left):
@@ -559,25 +688,26 @@ def joint_series(
             )
     if right == left:
         raise InputError(f"the right and left joints are both '{right}'", path, None, topic)
-    kept: list[tuple[int, Any]] = []
-    rows: list[tuple[float, float]] = []
-    for item in msgs:
-        m = item[1]
-        nm = list(m.name)
-        if right in nm and left in nm:
-            pos = m.position
-            ir, il = nm.index(right), nm.index(left)
-            if len(pos) <= max(ir, il):
-                raise InputError(
-                    f"message {len(kept)}: {len(pos)} positions for {len(nm)} joint names",
-                    path,
-                    None,
-                    topic,
-                )
-            kept.append(item)
-            rows.append((pos[ir], pos[il]))
+    # per layout (names): whether it carries both joints, and where (the first of each name)
+    carries = np.array([right in nm and left in nm for _, nm in js.layouts] + [False])
+    ir = np.array([nm.index(right) if right in nm else 0 for _, nm in js.layouts] + [0])
+    il = np.array([nm.index(left) if left in nm else 0 for _, nm in js.layouts] + [0])
+    both = carries[js.layout]
+    short = both & (js.count <= np.maximum(ir, il)[js.layout])
+    if np.any(short):
+        i = int(np.flatnonzero(short)[0])
+        raise InputError(
+            f"message {int(np.count_nonzero(both[:i]))}: {int(js.count[i])} positions for "
+            f"{len(js.layouts[js.layout[i]][1])} joint names",
+            path,
+            None,
+            topic,
+        )
+    kept = np.flatnonzero(both)
+    lay = js.layout[kept]
+    rows = np.column_stack([js.position[kept, ir[lay]], js.position[kept, il[lay]]])
     _need(kept, path, topic)
-    phi = np.array(rows, dtype=float)
+    phi = np.array(rows, dtype=float).reshape(len(kept), 2)
     if ticks_per_rev is not None:
         lo, hi = TICKS_PER_REV
         if not (math.isfinite(ticks_per_rev) and lo <= ticks_per_rev <= hi):
@@ -588,14 +718,14 @@ def joint_series(
         _finite(phi, path, topic, "a wheel position (ticks)", TICKS_MAX)
         phi = phi * (2.0 * math.pi / ticks_per_rev)
     _finite(phi, path, topic, "a wheel position (rad)", WHEEL_ANGLE_MAX_RAD)
-    t = _times(kept, path, topic, bag.start_ns)
+    t = _seconds(js.stamp_ns[kept], js.log_ns[kept], path, topic, bag.start_ns)
     r, wr = _unwrap_wheel(phi[:, 0], 2.0 * math.pi, path, topic, right)
     lft, wl = _unwrap_wheel(phi[:, 1], 2.0 * math.pi, path, topic, left)
     return TopicSeries(
         topic,
         t,
         {"right": r, "left": lft},
-        kept[0][1].header.frame_id,
+        js.layouts[js.layout[kept[0]]][0],
         meta={"right_joint": right, "left_joint": left, "wraps_unwrapped": wr + wl},
     )
 
@@ -604,13 +734,8 @@ def static_rotation(bag: BagContents, child: str, parents: Sequence[str]):
     """R_parent_child, shape (3, 3), composed along ``/tf_static`` from ``child`` up to the first
     frame in ``parents``; (None, None) when there is no such chain."""
     edges: dict[str, tuple[str, np.ndarray]] = {}
-    for _, m in bag.messages.get("/tf_static", []):
-        for tr in m.transforms:
-            q = tr.transform.rotation
-            edges[tr.child_frame_id.lstrip("/")] = (
-                tr.header.frame_id.lstrip("/"),
-                rotation_from_quaternion((q.x, q.y, q.z, q.w)),
-            )
+    for parent, child, v in _static_transforms(bag):
+        edges[child] = (parent, rotation_from_quaternion(tuple(v[3:])))
     frame, rot, seen = child.lstrip("/"), np.eye(3), set()
     while frame not in parents:
         if frame not in edges or frame in seen:
@@ -642,27 +767,49 @@ class EdgeMessages:
 def tf_messages(bag: BagContents, topic: str = "/tf") -> dict[tuple[str, str], EdgeMessages]:
     """The transforms of ``/tf`` per (parent, child) edge, repeats kept (SLAM packages republish
     their last correction; which messages bring news is decided later)."""
-    rows: dict[tuple[str, str], list] = {}
-    for i, (t_log, m) in enumerate(bag.messages.get(topic, [])):
-        for tr in m.transforms:
-            key = (tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/"))
-            stamp = stamp_ns(tr.header) or t_log
-            p, q = tr.transform.translation, tr.transform.rotation
-            rows.setdefault(key, []).append((stamp, p.x, p.y, p.z, q.x, q.y, q.z, q.w, i))
+    tf = bag.messages.get(topic)
+    if not isinstance(tf, Transforms) or not len(tf.edge):
+        return {}
+    keys: dict[tuple[str, str], int] = {}
+    key_of_edge = np.array(
+        [keys.setdefault((p.lstrip("/"), c.lstrip("/")), len(keys)) for p, c in tf.edges]
+    )
+    row_key = key_of_edge[tf.edge]
+    stamps = np.where(tf.stamp_ns != 0, tf.stamp_ns, tf.log_ns)
+    names = list(keys)
+    order = np.argsort(row_key, kind="stable")  # each edge's rows, in publishing order
+    ids, first = np.unique(row_key, return_index=True)
+    starts = np.searchsorted(row_key[order], ids)
+    ends = np.r_[starts[1:], len(order)]
     out = {}
-    for (parent, child), r in rows.items():
-        a = np.array([row[1:8] for row in r], dtype=float)
+    for k in np.argsort(first, kind="stable"):  # the edges in the order they first appear
+        rows = order[starts[k] : ends[k]]
+        parent, child = names[int(ids[k])]
+        a = tf.values[rows]
         if not np.all(np.isfinite(a)):
-            k = int(np.nonzero(~np.all(np.isfinite(a), axis=1))[0][0])
+            bad = int(np.nonzero(~np.all(np.isfinite(a), axis=1))[0][0])
             raise InputError(
-                f"message {r[k][8]}: transform '{parent} -> {child}' is not finite (NaN or inf)",
+                f"message {int(tf.message[rows[bad]])}: transform '{parent} -> {child}' is not "
+                "finite (NaN or inf)",
                 bag.path,
                 None,
                 topic,
             )
-        t = (np.array([row[0] for row in r], dtype=np.int64) - np.int64(bag.start_ns)) * 1e-9
+        t = (stamps[rows] - np.int64(bag.start_ns)) * 1e-9
         out[(parent, child)] = EdgeMessages(parent, child, t, a[:, :3], a[:, 3:])
     return out
+
+
+def _static_transforms(bag: BagContents) -> list[tuple[str, str, list[float]]]:
+    """The transforms of ``/tf_static`` in publishing order: (parent, child, [x, y, z, qx, qy,
+    qz, qw]), frames without a leading '/'."""
+    tf = bag.messages.get("/tf_static")
+    if not isinstance(tf, Transforms):
+        return []
+    return [
+        (tf.edges[e][0].lstrip("/"), tf.edges[e][1].lstrip("/"), v)
+        for e, v in zip(tf.edge.tolist(), tf.values.tolist(), strict=True)
+    ]
 
 
 def transform_buffer(bag: BagContents):
@@ -673,15 +820,8 @@ def transform_buffer(bag: BagContents):
     buf = TransformBuffer()
     for (parent, child), e in tf_messages(bag).items():
         buf.add(parent, child, e.time_s, e.translation_m, e.quaternion_xyzw)
-    for _, m in bag.messages.get("/tf_static", []):
-        for tr in m.transforms:
-            p, q = tr.transform.translation, tr.transform.rotation
-            buf.add_static(
-                tr.header.frame_id.lstrip("/"),
-                tr.child_frame_id.lstrip("/"),
-                (p.x, p.y, p.z),
-                (q.x, q.y, q.z, q.w),
-            )
+    for parent, child, v in _static_transforms(bag):
+        buf.add_static(parent, child, tuple(v[:3]), tuple(v[3:]))
     return buf
 
 
@@ -695,40 +835,79 @@ class ScanSeries:
     """The scans of one ``sensor_msgs/LaserScan`` topic as points in the sensor frame.
 
     ``time_s`` (N,) header stamps relative to the bag start (s); ``points_m`` N arrays of shape
-    (n_i, 2) (invalid ranges dropped, REP-117); ``frame_id`` the sensor frame."""
+    (n_i, 2) (invalid ranges dropped, REP-117), made when asked for (:class:`ScanPoints`);
+    ``frame_id`` the sensor frame."""
 
     topic: str
     time_s: np.ndarray
-    points_m: tuple[np.ndarray, ...]
+    points_m: Sequence[np.ndarray]
     frame_id: str
+
+
+class ScanPoints(Sequence):
+    """The points of every scan of a topic, each made from its ranges when asked for
+    (:func:`~odocal.calibration.scan_matching.scan_points`; read-only arrays). An hour of scans
+    as points takes four times the memory of their ranges, and a fit matches a fifth of them;
+    the last few asked for are kept (an interval's end scan is the next one's start)."""
+
+    def __init__(self, ranges: Sequence[np.ndarray], params: np.ndarray, keep: int = 4) -> None:
+        self._ranges, self._params, self._keep = ranges, params, keep
+        self._recent: dict[int, np.ndarray] = {}
+
+    def __len__(self) -> int:
+        return len(self._ranges)
+
+    def __getitem__(self, index):
+        if isinstance(index, slice):
+            return [self[i] for i in range(*index.indices(len(self)))]
+        i = range(len(self))[index]  # IndexError out of range; negative from the end
+        got = self._recent.get(i)
+        if got is None:
+            from ..calibration.scan_matching import scan_points
+
+            got = scan_points(np.asarray(self._ranges[i], dtype=float), *self._params[i].tolist())
+            got.setflags(write=False)
+            if len(self._recent) >= self._keep:
+                del self._recent[next(iter(self._recent))]
+            self._recent[i] = got
+        return got
+
+
+def _has_valid_range(ranges: np.ndarray, range_min: float, range_max: float) -> bool:
+    """Whether :func:`~odocal.calibration.scan_matching.scan_points` keeps a point of a scan."""
+    r = np.asarray(ranges, dtype=float)
+    with np.errstate(invalid="ignore"):
+        return bool(np.any(np.isfinite(r) & (r >= range_min) & (r <= range_max)))
 
 
 def scan_series(bag: BagContents, topic: str) -> ScanSeries:
     """Every scan of ``topic`` (InputError for absurd scan parameters or no valid range)."""
-    from ..calibration.scan_matching import scan_points
-
-    msgs = bag.messages[topic]
-    _need(msgs, bag.path, topic)
-    points = []
-    for i, (_, m) in enumerate(msgs):
-        params = (m.angle_min, m.angle_increment, m.range_min, m.range_max)
-        if not all(math.isfinite(v) for v in params) or not 0 <= m.range_min < m.range_max:
-            raise InputError(
-                f"message {i}: scan parameters are not usable (angle_min {m.angle_min}, "
-                f"angle_increment {m.angle_increment}, range_min {m.range_min}, range_max "
-                f"{m.range_max})",
-                bag.path,
-                None,
-                topic,
-            )
-        points.append(scan_points(np.asarray(m.ranges, dtype=float), *params))
-    if not any(len(p) for p in points):
+    sc: LaserScans = bag.messages[topic]
+    _need(sc, bag.path, topic)
+    params = sc.params  # angle_min, angle_increment, range_min, range_max
+    with np.errstate(invalid="ignore"):
+        usable = np.all(np.isfinite(params), axis=1) & (params[:, 2] >= 0)
+        usable &= params[:, 2] < params[:, 3]
+    if not np.all(usable):
+        i = int(np.flatnonzero(~usable)[0])
+        a_min, a_inc, r_min, r_max = params[i].tolist()
         raise InputError(
-            f"no scan has a valid range (all NaN, inf or outside [range_min, range_max]) in "
-            f"{len(points)} scans",
+            f"message {i}: scan parameters are not usable (angle_min {a_min}, "
+            f"angle_increment {a_inc}, range_min {r_min}, range_max {r_max})",
             bag.path,
             None,
             topic,
         )
-    t = _times(msgs, bag.path, topic, bag.start_ns)
-    return ScanSeries(topic, t, tuple(points), msgs[0][1].header.frame_id.lstrip("/"))
+    if not any(
+        _has_valid_range(r, *p) for r, p in zip(sc.ranges, params[:, 2:].tolist(), strict=True)
+    ):
+        raise InputError(
+            f"no scan has a valid range (all NaN, inf or outside [range_min, range_max]) in "
+            f"{len(sc)} scans",
+            bag.path,
+            None,
+            topic,
+        )
+    t = _seconds(sc.stamp_ns, sc.log_ns, bag.path, topic, bag.start_ns)
+    points = ScanPoints(sc.ranges, params)
+    return ScanSeries(topic, t, points, sc.frames[sc.layout[0]].lstrip("/"))
