@@ -127,3 +127,23 @@ def test_check_of_a_slam_bag_uses_the_logs_own_noise_and_the_routes_model(cli, r
     fit = json.loads(out)
     ratio = d["stderr"]["wheelbase_m"] / fit["stderr"]["wheelbase_m"]
     assert 0.33 < ratio < 3.0, ratio
+
+
+def test_without_joint_states_the_odometry_stands_in(cli, run, tmp_path):
+    # the same drive with only odom -> base_link on /tf: inverted through the geometry the
+    # controller ran with (ROBOT.yaml's believed), the SLAM route gives the joints' answer
+    path = tmp_path / "odom_only"
+    write_ros2_bag(path, run, map_odom_every=25, imu=False, joints=False)
+    robot = tmp_path / "robot.yaml"
+    robot.write_text("wheel_diameter_m: 0.066\nwheelbase_m: 0.160\n")  # believed = nominal
+    status, out, err = cli("fit", path, "--truth-frames", "map:base_link", "--robot", robot,
+                           "--json", "--force")  # fmt: skip
+    assert status == 0, err
+    d = json.loads(out)
+    # the synthetic odometry was integrated with the midpoint rule, the inversion takes each
+    # step as an exact arc: they differ by dtheta^2 / 24 per step (1 cm steps here), a few 1e-6
+    for key, true in TRUE.as_dict().items():
+        assert d[key] == pytest.approx(true, rel=3e-5), key
+    # without the robot file there is no geometry to invert through: said so
+    status, _, err = cli("fit", path, "--truth-frames", "map:base_link")
+    assert status == 2 and "the geometry the controller ran with" in err

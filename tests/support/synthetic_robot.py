@@ -373,6 +373,7 @@ def write_ros2_bag(
     rng: np.random.Generator | None = None,
     laser_delay_s: float = 0.0,
     slam_delay_s: float = 0.0,
+    joints: bool = True,
 ) -> dict[str, int]:
     """Write ``run`` into a ROS 2 bag folder ``path`` (must not exist); returns the message
     count per topic.
@@ -440,7 +441,8 @@ def write_ros2_bag(
                     velocity=np.array([], float),
                     effort=np.array([], float),
                 )
-                w.write(TOPICS["joints"], "sensor_msgs/msg/JointState", t_ns, msg)
+                if joints:
+                    w.write(TOPICS["joints"], "sensor_msgs/msg/JointState", t_ns, msg)
                 transforms = [w.transform(t_ns, "odom", "base_link", run.odom_pose[k])]
                 if map_odom is not None and k % map_odom_every == 0:
                     transforms.append(w.transform(t_ns, "map", "odom", map_odom[k]))

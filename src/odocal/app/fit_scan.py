@@ -97,13 +97,14 @@ def fit_scan_bags(
             "--method scan needs the nominal geometry (--robot ROBOT.yaml): the scan matcher "
             "starts from the odometry's motion"
         )
-    nominal = load_robot(robot).nominal
+    loaded_robot = load_robot(robot)
+    nominal, ran_with = loaded_robot.nominal, loaded_robot.believed_geometry
     motions, summaries = [], []
     for p in paths:
         if not is_bag(p):
             raise InputError("--method scan needs ROS bags with laser scans", p)
         m, s = scan_intervals(
-            read_scan_bag(p, bag, ticks_per_rev), nominal, scan_interval_s,
+            read_scan_bag(p, bag, ticks_per_rev, ran_with), nominal, scan_interval_s,
             bag.time_offset("laser"),
         )  # fmt: skip
         motions.append(m)

@@ -13,19 +13,19 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.model import WheelGeometry
 from ..errors import InputError
 from .bag_columns import LaserScans
 from .bag_options import BagOptions
+from .bag_wheels import choose_wheels, wheel_series
 from .bags import (
     BASE_FRAMES,
-    JOINT_STATE,
     LASER_SCAN,
     BagContents,
     ScanSeries,
     TopicInfo,
     TopicSeries,
     check_bag_path,
-    joint_series,
     pick_topic,
     present,
     read_bag,
@@ -62,16 +62,22 @@ class ScanBag:
     warnings: tuple[str, ...] = ()
 
 
-def read_scan_bag(path: str | Path, options: BagOptions, ticks_per_rev: float | None) -> ScanBag:
-    """The wheel joints, laser scans and laser mounting of the bag ``path`` (topics from
-    ``options``, else the only candidates; joint positions in ticks with ``ticks_per_rev``)."""
+def read_scan_bag(
+    path: str | Path,
+    options: BagOptions,
+    ticks_per_rev: float | None,
+    ran_with: WheelGeometry | None = None,
+) -> ScanBag:
+    """The wheels, laser scans and laser mounting of the bag ``path`` (topics from ``options``,
+    else the only candidates; joint positions in ticks with ``ticks_per_rev``). Without joint
+    states the wheels are the controller's odometry inverted through ``ran_with``
+    (:mod:`odocal.io.bag_wheels`)."""
     p = check_bag_path(path)
 
     def choose(info: list[TopicInfo]) -> dict[str, str | None]:
+        wheels = choose_wheels(info, options, p)
         return {
-            "joints": pick_topic(
-                info, options.joint_topic, (JOINT_STATE,), "wheel joints", p, "--joint-topic"
-            ),
+            **wheels,
             "scan": pick_topic(
                 info, options.scan_topic, (LASER_SCAN,), "laser scans", p, "--scan-topic"
             ),
@@ -79,11 +85,15 @@ def read_scan_bag(path: str | Path, options: BagOptions, ticks_per_rev: float | 
         }
 
     def tf_if_needed(bag: BagContents) -> dict[str, str | None]:
+        if bag.picked.get("tf"):  # the wheels are odom -> base_link on /tf
+            return {}
         return {"tf": None if _static_mount(bag) else present(bag.topics, "/tf")}
 
     bag = read_bag(p, choose, then=tf_if_needed)
-    jt, st = bag.picked["joints"], bag.picked["scan"]
-    joints = joint_series(bag, jt, options.right_joint, options.left_joint, ticks_per_rev)
+    st = bag.picked["scan"]
+    w = wheel_series(bag, options, ticks_per_rev, ran_with)
+    joints = TopicSeries(w.topic, w.time_s, {"right": w.right, "left": w.left},
+                         meta={**w.meta, "wheels": w.describe()})  # fmt: skip
     scans = scan_series(bag, st)
     warnings = []
     mount = np.zeros(3)
@@ -99,7 +109,7 @@ def read_scan_bag(path: str | Path, options: BagOptions, ticks_per_rev: float | 
             f"no transform from the base to the laser frame '{scans.frame_id}': the matcher "
             "starts as if the laser sat at the base origin"
         )
-    return ScanBag(p, joints, scans, mount, mount_source, tuple(warnings))
+    return ScanBag(p, joints, scans, mount, mount_source, tuple(warnings) + w.warnings)
 
 
 def _static_mount(bag: BagContents) -> bool:
