@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from odocal.calibration.interval_noise import estimate_interval_noise
+from odocal.calibration.interval_noise import MAX_INTERVALS, estimate_interval_noise
 from odocal.core.model import WheelGeometry
 from odocal.core.odometry import dead_reckon_rows
 from odocal.core.transforms import se2_compose, se2_relative
@@ -44,7 +44,7 @@ def test_k_and_the_truth_noise_are_recovered():
         # identified, within a factor 2
         assert 0.0025 < est.truth_sigma_theta_rad < 0.01
     assert hits >= 1  # coverage over many seeds: benchmarks/bench_uncertainty.py
-    assert est.as_dict()["intervals"] == 500
+    assert est.as_dict()["intervals"] == MAX_INTERVALS  # of the 500: chunks spread over the log
 
 
 def test_too_few_intervals():

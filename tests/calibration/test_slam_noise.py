@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import math
 import re
 
 import numpy as np
@@ -15,15 +14,31 @@ from odocal.core.model import MeasurementNoise, NonSystematicError, Robot
 from tests.support.relative_intervals import NOMINAL, TRUE, motions
 
 
+def _with_pose_noise(m, sigma_xy: float, sigma_theta: float, seed: int = 5):
+    """``m``'s motions measured as a SLAM measures them: the poses carry the noise (so that
+    consecutive relative motions share it), not each motion independently."""
+    from dataclasses import replace
+
+    from odocal.core.transforms import se2_compose, se2_relative
+
+    rng = np.random.default_rng(seed)
+    poses = [np.zeros(3)]
+    for mo in m.sensor_motion:
+        poses.append(se2_compose(poses[-1], mo))
+    p = np.array(poses) + rng.standard_normal((len(poses), 3)) * [sigma_xy, sigma_xy, sigma_theta]
+    return replace(m, sensor_motion=se2_relative(p[:-1], p[1:], wrap=False))
+
+
 def test_the_noise_from_the_log_s_own_residuals():
-    m = motions(n=300, noise=(0.004, 0.004, 0.002))
+    m = _with_pose_noise(motions(n=300, noise=(0.0, 0.0, 0.0)), 0.003, 0.002)
     noise = slam_noise_model(m, None, NOMINAL)
     assert noise.description.startswith("k ")
     assert re.search(
         r"\(from the log's own residuals over \d+ SLAM intervals\)$", noise.description
     )
-    # the pose's noise is half the variance of a relative motion's
-    assert noise.model.measurement.sigma_xy_m == pytest.approx(0.004 / math.sqrt(2), rel=0.4)
+    # the pose's noise (half the variance of a relative motion's): 3 mm, 2 mrad
+    assert noise.model.measurement.sigma_xy_m == pytest.approx(0.003, rel=0.3)
+    assert noise.model.measurement.sigma_theta_rad == pytest.approx(0.002, rel=0.3)
     assert noise.covariance is not None and noise.covariance.shape == (3, 3)
     assert np.all(np.diag(noise.covariance) > 0)
     assert slam_noise_model(m, None).covariance is None

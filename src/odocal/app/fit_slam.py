@@ -64,7 +64,7 @@ def fit_slam_bags(
     )
     result = _with_offset_error(bags, result)
     every, usable = slam_chains(
-        [(b.every_motions, np.asarray(b.motions.every_used)) for b in bags],
+        [(b.every_motions, b.every_used) for b in bags],
         result.dropped_indices,
     )
     checks = relative_checks(

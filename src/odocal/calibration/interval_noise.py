@@ -46,7 +46,12 @@ __all__ = ["IntervalNoise", "estimate_interval_noise", "predicted_covariance"]
 
 #: Fewest intervals for a noise estimate.
 MIN_INTERVALS = 30
-_BOOTSTRAP = 100
+#: At most this many intervals enter the estimate: contiguous chunks of
+#: :data:`CHUNK_INTERVALS`, spread evenly over the log (an hour's 7000 SLAM intervals would
+#: cost a minute and gigabytes for three numbers).
+MAX_INTERVALS = 320
+CHUNK_INTERVALS = 16
+_BOOTSTRAP = 60
 
 
 @dataclass(frozen=True)
@@ -156,6 +161,16 @@ def _stretches(
     )
 
 
+def _chunks(n: int) -> np.ndarray:
+    """The intervals that enter the estimate: all, or :data:`MAX_INTERVALS` in contiguous
+    chunks spread evenly over the log."""
+    if n <= MAX_INTERVALS:
+        return np.arange(n)
+    count = MAX_INTERVALS // CHUNK_INTERVALS
+    starts = np.linspace(0, n - CHUNK_INTERVALS, count).round().astype(int)
+    return np.unique((starts[:, None] + np.arange(CHUNK_INTERVALS)[None, :]).ravel())
+
+
 def estimate_interval_noise(
     inc_r: ArrayLike,
     inc_l: ArrayLike,
@@ -191,10 +206,12 @@ def estimate_interval_noise(
         raise CalibrationError(
             f"too few intervals for a noise estimate: {n} (need {MIN_INTERVALS})"
         )
-    r, lft, m, t0 = _stretches(
-        r, lft, m, np.asarray(start_s, dtype=float),
-        None if end_s is None else np.asarray(end_s, dtype=float),
-    )  # fmt: skip
+    start = np.asarray(start_s, dtype=float)
+    end = None if end_s is None else np.asarray(end_s, dtype=float)
+    pick = _chunks(n)
+    r, lft, m, start = r[pick], lft[pick], m[pick], start[pick]
+    end = None if end is None else end[pick]
+    r, lft, m, t0 = _stretches(r, lft, m, start, end)  # fmt: skip
     pred = dead_reckon_rows(r, lft, geometry)[:, :, -1].T
     e = m - pred
     e[:, 2] = np.angle(np.exp(1j * e[:, 2]))
@@ -219,7 +236,9 @@ def estimate_interval_noise(
     # a percentile interval need not hold its own estimate (a skewed bootstrap, an estimate at
     # the boundary): widen it to do so
     lo, hi = min(lo, float(k)), max(hi, float(k))
-    return IntervalNoise(float(k), (lo, hi), float(math.sqrt(r_xy)), float(math.sqrt(r_th)), n, nb)
+    return IntervalNoise(
+        float(k), (lo, hi), float(math.sqrt(r_xy)), float(math.sqrt(r_th)), len(pick), nb
+    )
 
 
 def predicted_covariance(

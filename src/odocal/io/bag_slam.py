@@ -88,14 +88,30 @@ class SlamBag:
 
     @property
     def every_motions(self) -> RelativeMotions:
-        """Every interval between the SLAM's updates, dropped ones included (for the held-out
-        check; which of them are the fit's is ``motions.every_used``), on the wheels' clock."""
+        """Every interval between the SLAM's updates but its jumps, on the wheels' clock: the
+        held-out check's stretches (the intervals dropped as too short or as outliers carry them;
+        a jump, a loop closure or a relocalisation, breaks them: the truth is not continuous
+        there). Which of them are the fit's: :attr:`every_used`."""
         m, inc, d = self.motions, self.every_increments, self.time_offset.applied_s
         assert inc is not None  # the loader sets them
+        keep = self._not_jumps
         return RelativeMotions(
-            inc[0].sum(axis=1), inc[1].sum(axis=1), np.asarray(m.every_motion), inc,
-            np.asarray(m.every_start_s) - d, np.asarray(m.every_end_s) - d,
+            inc[0][keep].sum(axis=1), inc[1][keep].sum(axis=1),
+            np.asarray(m.every_motion)[keep], (inc[0][keep], inc[1][keep]),
+            np.asarray(m.every_start_s)[keep] - d, np.asarray(m.every_end_s)[keep] - d,
         )  # fmt: skip
+
+    @property
+    def every_used(self) -> np.ndarray:
+        """Which intervals of :attr:`every_motions` the fit was given."""
+        return np.asarray(self.motions.every_used, dtype=bool)[self._not_jumps]
+
+    @property
+    def _not_jumps(self) -> np.ndarray:
+        """Every interval between updates that is not a jump."""
+        m = self.motions
+        jumps = [d.start_s for d in m.dropped if d.reason == "jump"]
+        return ~np.isin(np.asarray(m.every_start_s), np.asarray(jumps, dtype=float))
 
     def as_dict(self) -> dict[str, Any]:
         """What ``odocal fit --truth-frames --json`` reports of this bag (its ``slam`` entry)."""
