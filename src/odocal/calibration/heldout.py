@@ -67,7 +67,7 @@ MIN_INTERVALS = 20
 #: The folds' fits (and the restricted models' fits on all the data) use at most this many
 #: intervals, spread evenly over the log: three parameters are determined long before, and an
 #: hour-long bag would otherwise fit 14 times on 7000 intervals.
-MAX_FIT_INTERVALS = 600
+MAX_FIT_INTERVALS = 400
 
 
 def _spread(idx: np.ndarray, most: int) -> np.ndarray:

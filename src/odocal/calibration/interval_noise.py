@@ -20,7 +20,8 @@ them (in log space, so that each stays positive). The stretches share data, so t
 is not a proper one; the interval below does not rely on it.
 
 The 95 % interval of k is a block bootstrap (contiguous time blocks of intervals resampled, the
-likelihood maximised again): residuals come in runs (a wheel slipping for a second, a SLAM that
+likelihood maximised again; the interval is the estimate times exp(+-1.96 bootstrap standard
+deviations of log k)): residuals come in runs (a wheel slipping for a second, a SLAM that
 is off for a stretch), which a likelihood interval would ignore. Model mismatch that the
 calibration leaves in the residuals (an effective wheelbase that changes with the motion, a
 synchro drive seen as a differential one) is counted as wheel noise: the k found is what the
@@ -51,7 +52,7 @@ MIN_INTERVALS = 30
 #: cost a minute and gigabytes for three numbers).
 MAX_INTERVALS = 320
 CHUNK_INTERVALS = 16
-_BOOTSTRAP = 60
+_BOOTSTRAP = 30
 
 
 @dataclass(frozen=True)
@@ -227,15 +228,15 @@ def estimate_interval_noise(
     blk = time_blocks(t0)
     nb = int(blk.max()) + 1
     members = [np.flatnonzero(blk == b) for b in range(nb)]
-    ks = []
+    logs = []
     for _ in range(_BOOTSTRAP if nb >= 2 else 0):
         idx = np.concatenate([members[j] for j in gen.integers(0, nb, nb)])
-        ks.append(math.exp(_maximise(e[idx], c[idx], best, 1e-2)[0]))
+        logs.append(_maximise(e[idx], c[idx], best, 1e-2)[0])
     k, r_xy, r_th = np.exp(best)
-    lo, hi = (float(np.quantile(ks, 0.025)), float(np.quantile(ks, 0.975))) if ks else (0, math.inf)
-    # a percentile interval need not hold its own estimate (a skewed bootstrap, an estimate at
-    # the boundary): widen it to do so
-    lo, hi = min(lo, float(k)), max(hi, float(k))
+    # the interval in log k (k > 0; its estimate is about log-normal): the estimate +- 1.96
+    # bootstrap standard deviations, so that it always holds the estimate and behaves near 0
+    spread = float(np.std(logs, ddof=1)) if len(logs) > 1 else math.inf
+    lo, hi = float(k) * math.exp(-1.96 * spread), float(k) * math.exp(1.96 * spread)
     return IntervalNoise(
         float(k), (lo, hi), float(math.sqrt(r_xy)), float(math.sqrt(r_th)), len(pick), nb
     )
