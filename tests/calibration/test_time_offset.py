@@ -142,3 +142,17 @@ def test_each_data_set_s_truth_moves_onto_the_wheels_clock():
     kept, (offset,) = truth_on_wheel_clock(still, None)
     assert offset.how == "not estimated" and offset.applied_s == 0.0
     assert offset.warnings[0].endswith("; taken as 0") and kept[0] is still[0]
+
+
+def test_the_timing_check_passes_a_constant_offset():
+    # the turning of the wheels against the source's does not depend on the interval length
+    # when the clocks differ by a constant (removed) and nothing else
+    from odocal.calibration.time_offset import timing_consistency
+
+    t, right, left = drive(seed=9)
+    a, b, dth = source_intervals(t, right, left, 0.0, 10.0, math.radians(0.1))
+    pr, pl = wheel_rotations(t, right, left, a, b)
+    check = timing_consistency(pr, pl, dth, a, b, source="laser")
+    assert check is not None and check.consistent and check.warning is None
+    assert check.turn_ratio[0] == 1.0 and len(check.lengths_s) >= 3
+    assert max(abs(r - 1) for r in check.turn_ratio) < 0.005

@@ -402,19 +402,24 @@ class TimingCheck:
         }
 
 
-def _turn(phi_r: np.ndarray, phi_l: np.ndarray, dth: np.ndarray) -> float:
-    """J22 - J21 of the robust rotation fit of one set of intervals."""
-    scale = max(float(1.4826 * np.median(np.abs(dth - np.median(dth)))), 1e-6)
+def _turns(phi_r: np.ndarray, phi_l: np.ndarray, dth: np.ndarray, mult: np.ndarray) -> np.ndarray:
+    """J22 - J21 of the robust (Cauchy IRLS) rotation fit of a set of intervals, once per row of
+    ``mult`` (B, n): how many times each interval counts (1 for the data, a bootstrap
+    replicate's multiplicities otherwise); one robust scale, the plain fit's on the data."""
     plain = _fit_rotation(phi_r[None, :], phi_l[None, :], dth, np.inf)[0]
     scale = max(float(1.4826 * np.median(np.abs(plain))), 1e-6)
-    w = np.ones_like(dth)
-    j = np.zeros(2)
-    x = np.column_stack([phi_r, phi_l])
+    w = mult.astype(float)
+    j22 = j21 = np.zeros(len(w))
     for _ in range(10):
-        sw = np.sqrt(w)
-        j, *_ = np.linalg.lstsq(x * sw[:, None], dth * sw, rcond=None)
-        w = 1.0 / (1.0 + ((dth - x @ j) / scale) ** 2)
-    return float(j[0] - j[1])
+        a11, a12 = (w * phi_r * phi_r).sum(axis=1), (w * phi_r * phi_l).sum(axis=1)
+        a22 = (w * phi_l * phi_l).sum(axis=1)
+        b1, b2 = (w * phi_r * dth).sum(axis=1), (w * phi_l * dth).sum(axis=1)
+        det = a11 * a22 - a12 * a12
+        det = np.where(det > 1e-12 * np.maximum(a11 * a22, 1e-300), det, np.inf)
+        j22, j21 = (a22 * b1 - a12 * b2) / det, (a11 * b2 - a12 * b1) / det
+        res = dth - j22[:, None] * phi_r - j21[:, None] * phi_l
+        w = mult / (1.0 + (res / scale) ** 2)
+    return j22 - j21
 
 
 def timing_consistency(
@@ -453,15 +458,16 @@ def timing_consistency(
         pl = np.asarray(phi_left_rad)[idx].sum(axis=1)
         th = np.asarray(heading_change_rad)[idx].sum(axis=1)
         t0 = a[idx[:, 0]]
-        c = _turn(pr, pl, th)
+        c = float(_turns(pr, pl, th, np.ones((1, len(th))))[0])
         blk = time_blocks(t0)
         nb = int(blk.max()) + 1
-        members = [np.flatnonzero(blk == k) for k in range(nb)]
-        reps = []
-        for _ in range(_TIMING_BOOTSTRAP if nb > 1 else 0):
-            pick = np.concatenate([members[k] for k in gen.integers(0, nb, nb)])
-            reps.append(_turn(pr[pick], pl[pick], th[pick]))
-        se = float(np.std(reps, ddof=1)) if reps else math.inf
+        se = math.inf
+        if nb > 1:
+            # each replicate: how many times each block (so each interval) is drawn
+            draws = gen.integers(0, nb, size=(_TIMING_BOOTSTRAP, nb))
+            per_block = np.stack([np.bincount(d, minlength=nb) for d in draws])
+            reps = _turns(pr, pl, th, per_block[:, blk])
+            se = float(np.std(reps, ddof=1))
         base = c if base is None else base
         lengths.append(float(np.median(b[idx[:, -1]] - t0)))
         ratios.append(c / base)
