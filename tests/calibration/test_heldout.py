@@ -47,7 +47,8 @@ def test_a_good_calibration_beats_the_nominal_on_held_out_blocks():
     h = heldout_check(a, b, r, lft, m, NOMINAL, cal, chain_s=30.0)
     assert h.calibration_helps and h.preferred == "full"
     assert h.calibrated_final_error_m < 0.5 * h.nominal_final_error_m
-    assert [s.model for s in h.models] == list(MODELS)
+    # the full model helps: the restricted ones are not tried
+    assert [s.model for s in h.models] == ["full"]
     d = h.as_dict()
     assert d["nominal_final_error_m"] == h.nominal_final_error_m
     assert "helps" in h.verdict()
@@ -57,6 +58,7 @@ def test_a_calibration_of_an_already_calibrated_robot_does_not_beat_it():
     a, b, r, lft, m = intervals(NOMINAL, seed=2)
     cal = fit_base_motion("full", r, lft, m, NOMINAL).geometry
     h = heldout_check(a, b, r, lft, m, NOMINAL, cal, chain_s=30.0)
+    assert [s.model for s in h.models] == list(MODELS)  # the full one did not help: all tried
     assert not h.calibration_helps
     assert h.calibrated_final_error_m == pytest.approx(h.nominal_final_error_m, rel=0.2)
     if h.preferred is None:
@@ -72,7 +74,8 @@ def test_dropped_intervals_carry_the_chains_but_not_the_fits():
     cal = fit_base_motion("full", r[mask], lft[mask], m_bad[mask], NOMINAL).geometry
     h = heldout_check(a, b, r, lft, m_bad, NOMINAL, cal, fit_mask=mask, chain_s=30.0)
     assert h.chains >= 20
-    assert h.models[1].geometry.wheelbase_m == pytest.approx(TRUE.wheelbase_m, rel=5e-3)
+    # the folds' fits leave the bad intervals out (with them, their 0.5 rad would spoil b)
+    assert h.calibration_helps and h.preferred == "full"
 
 
 def test_too_short_a_log_is_refused():

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from odocal.calibration.censi import fit_censi
+from odocal.calibration.heldout import ModelScore, fit_base_motion
 from odocal.calibration.relative_checks import (
     check_relative_fit,
     interval_blocks,
@@ -41,7 +42,9 @@ def test_the_checks_of_a_good_calibration():
                              result.stderr["wheel_diameter_left_m"],
                              result.stderr["wheelbase_m"])  # fmt: skip
     # a restricted model preferred by the check is the answer, with its own errors
-    scale = replace(checks.heldout, preferred="scale")
+    fit = fit_base_motion("scale", *m.increments, m.sensor_motion, NOMINAL, m.start_s)
+    extra = ModelScore("scale", fit.geometry, 0.0, True, fit)
+    scale = replace(checks.heldout, preferred="scale", models=(*checks.heldout.models, extra))
     answer = preferred_answer(result, scale)
     score = next(s for s in scale.models if s.model == "scale")
     assert answer.model == "scale" and answer.geometry == score.geometry

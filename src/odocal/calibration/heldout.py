@@ -33,7 +33,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -426,30 +426,46 @@ def heldout_check(
             f"(need {MIN_INTERVALS}), {total} chains of consecutive intervals in {folds} time "
             f"blocks (need {MIN_CHAINS}, and every block some)"
         )
-    errors: dict[str, list[np.ndarray]] = {k: [] for k in ("nominal", *MODELS)}
-    durations: list[float] = []
-    for f in range(folds):
-        test = chains_by_fold[f]
-        train = _spread(np.flatnonzero((block != f) & usable), MAX_FIT_INTERVALS)
-        errors["nominal"].append(_chain_end_errors(test, nominal, r, lft, m))
-        for mod in MODELS:
-            try:
-                if mod == "full" and fit_full is not None:
-                    g = fit_full(train)
-                else:
-                    g = fit_base_motion(mod, r[train], lft[train], m[train], nominal).geometry
-            except (CalibrationError, ValueError, np.linalg.LinAlgError):
-                g = nominal
-            errors[mod].append(_chain_end_errors(test, g, r, lft, m))
-        durations.extend(float(b[c[-1]] - a[c[0]]) for c in test)
-    whole = _spread(np.flatnonzero(usable), MAX_FIT_INTERVALS)
-    wholes: dict[str, BaseMotionFit] = {
-        mod: BaseMotionFit("full", calibrated)
-        if mod == "full"
-        else fit_base_motion(mod, r[whole], lft[whole], m[whole], nominal, a[whole])
-        for mod in MODELS
-    }
+
+    def fold_errors(models: Sequence[str]) -> dict[str, list[np.ndarray]]:
+        out: dict[str, list[np.ndarray]] = {k: [] for k in models}
+        for f in range(folds):
+            test = chains_by_fold[f]
+            train = _spread(np.flatnonzero((block != f) & usable), MAX_FIT_INTERVALS)
+            for mod in models:
+                try:
+                    if mod == "nominal":
+                        g = nominal
+                    elif mod == "full" and fit_full is not None:
+                        g = fit_full(train)
+                    else:
+                        g = fit_base_motion(
+                            cast(Model, mod), r[train], lft[train], m[train], nominal
+                        ).geometry
+                except (CalibrationError, ValueError, np.linalg.LinAlgError):
+                    g = nominal
+                out[mod].append(_chain_end_errors(test, g, r, lft, m))
+        return out
+
+    def whole_fit(mod: Model) -> BaseMotionFit:
+        whole = _spread(np.flatnonzero(usable), MAX_FIT_INTERVALS)
+        return fit_base_motion(mod, r[whole], lft[whole], m[whole], nominal, a[whole])
+
+    durations = [float(b[c[-1]] - a[c[0]]) for f in range(folds) for c in chains_by_fold[f]]
+    errors = fold_errors(("nominal", "full"))
+    wholes: dict[str, BaseMotionFit] = {"full": BaseMotionFit("full", calibrated)}
+    if not _beats(errors["full"], errors["nominal"]):  # only then the restricted models
+        errors.update(fold_errors(MODELS[1:]))
+        wholes.update({mod: whole_fit(mod) for mod in MODELS[1:]})
     return _verdict(errors, wholes, folds, durations)
+
+
+def _beats(model: list[np.ndarray], nominal: list[np.ndarray]) -> bool:
+    """The model's held-out errors below the nominal's, paired, by more than their standard
+    error."""
+    d = np.concatenate(model) - np.concatenate(nominal)
+    se = float(np.std(d, ddof=1) / math.sqrt(len(d))) if len(d) > 1 else math.inf
+    return bool(np.mean(d) < -se)
 
 
 def _verdict(
@@ -459,11 +475,11 @@ def _verdict(
     durations: list[float],
 ) -> HeldOut:
     """Pair every model's held-out errors with the nominal's, chain by chain: the full model
-    is kept when it beats the nominal; else the restricted model with the lowest error among
-    those that do; else none."""
+    is kept when it beats the nominal (the restricted models are then not tried); else the
+    restricted model with the lowest error among those that do; else none."""
     e = {k: np.concatenate(v) for k, v in errors.items()}
     scores = []
-    for mod in MODELS:
+    for mod in (x for x in MODELS if x in e):
         d = e[mod] - e["nominal"]
         se = float(np.std(d, ddof=1) / math.sqrt(len(d))) if len(d) > 1 else math.inf
         beats = bool(np.mean(d) < -se)
@@ -507,25 +523,30 @@ def heldout_runs(
             f"{MIN_CHAINS}; a single long run: cut it into runs, or record more)"
         )
     block = (np.arange(len(runs)) * folds) // len(runs)
-    errors: dict[str, list[np.ndarray]] = {k: [] for k in ("nominal", *MODELS)}
-    durations: list[float] = []
-    for f in range(folds):
-        test = [r for r, b in zip(runs, block, strict=True) if b == f]
-        train = [r for r, b in zip(runs, block, strict=True) if b != f]
-        errors["nominal"].append(np.array([_final_error(r, nominal) for r in test]))
-        for mod in MODELS:
-            try:
-                g = fit_model(train, mod)
-            except (CalibrationError, ValueError, np.linalg.LinAlgError):
-                g = nominal
-            errors[mod].append(np.array([_final_error(r, g) for r in test]))
-        durations.extend(float(r.time_s[-1] - r.time_s[0]) for r in test)
+
+    def fold_errors(models: Sequence[str]) -> dict[str, list[np.ndarray]]:
+        out: dict[str, list[np.ndarray]] = {k: [] for k in models}
+        for f in range(folds):
+            test = [r for r, b in zip(runs, block, strict=True) if b == f]
+            train = [r for r, b in zip(runs, block, strict=True) if b != f]
+            for mod in models:
+                try:
+                    g = nominal if mod == "nominal" else fit_model(train, cast(Model, mod))
+                except (CalibrationError, ValueError, np.linalg.LinAlgError):
+                    g = nominal
+                out[mod].append(np.array([_final_error(r, g) for r in test]))
+        return out
+
+    durations = [float(r.time_s[-1] - r.time_s[0]) for r in runs]
+    errors = fold_errors(("nominal", "full"))
     wholes = {"full": BaseMotionFit("full", calibrated)}
-    for mod in MODELS[1:]:
-        try:
-            wholes[mod] = BaseMotionFit(mod, fit_model(runs, mod))
-        except (CalibrationError, ValueError, np.linalg.LinAlgError):
-            wholes[mod] = BaseMotionFit(mod, nominal)
+    if not _beats(errors["full"], errors["nominal"]):  # only then the restricted models
+        errors.update(fold_errors(MODELS[1:]))
+        for mod in MODELS[1:]:
+            try:
+                wholes[mod] = BaseMotionFit(mod, fit_model(runs, mod))
+            except (CalibrationError, ValueError, np.linalg.LinAlgError):
+                wholes[mod] = BaseMotionFit(mod, nominal)
     return _verdict(errors, wholes, folds, durations)
 
 
