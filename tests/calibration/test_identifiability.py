@@ -18,6 +18,7 @@ from odocal.calibration.identifiability import (
     check_recordings,
     describe_direction,
     summarize_motion,
+    with_prediction,
 )
 from odocal.calibration.trajectory import fit_trajectory
 from odocal.calibration.trajectory_residuals import RunResiduals, relative_poses
@@ -100,6 +101,34 @@ def test_rich_log_passes():
     # the Cramer-Rao bound of the same residuals, never more
     for k in chk.stderr:
         assert chk.stderr[k] >= chk.stderr_best[k] * (1 - 1e-9)
+
+
+def test_a_weak_direction_known_well_enough_is_not_blind():
+    """Blind takes both: far weaker than the best direction (condition number) and a Cramer-Rao
+    relative standard error above max_relative_stderr (a long log pins some directions so well
+    that a scale known to a thousandth would otherwise be 'not determined')."""
+    recs = log(RICH)
+    strict = CheckThresholds(max_condition=2.0)  # the rich log's condition number is about 7
+    chk = check_recordings(recs, TRUE, thresholds=strict)
+    assert chk.condition_number > 2.0 and chk.weakest_relative_stderr < 5e-3
+    assert chk.ok and not chk.flagged("ill-conditioned") and chk.suggestions == ()
+    exacting = CheckThresholds(max_condition=2.0, max_relative_stderr=1e-4)
+    chk = check_recordings(recs, TRUE, thresholds=exacting)
+    assert chk.flagged("ill-conditioned") and not chk.flagged("imprecise")
+
+
+def test_another_estimator_s_prediction_replaces_the_imprecise_finding_and_its_advice():
+    chk = check_recordings(log(RICH), TRUE, noise=NoiseModel(NonSystematicError(1e-3, 1e-3)))
+    assert chk.flagged("imprecise") and "spot turns or arcs" in chk.suggestions[0]
+    tight = with_prediction(chk, np.diag([1e-10, 1e-10, 1e-10]), "a tighter estimator")
+    assert not tight.flagged("imprecise") and tight.suggestions == ()
+    assert tight.settings["prediction"] == "a tighter estimator"
+    loose_scale = with_prediction(chk, np.diag([1e-4, 1e-10, 1e-10]), "x")
+    assert loose_scale.flagged("imprecise")
+    assert loose_scale.suggestions == (
+        "add straight runs of a known (tracked) length, 2 m or more,"
+        " or simply more of the same runs",
+    )
 
 
 def test_straight_only_cannot_see_the_wheelbase():

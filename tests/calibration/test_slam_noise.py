@@ -57,3 +57,16 @@ def test_the_robot_file_s_noise_wins_and_a_short_log_takes_the_defaults():
     assert short.model.wheel.k_sum_m == pytest.approx(NoiseModel().wheel.k_sum_m)
     assert short.description.startswith("default k, SLAM pose 20 mm and 1 deg (stated default)")
     assert "; the log's own residuals could not give it (" in short.description
+
+
+def test_a_log_without_noise_takes_the_defaults():
+    """Residuals at the arithmetic's precision have no noise to estimate: the stated defaults,
+    said so (an estimate from them made the check's verdict a matter of the last bits)."""
+    exact = motions(n=300, noise=(0.0, 0.0, 0.0))
+    noise = slam_noise_model(exact, None, NOMINAL)
+    assert noise.model.measurement == SLAM_POSE_NOISE
+    assert noise.model.wheel.k_sum_m == pytest.approx(NoiseModel().wheel.k_sum_m)
+    assert "the arithmetic's, not a sensor's: a log without noise" in noise.description
+    # a micrometre of pose noise is a sensor's: estimated
+    tiny = slam_noise_model(_with_pose_noise(exact, 1e-6, 1e-6), None, NOMINAL)
+    assert tiny.description.startswith("k ")

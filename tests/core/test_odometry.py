@@ -29,6 +29,7 @@ from odocal.core.odometry import (
     dead_reckon,
     dead_reckon_rows,
     midpoint_end,
+    midpoint_end_padded,
     midpoint_headings,
     midpoint_path,
     midpoint_poses,
@@ -101,6 +102,24 @@ def test_the_end_forms_agree():
 
 def test_no_increments_end_at_the_origin():
     assert np.array_equal(midpoint_end(np.zeros((2, 0)), np.zeros((2, 0))), np.zeros((2, 3)))
+
+
+def test_padded_rows_end_where_the_plain_form_ends():
+    """midpoint_end_padded (rows of different lengths, zero-padded) against midpoint_end: a
+    short row, an empty row, a full row, a row whose last increments are a pure turn or a pure
+    stop inside the row, and the little-padding fallback."""
+    rng = np.random.default_rng(4)
+    k = 40
+    ds, dth = np.zeros((6, k)), np.zeros((6, k))
+    for row, n in zip(range(6), (3, 0, k, 17, 25, 1), strict=True):
+        ds[row, :n] = rng.uniform(0.0, 0.02, n)
+        dth[row, :n] = rng.normal(0.0, 0.05, n)
+    ds[3, 16] = 0.0  # the row ends on a turn in place
+    ds[4, 10:12] = dth[4, 10:12] = 0.0  # a stop inside the row
+    np.testing.assert_allclose(midpoint_end_padded(ds, dth), midpoint_end(ds, dth), atol=TOL)
+    full = rng.uniform(0.0, 0.02, (3, k)), rng.normal(0.0, 0.05, (3, k))
+    np.testing.assert_allclose(midpoint_end_padded(*full), midpoint_end(*full), atol=TOL)
+    assert midpoint_end_padded(np.zeros((0, k)), np.zeros((0, k))).shape == (0, 3)
 
 
 def test_exact_arcs():

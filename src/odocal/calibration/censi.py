@@ -61,7 +61,7 @@ from ..core.odometry import (
     arc_displacement,
     arc_position,
     body_increments,
-    midpoint_end,
+    midpoint_end_padded,
     wheel_travel,
 )
 from ..core.transforms import se2_compose, se2_conjugate, se2_relative, wrap_angle
@@ -282,7 +282,7 @@ def _arc(p: np.ndarray, phi_r: np.ndarray, phi_l: np.ndarray) -> np.ndarray:
     ``core.odometry.dead_reckon`` integrates them (no constant-speed assumption)."""
     s_r, s_l = wheel_travel(phi_r, phi_l, WheelGeometry.unchecked(p[0], p[1], p[2]))
     if phi_r.ndim == 2:
-        return midpoint_end(*body_increments(s_r, s_l, p[2]))
+        return midpoint_end_padded(*body_increments(s_r, s_l, p[2]))
     return arc_displacement(*body_increments(s_r, s_l, p[2]))
 
 

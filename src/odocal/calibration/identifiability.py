@@ -694,6 +694,7 @@ _Finding = tuple[Degeneracy, list[str]]
 def _degeneracies(
     motion: MotionSummary,
     cond: float,
+    weakest_se: float,
     blind: Sequence[str],
     stderr: Sequence[float],
     values: np.ndarray,
@@ -714,7 +715,7 @@ def _degeneracies(
     found = [f for f in motion_findings if f is not None]
     out = [d for d, _ in found]
     tips = [t for _, advice in found for t in advice]
-    fit = _ill_conditioned(cond, blind, b, th) or _imprecise(cond, stderr, values, b, th)
+    fit = _ill_conditioned(cond, weakest_se, blind, b, th) or _imprecise(stderr, values, b, th)
     if fit is not None:
         out.append(fit[0])
         if not tips:
@@ -811,10 +812,12 @@ def _too_little_rotation(motion: MotionSummary, th: CheckThresholds) -> _Finding
 
 
 def _ill_conditioned(
-    cond: float, blind: Sequence[str], b: float, th: CheckThresholds
+    cond: float, weakest_se: float, blind: Sequence[str], b: float, th: CheckThresholds
 ) -> _Finding | None:
-    """Directions the Fisher information does not determine."""
-    if cond < th.max_condition:  # NaN and inf are ill-conditioned
+    """Directions the Fisher information does not determine: far weaker than the best one and
+    not known to ``max_relative_stderr`` (a long log that pins the diameter ratio to a millionth
+    is not blind to a scale it knows to a thousandth)."""
+    if cond < th.max_condition or weakest_se <= th.max_relative_stderr:  # NaN: ill-conditioned
         return None
     what = "; ".join(blind)
     return Degeneracy(
@@ -827,17 +830,13 @@ def _ill_conditioned(
 
 
 def _imprecise(
-    cond: float,
-    stderr: Sequence[float],
-    values: np.ndarray,
-    b: float,
-    th: CheckThresholds,
+    stderr: Sequence[float], values: np.ndarray, b: float, th: CheckThresholds
 ) -> _Finding | None:
-    """Geometry parameters determined, but with a predicted standard error above the
-    threshold."""
+    """Geometry parameters determined (not ill-conditioned), but with a predicted standard error
+    above the threshold."""
     rel = {k: v / p for k, v, p in zip(GEOMETRY_PARAMETERS, stderr, values, strict=False)}
     loose = {k: v for k, v in rel.items() if v > th.max_relative_stderr}
-    if not (loose and cond < th.max_condition):
+    if not loose:
         return None
     words = {
         "wheel_diameter_right_m": "D_R",
@@ -868,8 +867,12 @@ def with_prediction(check: LogCheck, covariance: np.ndarray, what: str) -> LogCh
     keys = GEOMETRY_PARAMETERS[: len(se)]
     stderr = dict(check.stderr) | {k: float(v) for k, v in zip(keys, se, strict=True)}
     kept = tuple(d for d in check.degeneracies if d.code != "imprecise")
-    finding = _imprecise(check.condition_number, list(se), values, float(values[-1]), th)
-    suggestions = check.suggestions
+    blind = any(d.code == "ill-conditioned" for d in check.degeneracies)
+    finding = None if blind else _imprecise(list(se), values, float(values[-1]), th)
+    before = [check.stderr[k] for k in keys]
+    old = None if blind else _imprecise(before, values, float(values[-1]), th)
+    stale = set(old[1]) if old is not None else set()  # the trajectory fit's advice
+    suggestions = tuple(t for t in check.suggestions if t not in stale)
     if finding is not None:
         kept = (*kept, finding[0])
         suggestions = tuple(dict.fromkeys((*suggestions, *finding[1])))
@@ -962,7 +965,14 @@ def check_recordings(
     motion, per = summarize_motion(recordings, geometry, th)
     stderr = _stderr(names, cov)
     degeneracies, tips = _degeneracies(
-        motion, d.cond, d.blind or (d.weakest,), list(stderr.values()), params, b, th
+        motion,
+        d.cond,
+        d.weakest_relative_stderr,
+        d.blind or (d.weakest,),
+        list(stderr.values()),
+        params,
+        b,
+        th,
     )
     return LogCheck(
         parameters=names,

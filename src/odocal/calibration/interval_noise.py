@@ -118,12 +118,18 @@ def _nll_and_gradient(
     return value, grad
 
 
+LOG_VARIANCE_BOUNDS = (math.log(1e-40), math.log(1e6))
+
+
 def _maximise(e: np.ndarray, c: np.ndarray, start: np.ndarray, xatol: float) -> np.ndarray:
     """The maximum-likelihood log parameters (quasi-Newton with the analytic gradient; ``xatol``
     the tolerance in log parameters)."""
     from scipy.optimize import minimize  # here: a slow import
 
-    sol = minimize(_nll_and_gradient, start, args=(e, c), jac=True, method="L-BFGS-B",
+    # the variances between 1e-40 and 1e6: a log without noise drives them to zero, and exp
+    # must stay finite on the way there
+    sol = minimize(_nll_and_gradient, np.clip(start, *LOG_VARIANCE_BOUNDS), args=(e, c),
+                   jac=True, method="L-BFGS-B", bounds=[LOG_VARIANCE_BOUNDS] * 3,
                    options={"ftol": 1e-12, "gtol": xatol * 1e-3, "maxiter": 500})  # fmt: skip
     return np.asarray(sol.x, dtype=float)
 

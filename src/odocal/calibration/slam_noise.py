@@ -48,12 +48,22 @@ class SlamNoise:
     covariance: np.ndarray | None
 
 
-def _inliers(m: RelativeMotions, g: WheelGeometry) -> np.ndarray:
-    """The intervals whose residual at ``g`` is within 5 robust spreads on every component (the
-    outliers a fit trims would count as noise)."""
+#: Below these residuals (RMS over the intervals) a log has no noise to estimate: they are the
+#: arithmetic's (a simulated log without noise), and a noise estimated from them would make the
+#: check's verdict a matter of the last bits.
+ARITHMETIC_RESIDUAL = MeasurementNoise(1e-9, 1e-9)
+
+
+def _residuals(m: RelativeMotions, g: WheelGeometry) -> np.ndarray:
+    """The intervals' residuals (x, y, theta) at ``g``, shape (n, 3)."""
     assert m.increments is not None
     pred = dead_reckon_rows(m.increments[0], m.increments[1], g)[:, :, -1].T
-    e = np.asarray(m.sensor_motion, dtype=float) - pred
+    return np.asarray(m.sensor_motion, dtype=float) - pred
+
+
+def _inliers(e: np.ndarray) -> np.ndarray:
+    """The intervals whose residual is within 5 robust spreads on every component (the
+    outliers a fit trims would count as noise)."""
     spread = 1.4826 * np.median(np.abs(e - np.median(e, axis=0)), axis=0)
     return np.flatnonzero(np.all(np.abs(e) <= 5.0 * np.maximum(spread, 1e-12), axis=1))
 
@@ -69,7 +79,16 @@ def _from_residuals(m: RelativeMotions) -> tuple[IntervalNoise | None, str]:
         inc = (m.increments[0][some], m.increments[1][some])
         fit = fit_censi(m.phi_right_rad[some], m.phi_left_rad[some], m.sensor_motion[some],
                         sensor_pose=(0, 0, 0), wheel_increments=inc)  # fmt: skip
-        keep = _inliers(m, fit.geometry)
+        e = _residuals(m, fit.geometry)
+        rms = np.sqrt(np.mean(e**2, axis=0))
+        if max(rms[:2]) < ARITHMETIC_RESIDUAL.sigma_xy_m and (
+            rms[2] < ARITHMETIC_RESIDUAL.sigma_theta_rad
+        ):
+            return None, (
+                f"its residuals are {rms.max():.1g} at most, the arithmetic's, not a sensor's: "
+                "a log without noise"
+            )
+        keep = _inliers(e)
         est = estimate_interval_noise(
             m.increments[0][keep], m.increments[1][keep], m.sensor_motion[keep], fit.geometry,
             m.start_s[keep], end_s=None if m.end_s is None else m.end_s[keep],

@@ -48,6 +48,7 @@ __all__ = [
     "midpoint_headings",
     "midpoint_poses",
     "midpoint_end",
+    "midpoint_end_padded",
     "midpoint_path",
     "chord_factor",
     "chord_factor_series",
@@ -152,6 +153,32 @@ def midpoint_end(ds_m: np.ndarray, dtheta_rad: np.ndarray, *, chord: Chord = "no
     y = np.sum(ds * np.sin(mid), axis=-1)
     end = theta[..., -1] if theta.shape[-1] else np.zeros(theta.shape[:-1])
     return np.stack([x, y, end], axis=-1)
+
+
+def midpoint_end_padded(ds_m: np.ndarray, dtheta_rad: np.ndarray) -> np.ndarray:
+    """:func:`midpoint_end` of zero-padded rows (n, K) (each row's increments, then zeros),
+    shape (n, 3): the same end poses, computed on the rows' own lengths only (a log's intervals
+    between SLAM updates vary in length, and padding them to the longest would triple the sines
+    and cosines). Equal to :func:`midpoint_end` but for the order of the additions."""
+    ds = np.asarray(ds_m, dtype=float)
+    dth = np.asarray(dtheta_rad, dtype=float)
+    n, k = ds.shape
+    moving = (ds != 0.0) | (dth != 0.0)
+    length = np.where(moving.any(axis=1), k - np.argmax(moving[:, ::-1], axis=1), 0)
+    if n == 0 or int(length.sum()) > 0.7 * n * k:  # little padding: the plain form
+        return midpoint_end(ds, dth)
+    keep = np.arange(k)[None, :] < length[:, None]
+    theta = np.cumsum(dth, axis=1)  # per row, as midpoint_end sums them (no cancellation)
+    mid = (theta - 0.5 * dth)[keep]
+    flat_ds = ds[keep]
+    rows = np.flatnonzero(length > 0)
+    out = np.zeros((n, 3))
+    if rows.size:
+        at = np.concatenate([[0], np.cumsum(length[rows])[:-1]])
+        out[rows, 0] = np.add.reduceat(flat_ds * np.cos(mid), at)
+        out[rows, 1] = np.add.reduceat(flat_ds * np.sin(mid), at)
+        out[:, 2] = theta[:, -1]
+    return out
 
 
 def midpoint_path(
