@@ -254,3 +254,32 @@ def test_real_data_reproduce_published_results(censi_folder, name):
     # the authors' covariance, recomputed at our estimate: their order and units verified
     np.testing.assert_allclose(np.sqrt(np.diag(fit.covariance_paper)), std, rtol=0.01)
     assert not fit.warnings
+
+
+def test_the_increments_jacobian_is_the_derivative_of_the_residual():
+    """The analytic Jacobian for wheel increments (zero-padded rows of different lengths)
+    against central differences of the residual itself, with a sensor off the axle and
+    yawed, and with per-tuple weights."""
+    from odocal.calibration import censi
+
+    rng = np.random.default_rng(7)
+    n, k = 40, 30
+    inc_r, inc_l = np.zeros((n, k)), np.zeros((n, k))
+    for i, m in enumerate(rng.integers(1, k + 1, n)):
+        inc_r[i, :m] = rng.uniform(-0.2, 0.6, m)
+        inc_l[i, :m] = rng.uniform(-0.2, 0.6, m)
+    p = np.array([0.071, 0.069, 0.29, 0.05, -0.03, 0.4])
+    sm = censi._predict(p, inc_r, inc_l) + rng.normal(0.0, 0.01, (n, 3))
+    weight = rng.uniform(0.5, 2.0, (n, 3))
+    free = [0, 1, 2, 3, 4, 5]
+    got = censi._increments_jacobian(p, free, inc_r, inc_l, weight)
+    for col, j in enumerate(free):
+        h = 1e-7 * max(abs(p[j]), 0.05)
+        up, dn = p.copy(), p.copy()
+        up[j] += h
+        dn[j] -= h
+        fd = (censi._residual(up, inc_r, inc_l, sm) - censi._residual(dn, inc_r, inc_l, sm)) / (
+            2 * h
+        )
+        np.testing.assert_allclose(got[:, col], (fd * weight).ravel(), rtol=1e-6, atol=1e-7)
+    assert censi._jacobian(p, [2, 0], inc_r, inc_l, sm, weight).shape == (3 * n, 2)

@@ -51,6 +51,7 @@ lmov data it is 10-20 times wider than the spread between their disjoint subsets
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -61,6 +62,7 @@ from ..core.odometry import (
     arc_displacement,
     arc_position,
     body_increments,
+    midpoint_end_derivatives,
     midpoint_end_padded,
     wheel_travel,
 )
@@ -541,7 +543,10 @@ def _jacobian(
     sm: np.ndarray,
     weight: float | np.ndarray,
 ) -> np.ndarray:
-    """Central-difference Jacobian of the weighted residual w.r.t. p[free], shape (3n, k)."""
+    """Jacobian of the weighted residual w.r.t. p[free], shape (3n, k): central differences,
+    or for wheel increments (2-D) :func:`_increments_jacobian`."""
+    if phi_r.ndim == 2:
+        return _increments_jacobian(p, free, phi_r, phi_l, weight)
     cols = []
     for j in free:
         scale = 1.0 if j == 5 else max(abs(p[2]), 1e-3)  # yaw in rad, lengths relative to b
@@ -551,6 +556,49 @@ def _jacobian(
         pm[j] -= h
         d = (_residual(pp, phi_r, phi_l, sm) - _residual(pm, phi_r, phi_l, sm)) / (2 * h)
         cols.append((d * weight).ravel())
+    return np.column_stack(cols)
+
+
+def _increments_jacobian(
+    p: np.ndarray,
+    free: list[int],
+    inc_r: np.ndarray,
+    inc_l: np.ndarray,
+    weight: float | np.ndarray,
+) -> np.ndarray:
+    """The Jacobian of :func:`_jacobian` for wheel increments (n, K): D_R, D_L and b analytic
+    (:func:`~odocal.core.odometry.midpoint_end_derivatives`, chained through the sensor's
+    conjugation), the sensor pose by central differences of the conjugation alone (the robot's
+    motion does not depend on it). One integration instead of two per parameter."""
+    d_r, d_l, b = float(p[0]), float(p[1]), float(p[2])
+    s_r, s_l = wheel_travel(inc_r, inc_l, WheelGeometry.unchecked(d_r, d_l, b))
+    ds, dth = body_increments(s_r, s_l, b)
+    zero = np.zeros_like(ds)
+    d_ds = np.stack([0.5 * s_r / d_r, 0.5 * s_l / d_l, zero])
+    d_dth = np.stack([s_r / (d_r * b), -s_l / (d_l * b), -dth / b])
+    o, do = midpoint_end_derivatives(ds, dth, d_ds, d_dth)  # (n, 3), (n, 3, 3)
+    lx, ly, lth = (float(v) for v in p[3:6])
+    c, s = math.cos(lth), math.sin(lth)
+    rot = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])  # R(-yaw) and the heading
+    conj = np.broadcast_to(rot, (len(o), 3, 3)).copy()  # d conjugate / d motion
+    co, so = np.cos(o[:, 2]), np.sin(o[:, 2])
+    turn = np.stack([-so * lx - co * ly, co * lx - so * ly], axis=-1)  # dR(theta)/dtheta l_xy
+    conj[:, :2, 2] = turn @ rot[:2, :2].T
+    geo = conj @ do  # (n, 3, 3)
+    cols = []
+    for j in free:
+        if j < 3:
+            cols.append((geo[:, :, j] * weight).ravel())
+            continue
+        h = 1e-6 * (abs(p[j]) + 1e-2 * (1.0 if j == 5 else max(abs(b), 1e-3)))
+        up, dn = p[3:6].copy(), p[3:6].copy()
+        up[j - 3] += h
+        dn[j - 3] -= h
+        d = se2_conjugate(o, np.broadcast_to(up, o.shape)) - se2_conjugate(
+            o, np.broadcast_to(dn, o.shape)
+        )
+        d[:, 2] = wrap_angle(d[:, 2])
+        cols.append((d / (2 * h) * weight).ravel())
     return np.column_stack(cols)
 
 

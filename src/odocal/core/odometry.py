@@ -49,6 +49,7 @@ __all__ = [
     "midpoint_poses",
     "midpoint_end",
     "midpoint_end_padded",
+    "midpoint_end_derivatives",
     "midpoint_path",
     "chord_factor",
     "chord_factor_series",
@@ -155,30 +156,62 @@ def midpoint_end(ds_m: np.ndarray, dtheta_rad: np.ndarray, *, chord: Chord = "no
     return np.stack([x, y, end], axis=-1)
 
 
-def midpoint_end_padded(ds_m: np.ndarray, dtheta_rad: np.ndarray) -> np.ndarray:
-    """:func:`midpoint_end` of zero-padded rows (n, K) (each row's increments, then zeros),
-    shape (n, 3): the same end poses, computed on the rows' own lengths only (a log's intervals
-    between SLAM updates vary in length, and padding them to the longest would triple the sines
-    and cosines). Equal to :func:`midpoint_end` but for the order of the additions."""
-    ds = np.asarray(ds_m, dtype=float)
-    dth = np.asarray(dtheta_rad, dtype=float)
+def _padded_trig(ds: np.ndarray, dth: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Heading after each increment, and cos, sin of the mid headings, of zero-padded rows
+    (n, K); the sines and cosines computed on each row's own length only (zeros beyond it),
+    where the padding is more than 30 % of the array."""
     n, k = ds.shape
+    theta = np.cumsum(dth, axis=1)  # per row, as midpoint_end sums them (no cancellation)
+    mid = theta - 0.5 * dth
     moving = (ds != 0.0) | (dth != 0.0)
     length = np.where(moving.any(axis=1), k - np.argmax(moving[:, ::-1], axis=1), 0)
-    if n == 0 or int(length.sum()) > 0.7 * n * k:  # little padding: the plain form
-        return midpoint_end(ds, dth)
+    if int(length.sum()) > 0.7 * n * k:  # little padding: the plain form
+        return theta, np.cos(mid), np.sin(mid)
     keep = np.arange(k)[None, :] < length[:, None]
-    theta = np.cumsum(dth, axis=1)  # per row, as midpoint_end sums them (no cancellation)
-    mid = (theta - 0.5 * dth)[keep]
-    flat_ds = ds[keep]
-    rows = np.flatnonzero(length > 0)
-    out = np.zeros((n, 3))
-    if rows.size:
-        at = np.concatenate([[0], np.cumsum(length[rows])[:-1]])
-        out[rows, 0] = np.add.reduceat(flat_ds * np.cos(mid), at)
-        out[rows, 1] = np.add.reduceat(flat_ds * np.sin(mid), at)
-        out[:, 2] = theta[:, -1]
-    return out
+    c, s = np.zeros((n, k)), np.zeros((n, k))
+    used = mid[keep]
+    c[keep], s[keep] = np.cos(used), np.sin(used)
+    return theta, c, s
+
+
+def midpoint_end_padded(ds_m: np.ndarray, dtheta_rad: np.ndarray) -> np.ndarray:
+    """:func:`midpoint_end` of zero-padded rows (n, K) (each row's increments, then zeros),
+    shape (n, 3): the same end poses, the sines and cosines computed on the rows' own lengths
+    only (a log's intervals between SLAM updates vary in length, and padding them to the
+    longest would triple the sines and cosines)."""
+    ds = np.asarray(ds_m, dtype=float)
+    dth = np.asarray(dtheta_rad, dtype=float)
+    if ds.size == 0:
+        return midpoint_end(ds, dth)
+    theta, c, s = _padded_trig(ds, dth)
+    return np.stack([np.sum(ds * c, axis=1), np.sum(ds * s, axis=1), theta[:, -1]], axis=-1)
+
+
+def midpoint_end_derivatives(
+    ds_m: np.ndarray, dtheta_rad: np.ndarray, d_ds: np.ndarray, d_dtheta: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`midpoint_end_padded` of rows (n, K) and its derivatives with respect to q
+    parameters, given the increments' derivatives ``d_ds``, ``d_dtheta`` of shape (q, n, K):
+    end poses (n, 3) and their derivatives (n, 3, q). With mid_i = theta_i - dtheta_i / 2:
+    dx = sum d_ds cos(mid) - ds sin(mid) dmid, dy = sum d_ds sin(mid) + ds cos(mid) dmid,
+    dtheta_end = sum d_dtheta, dmid = cumsum(d_dtheta) - d_dtheta / 2."""
+    ds = np.asarray(ds_m, dtype=float)
+    dth = np.asarray(dtheta_rad, dtype=float)
+    a = np.asarray(d_ds, dtype=float)
+    b = np.asarray(d_dtheta, dtype=float)
+    theta, c, s = _padded_trig(ds, dth)
+    end = np.stack([np.sum(ds * c, axis=1), np.sum(ds * s, axis=1), theta[:, -1]], axis=-1)
+    dmid = np.cumsum(b, axis=2) - 0.5 * b
+    sc, ss = ds * c, ds * s
+    jac = np.stack(
+        [
+            np.sum(a * c - ss * dmid, axis=2),
+            np.sum(a * s + sc * dmid, axis=2),
+            np.sum(b, axis=2),
+        ],
+        axis=1,
+    )  # (q, 3, n)
+    return end, np.transpose(jac, (2, 1, 0))
 
 
 def midpoint_path(
