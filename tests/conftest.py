@@ -18,6 +18,10 @@ ROOT = Path(__file__).resolve().parents[1]
 # The tests already run on every core (pytest-xdist): odocal's own worker processes would only
 # compete with them. Tests of the parallel paths set ODOCAL_THREADS themselves.
 os.environ.setdefault("ODOCAL_THREADS", "1")
+# Likewise BLAS: the matrices are small, and OpenBLAS threads spinning beside the other test
+# worker made scipy's L-BFGS-B three times slower (set before any worker imports numpy).
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
 
 def _find_realdata() -> Path | None:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import gc
 import importlib
+import os
 import signal
 import sys
 
@@ -134,7 +135,14 @@ def entry() -> None:
     without the interpreter's last garbage collection over every object the command leaves
     behind (matplotlib's are many: 0.1-0.2 s of a command that drew figures). Every output file
     is closed by then, and the exit handlers still run. (Not in :func:`main`, which library
-    callers and the tests call many times in one process.)"""
+    callers and the tests call many times in one process.)
+
+    BLAS runs on one thread unless the user's environment says otherwise (set before numpy is
+    imported, inherited by worker processes): odocal's matrices are small, and OpenBLAS threads
+    competing for busy cores made scipy's L-BFGS-B several times slower
+    (benchmarks/results/blas-threads.txt)."""
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
     status = main()
     gc.freeze()
     sys.exit(status)
