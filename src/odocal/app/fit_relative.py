@@ -56,6 +56,15 @@ __all__ = [
 #: Where the relative motions came from.
 RelativeSource = Literal["tuples", "slam", "scan"]
 
+#: What each source's inputs can get wrong when the result is absurd.
+ABSURD_HINTS: dict[str, str] = {
+    "tuples": "check the tuples' units (phi_l, phi_r average wheel speeds in rad/s, not deg/s or "
+    "rpm; sm in metres and radians)",
+    "slam": "check the wheel joints (swapped or inverted), --ticks-per-rev and --truth-frames",
+    "scan": "check the scan header (angle_min, angle_increment; an upside-down laser), the "
+    "laser's mounting in /tf_static, the wheel joints and --ticks-per-rev",
+}
+
 
 @dataclass(frozen=True)
 class TupleInput:
@@ -229,11 +238,13 @@ def fit_relative(
     *,
     sensor_pose: tuple[float, float, float] | None = None,
     force: bool = False,
+    source: RelativeSource = "tuples",
 ) -> tuple[SensorOdometryFit, tuple[str, ...]]:
     """The relative-motion route, I/O-free: the calibration of the intervals of every source in
     ``motions`` together (``sensor_pose`` fixed, else estimated), and the absurd-result
-    messages accepted with ``force`` (without it a result more than 25 % from ``nominal`` is
-    a CalibrationError)."""
+    messages accepted with ``force`` (without it a result more than 25 % from ``nominal``, or
+    one that is no plausible robot, is a CalibrationError whose hint names what ``source``'s
+    inputs can get wrong)."""
     m = stack_motions(motions)
     result = fit_censi(
         m.phi_right_rad,
@@ -244,7 +255,7 @@ def fit_relative(
         wheel_increments=m.increments,
         clusters=interval_blocks(m),
     )
-    return result, tuple(refuse_absurd(result.geometry, nominal, force))
+    return result, tuple(refuse_absurd(result.geometry, nominal, force, ABSURD_HINTS[source]))
 
 
 def is_tuple_file(path: str | Path) -> bool:

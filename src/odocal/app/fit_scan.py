@@ -109,7 +109,7 @@ def fit_scan_bags(
         )  # fmt: skip
         motions.append(m)
         summaries.append(s)
-    result, forced = fit_relative(motions, nominal, force=force)
+    result, forced = fit_relative(motions, nominal, force=force, source="scan")
     stacked = stack_motions(motions)
     usable = np.ones(len(stacked.phi_right_rad), dtype=bool)
     usable[list(result.dropped_indices)] = False
