@@ -3,13 +3,14 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import pytest
 
 from odocal.app.common import Exports
 from odocal.app.fit_relative import fit_relative, fit_tuple_files
 from odocal.core.model import WheelGeometry
-from odocal.errors import CalibrationError
+from odocal.errors import CalibrationError, InputError
 from odocal.io.outputs import OutputPlan
 from odocal.io.robot_file import load_params
 from tests.support.relative_intervals import motions, tuple_text
@@ -52,3 +53,14 @@ def test_an_absurd_result_names_what_its_source_can_get_wrong(source, hint):
     nominal = WheelGeometry(0.2, 0.2, 0.35)  # the data's wheelbase is 0.52 m: +49 %
     with pytest.raises(CalibrationError, match=hint):
         fit_relative([motions(n=60)], nominal, sensor_pose=(0, 0, 0), source=source)
+
+
+def test_two_bags_covering_the_same_time_are_refused():
+    # the same SLAM bag twice (a copy under another name): its intervals would count twice and
+    # shrink the standard errors by sqrt 2 without a word
+    a = motions(n=60, seed=0)
+    with pytest.raises(InputError, match="a.bag and b.bag cover the same time.*count twice"):
+        fit_relative([a, a], None, sensor_pose=(0, 0, 0), names=["a.bag", "b.bag"])
+    later = replace(a, start_s=a.start_s + 60.0, end_s=a.end_s + 60.0)  # the next hour's bag
+    fit, _ = fit_relative([a, later], None, sensor_pose=(0, 0, 0), names=["a.bag", "b.bag"])
+    assert fit.tuples_used == 120

@@ -147,3 +147,14 @@ def test_without_joint_states_the_odometry_stands_in(cli, run, tmp_path):
     # without the robot file there is no geometry to invert through: said so
     status, _, err = cli("fit", path, "--truth-frames", "map:base_link")
     assert status == 2 and "the geometry the controller ran with" in err
+
+
+def test_the_same_slam_bag_twice_under_two_names_is_refused(cli, slam_bag, tmp_path):
+    # a copy of the bag: its intervals would count twice (standard errors sqrt 2 too small)
+    import shutil
+
+    copy = tmp_path / "copy"
+    shutil.copytree(slam_bag, copy)
+    status, out, err = cli("fit", slam_bag, copy, "--truth-frames", "map:base_link")
+    assert status == 2 and out == "", err
+    assert "cover the same time" in err and "count twice" in err and len(err.splitlines()) == 1

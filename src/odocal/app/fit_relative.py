@@ -29,7 +29,7 @@ from ..calibration.relative_checks import (
     interval_blocks,
     preferred_answer,
 )
-from ..calibration.relative_motions import RelativeMotions, stack_motions
+from ..calibration.relative_motions import RelativeMotions, overlapping_sources, stack_motions
 from ..calibration.scan_matching import ScanIntervals
 from ..calibration.time_offset import TimeOffset, TimingCheck
 from ..core.model import WheelGeometry
@@ -239,12 +239,25 @@ def fit_relative(
     sensor_pose: tuple[float, float, float] | None = None,
     force: bool = False,
     source: RelativeSource = "tuples",
+    names: Sequence[str | Path] | None = None,
+    origins_s: Sequence[float] | None = None,
 ) -> tuple[SensorOdometryFit, tuple[str, ...]]:
     """The relative-motion route, I/O-free: the calibration of the intervals of every source in
     ``motions`` together (``sensor_pose`` fixed, else estimated), and the absurd-result
     messages accepted with ``force`` (without it a result more than 25 % from ``nominal``, or
     one that is no plausible robot, is a CalibrationError whose hint names what ``source``'s
-    inputs can get wrong)."""
+    inputs can get wrong). Two sources (``names``, default numbered) whose intervals overlap in
+    time (each on its clock from ``origins_s``, s since the epoch: a bag's start) are the same
+    recording twice: InputError."""
+    overlap = overlapping_sources(motions, origins_s)
+    if overlap is not None:
+        i, j, lo, hi = overlap
+        name = [str(n) for n in names] if names else [f"input {k + 1}" for k in range(len(motions))]
+        raise InputError(
+            f"{name[i]} and {name[j]} cover the same time ({hi - lo:.3g} s of it): the "
+            "same recording given twice (a copy under another name?) would count twice; give "
+            "each once"
+        )
     m = stack_motions(motions)
     result = fit_censi(
         m.phi_right_rad,

@@ -65,6 +65,8 @@ def fit_slam_bags(
         sensor_pose=(0.0, 0.0, 0.0),
         force=force,
         source="slam",
+        names=paths,
+        origins_s=[b.meta.get("start_ns", 0) * 1e-9 for b in bags],
     )
     result = _with_offset_error(bags, result)
     every, usable = slam_chains(

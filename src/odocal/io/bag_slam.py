@@ -227,7 +227,7 @@ def load_slam_bag(
             e = edges[_edge_key(s)]
             keep &= _span(stamps, e.time_s[0], e.time_s[-1])
     meta: dict = {"bag": str(p), "joint_topic": wheels.topic, "chain": chain_text,
-                  "wheels": wheels.describe()}  # fmt: skip
+                  "wheels": wheels.describe(), "start_ns": int(bag.start_ns)}  # fmt: skip
     meta.update(
         correction_edge=None if direct else f"{ce.parent} -> {ce.child}",
         slam_messages=int(len(ce.time_s)),
