@@ -78,6 +78,10 @@ def test_16_bit_wrap_around_is_unwrapped_with_the_modulus(tmp_path):
     path2 = _write(tmp_path / "r2.csv", "# ticks_per_rev: 1000\n" + body)
     with pytest.raises(InputError, match=r"r2.csv, line 5, field 'ticks_right'.*wrap-around"):
         load_generic_csv(path2)
+    # the bits (16) for the modulus: values 65000 apart cannot come from a counter wrapping at 16
+    path3 = _write(tmp_path / "r3.csv", "# ticks_per_rev: 1000\n# ticks_wrap: 16\n" + body)
+    with pytest.raises(InputError, match=r"field 'ticks_right'.*not its bits"):
+        load_generic_csv(path3)
 
 
 @pytest.mark.parametrize(
@@ -161,6 +165,11 @@ def test_dispatcher_folder_of_generic_runs_and_errors(tmp_path):
     other = _write(tmp_path / "notes.txt", "hello\n")
     with pytest.raises(InputError, match="unknown run file type"):
         load_recordings([other])
+    # a .tuple file is accepted by fit only: not "unknown", and not listed as accepted here
+    tuples = _write(tmp_path / "l90.tuple", '{"T": 1, "phi_l": 0, "phi_r": 0, "sm": [0, 0, 0]}\n')
+    with pytest.raises(InputError, match="only 'odocal fit' reads it") as info:
+        load_recordings([tuples])
+    assert "unknown" not in str(info.value)
 
 
 def test_optiodom_run_files_without_metadata_are_refused(tmp_path):

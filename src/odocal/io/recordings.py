@@ -77,11 +77,18 @@ def _load_file(path: Path, ticks_per_rev: float | None) -> list[Recording]:
             )
         runs = load_optiodom_dataset(path.parent)
         return [r for r in runs if Path(r.name).name == path.name]
+    if path.suffix.lower() == ".tuple":
+        raise InputError(
+            "a .tuple file holds relative motions without a trajectory: only 'odocal fit' reads "
+            "it (the relative-motion fit); this needs recorded runs (generic run CSVs, OptiOdom "
+            f"data sets, bags: {', '.join(BAG_SUFFIXES)})",
+            path,
+        )
     if path.suffix.lower() != ".csv" and not generic:
         raise InputError(
             "unknown run file type: expected a generic run CSV (header starting with time_s), "
-            f"an OptiOdom *_run-NN.csv, a bag ({', '.join(BAG_SUFFIXES)}) or a .tuple file (a "
-            "pipe of tuples needs --method relative)",
+            f"an OptiOdom *_run-NN.csv or a bag ({', '.join(BAG_SUFFIXES)}); 'odocal fit' also "
+            "reads .tuple files (a pipe of tuples with --method relative)",
             path,
         )
     return [load_generic_csv(path, ticks_per_rev=ticks_per_rev, text=text)]
