@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import pytest
 
 from odocal.app.common import Exports
+from odocal.app.fit import fit
 from odocal.app.fit_relative import fit_relative, fit_tuple_files
 from odocal.core.model import WheelGeometry
 from odocal.errors import CalibrationError, InputError
@@ -64,3 +66,14 @@ def test_two_bags_covering_the_same_time_are_refused():
     later = replace(a, start_s=a.start_s + 60.0, end_s=a.end_s + 60.0)  # the next hour's bag
     fit, _ = fit_relative([a, later], None, sensor_pose=(0, 0, 0), names=["a.bag", "b.bag"])
     assert fit.tuples_used == 120
+
+
+def test_a_folder_of_tuple_files_is_fitted_as_its_files(tmp_path):
+    folder = tmp_path / "tuples"
+    folder.mkdir()
+    for seed in (1, 2):
+        (folder / f"run{seed}.tuple").write_text(tuple_text(n=40, geometry=KHEPERA, seed=seed))
+    res = fit(folder)
+    assert res.source == "tuples"
+    assert [Path(t.path).name for t in res.tuple_files] == ["run1.tuple", "run2.tuple"]
+    assert res.fit.geometry.wheelbase_m == pytest.approx(0.089, rel=1e-3)

@@ -10,7 +10,7 @@ import pytest
 from odocal.core.recording import Recording
 from odocal.errors import InputError
 from odocal.io.generic_csv import load_generic_csv, write_generic_csv
-from odocal.io.recordings import load_recordings
+from odocal.io.recordings import expand_folders, load_recordings
 
 
 def _write(path, text):
@@ -213,3 +213,25 @@ def test_the_data_set_of_a_run_is_one_rule():
     assert opti.dataset == "2306"
     assert csv.dataset == "runs/a"
     assert bag.dataset == "runs/b"
+
+
+def test_folders_of_bags_and_of_tuple_files_are_walked(tmp_path):
+    # documented ("and folders of them"; "a folder of bags is one data set"), not walked before
+    bags = tmp_path / "bags"
+    (bags / "b_ros2").mkdir(parents=True)
+    (bags / "b_ros2" / "metadata.yaml").write_text("x: 1\n")
+    for name in ("c.mcap", "a.bag", "notes.txt"):
+        (bags / name).write_text("")
+    tuples = tmp_path / "tuples"
+    tuples.mkdir()
+    for name in ("l90_1.tuple", "l90_0.TUPLE", "README"):
+        (tuples / name).write_text("")
+    mixed = tmp_path / "mixed"
+    mixed.mkdir()
+    (mixed / "a.bag").write_text("")
+    (mixed / "a.tuple").write_text("")
+    assert expand_folders([bags, tuples, mixed, bags / "b_ros2"]) == [
+        bags / "a.bag", bags / "b_ros2", bags / "c.mcap",
+        tuples / "l90_0.TUPLE", tuples / "l90_1.tuple",
+        mixed, bags / "b_ros2",
+    ]  # fmt: skip
