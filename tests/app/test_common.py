@@ -14,9 +14,11 @@ from odocal.app.common import (
     refuse_absurd,
     resolve_robot,
     robot_label,
+    write_exports,
 )
 from odocal.core.model import WheelGeometry
 from odocal.errors import CalibrationError, InputError
+from odocal.io.outputs import OutputPlan
 from odocal.io.robot_file import load_robot, params_yaml
 from odocal.presets import DEFAULT_ROBOT, PRESETS
 
@@ -71,3 +73,19 @@ def test_a_calibration_far_from_nominal_is_refused_unless_forced():
         refuse_absurd(absurd, nominal, force=False)
     (problem,) = refuse_absurd(absurd, nominal, force=True)
     assert "wheelbase" in problem
+
+
+def test_a_calibration_that_is_no_robot_is_refused_without_a_nominal_and_never_written(tmp_path):
+    # 0.7 mm wheels on an 88 mm wheelbase: no nominal to compare with, but the robot-file reader
+    # would refuse the PARAMS.yaml; with --force it is reported, still never written
+    geometry = WheelGeometry(0.0007, 0.0007, 0.088)
+    with pytest.raises(CalibrationError, match="not a plausible robot.*IMU"):
+        refuse_absurd(geometry, None, force=False, hint="check the IMU")
+    (problem,) = refuse_absurd(geometry, None, force=True)
+    assert "0.00795 times the wheelbase" in problem
+    out = tmp_path / "PARAMS.yaml"
+    plan = OutputPlan([])
+    plan.file(out, "--out")
+    with pytest.raises(CalibrationError, match="nothing written"):
+        write_exports(plan, geometry, None, out)
+    assert not out.exists()

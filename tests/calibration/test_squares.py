@@ -36,3 +36,28 @@ def test_heading_and_umbmark_on_recorded_squares_directions_from_the_data():
     assert um.geometry.diameter_ratio == pytest.approx(true_ratio, rel=1e-3)
     with pytest.raises(CalibrationError, match="not a closed square"):
         fit_recorded_squares(runs + [make_run("line", [("straight", 2.0)], side=side)], "heading")
+
+
+@pytest.mark.parametrize(
+    ("side", "sides", "needle"),
+    [
+        (10.0, 4, "the wheels travel 12 m, where 4 sides of 10 m are 40 m"),
+        (2.0, 4, "travel 12 m, where 4 sides of 2 m are 8 m"),
+        (3.0, 3, "travel 12 m, where 3 sides of 3 m are 9 m"),
+        (
+            2.4,
+            5,
+            "halfway along side 3 the odometry has turned 180 deg, where a 5-gon has turned 144",
+        ),
+    ],
+)
+def test_the_heading_method_compares_sides_and_side_length_with_the_recorded_motion(
+    side, sides, needle
+):
+    # 3 m squares given as 10 m squares or triangles: the heading method's E_b and E_d would be
+    # off without a word (the 0.7-2.4 % of a real trial); the wheels say what was driven
+    runs = [make_run(d, square(d, 3.0)) for d in ("cw", "ccw")]
+    with pytest.raises(CalibrationError, match="not the track given") as info:
+        fit_recorded_squares(runs, "heading", nominal=NOMINAL, side_m=side, sides=sides)
+    assert needle in str(info.value)
+    fit_recorded_squares(runs, "heading", nominal=NOMINAL, side_m=3.0)  # the right track passes

@@ -10,7 +10,7 @@ import pytest
 from odocal.core.recording import Recording
 from odocal.errors import InputError
 from odocal.io.generic_csv import load_generic_csv, write_generic_csv
-from odocal.io.recordings import load_recordings
+from odocal.io.recordings import expand_folders, load_recordings
 
 
 def _write(path, text):
@@ -78,6 +78,10 @@ def test_16_bit_wrap_around_is_unwrapped_with_the_modulus(tmp_path):
     path2 = _write(tmp_path / "r2.csv", "# ticks_per_rev: 1000\n" + body)
     with pytest.raises(InputError, match=r"r2.csv, line 5, field 'ticks_right'.*wrap-around"):
         load_generic_csv(path2)
+    # the bits (16) for the modulus: values 65000 apart cannot come from a counter wrapping at 16
+    path3 = _write(tmp_path / "r3.csv", "# ticks_per_rev: 1000\n# ticks_wrap: 16\n" + body)
+    with pytest.raises(InputError, match=r"field 'ticks_right'.*not its bits"):
+        load_generic_csv(path3)
 
 
 @pytest.mark.parametrize(
@@ -161,6 +165,11 @@ def test_dispatcher_folder_of_generic_runs_and_errors(tmp_path):
     other = _write(tmp_path / "notes.txt", "hello\n")
     with pytest.raises(InputError, match="unknown run file type"):
         load_recordings([other])
+    # a .tuple file is accepted by fit only: not "unknown", and not listed as accepted here
+    tuples = _write(tmp_path / "l90.tuple", '{"T": 1, "phi_l": 0, "phi_r": 0, "sm": [0, 0, 0]}\n')
+    with pytest.raises(InputError, match="only 'odocal fit' reads it") as info:
+        load_recordings([tuples])
+    assert "unknown" not in str(info.value)
 
 
 def test_optiodom_run_files_without_metadata_are_refused(tmp_path):
@@ -204,3 +213,25 @@ def test_the_data_set_of_a_run_is_one_rule():
     assert opti.dataset == "2306"
     assert csv.dataset == "runs/a"
     assert bag.dataset == "runs/b"
+
+
+def test_folders_of_bags_and_of_tuple_files_are_walked(tmp_path):
+    # documented ("and folders of them"; "a folder of bags is one data set"), not walked before
+    bags = tmp_path / "bags"
+    (bags / "b_ros2").mkdir(parents=True)
+    (bags / "b_ros2" / "metadata.yaml").write_text("x: 1\n")
+    for name in ("c.mcap", "a.bag", "notes.txt"):
+        (bags / name).write_text("")
+    tuples = tmp_path / "tuples"
+    tuples.mkdir()
+    for name in ("l90_1.tuple", "l90_0.TUPLE", "README"):
+        (tuples / name).write_text("")
+    mixed = tmp_path / "mixed"
+    mixed.mkdir()
+    (mixed / "a.bag").write_text("")
+    (mixed / "a.tuple").write_text("")
+    assert expand_folders([bags, tuples, mixed, bags / "b_ros2"]) == [
+        bags / "a.bag", bags / "b_ros2", bags / "c.mcap",
+        tuples / "l90_0.TUPLE", tuples / "l90_1.tuple",
+        mixed, bags / "b_ros2",
+    ]  # fmt: skip

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from odocal.errors import InputError
-from odocal.io.tuples import MAX_LINE_BYTES, read_tuples
+from odocal.io.tuples import MAX_LINE_BYTES, read_tuples, refuse_repeated_tuples
 
 LINE = '{ "T": 0.8, "phi_l": 0.5, "phi_r": -0.25, "sm": [ 0.001, -0.002, 0.05 ] }'
 
@@ -88,3 +88,58 @@ def test_reader_missing_file_and_folder(tmp_path):
         read_tuples(tmp_path / "nope.tuple")
     with pytest.raises(InputError, match="directory"):
         read_tuples(tmp_path)
+
+
+@pytest.mark.parametrize("end", ["\r", "\r\n", "\n"])
+def test_reader_takes_cr_crlf_and_lf_line_ends(tmp_path, end):
+    # CR-only (old Mac) line ends, as the README promises for every text file; 1000 lines cross
+    # the reader's chunk boundary, so a CRLF split between two chunks is one line end
+    rows = [LINE.replace("0.8", f"0.{k + 1000}") for k in range(1000)]
+    path = tmp_path / "ends.tuple"
+    path.write_bytes(end.join(rows).encode() + end.encode() + b"  " + end.encode())
+    data = read_tuples(path)
+    assert len(data) == 1000 and data.line[-1] == 1000
+    np.testing.assert_allclose(data.duration_s[[0, -1]], [0.1, 0.1999])
+
+
+def test_reader_counts_cr_only_lines_in_its_errors(tmp_path):
+    path = tmp_path / "bad.tuple"
+    path.write_bytes(f"{LINE}\r{LINE}\r{{nope\r".encode())
+    with pytest.raises(InputError, match="line 3: invalid JSON"):
+        read_tuples(path)
+
+
+def _tuples(tmp_path, name, text):
+    path = tmp_path / name
+    path.write_text(text)
+    return read_tuples(path)
+
+
+ROWS = [LINE.replace("0.5", f"0.{k + 10}") for k in range(6)]
+
+
+@pytest.mark.parametrize(
+    ("texts", "needle"),
+    [
+        ([ROWS + ROWS[2:3]], "bad.tuple, line 7: the same tuple as line 3"),  # a row copied
+        ([ROWS + ROWS], "bad.tuple, line 7: the same tuple as line 1"),  # concatenated
+        ([ROWS + ROWS[::2]], "line 7: the same tuple as line 1"),  # with its own decimation
+        ([ROWS, ROWS], "other.tuple, line 1: the same tuple as "),  # a copy, another name
+        ([ROWS[:2] + [ROWS[3] + " " + ROWS[3]]], "line 3: the same tuple as line 3"),
+    ],
+)
+def test_the_same_interval_given_twice_is_refused(tmp_path, texts, needle):
+    # it would count twice: standard errors sqrt 2 too small, without a word
+    data = [
+        _tuples(tmp_path, name, "\n".join(rows) + "\n")
+        for name, rows in zip(("bad.tuple", "other.tuple"), texts, strict=False)
+    ]
+    with pytest.raises(InputError, match="would count twice") as info:
+        refuse_repeated_tuples(data)
+    assert needle in str(info.value)
+
+
+def test_still_intervals_may_repeat_and_distinct_ones_pass(tmp_path):
+    still = '{"T": 0.8, "phi_l": 0, "phi_r": 0, "sm": [0, 0, 0]}'
+    data = _tuples(tmp_path, "ok.tuple", "\n".join([*ROWS, still, still]) + "\n")
+    refuse_repeated_tuples([data])  # a robot standing still at a fixed rate

@@ -108,3 +108,22 @@ def test_heading_error_sign_matches_the_truth(bags):
     # the true final heading of the run vs the believed -2 pi (spot turns really turn psi/E_b)
     assert abs(ends.errors[0, 2]) > 0.05 and np.isnan(ends.errors[0, 0])
     assert ends.errors[0, 2] + odo_turn == pytest.approx(rec.gyro_yaw_rad[-1], abs=1e-9)
+
+
+def test_a_folder_of_bags_is_one_data_set_and_its_track_is_checked(cli, bags):
+    # the folder is walked (its robot.yaml is no bag); 1 m squares given as triangles are
+    # refused (--side-length: tests/calibration/test_squares.py): the wheels say what was driven
+    paths, robot = bags
+    folder = paths[0].parent
+    status, out, err = cli(
+        "fit", folder, "--method", "heading", "--heading-source", "gyro", "--robot", robot,
+        "--side-length", SIDE, "--sides", 3,
+    )  # fmt: skip
+    assert status == 2 and "not the track given" in err and err.count("\n") == 1, err
+    status, out, err = cli(
+        "fit", folder, "--method", "heading", "--heading-source", "gyro", "--robot", robot,
+        "--side-length", SIDE, "--json",
+    )  # fmt: skip
+    assert status == 0, err
+    (ds,) = json.loads(out)["data_sets"]
+    assert ds["runs_cw"] == RUNS and ds["runs_ccw"] == RUNS

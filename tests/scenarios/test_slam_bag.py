@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 from odocal.core.model import WheelGeometry
@@ -147,3 +148,31 @@ def test_without_joint_states_the_odometry_stands_in(cli, run, tmp_path):
     # without the robot file there is no geometry to invert through: said so
     status, _, err = cli("fit", path, "--truth-frames", "map:base_link")
     assert status == 2 and "the geometry the controller ran with" in err
+
+
+def test_the_same_slam_bag_twice_under_two_names_is_refused(cli, slam_bag, tmp_path):
+    # a copy of the bag: its intervals would count twice (standard errors sqrt 2 too small)
+    import shutil
+
+    copy = tmp_path / "copy"
+    shutil.copytree(slam_bag, copy)
+    status, out, err = cli("fit", slam_bag, copy, "--truth-frames", "map:base_link")
+    assert status == 2 and out == "", err
+    assert "cover the same time" in err and "count twice" in err and len(err.splitlines()) == 1
+
+
+def test_a_truth_frame_mounted_on_the_base_is_read_as_the_base(slam_bag):
+    # map:laser: the laser hangs below base_link by /tf_static (0.15, 0.05, 0.1 rad); its motion
+    # taken for the base's put the geometry 0.6-2.4 % off. The base's motion is used, and said
+    from odocal.io.bag_options import BagOptions
+    from odocal.io.bag_slam import load_slam_bag
+
+    base = load_slam_bag(slam_bag, ("map", "base_link"), BagOptions(), time_offset_s=0.0)
+    laser = load_slam_bag(slam_bag, ("map", "laser"), BagOptions(), time_offset_s=0.0)
+    np.testing.assert_array_equal(
+        laser.relative_motions.sensor_motion, base.relative_motions.sensor_motion
+    )
+    (note,) = set(laser.wheel_warnings) - set(base.wheel_warnings)
+    assert (
+        "'laser' is mounted on 'base_link' by /tf_static (x 0.15 m, y 0.05 m, yaw 0.1 rad)" in note
+    )

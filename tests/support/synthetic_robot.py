@@ -374,6 +374,8 @@ def write_ros2_bag(
     laser_delay_s: float = 0.0,
     slam_delay_s: float = 0.0,
     joints: bool = True,
+    scan_mirrored: str | None = None,
+    scan_increment_scale: float = 1.0,
 ) -> dict[str, int]:
     """Write ``run`` into a ROS 2 bag folder ``path`` (must not exist); returns the message
     count per topic.
@@ -388,6 +390,13 @@ def write_ros2_bag(
     update late in the same way, and computes it as a SLAM on that clock would: the pose at
     the scan, composed with the inverse odometry looked up at the (late) stamp, so that the
     composed ``map -> base_link`` at the stamp is the true pose at the scan.
+
+    Scan headers: ``scan_mirrored`` writes each scan as a laser mounted upside down, its rays in
+    the opposite order with a negative ``angle_increment`` ('header': ``angle_min`` and
+    ``angle_max`` swapped too, the same points in the upright frame of ``/tf_static``;
+    'ranges': not swapped, a header that disagrees with itself); ``scan_increment_scale``
+    writes an ``angle_increment`` that many times the true one, ``angle_min`` and ``angle_max``
+    true (an inconsistent header).
     """
     w = _Ros2Writer(Path(path))
     w.w.open()
@@ -448,16 +457,23 @@ def write_ros2_bag(
                     transforms.append(w.transform(t_ns, "map", "odom", map_odom[k]))
                 w.tf(TOPICS["tf"], t_ns, transforms)
             elif kind == 1:
+                first, last = laser.angle_min_rad, laser.angles_rad[-1]
+                ranges = run.scan_ranges_m[k]
+                increment = laser.angle_increment_rad * scan_increment_scale
+                if scan_mirrored:
+                    ranges, increment = ranges[::-1], -increment
+                    if scan_mirrored == "header":
+                        first, last = last, first
                 msg = w.T("sensor_msgs/msg/LaserScan")(
                     header=w.header(t_ns, laser.frame_id),
-                    angle_min=float(laser.angle_min_rad),
-                    angle_max=float(laser.angles_rad[-1]),
-                    angle_increment=float(laser.angle_increment_rad),
+                    angle_min=float(first),
+                    angle_max=float(last),
+                    angle_increment=float(increment),
                     time_increment=0.0,
                     scan_time=float(scan_time_s),
                     range_min=float(laser.range_min_m),
                     range_max=float(laser.range_max_m),
-                    ranges=run.scan_ranges_m[k].astype(np.float32),
+                    ranges=np.ascontiguousarray(ranges, dtype=np.float32),
                     intensities=np.array([], np.float32),
                 )
                 w.write(TOPICS["scan"], "sensor_msgs/msg/LaserScan", t_ns, msg)

@@ -9,10 +9,12 @@ from pathlib import Path
 from typing import Any
 
 from ..calibration.heldout import HeldOut
-from ..calibration.result import far_from_nominal
+from ..calibration.result import WHEELS_HINT, far_from_nominal
 from ..core.model import Robot, WheelGeometry
+from ..core.plausibility import calibrated_geometry_problem
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
+from ..io.limits import ROBOT_LENGTH_M
 from ..io.outputs import OutputPlan
 from ..io.robot_file import load_params, load_robot, params_yaml
 from ..io.ros2_export import DEFAULT_CONTROLLER, ros2_params_yaml
@@ -29,6 +31,7 @@ __all__ = [
     "write_exports",
     "make_robot",
     "refuse_absurd",
+    "implausible_geometry",
     "refuse_untrusted",
     "robot_nominal",
     "robot_ran_with",
@@ -134,11 +137,25 @@ def load_warnings(recordings: Sequence[Recording]) -> tuple[str, ...]:
     )
 
 
-def refuse_absurd(geometry: WheelGeometry, nominal: WheelGeometry | None, force: bool) -> list[str]:
-    """A calibration far (> 25 %) from ``nominal`` is refused (CalibrationError, nothing
-    written) unless ``force``; then its messages are returned as warnings."""
+def implausible_geometry(geometry: WheelGeometry) -> str | None:
+    """Why a calibrated ``geometry`` is not a robot the robot-file reader would accept (lengths
+    out of range, diameters against the wheelbase), or None."""
+    return calibrated_geometry_problem(geometry, ROBOT_LENGTH_M)
+
+
+def refuse_absurd(
+    geometry: WheelGeometry, nominal: WheelGeometry | None, force: bool, hint: str = WHEELS_HINT
+) -> list[str]:
+    """A calibration far (> 25 %) from ``nominal``, or not a plausible robot at all
+    (:func:`implausible_geometry`, checked with or without a nominal), is refused
+    (CalibrationError, nothing written) unless ``force``; then its messages are returned as
+    warnings (an implausible geometry is still never written: :func:`write_exports`). ``hint``:
+    what the route's inputs can get wrong."""
     values = (geometry.diameter_right_m, geometry.diameter_left_m, geometry.wheelbase_m)
-    problems = far_from_nominal(values, nominal)
+    problems = far_from_nominal(values, nominal, hint)
+    implausible = implausible_geometry(geometry)
+    if implausible:
+        problems.insert(0, f"not a plausible robot: {implausible}; {hint}")
     if problems and not force:
         more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
         raise CalibrationError(
@@ -193,8 +210,15 @@ def write_exports(
     """The one export path of every calibration: PARAMS.yaml (``out``) and the ros2_control
     ``diff_drive_controller`` file (``ros2``; nominal base values, the calibration in the
     multipliers), written all or none with the command's other ``files`` (path -> content, e.g.
-    figures). ``record`` (method, E_b, ...) goes beside the values."""
+    figures). ``record`` (method, E_b, ...) goes beside the values. A geometry the robot-file
+    reader would refuse (:func:`implausible_geometry`) is never written: CalibrationError."""
     record = dict(record or {})
+    implausible = implausible_geometry(geometry) if (out or ros2) else None
+    if implausible:
+        raise CalibrationError(
+            f"not a plausible robot: {implausible}; nothing written (the file could not be read "
+            "back)"
+        )
     contents: dict[Path, Any] = dict(files or {})
     if ros2 is not None:
         if nominal is None:

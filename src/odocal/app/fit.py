@@ -36,7 +36,7 @@ from ..errors import InputError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
 from ..io.bags import is_bag
 from ..io.outputs import OutputPlan
-from ..io.recordings import refuse_repeated
+from ..io.recordings import expand_folders, refuse_repeated
 from ..io.ros2_export import DEFAULT_CONTROLLER
 from .common import Exports, RobotSpec, input_paths
 from .fit_auto import AutoFitResult, fit_auto
@@ -219,7 +219,7 @@ def fit(
     One bag with no method and no truth named (or ``method='auto'``): every route the bag
     allows, cross-checked, one answer (:func:`odocal.app.fit_auto.fit_auto`; ``out`` is then a
     folder for its report)."""
-    paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
+    paths = expand_folders([paths] if isinstance(paths, (str, Path)) else list(paths))
     if _is_auto(paths, method, truth_frames, bag, settings, squares):
         _refuse_for_auto(paths, plot, robot_out)
         return fit_auto(paths[0], robot=robot, options=bag, out=out, ros2=ros2,

@@ -39,7 +39,7 @@ from ..io.bag_survey import BagSurvey, RouteOption, survey
 from ..io.outputs import OutputPlan
 from ..io.robot_file import load_robot, params_yaml
 from ..io.ros2_export import DEFAULT_CONTROLLER, ros2_params_yaml
-from .common import RobotSpec, input_paths
+from .common import RobotSpec, implausible_geometry, input_paths
 from .fit_auto_result import AutoFitResult, RouteRun
 from .fit_gyro import GyroFitResult, fit_gyro
 from .fit_relative import RelativeFitResult
@@ -199,6 +199,9 @@ def _files(
         return None
     if result.reasons and not force:
         return None
+    implausible = implausible_geometry(a.geometry)
+    if implausible:  # never written, whatever force says: the file could not be read back
+        raise CalibrationError(f"not a plausible robot: {implausible}; nothing written")
     contents: dict[Path, Any] = {}
     method = f"auto ({a.name})"
     if ros2 is not None:

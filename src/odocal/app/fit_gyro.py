@@ -295,8 +295,9 @@ def _refuse_absurd(m: float, force: bool) -> None:
     if abs(m - 1) > ABSURD_FRACTION and not force:
         raise CalibrationError(
             f"wheelbase_multiplier = {m:.6g} is {100 * (m - 1):+.0f} % from 1: absurd for a "
-            "calibration; check the IMU axis and the wheel joints; nothing written (--force "
-            "accepts the result anyway)"
+            "calibration; check the IMU's mounting (--imu-axis, /tf_static), the gyro's units "
+            "(rad/s, not deg/s) and the wheel joints; nothing written (--force accepts the "
+            "result anyway)"
         )
 
 

@@ -29,14 +29,14 @@ from ..calibration.relative_checks import (
     interval_blocks,
     preferred_answer,
 )
-from ..calibration.relative_motions import RelativeMotions, stack_motions
+from ..calibration.relative_motions import RelativeMotions, overlapping_sources, stack_motions
 from ..calibration.scan_matching import ScanIntervals
 from ..calibration.time_offset import TimeOffset, TimingCheck
 from ..core.model import WheelGeometry
 from ..errors import InputError
 from ..io.bag_slam import SlamBag
 from ..io.outputs import OutputPlan
-from ..io.tuples import read_tuples
+from ..io.tuples import read_tuples, refuse_repeated_tuples
 from .common import NO_EXPORTS, Exports, RobotSpec, refuse_absurd, refuse_untrusted, robot_nominal
 
 __all__ = [
@@ -55,6 +55,15 @@ __all__ = [
 
 #: Where the relative motions came from.
 RelativeSource = Literal["tuples", "slam", "scan"]
+
+#: What each source's inputs can get wrong when the result is absurd.
+ABSURD_HINTS: dict[str, str] = {
+    "tuples": "check the tuples' units (phi_l, phi_r average wheel speeds in rad/s, not deg/s or "
+    "rpm; sm in metres and radians)",
+    "slam": "check the wheel joints (swapped or inverted), --ticks-per-rev and --truth-frames",
+    "scan": "check the scan header (angle_min, angle_increment; an upside-down laser), the "
+    "laser's mounting in /tf_static, the wheel joints and --ticks-per-rev",
+}
 
 
 @dataclass(frozen=True)
@@ -229,11 +238,26 @@ def fit_relative(
     *,
     sensor_pose: tuple[float, float, float] | None = None,
     force: bool = False,
+    source: RelativeSource = "tuples",
+    names: Sequence[str | Path] | None = None,
+    origins_s: Sequence[float] | None = None,
 ) -> tuple[SensorOdometryFit, tuple[str, ...]]:
     """The relative-motion route, I/O-free: the calibration of the intervals of every source in
     ``motions`` together (``sensor_pose`` fixed, else estimated), and the absurd-result
-    messages accepted with ``force`` (without it a result more than 25 % from ``nominal`` is
-    a CalibrationError)."""
+    messages accepted with ``force`` (without it a result more than 25 % from ``nominal``, or
+    one that is no plausible robot, is a CalibrationError whose hint names what ``source``'s
+    inputs can get wrong). Two sources (``names``, default numbered) whose intervals overlap in
+    time (each on its clock from ``origins_s``, s since the epoch: a bag's start) are the same
+    recording twice: InputError."""
+    overlap = overlapping_sources(motions, origins_s)
+    if overlap is not None:
+        i, j, lo, hi = overlap
+        name = [str(n) for n in names] if names else [f"input {k + 1}" for k in range(len(motions))]
+        raise InputError(
+            f"{name[i]} and {name[j]} cover the same time ({hi - lo:.3g} s of it): the "
+            "same recording given twice (a copy under another name?) would count twice; give "
+            "each once"
+        )
     m = stack_motions(motions)
     result = fit_censi(
         m.phi_right_rad,
@@ -244,7 +268,7 @@ def fit_relative(
         wheel_increments=m.increments,
         clusters=interval_blocks(m),
     )
-    return result, tuple(refuse_absurd(result.geometry, nominal, force))
+    return result, tuple(refuse_absurd(result.geometry, nominal, force, ABSURD_HINTS[source]))
 
 
 def is_tuple_file(path: str | Path) -> bool:
@@ -340,6 +364,7 @@ def fit_tuple_files(
     estimated too)."""
     nominal = robot_nominal(robot)
     data = [read_tuples(p) for p in paths]
+    refuse_repeated_tuples(data)
     motions = [RelativeMotions(d.phi_right_rad, d.phi_left_rad, d.sensor_motion) for d in data]
     result, forced = fit_relative(motions, nominal, force=force)
     written = export_relative(plan, result, nominal, "relative", exports)

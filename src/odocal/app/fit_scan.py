@@ -99,17 +99,18 @@ def fit_scan_bags(
         )
     loaded_robot = load_robot(robot)
     nominal, ran_with = loaded_robot.nominal, loaded_robot.believed_geometry
-    motions, summaries = [], []
+    motions, summaries, origins = [], [], []
     for p in paths:
         if not is_bag(p):
             raise InputError("--method scan needs ROS bags with laser scans", p)
-        m, s = scan_intervals(
-            read_scan_bag(p, bag, ticks_per_rev, ran_with), nominal, scan_interval_s,
-            bag.time_offset("laser"),
-        )  # fmt: skip
+        loaded = read_scan_bag(p, bag, ticks_per_rev, ran_with)
+        m, s = scan_intervals(loaded, nominal, scan_interval_s, bag.time_offset("laser"))
         motions.append(m)
         summaries.append(s)
-    result, forced = fit_relative(motions, nominal, force=force)
+        origins.append(loaded.start_ns * 1e-9)
+    result, forced = fit_relative(
+        motions, nominal, force=force, source="scan", names=paths, origins_s=origins
+    )
     stacked = stack_motions(motions)
     usable = np.ones(len(stacked.phi_right_rad), dtype=bool)
     usable[list(result.dropped_indices)] = False

@@ -60,7 +60,13 @@ def fit_slam_bags(
         time_offset_s=bag.time_offset("slam"),
     )
     result, forced = fit_relative(
-        [b.relative_motions for b in bags], nominal, sensor_pose=(0.0, 0.0, 0.0), force=force
+        [b.relative_motions for b in bags],
+        nominal,
+        sensor_pose=(0.0, 0.0, 0.0),
+        force=force,
+        source="slam",
+        names=paths,
+        origins_s=[b.meta.get("start_ns", 0) * 1e-9 for b in bags],
     )
     result = _with_offset_error(bags, result)
     every, usable = slam_chains(

@@ -16,7 +16,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["RelativeMotions", "wheel_increments", "stack_increments", "stack_motions"]
+__all__ = [
+    "RelativeMotions",
+    "wheel_increments",
+    "stack_increments",
+    "stack_motions",
+    "overlapping_sources",
+]
 
 
 @dataclass(frozen=True)
@@ -123,3 +129,26 @@ def stack_motions(parts: Sequence[RelativeMotions]) -> RelativeMotions:
         start,
         end,
     )
+
+
+def overlapping_sources(
+    motions: Sequence[RelativeMotions], origins_s: Sequence[float] | None = None
+) -> tuple[int, int, float, float] | None:
+    """The first two sources (indices i < j) whose intervals overlap in time, with the overlap
+    (s, from, to, on the common clock), or None. Each source's intervals are on its wheel clock
+    from its own origin, ``origins_s[k]`` (s since the epoch; default 0: one clock); two
+    recordings of one robot whose sample times overlap are the same recording (a bag given
+    twice under two names): its intervals would count twice. Sources without times are not
+    compared."""
+    origin = list(origins_s) if origins_s is not None else [0.0] * len(motions)
+    spans = [
+        (k, origin[k] + float(np.min(m.start_s)), origin[k] + float(np.max(m.end_s)))
+        for k, m in enumerate(motions)
+        if m.start_s is not None and m.end_s is not None and len(m.start_s)
+    ]
+    for a, (i, lo_i, hi_i) in enumerate(spans):
+        for j, lo_j, hi_j in spans[a + 1 :]:
+            lo, hi = max(lo_i, lo_j), min(hi_i, hi_j)
+            if lo < hi:
+                return i, j, lo, hi
+    return None

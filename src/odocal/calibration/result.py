@@ -32,6 +32,7 @@ __all__ = [
     "BandedDetails",
     "check_physical",
     "far_from_nominal",
+    "WHEELS_HINT",
     "stderr_dict",
 ]
 
@@ -429,9 +430,16 @@ def check_physical(
 ABSURD_FRACTION = 0.25
 
 
-def far_from_nominal(values: Iterable[SupportsFloat], nominal: WheelGeometry | None) -> list[str]:
+#: What a result far from nominal usually means, for runs of wheel angles (the default hint).
+WHEELS_HINT = "check that the wheels are not swapped and the ticks per revolution"
+
+
+def far_from_nominal(
+    values: Iterable[SupportsFloat], nominal: WheelGeometry | None, hint: str = WHEELS_HINT
+) -> list[str]:
     """One message per value of ``values`` (D_R, D_L, b in m) further than
-    :data:`ABSURD_FRACTION` from ``nominal`` (none without a nominal geometry)."""
+    :data:`ABSURD_FRACTION` from ``nominal`` (none without a nominal geometry), ending with
+    ``hint`` (what the caller's inputs can get wrong)."""
     if nominal is None:
         return []
     nominal_values = (
@@ -444,7 +452,6 @@ def far_from_nominal(values: Iterable[SupportsFloat], nominal: WheelGeometry | N
         if abs(v / n - 1) > ABSURD_FRACTION:
             out.append(
                 f"{name} = {v:.6g} m is {100 * (v / n - 1):+.0f} % from nominal {n:.6g} m: "
-                "absurd for a calibration; check that the wheels are not swapped and the "
-                "ticks per revolution"
+                f"absurd for a calibration; {hint}"
             )
     return out

@@ -40,7 +40,7 @@ from .heading import calibrate_heading
 from .result import DataSetCalibration, GeometryFit, SquaresDetails
 from .umbmark import calibrate_umbmark
 
-__all__ = ["recorded_end_errors", "direction_from_data", "fit_recorded_squares"]
+__all__ = ["recorded_end_errors", "direction_from_data", "fit_recorded_squares", "track_problem"]
 
 _TOL = math.radians(45.0)
 
@@ -108,6 +108,45 @@ def recorded_end_errors(
     return EndPoseRuns(tuple(dirs), np.array(errs)), warnings
 
 
+#: A run's odometric travel within this fraction of the polygon's perimeter (sides x side).
+TRAVEL_TOLERANCE = 0.10
+#: The odometric heading at each side's middle within this fraction of a corner of the turn
+#: the polygon has made by then.
+CORNER_TOLERANCE = 0.4
+
+
+def track_problem(
+    right_rad: np.ndarray, left_rad: np.ndarray, geometry: WheelGeometry, sides: int, side_m: float
+) -> str | None:
+    """The recorded wheel motion of one closed run (wheel angles, rad; dead-reckoned with
+    ``geometry``, the parameters it ran with) against the polygon it is said to be (``sides``
+    sides of ``side_m``, m): None if it drove that polygon, else what differs. The travel must
+    be the perimeter within :data:`TRAVEL_TOLERANCE`, and at the middle of side k the heading
+    must have turned k corners (within :data:`CORNER_TOLERANCE` of one): a wrong --sides or
+    --side-length would otherwise bias the heading method without a word."""
+    odo = dead_reckon(right_rad, left_rad, geometry)
+    step = np.hypot(np.diff(odo[:, 0]), np.diff(odo[:, 1]))
+    travel = np.concatenate([[0.0], np.cumsum(step)])
+    perimeter = sides * side_m
+    if abs(travel[-1] / perimeter - 1) > TRAVEL_TOLERANCE:
+        return (
+            f"the wheels travel {travel[-1]:.3g} m, where {sides} sides of {side_m:g} m are "
+            f"{perimeter:.3g} m: a wrong --side-length or --sides?"
+        )
+    corner = 2 * math.pi / sides
+    turned = odo[:, 2] - odo[0, 2]
+    sign = 1.0 if turned[-1] >= 0 else -1.0
+    for k in range(sides):
+        i = min(int(np.searchsorted(travel, (k + 0.5) * side_m)), len(travel) - 1)
+        if abs(sign * turned[i] - k * corner) > CORNER_TOLERANCE * corner:
+            return (
+                f"halfway along side {k + 1} the odometry has turned "
+                f"{math.degrees(sign * turned[i]):.0f} deg, where a {sides}-gon has turned "
+                f"{math.degrees(k * corner):.0f} deg: a wrong --sides or --side-length?"
+            )
+    return None
+
+
 def _group(recordings: Sequence[Recording]) -> dict[str, list[Recording]]:
     groups: dict[str, list[Recording]] = {}
     for r in recordings:
@@ -148,6 +187,12 @@ def fit_recorded_squares(
         geo = runs[0].ran_with or ran_with
         if geo is None:  # recorded_end_errors has refused such runs already
             raise CalibrationError(f"{runs[0].name}: the parameters the robot ran with are unknown")
+        for r in runs:
+            problem = track_problem(
+                r.wheel_angle_right_rad, r.wheel_angle_left_rad, r.ran_with or geo, sides, side
+            )
+            if problem:
+                raise CalibrationError(f"{r.name}: not the track given: {problem}")
         warnings += set_warnings
         try:
             if method == "umbmark":

@@ -34,6 +34,7 @@ __all__ = [
     "EndErrorBounds",
     "end_error_bounds",
     "proportions_problem",
+    "calibrated_geometry_problem",
     "track_size_problem",
     "wrap_heading_error",
     "heading_error_problem",
@@ -118,6 +119,33 @@ def proportions_problem(
                 f"the {name} wheel diameter {float(np.mean(d)):g} is {ratio:.3g} times the "
                 f"wheelbase {b:g}: a differential drive has {lo:g} .. {hi:g}; are the two in "
                 "different units (metres beside millimetres or centimetres)?"
+            )
+    return None
+
+
+def calibrated_geometry_problem(
+    geometry: WheelGeometry, length_range_m: tuple[float, float]
+) -> str | None:
+    """A CALIBRATED geometry (m) checked as a robot file's is (every length finite and within
+    ``length_range_m``, diameters against the wheelbase): None if plausible, else what is wrong,
+    without a guess at the cause (the caller knows what its inputs can get wrong)."""
+    lo, hi = length_range_m
+    values = {
+        "D_R": float(geometry.diameter_right_m),
+        "D_L": float(geometry.diameter_left_m),
+        "b": float(geometry.wheelbase_m),
+    }
+    shown = ", ".join(f"{k} = {v:.4g} m" for k, v in values.items())
+    for name, v in values.items():
+        if not (math.isfinite(v) and lo <= v <= hi):
+            return f"{shown}: {name} is outside {lo:g} .. {hi:g} m, not a robot"
+    r_lo, r_hi = DIAMETER_PER_WHEELBASE
+    for name in ("D_R", "D_L"):
+        ratio = values[name] / values["b"]
+        if not r_lo <= ratio <= r_hi:
+            return (
+                f"{shown}: {name} is {ratio:.3g} times the wheelbase, where a differential drive "
+                f"has {r_lo:g} .. {r_hi:g}"
             )
     return None
 

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cache
 from typing import Any, NamedTuple
 
@@ -212,7 +212,8 @@ class LaserScans(_Messages):
 
     ``log_ns``, ``stamp_ns`` (n,) int64; ``layout`` (n,) index into ``frames`` (frame_id);
     ``params`` (n, 4) float64: angle_min, angle_increment, range_min, range_max (the float32
-    fields, exactly); ``ranges`` n float32 arrays."""
+    fields, exactly); ``ranges`` n float32 arrays; ``angle_max`` (n,) float64 (to check the
+    header: the last ray is at angle_min + (count - 1) angle_increment)."""
 
     log_ns: np.ndarray
     stamp_ns: np.ndarray
@@ -220,6 +221,7 @@ class LaserScans(_Messages):
     frames: tuple[str, ...]
     params: np.ndarray
     ranges: tuple[np.ndarray, ...]
+    angle_max: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def __len__(self) -> int:
         return len(self.log_ns)
@@ -708,7 +710,7 @@ def _transforms(blocks: list, messages: int) -> Transforms:
 
 def _laser_scans(blocks: list) -> LaserScans:
     frames: dict[str, int] = {}
-    seqs, logs, stamps, lays, params = [], [], [], [], []
+    seqs, logs, stamps, lays, params, maxima = [], [], [], [], [], []
     ranges: list[np.ndarray] = []
     for seq, log_ns, layout, values in blocks:
         seqs.append(seq)
@@ -716,6 +718,7 @@ def _laser_scans(blocks: list) -> LaserScans:
         stamps.append(_stamps(values))
         lays.append(np.full(len(seq), frames.setdefault(layout[0], len(frames)), dtype=np.intp))
         params.append(values[2][:, [0, 2, 5, 6]].astype(np.float64))
+        maxima.append(values[2][:, 1].astype(np.float64))
         ranges += list(values[3])
     if not blocks:
         z = _empty_int()
@@ -730,4 +733,5 @@ def _laser_scans(blocks: list) -> LaserScans:
         names,
         np.concatenate(params)[order],
         tuple(ranges[i] for i in order.tolist()),
+        np.concatenate(maxima)[order],
     )

@@ -52,6 +52,8 @@ class ScanBag:
     mount_source : str
         Where ``mount`` came from.
     warnings : tuple of str
+    start_ns : int
+        The bag's start (ns since the epoch); the times are relative to it.
     """
 
     path: Path
@@ -60,6 +62,7 @@ class ScanBag:
     mount: np.ndarray
     mount_source: str
     warnings: tuple[str, ...] = ()
+    start_ns: int = 0
 
 
 def read_scan_bag(
@@ -109,7 +112,9 @@ def read_scan_bag(
             f"no transform from the base to the laser frame '{scans.frame_id}': the matcher "
             "starts as if the laser sat at the base origin"
         )
-    return ScanBag(p, joints, scans, mount, mount_source, tuple(warnings) + w.warnings)
+    return ScanBag(
+        p, joints, scans, mount, mount_source, tuple(warnings) + w.warnings, int(bag.start_ns)
+    )
 
 
 def _static_mount(bag: BagContents) -> bool:

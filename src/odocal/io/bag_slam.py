@@ -154,6 +154,25 @@ def _truth_chain(buf: Any, parent: str, child: str, p: Path) -> tuple[list[Any],
     return dynamic, chain_text
 
 
+def _base_below(buf: Any, parent: str, child: str) -> tuple[str, tuple[str, ...]]:
+    """The frame whose motion the truth is: ``child``, or when ``child`` hangs below the moving
+    part of the chain by ``/tf_static`` alone (a sensor's frame, e.g. ``map:laser``), the
+    frame it is mounted on (the base: the wheels move it, the mounting is fixed), with a note
+    saying so. Taking the sensor's motion for the base's would be off by its mounting."""
+    chain = buf.chain(parent, child)
+    k = len(chain)
+    while k > 0 and chain[k - 1].static:
+        k -= 1
+    if k == len(chain):
+        return child, ()
+    base = chain[k].frm
+    x, y, yaw = buf.lookup(base, child, 0.0).planar()[0].tolist()
+    return base, (
+        f"the truth frame '{child}' is mounted on '{base}' by /tf_static (x {x:.4g} m, y "
+        f"{y:.4g} m, yaw {yaw:.4g} rad): the motion of '{base}' is used",
+    )
+
+
 def _edge_key(step: Any) -> tuple[str, str]:
     """The (parent, child) of the /tf edge a chain step follows (either way)."""
     return (step.to, step.frm) if step.inverted else (step.frm, step.to)
@@ -215,6 +234,7 @@ def load_slam_bag(
     wheels = wheel_series(bag, opts, ticks_per_rev, ran_with)
     buf = transform_buffer(bag)
     dynamic, chain_text = _truth_chain(buf, parent, child, p)
+    child, mounting = _base_below(buf, parent, child)
     edges = tf_messages(bag)
     ce = _correction_edge(edges, dynamic, parent, child, p)
     stamps = ce.time_s - float(stamp_offset_s)
@@ -227,7 +247,7 @@ def load_slam_bag(
             e = edges[_edge_key(s)]
             keep &= _span(stamps, e.time_s[0], e.time_s[-1])
     meta: dict = {"bag": str(p), "joint_topic": wheels.topic, "chain": chain_text,
-                  "wheels": wheels.describe()}  # fmt: skip
+                  "wheels": wheels.describe(), "start_ns": int(bag.start_ns)}  # fmt: skip
     meta.update(
         correction_edge=None if direct else f"{ce.parent} -> {ce.child}",
         slam_messages=int(len(ce.time_s)),
@@ -298,7 +318,7 @@ def load_slam_bag(
     every = wheel_increments(t_j, right, left, motions.every_start_s - d, motions.every_end_s - d)
     return SlamBag(
         str(p), motions, recording, chain_text, meta["correction_edge"], increments, meta,
-        offset, every, wheels.describe(), wheels.warnings, (t_j, right, left),
+        offset, every, wheels.describe(), wheels.warnings + mounting, (t_j, right, left),
     )  # fmt: skip
 
 

@@ -31,6 +31,8 @@ two samples. With ``# ticks_wrap: M`` (the counter modulus, e.g. 65536) every di
 taken modulo M into [-M/2, M/2) before summing, which is exact as long as a wheel turns less
 than M/2 counts per sample. Without it, a jump of more than 2^15 counts in one sample is
 rejected as a probable wrap-around (InputError naming the line), never silently integrated.
+Values M or more apart cannot come from a counter wrapping at M (``# ticks_wrap: 16``, the bits
+for the modulus): InputError.
 
 Blank lines are skipped; ``#`` lines before the header carry ``key: value`` settings.
 """
@@ -162,6 +164,18 @@ def check_wheel_steps(right, left, lines, path, names=("wheel_right_rad", "wheel
 def _unwrap_ticks(ticks: np.ndarray, lines, name: str, wrap, path) -> np.ndarray:
     d = np.diff(ticks)
     if wrap is not None:
+        span = float(np.ptp(ticks))
+        if span >= wrap:
+            spread = np.maximum.accumulate(ticks) - np.minimum.accumulate(ticks)
+            i = int(np.argmax(spread >= wrap))  # the first row the counter cannot have reached
+            raise InputError(
+                f"the counter takes values {span:.0f} apart, but '# ticks_wrap: {wrap:g}' says it "
+                "wraps at that modulus; give the number of counts the counter wraps at (65536 "
+                "for a 16-bit counter), not its bits",
+                path,
+                lines[i],
+                name,
+            )
         d = (d + wrap / 2) % wrap - wrap / 2
     else:
         big = np.nonzero(np.abs(d) > WRAP_JUMP_COUNTS)[0]

@@ -8,6 +8,7 @@
 - a ROS bag: ``.bag`` (ROS 1), ``.db3`` or ``.mcap`` (ROS 2), or a ROS 2 bag folder holding
   ``metadata.yaml`` (read by ``odocal.io.bag_recording``; needs the optional ``rosbags`` package);
 - a folder of generic run CSVs (all ``*.csv`` files in it, sorted by name; each must be a run);
+- a folder of bags (each bag in it, sorted by name; one data set);
 - an OptiOdom data set folder (holds ``*_metadata.csv``, e.g. ``square/230620202042``);
 - a collection: a folder whose sub-folders (to :data:`MAX_WALK_DEPTH` levels) hold data sets
   or run CSVs, e.g. a category folder (``square/``) or a whole ``optiodom_diff``. Its data sets
@@ -34,7 +35,13 @@ from .bag_options import NO_BAG_OPTIONS, BagOptions
 from .bags import BAG_SUFFIXES, is_bag
 from .textfile import read_text
 
-__all__ = ["load_recordings", "refuse_repeated", "require_ground_truth", "MAX_WALK_DEPTH"]
+__all__ = [
+    "load_recordings",
+    "expand_folders",
+    "refuse_repeated",
+    "require_ground_truth",
+    "MAX_WALK_DEPTH",
+]
 
 _OPTI_RUN = re.compile(r"^(?P<id>.+)_run-(?P<n>\d+)\.csv$")
 
@@ -77,11 +84,18 @@ def _load_file(path: Path, ticks_per_rev: float | None) -> list[Recording]:
             )
         runs = load_optiodom_dataset(path.parent)
         return [r for r in runs if Path(r.name).name == path.name]
+    if path.suffix.lower() == ".tuple":
+        raise InputError(
+            "a .tuple file holds relative motions without a trajectory: only 'odocal fit' reads "
+            "it (the relative-motion fit); this needs recorded runs (generic run CSVs, OptiOdom "
+            f"data sets, bags: {', '.join(BAG_SUFFIXES)})",
+            path,
+        )
     if path.suffix.lower() != ".csv" and not generic:
         raise InputError(
             "unknown run file type: expected a generic run CSV (header starting with time_s), "
-            f"an OptiOdom *_run-NN.csv, a bag ({', '.join(BAG_SUFFIXES)}) or a .tuple file (a "
-            "pipe of tuples needs --method relative)",
+            f"an OptiOdom *_run-NN.csv or a bag ({', '.join(BAG_SUFFIXES)}); 'odocal fit' also "
+            "reads .tuple files (a pipe of tuples with --method relative)",
             path,
         )
     return [load_generic_csv(path, ticks_per_rev=ticks_per_rev, text=text)]
@@ -158,6 +172,35 @@ def _load_folder(
     return out
 
 
+def _folder_of(folder: Path) -> list[Path] | None:
+    """The bags, or the ``.tuple`` files, that a folder holds when it holds nothing else that
+    is read (no run CSV, no data set, not both kinds), in name order; else None."""
+    from .optiodom import is_optiodom_dataset
+
+    if is_bag(folder) or is_optiodom_dataset(folder):
+        return None
+    try:
+        entries = sorted(folder.iterdir())
+    except OSError:
+        return None
+    bags = [p for p in entries if not p.name.startswith(".") and is_bag(p)]
+    tuples = [p for p in entries if p.is_file() and p.suffix.lower() == ".tuple"]
+    if bool(bags) == bool(tuples) or _holds_runs(folder, 0):
+        return None
+    return bags or tuples
+
+
+def expand_folders(paths: Sequence[str | Path]) -> list[str | Path]:
+    """``paths`` with each folder of bags, or of ``.tuple`` files, replaced by them (in name
+    order; a folder of bags is one data set: its runs share the folder). Other paths (files,
+    bag folders, data sets, folders of run CSVs, collections) are kept as given."""
+    out: list[str | Path] = []
+    for p in paths:
+        found = _folder_of(Path(p)) if Path(p).is_dir() else None
+        out += found if found else [p]
+    return out
+
+
 def _identity(path: Path) -> tuple[int, int] | None:
     try:
         st = os.stat(path)
@@ -196,6 +239,7 @@ def load_recordings(
     """
     if isinstance(paths, (str, Path)):
         paths = [paths]
+    paths = expand_folders(paths)
     out: list[Recording] = []
     notes: list[str] = []
     seen: dict[tuple[int, int], str | Path] = {}

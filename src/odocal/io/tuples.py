@@ -12,10 +12,10 @@ interval, one per line::
 - ``sm``: ``[x_m, y_m, theta_rad]``, the sensor's rigid displacement over the interval (scan
   matching), in the sensor frame at the start of the interval.
 
-Other keys are ignored. Blank lines are skipped. Where the authors concatenated per-experiment
-files without a final newline, two objects share a line (the full l90/lmov/lstraight files have a
-few such lines); objects separated only by white space on one line are therefore accepted, as
-their JSON-stream reader accepts them.
+Other keys are ignored. Blank lines are skipped; lines end with LF, CRLF or CR. Where the
+authors concatenated per-experiment files without a final newline, two objects share a line (the
+full l90/lmov/lstraight files have a few such lines); objects separated only by white space on
+one line are therefore accepted, as their JSON-stream reader accepts them.
 
 Every problem raises ``InputError`` naming the file, line and field: invalid JSON, a value that
 is not an object, missing or duplicated keys, non-numeric, NaN or infinite values (Python's json
@@ -28,6 +28,8 @@ from __future__ import annotations
 
 import json
 import math
+import re
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -35,7 +37,7 @@ import numpy as np
 
 from ..errors import InputError
 
-__all__ = ["TupleData", "read_tuples", "MAX_LINE_BYTES", "LIMITS"]
+__all__ = ["TupleData", "read_tuples", "refuse_repeated_tuples", "MAX_LINE_BYTES", "LIMITS"]
 
 #: Longest accepted line (bytes); the authors' lines are about 120 bytes.
 MAX_LINE_BYTES = 4096
@@ -163,6 +165,48 @@ def _tuple(obj: dict, path, line_no: int):
     return t, phi_l, phi_r, motion
 
 
+_LINE_END = re.compile(rb"\r\n|\r|\n")
+_CHUNK_BYTES = 1 << 16
+
+
+def _lines(fh, path) -> Iterator[tuple[int, bytes]]:
+    """(1-based number, bytes) of each line of ``fh``, read once in chunks; LF, CRLF and CR-only
+    line ends (a CR at a chunk's end waits for the next chunk's first byte)."""
+    pending = b""
+    line_no = 0
+    while True:
+        try:
+            chunk = fh.read(_CHUNK_BYTES)
+        except OSError as exc:
+            raise InputError(f"cannot read: {exc.strerror}", path, line_no + 1) from None
+        data = pending + chunk
+        pos = 0
+        for m in _LINE_END.finditer(data):
+            if chunk and m.end() == len(data) and m.group() == b"\r":
+                break  # maybe the CR of a CRLF split between chunks
+            line_no += 1
+            _check_length(m.start() - pos, path, line_no)
+            yield line_no, data[pos : m.start()]
+            pos = m.end()
+        pending = data[pos:]
+        if not chunk:
+            if pending:
+                line_no += 1
+                _check_length(len(pending), path, line_no)
+                yield line_no, pending
+            return
+        _check_length(len(pending), path, line_no + 1)
+
+
+def _check_length(n: int, path, line_no: int) -> None:
+    if n > MAX_LINE_BYTES:
+        raise InputError(
+            f"line longer than {MAX_LINE_BYTES} bytes; a tuple is one short JSON object",
+            path,
+            line_no,
+        )
+
+
 def read_tuples(path) -> TupleData:
     """Read a ``.tuple`` file (module docstring) into arrays.
 
@@ -193,28 +237,14 @@ def read_tuples(path) -> TupleData:
     except OSError as exc:
         raise InputError(f"cannot read: {exc.strerror}", path) from None
     with fh:
-        line_no = 0
-        while True:
-            try:
-                raw = fh.readline(MAX_LINE_BYTES + 1)
-            except OSError as exc:
-                raise InputError(f"cannot read: {exc.strerror}", path, line_no + 1) from None
-            if not raw:
-                break
-            line_no += 1
-            if len(raw) > MAX_LINE_BYTES and not raw.endswith(b"\n"):
-                raise InputError(
-                    f"line longer than {MAX_LINE_BYTES} bytes; a tuple is one short JSON object",
-                    path,
-                    line_no,
-                )
+        for line_no, raw in _lines(fh, path):
             if b"\x00" in raw:
                 raise InputError("binary data, expected a text file", path, line_no)
             try:
                 text = raw.decode("utf-8-sig" if line_no == 1 else "utf-8")
             except UnicodeDecodeError:
                 raise InputError("not UTF-8 text", path, line_no) from None
-            for obj in _objects(text.rstrip("\r\n"), path, line_no):
+            for obj in _objects(text, path, line_no):
                 rows.append(_tuple(obj, path, line_no))
                 lines.append(line_no)
     if not rows:
@@ -231,3 +261,34 @@ def read_tuples(path) -> TupleData:
         line=np.array(lines, dtype=int),
         path=str(path),
     )
+
+
+def refuse_repeated_tuples(data: Sequence[TupleData]) -> None:
+    """InputError when one interval appears twice among ``data`` (one file or several): every
+    number of a tuple the same (T, both wheels, the sensor's motion) cannot happen twice in a
+    real log; it is a row copied, a file concatenated with itself or with its own decimation, or
+    a copy under another name, and it would count twice (standard errors too small by up to
+    sqrt 2). Intervals in which neither wheel turns are exempt: a robot standing still at a fixed
+    rate can log them more than once."""
+    moving = [(d, np.nonzero((d.phi_right_rad != 0) | (d.phi_left_rad != 0))[0]) for d in data]
+    rows = np.concatenate(
+        [
+            np.column_stack([d.duration_s, d.phi_right_rad, d.phi_left_rad, d.sensor_motion])[k]
+            for d, k in moving
+        ]
+    )
+    where = [(d.path, int(d.line[i])) for d, k in moving for i in k]
+    if len(rows) < 2:
+        return
+    _, first, inverse = np.unique(rows, axis=0, return_index=True, return_inverse=True)
+    repeats = np.nonzero(first[inverse.ravel()] != np.arange(len(rows)))[0]
+    if len(repeats):
+        j = int(repeats[0])
+        (p0, l0), (p1, l1) = where[int(first[inverse.ravel()[j]])], where[j]
+        raise InputError(
+            f"the same tuple as {'line' if p0 == p1 else f'{p0}, line'} {l0}: an interval given "
+            "twice would count twice (a row copied, a file concatenated with itself or with its "
+            "own decimation, or a copy of a file under another name?); give each interval once",
+            p1,
+            l1,
+        )
