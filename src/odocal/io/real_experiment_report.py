@@ -385,8 +385,8 @@ def _tables2_3(s: _Section) -> list[str]:
         "",
         f"{s.h}# Tables 2 and 3: held-out errors and t-tests",
         "",
-        "| square | method | held-out mean final error (mm) | bootstrap 95 % (mm) | "
-        "predicted by the design (mm, mean +- std) |",
+        "| square | method | held-out mean final error (mm) | 95 % (mm; over the parameters' "
+        "region) | predicted by the design (mm, mean +- std) |",
         "|---:|---|---:|---|---|",
     ]
     for side in exp.sides_m:
