@@ -37,6 +37,7 @@ from odocal.app.fit import fit_recordings
 from odocal.calibration.fit_settings import TrajectorySettings
 from odocal.core.model import WheelGeometry
 from odocal.core.odometry import evaluate
+from odocal.design.real_experiment import heldout_floor
 from odocal.io.recordings import load_recordings
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -56,26 +57,6 @@ def published(data: Path) -> list[tuple[str, WheelGeometry]]:
                 )
                 out.append((label, geo))
     return out
-
-
-def floor_geometry(runs, start: WheelGeometry) -> WheelGeometry:
-    """The geometry minimising the sum of squared final position errors of ``runs`` itself."""
-    from scipy.optimize import least_squares
-
-    from odocal.core.odometry import dead_reckon
-
-    def fun(p):
-        g = WheelGeometry(*p)
-        return np.concatenate(
-            [
-                r.ground_truth[-1, :2]
-                - dead_reckon(r.wheel_angle_right_rad, r.wheel_angle_left_rad, g)[-1, :2]
-                for r in runs
-            ]
-        )
-
-    x0 = [start.diameter_right_m, start.diameter_left_m, start.wheelbase_m]
-    return WheelGeometry(*least_squares(fun, x0, x_scale=[1e-3] * 3).x)
 
 
 def errors(runs, geometry) -> dict:
@@ -158,10 +139,10 @@ def main(argv=None) -> int:
         "in-sample reference, not held-out",
     )
     add(
-        "best possible: D_R, D_L, b minimising the held-out final errors",
+        "best possible: D_R, D_L, b minimising the mean held-out final error",
         "circular + free",
-        floor_geometry(held, nominal),
-        "floor for ANY parameters",
+        heldout_floor(held, nominal),
+        "floor of the mean final error for ANY parameters",
     )
 
     # diagnostic: the effective turning gain mean(D)/b each kind of motion implies

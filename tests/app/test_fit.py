@@ -188,9 +188,12 @@ def test_a_motion_mix_exports_the_single_wheelbase_and_keeps_the_constant_fit(ru
     fit_ = fit_recordings(runs, "trajectory", nominal=NOMINAL, settings=settings)
     assert fit_.constant_fit is not None and fit_.motion_mix is not None
     assert fit_.geometry.wheelbase_m == fit_.motion_mix.wheelbase_m
-    assert fit_.geometry.diameter_right_m == fit_.constant_fit.diameter_right_m
+    # the mix is taken from the banded model (its own diameters and uncertainty)
+    assert fit_.banded is not None and fit_.wheelbase_model == "banded"
+    assert fit_.stderr["wheelbase_m"] == fit_.motion_mix.wheelbase_stderr_m
     d = fit_.as_dict()
-    assert list(d)[-3:] == ["effective_wheelbase", "motion_mix", "constant_fit"]
+    assert d["motion_mix"]["wheelbase_stderr_m"] == fit_.stderr["wheelbase_m"]
+    assert list(d)[-1] == "constant_fit"
 
 
 def test_the_banded_model_is_a_trajectory_setting(runs):

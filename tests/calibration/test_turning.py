@@ -21,7 +21,7 @@ from odocal.calibration.turning import (
 from odocal.core.model import WheelGeometry
 from odocal.core.odometry import dead_reckon
 from odocal.core.recording import Recording
-from odocal.errors import CalibrationError
+from odocal.errors import CalibrationError, InputError
 
 D, B = 0.084, 0.200
 REFERENCE = WheelGeometry(D, D, B)
@@ -159,6 +159,65 @@ def test_banded_fit_refuses_runs_that_turn_only_on_the_spot():
     with pytest.raises(CalibrationError, match="at least two bands") as exc:
         fit_banded(runs, REFERENCE)
     assert "spot" in str(exc.value) and "circles or arcs" in str(exc.value)
+
+
+def _noisy(runs, seed=7, heading_sd_rad=0.0017, position_sd_m=5e-4):
+    """The runs with tracker noise on their ground truth (explicit generator), in 4 data sets."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for i, r in enumerate(runs):
+        gt = r.ground_truth.copy()
+        gt[1:, :2] += rng.normal(0, position_sd_m, (len(gt) - 1, 2))
+        gt[1:, 2] += rng.normal(0, heading_sd_rad, len(gt) - 1)
+        right, left = r.wheel_angle_right_rad, r.wheel_angle_left_rad
+        meta = {"dataset": f"d{i % 4}"}
+        out.append(Recording(f"n{i}", r.time_s, right, left, ground_truth=gt, meta=meta))
+    return out
+
+
+def test_a_motion_mix_is_one_way_the_banded_fit_with_its_own_uncertainty(runs):
+    """Issue 20.7: --motion-mix with the constant model exported the band table's value (at the
+    constant fit's diameters) with the plain fit's standard error; the banded model another
+    value. Now both routes are the banded fit's bands, mixed, with the delta-method error."""
+    noisy = _noisy(runs * 2)
+    mix = {"spot": 0.3, "wide": 0.7}
+    via_constant = fit_trajectory_bands(noisy, REFERENCE, TrajectorySettings(motion_mix=mix))
+    via_banded = fit_trajectory_bands(
+        noisy, REFERENCE, TrajectorySettings(wheelbase_model="banded", motion_mix=mix)
+    )
+    assert via_constant.banded is not None
+    assert via_constant.geometry == via_banded.geometry
+    bw = via_constant.banded.band_wheelbase_m
+    assert via_constant.motion_mix.wheelbase_m == pytest.approx(
+        (0.3 * bw["spot"] ** 2 + 0.7 * bw["wide"] ** 2) / (0.3 * bw["spot"] + 0.7 * bw["wide"]),
+        rel=1e-12,
+    )
+    se = via_constant.stderr["wheelbase_m"]
+    assert se is not None and se == pytest.approx(via_constant.motion_mix.wheelbase_stderr_m)
+    # not the plain fit's error: the plain fit is a compromise over all bands
+    plain = fit_trajectory_bands(noisy, REFERENCE, TrajectorySettings())
+    assert se != pytest.approx(plain.stderr["wheelbase_m"], rel=0.05)
+    # delta method: a mix all in one band has exactly that band's error
+    spot = fit_trajectory_bands(noisy, REFERENCE, TrajectorySettings(motion_mix={"spot": 1.0}))
+    band_se = spot.banded.band_wheelbase_stderr_m["spot"]
+    assert spot.geometry.wheelbase_m == pytest.approx(spot.banded.band_wheelbase_m["spot"])
+    assert spot.stderr["wheelbase_m"] == pytest.approx(band_se, rel=1e-9)
+    assert spot.uncertainty.startswith("cluster-robust")
+
+
+def test_a_motion_mix_in_bands_the_runs_did_not_measure_is_refused(runs):
+    """Issue 20.7: a mix turning in a band no run excites used to take the nearest band's
+    wheelbase and print 'RMS 0.00 deg per turn'."""
+    square = [("straight", 1.0), ("spin", math.pi / 2)] * 4
+    spins = [banded_run(f"s{i}", square) for i in range(4)]
+    for model in ("constant", "banded"):
+        settings = TrajectorySettings(wheelbase_model=model, motion_mix={"spot": 0.2, "wide": 0.8})
+        with pytest.raises(InputError, match="did not measure how the robot turns") as exc:
+            fit_trajectory_bands(spins, REFERENCE, settings)
+        assert "wide" in str(exc.value) and "excited here: spot" in str(exc.value)
+    # the runs' own mix (no mix stated) is not refused: the model assigns their straight band
+    own = fit_banded(runs, REFERENCE)
+    assert own.motion_mix is not None and own.motion_mix.wheelbase_stderr_m is not None
 
 
 def test_wheelbase_for_a_mix():

@@ -165,8 +165,9 @@ def fit_recordings(
     (``effective_wheelbase``, :mod:`odocal.calibration.turning`). ``settings.wheelbase_model``
     'banded' fits one wheelbase per excited band (:func:`~odocal.calibration.banded.fit_banded`;
     refused with the reason when the runs excite fewer than two bands). ``settings.motion_mix``
-    (band -> share of the rotation) makes the result's wheelbase the single value that is best
-    for that mix, with what it costs (``motion_mix``)."""
+    (band -> share of the rotation) fits the banded model too and makes the result's wheelbase
+    the single value that is best for that mix of its band wheelbases, with its standard error
+    and what it costs (``motion_mix``); a share in a band the runs do not excite is refused."""
     _check_method_settings(method, settings, squares)
     if squares.heading_source != "gyro":
         require_ground_truth(recordings, f"--method {method}")

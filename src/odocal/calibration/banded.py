@@ -15,14 +15,18 @@ silently.
 
 For a controller that takes one wheelbase (ros2_control's ``wheel_separation_multiplier``), the
 result's ``geometry`` holds the single value that is best for the motion mix (default: the mix of
-the fitted runs; :func:`odocal.calibration.turning.wheelbase_for_mix`), and ``motion_mix`` says what
-it costs per band.
+the fitted runs; :func:`odocal.calibration.turning.wheelbase_for_mix`) of the band wheelbases
+fitted here, and ``motion_mix`` says what it costs per band. This is the ONE way odocal computes
+a wheelbase for a motion mix (``--motion-mix`` fits the banded model). Its standard error is the
+delta method on the band wheelbases' covariance, cluster-robust over the same groups as the
+trajectory fit's (data sets, else runs, else time blocks). A stated mix with a share in a band
+the runs did not excite is refused (InputError): nothing measured how the robot turns there.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
@@ -31,15 +35,17 @@ import numpy as np
 from ..core.model import WheelGeometry
 from ..core.odometry import dead_reckon
 from ..core.recording import Recording
-from ..errors import CalibrationError
+from ..errors import CalibrationError, InputError
 from .fit_settings import DEFAULT_TRAJECTORY, TrajectorySettings
-from .result import BandedDetails, GeometryFit, check_physical
-from .trajectory import fit_trajectory, optimizer_report, solve_lm
+from .result import BandedDetails, GeometryFit, check_physical, stderr_dict
+from .robust_covariance import cluster_covariance
+from .trajectory import _row_clusters, fit_trajectory, optimizer_report, solve_lm
 from .turning import (
     BANDS,
     MIN_ROTATION_RAD,
     MIN_RUNS,
     MIN_SEGMENTS,
+    MixChoice,
     band_of_increments,
     effective_wheelbase,
     nearest_estimated_band,
@@ -111,6 +117,7 @@ def fit_banded(
         raise CalibrationError("banded wheelbase: no runs")
     table = effective_wheelbase(runs, start, window_s=window_s, min_rotation_rad=min_rotation_rad)
     excited = [i for i, b in enumerate(table.bands) if b.excited]
+    _refuse_unmeasured(settings.motion_mix, excited, min_rotation_rad)
     if len(excited) < 2:
         turned = ", ".join(
             f"{b.band} {b.segments} segment(s) from {b.runs} run(s), {b.rotation_rad:.2g} rad"
@@ -142,47 +149,109 @@ def fit_banded(
     warnings: list[str] = []
     for b in sol.x[2:]:
         warnings += check_physical([sol.x[0], sol.x[1], b], nominal, "banded wheelbase")
-    m = len(sol.fun)
-    stderr: list[float | None] = [None] * len(sol.x)
-    if m > len(sol.x):
-        s2 = 2.0 * sol.cost / (m - len(sol.x))
-        try:
-            cov = s2 * np.linalg.inv(sol.jac.T @ sol.jac)
-            stderr = [float(math.sqrt(max(v, 0.0))) for v in np.diag(cov)]
-        except np.linalg.LinAlgError:
-            warnings.append("the band wheelbases are not all identifiable from these runs")
+    cov, formal, how, dof = _band_covariance(sol, prepared, runs, warnings)
+    stderr = (
+        [None] * len(sol.x)
+        if cov is None
+        else [float(math.sqrt(max(v, 0.0))) for v in np.diag(cov)]
+    )
     fitted = {BANDS[i]: float(sol.x[2 + excited.index(i)]) for i in excited}
     used_by = {name: BANDS[nearest[i]] for i, name in enumerate(BANDS)}
     mix = table.motion_mix if settings.motion_mix is None else dict(settings.motion_mix)
     for name, share in mix.items():
-        if share > 0 and name not in fitted:
+        if share > 0 and name not in fitted:  # the runs' own mix only (a stated one is refused)
             warnings.append(
-                f"the motion mix turns {100 * share:.0f} % in band '{name}', which these runs "
-                f"do not excite: the model uses the '{used_by[name]}' wheelbase there"
+                f"the runs turn {100 * share:.0f} % of their rotation in band '{name}', which "
+                f"they do not excite: the model uses the '{used_by[name]}' wheelbase there"
             )
-    choice = wheelbase_for_mix({n: fitted[used_by[n]] for n in BANDS}, mix)
+    per_band = {n: fitted[used_by[n]] for n in BANDS}
+    choice = wheelbase_for_mix(per_band, mix)
+    # the exported geometry (D_R, D_L, b of the mix) and its covariance by the delta method
+    grad = np.zeros((3, len(sol.x)))
+    grad[0, 0] = grad[1, 1] = 1.0
+    grad[2, 2:] = _mix_gradient(choice, per_band, used_by, excited)
+    cov3 = None if cov is None else grad @ cov @ grad.T
+    formal3 = None if formal is None else grad @ formal @ grad.T
+    se3 = stderr_dict(cov3)
+    choice = replace(choice, wheelbase_stderr_m=se3["wheelbase_m"])
     geometry = WheelGeometry(float(sol.x[0]), float(sol.x[1]), choice.wheelbase_m)
     return GeometryFit(
         method="trajectory",
         geometry=geometry,
-        stderr={
-            "wheel_diameter_right_m": stderr[0],
-            "wheel_diameter_left_m": stderr[1],
-            "wheelbase_m": None,
-        },
-        covariance=None,
+        stderr=se3,
+        covariance=cov3,
+        uncertainty=how,
+        covariance_formal=formal3,
+        dof=dof,
         runs=[r.name for r in runs],
         warnings=warnings,
         banded=BandedDetails(
             band_wheelbase_m=fitted,
             band_wheelbase_stderr_m={BANDS[i]: stderr[2 + k] for k, i in enumerate(excited)},
             band_uses=used_by,
-            residual_rms=float(math.sqrt(2.0 * sol.cost / max(m, 1))),
+            residual_rms=float(math.sqrt(2.0 * sol.cost / max(len(sol.fun), 1))),
             optimizer=optimizer_report(sol),
         ),
         effective_wheelbase=table,
         motion_mix=choice,
     )
+
+
+def _refuse_unmeasured(
+    mix: Mapping[str, float] | None, excited: list[int], min_rotation_rad: float
+) -> None:
+    """A stated motion mix may only name bands the runs excite (InputError otherwise)."""
+    if not mix:
+        return
+    missing = [k for k, w in mix.items() if w > 0 and BANDS.index(k) not in excited]
+    if missing:
+        seen = ", ".join(BANDS[i] for i in excited) or "none"
+        raise InputError(
+            f"these runs did not measure how the robot turns in band(s) "
+            f"{', '.join(missing)} (a band needs {MIN_SEGMENTS} segments of "
+            f"{min_rotation_rad:g} rad or more from {MIN_RUNS} runs, {MIN_ROTATION_RAD:.3g} rad "
+            f"in all; excited here: {seen}); add runs that turn that way or leave those bands "
+            "out of the mix",
+            field="motion-mix",
+        )
+
+
+def _band_covariance(
+    sol: Any, prepared: Sequence[_Run], runs: Sequence[Recording], warnings: list[str]
+) -> tuple[np.ndarray | None, np.ndarray | None, str, int | None]:
+    """The covariance of (D_R, D_L, band wheelbases): cluster-robust over the trajectory fit's
+    groups when it can be formed (then also the formal one), else formal; None (with a warning)
+    when singular."""
+    m, p = len(sol.fun), len(sol.x)
+    if m <= p:
+        return None, None, "formal", None
+    try:
+        formal = 2.0 * sol.cost / (m - p) * np.linalg.inv(sol.jac.T @ sol.jac)
+    except np.linalg.LinAlgError:
+        warnings.append("the band wheelbases are not all identifiable from these runs")
+        return None, None, "formal", None
+    clusters, what = _row_clusters(prepared, runs, "pose")  # type: ignore[arg-type]
+    if len(clusters) == m:
+        try:
+            cc = cluster_covariance(sol.jac, sol.fun, clusters)
+        except CalibrationError:
+            return formal, None, "formal", None
+        return cc.covariance, formal, f"cluster-robust over {what}", cc.dof
+    return formal, None, "formal", None
+
+
+def _mix_gradient(
+    choice: MixChoice, values: dict[str, float], used_by: dict[str, str], excited: list[int]
+) -> np.ndarray:
+    """d b_mix / d b_k for every fitted band wheelbase b_k (``values``: band -> the wheelbase
+    it uses): with b = sum w_j b_j^2 / sum w_j b_j, W_k (2 b_k - b) / sum w_j b_j, W_k the
+    share of the bands that use b_k."""
+    b = choice.wheelbase_m
+    num = sum(w * values[n] for n, w in choice.mix.items())
+    out = np.zeros(len(excited))
+    for n, w in choice.mix.items():
+        out[excited.index(BANDS.index(used_by[n]))] += w * (2.0 * values[n] - b) / num
+    return out
 
 
 def banded_after_constant(
@@ -209,11 +278,12 @@ def fit_trajectory_bands(
     recordings: Sequence[Recording], nominal: WheelGeometry | None, settings: TrajectorySettings
 ) -> GeometryFit:
     """The trajectory fit (:func:`~odocal.calibration.trajectory.fit_trajectory`) with its
-    effective wheelbase per band of motion (and the single wheelbase for a motion mix,
-    :func:`~odocal.calibration.turning.with_bands`), or with ``settings.wheelbase_model``
-    'banded' the banded model started from it (:func:`banded_after_constant`)."""
+    effective wheelbase per band of motion (:func:`~odocal.calibration.turning.with_bands`), or
+    with ``settings.wheelbase_model`` 'banded' or a ``settings.motion_mix`` the banded model
+    started from it (:func:`banded_after_constant`; the single wheelbase for the mix comes from
+    its band wheelbases)."""
     fit = fit_trajectory(recordings, nominal=nominal, settings=settings)
     used = [r for r in recordings if r.name in set(fit.runs)]
-    if settings.wheelbase_model == "banded":
+    if settings.wheelbase_model == "banded" or settings.motion_mix:
         return banded_after_constant(fit, used, nominal, settings)
-    return with_bands(fit, used, settings.motion_mix)
+    return with_bands(fit, used)

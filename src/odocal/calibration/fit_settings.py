@@ -69,9 +69,10 @@ class TrajectorySettings:
     wheelbase_model : {'constant', 'banded'}
         One wheelbase, or one per band of motion (:mod:`odocal.calibration.banded`).
     motion_mix : mapping or None
-        Band -> share of the robot's rotation: the single exported wheelbase is the best one for
-        this mix (:func:`odocal.calibration.turning.wheelbase_for_mix`); None: the constant fit's
-        own wheelbase (banded: the runs' own mix).
+        Band -> share of the robot's rotation: the banded model is fitted and the single
+        exported wheelbase is the best one for this mix of its band wheelbases
+        (:func:`odocal.calibration.turning.wheelbase_for_mix`; a share in a band the runs do not
+        excite is refused); None: the constant fit's own wheelbase (banded: the runs' own mix).
     """
 
     residual: Residual = "pose"

@@ -45,7 +45,9 @@ Near-straight driving turns too little to show a wheelbase: its band is normally
 
 :func:`wheelbase_for_mix` gives the one wheelbase that is best for a stated mix of motions (the
 share of the robot's rotation done in each band) and the heading error that one value costs per
-band and overall (see its docstring).
+band and overall (see its docstring); ``odocal fit --motion-mix`` applies it to the band
+wheelbases of the banded model (:mod:`odocal.calibration.banded`), not to this table: the
+table's estimates are at the constant fit's diameters and see only the segments' rotation.
 """
 
 from __future__ import annotations
@@ -60,7 +62,7 @@ from numpy.typing import ArrayLike
 from ..core.model import WheelGeometry
 from ..core.recording import Recording
 from ..core.stats import student_t_quantile
-from ..errors import CalibrationError, InputError
+from ..errors import CalibrationError
 from .fit_methods import BANDS
 from .result import GeometryFit
 
@@ -446,6 +448,9 @@ class MixChoice:
         The share-weighted RMS of those: the loss of using one value instead of one per band.
     unused : tuple of str
         Bands of the mix without an estimate (left out; their share is renormalised away).
+    wheelbase_stderr_m : float or None
+        Standard error of ``wheelbase_m`` (m) from the band wheelbases' covariance (delta
+        method; :mod:`odocal.calibration.banded`); None where not computed.
     """
 
     wheelbase_m: float
@@ -453,11 +458,13 @@ class MixChoice:
     heading_error_deg_per_turn: dict[str, float]
     rms_heading_error_deg_per_turn: float
     unused: tuple[str, ...] = ()
+    wheelbase_stderr_m: float | None = None
 
     def as_dict(self) -> dict:
         """JSON-ready (the ``motion_mix`` object of ``odocal fit --json``)."""
         return {
             "wheelbase_m": self.wheelbase_m,
+            "wheelbase_stderr_m": self.wheelbase_stderr_m,
             "mix": dict(self.mix),
             "heading_error_deg_per_turn": dict(self.heading_error_deg_per_turn),
             "rms_heading_error_deg_per_turn": self.rms_heading_error_deg_per_turn,
@@ -508,51 +515,11 @@ def _disagreeing_bands(table: EffectiveWheelbase) -> list[str]:
     return warnings
 
 
-def _mix_from_bands(
-    table: EffectiveWheelbase, motion_mix: Mapping[str, float]
-) -> tuple[MixChoice, list[str]]:
-    """The single wheelbase for ``motion_mix`` from the band estimates of ``table`` (a band the
-    runs do not excite takes the nearest excited band's value, with a warning)."""
-    known = {b.band: b.wheelbase_m for b in table.bands if b.excited and b.wheelbase_m is not None}
-    if not known:
-        raise InputError(
-            "--motion-mix: no band of motion is excited by these runs, so no band has an "
-            "effective wheelbase to mix",
-            field="motion-mix",
-        )
-    idx = [BANDS.index(k) for k in known]
-    nearest = nearest_estimated_band(idx)
-    per_band = {n: known[BANDS[nearest[i]]] for i, n in enumerate(BANDS)}
-    warnings = []
-    for name, share in motion_mix.items():
-        if share > 0 and name not in known:
-            warnings.append(
-                f"the motion mix turns {100 * share:.0f} % in band '{name}', which these "
-                f"runs do not excite: its wheelbase is taken from band "
-                f"'{BANDS[nearest[BANDS.index(name)]]}'"
-            )
-    return wheelbase_for_mix(per_band, dict(motion_mix)), warnings
-
-
-def with_bands(
-    fit: GeometryFit, runs: Sequence[Recording], motion_mix: Mapping[str, float] | None = None
-) -> GeometryFit:
+def with_bands(fit: GeometryFit, runs: Sequence[Recording]) -> GeometryFit:
     """A constant-wheelbase trajectory ``fit`` of ``runs`` with its effective wheelbase per band
-    of motion (``effective_wheelbase``), a warning when excited bands disagree, and (with
-    ``motion_mix``, band -> share of the rotation) the single wheelbase for the mix from the
-    band estimates as the fit's wheelbase (``motion_mix``; the fit's own geometry kept as
-    ``constant_fit``)."""
+    of motion (``effective_wheelbase``) and a warning when excited bands disagree. (A single
+    wheelbase for a motion mix comes from the banded model's band wheelbases:
+    :mod:`odocal.calibration.banded`.)"""
     table = effective_wheelbase(runs, fit.geometry)
     warnings = list(fit.warnings) + _disagreeing_bands(table)
-    if not motion_mix:
-        return replace(fit, warnings=warnings, effective_wheelbase=table)
-    choice, mix_warnings = _mix_from_bands(table, motion_mix)
-    g = fit.geometry
-    return replace(
-        fit,
-        geometry=WheelGeometry(g.diameter_right_m, g.diameter_left_m, choice.wheelbase_m),
-        warnings=warnings + mix_warnings,
-        effective_wheelbase=table,
-        motion_mix=choice,
-        constant_fit=g,
-    )
+    return replace(fit, warnings=warnings, effective_wheelbase=table)

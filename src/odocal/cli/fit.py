@@ -140,10 +140,11 @@ def _add_trajectory_args(p: argparse.ArgumentParser) -> None:
         "--motion-mix",
         type=motion_mix,
         metavar="BAND=SHARE,...",
-        help="export the single wheelbase that is best for this mix of motions (shares of the "
-        "robot's rotation per band: spot, tight, wide, straight), e.g. spot=0.2,wide=0.8; "
-        "reports what one value costs per band (default with --wheelbase-model banded: the "
-        "runs' own mix)",
+        help="fit the banded model and export the single wheelbase that is best for this mix "
+        "of motions (shares of the robot's rotation per band: spot, tight, wide, straight), "
+        "e.g. spot=0.2,wide=0.8, with its standard error and what one value costs per band; "
+        "every band of the mix must be excited by the runs (default with --wheelbase-model "
+        "banded: the runs' own mix)",
     )
     p.add_argument(
         "--robot-out",
@@ -413,8 +414,9 @@ def _print_bands(fit: GeometryFit) -> None:
     if mix is not None:
         shares = ", ".join(f"{k} {100 * v:.0f} %" for k, v in mix.mix.items())
         errs = ", ".join(f"{k} {v:+.2f}" for k, v in mix.heading_error_deg_per_turn.items())
+        se = "" if mix.wheelbase_stderr_m is None else f" +- {mix.wheelbase_stderr_m:.2e}"
         print(
-            f"single wheelbase for the motion mix ({shares}): {mix.wheelbase_m:.6f} m; "
+            f"single wheelbase for the motion mix ({shares}): {mix.wheelbase_m:.6f}{se} m; "
             f"heading error per full turn (deg): {errs}; RMS "
             f"{mix.rms_heading_error_deg_per_turn:.2f} deg per turn"
         )

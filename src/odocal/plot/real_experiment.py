@@ -76,7 +76,7 @@ def design_vs_real_figure(exp: RealExperiment, title: str) -> Any:
                 color=col,
                 ms=8,
                 capsize=4,
-                label=f"real: {method} pooled (bootstrap 95 %)" if first else None,
+                label=f"real: {method} pooled (95 %)" if first else None,
             )
             first = False
         per = [c for c in exp.calibrations if c.method == method and c.scope != "pooled"]
