@@ -71,7 +71,7 @@ CASES: list[tuple[str, list[str]]] = [
     ("noise-text", ["noise", str(SQ), "--ros2", "{out}/cov.yaml"]),
     ("fit-square", ["fit", str(SQ), "--json", "--out", "{out}/p.yaml", "--ros2", "{out}/r.yaml"]),
     ("fit-square-text", ["fit", str(SQ), "--plot", "{out}/fig"]),
-    ("fit-mix", ["fit", str(SQ), str(OPTI / "ivanjko"), "--motion-mix", "spot=0.3,wide=0.7"]),
+    ("fit-mix", ["fit", str(SQ), str(OPTI / "circular"), "--motion-mix", "spot=0.3,wide=0.7"]),
     (
         "fit-banded",
         [
