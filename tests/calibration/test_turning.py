@@ -159,6 +159,10 @@ def test_banded_fit_refuses_runs_that_turn_only_on_the_spot():
     with pytest.raises(CalibrationError, match="at least two bands") as exc:
         fit_banded(runs, REFERENCE)
     assert "spot" in str(exc.value) and "circles or arcs" in str(exc.value)
+    assert "--wheelbase-model constant" in str(exc.value)
+    # a mix all in the one band these runs turn in: the plain fit is its wheelbase
+    with pytest.raises(CalibrationError, match="leave out --motion-mix"):
+        fit_banded(runs, REFERENCE, settings=TrajectorySettings(motion_mix={"spot": 1.0}))
 
 
 def _noisy(runs, seed=7, heading_sd_rad=0.0017, position_sd_m=5e-4):

@@ -89,6 +89,17 @@ class _Run:
         return self.weight * e.ravel()
 
 
+def _one_wheelbase_hint(motion_mix: Mapping[str, float] | None) -> str:
+    """How to get one wheelbase when the runs excite one band: for a stated mix (all of it in
+    that band, else it was refused before), the plain fit is that band's wheelbase."""
+    if motion_mix:
+        return (
+            "leave out --motion-mix: the plain fit's wheelbase is the one of the band these "
+            "runs turn in"
+        )
+    return "fit one wheelbase (--wheelbase-model constant)"
+
+
 def fit_banded(
     recordings: Sequence[Recording],
     start: WheelGeometry,
@@ -130,7 +141,7 @@ def fit_banded(
             f"{MIN_RUNS} runs, {MIN_ROTATION_RAD:.3g} rad in all); these runs turn enough only "
             f"in: {', '.join(BANDS[i] for i in excited) or 'none'} ({turned or 'no segment'}). "
             "Add runs with the other kind of turning (e.g. circles or arcs of the radii the robot "
-            "drives, next to spot turns), or fit one wheelbase (--wheelbase-model constant)"
+            f"drives, next to spot turns), or {_one_wheelbase_hint(settings.motion_mix)}"
         )
     nearest = nearest_estimated_band(excited)
     band_param = np.array([excited.index(nearest[i]) for i in range(len(BANDS))])
