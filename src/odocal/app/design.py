@@ -21,6 +21,7 @@ from ..io.outputs import OutputPlan
 from ..io.robot_file import load_params
 from ..presets import PRESETS
 from .common import RobotSpec, input_paths, optional_robot, resolve_robot, robot_label
+from .text import Presented, emits_warnings
 
 if TYPE_CHECKING:
     from .measured import MeasuredRobot
@@ -33,7 +34,7 @@ MAX_SIMULATED_RUNS = 20_000_000
 
 
 @dataclass(frozen=True)
-class DesignRun:
+class DesignRun(Presented):
     """A design and how it was made (engine, seed, robot), plus the figures written.
 
     ``result`` is a :class:`~odocal.design.sweep.DesignResult`, or a
@@ -58,6 +59,12 @@ class DesignRun:
     def warnings(self) -> tuple[str, ...]:
         """The design's warnings (those of its result)."""
         return tuple(self.result.warnings)
+
+    def text(self) -> str:
+        """The text of ``odocal design``."""
+        from .design_text import design_text
+
+        return design_text(self)
 
     def as_dict(self) -> dict:
         """The JSON of ``odocal design --json``."""
@@ -180,6 +187,7 @@ def _figures(result: DesignResult | RangeDesign) -> dict[str, Any]:
     return design_figures(result)
 
 
+@emits_warnings
 def design(
     robot: RobotSpec = None,
     spec: DesignSpec | None = None,

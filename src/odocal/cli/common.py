@@ -40,7 +40,6 @@ __all__ = [
     "print_json",
     "print_warnings",
     "print_table",
-    "print_check",
     "format_topics",
     "ProgressBar",
 ]
@@ -355,51 +354,11 @@ def print_json(obj: Any) -> None:
 
 
 def print_table(rows: list[tuple], title: str | None = None) -> None:
-    """Two or more columns, left column left-aligned, the rest right-aligned."""
-    if title:
-        print(title)
-    cells = [[str(c) for c in r] for r in rows]
-    widths = [max(len(r[i]) for r in cells if i < len(r)) for i in range(max(map(len, cells)))]
-    for r in cells:
-        parts = [r[0].ljust(widths[0])] + [c.rjust(widths[i + 1]) for i, c in enumerate(r[1:])]
-        print("  " + "  ".join(parts).rstrip())
+    """Two or more columns, left column left-aligned, the rest right-aligned
+    (:func:`odocal.app.text.table_lines`)."""
+    from ..app.text import table_lines
 
-
-def print_check(res: Any, indent: str = "") -> None:
-    """The human-readable check (also the 'Is this log enough?' section of fit)."""
-    c = res.check
-    d = c.motion.as_dict()
-    print(
-        f"{indent}{'enough' if c.ok else 'NOT enough'} for "
-        f"{', '.join(c.parameters)}: condition number {c.condition_number:.3g}; weakest: "
-        f"{c.weakest_direction}"
-    )
-    rows = [("", "value", "predicted std. error")]
-    for name, value in zip(c.parameters, c.values, strict=True):
-        se = c.stderr[name]
-        rows.append(
-            (
-                indent + name,
-                f"{value:.6g}",
-                "not identifiable" if se == float("inf") else f"{se:.2e}",
-            )
-        )
-    print_table(rows)
-    print(f"{indent}  motion: {_motion_line(d)}")
-    for g in c.degeneracies:
-        print(f"{indent}  {g.severity}: {g.message}")
-    for s in c.suggestions:
-        print(f"{indent}  suggestion: {s}")
-    print(f"{indent}  noise: {res.noise_source}")
-
-
-def _motion_line(d: dict[str, Any]) -> str:
-    return (
-        f"{d['travel_m']:.1f} m driven, {d['rotation_deg']:.0f} deg turned "
-        f"({d['rotation_left_deg']:.0f} left, {d['rotation_right_deg']:.0f} right); wheel "
-        f"travel {100 * d['share_straight']:.0f} % straight, {100 * d['share_spot']:.0f} % spot "
-        f"turns, {100 * d['share_arc']:.0f} % arcs"
-    )
+    print("\n".join(table_lines(rows, title)))
 
 
 def format_topics(topics) -> str:

@@ -13,9 +13,10 @@ import gc
 import importlib
 import signal
 import sys
+import warnings
 
 from .. import __version__
-from ..errors import OdocalError
+from ..errors import OdocalError, OdocalWarning
 
 #: command name -> (module in odocal.cli, the one line of ``odocal --help``)
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -112,7 +113,10 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError:  # not the main thread: leave the signal alone
         pass
     try:
-        return int(args.run(args) or 0)
+        with warnings.catch_warnings():
+            # the command prints its result's warnings itself (odocal: warning: ...)
+            warnings.simplefilter("ignore", OdocalWarning)
+            return int(args.run(args) or 0)
     except OdocalError as exc:
         print(f"odocal: error: {exc}", file=sys.stderr)
         return 2
