@@ -278,8 +278,8 @@ def range_design_report(out: Text, design: RangeDesign, robot: str) -> None:
         f"{floor[0]:.3f}-{floor[1]:.3f} m over the plausible robots"
     )
     out()
-    rows = [("track", "side_m", "travel_m", "worst above best_%", "error range_m")]
-    worst, lo, hi = design.worst_regret, design.error_min_m, design.error_max_m
+    rows = [("track", "side_m", "travel_m", "worst beaten by_%", "error range_m")]
+    worst, lo, hi = design.worst_shortfall, design.error_min_m, design.error_max_m
     for i, c in enumerate(design.candidates):
         rows.append(
             (
@@ -292,8 +292,9 @@ def range_design_report(out: Text, design: RangeDesign, robot: str) -> None:
         )
     out.table(rows)
     out(
-        "  worst above best: the largest excess of this size's error after calibration over the "
-        "best size's, over the plausible robots; error range: its smallest and largest error"
+        "  worst beaten by: the most the best size beats this one by, as a share of this size's "
+        "error after calibration (the rule's measure), over the plausible robots; error range: "
+        "its smallest and largest error"
     )
     out()
     out(f"Recommended: {design.describe()}.")
