@@ -64,11 +64,23 @@ class CalibrateResult(Presented):
     track_source: str = "arguments"
     nominal: WheelGeometry | None = None
 
+    @property
+    def correction_needed(self) -> bool | None:
+        """False when E_b and E_d are both within their 95 % intervals of 1 (a robot that already
+        runs with calibrated parameters: the runs show no correction beyond their noise), True
+        when one is not, None without an uncertainty (fewer than 2 runs in a direction)."""
+        unc = self.calibration.uncertainty
+        if unc is None:
+            return None
+        ci = unc.ci95()
+        return not all(ci[k][0] <= 1.0 <= ci[k][1] for k in ("E_b", "E_d"))
+
     def as_dict(self) -> dict:
         """The JSON of ``odocal calibrate --json``: the result, its uncertainty, the inputs it
-        was computed from, the warnings and the files written."""
+        was computed from, whether a correction is needed, the warnings and the files written."""
         inputs = {k: _jsonable(v) for k, v in self.calibration.inputs.items()}
         return self.calibration.as_dict() | {
+            "correction_needed": self.correction_needed,
             "track": self.track,
             "track_source": self.track_source,
             "inputs": inputs,
@@ -128,6 +140,12 @@ class CalibrateResult(Presented):
                 f"  mean radius: CW {ins['mean_radius_cw_m']:.6f} m, "
                 f"CCW {ins['mean_radius_ccw_m']:.6f} m (first order: E_b "
                 f"{ins['first_order_E_b']:.6f}, E_d {ins['first_order_E_d']:.6f})"
+            )
+        if self.correction_needed is False:
+            out(
+                "  no further correction needed: E_b and E_d are within their 95 % intervals of 1 "
+                "(the robot already runs with calibrated parameters; the corrected values differ "
+                "from them by less than the runs can resolve)"
             )
         written_lines(out, self.written)
         return str(out)
