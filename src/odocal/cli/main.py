@@ -103,8 +103,12 @@ def _terminate(signum, frame):  # noqa: ARG001 - the signal module's API
 def main(argv: list[str] | None = None) -> int:
     """Run ``odocal`` with ``argv`` (default ``sys.argv[1:]``); returns the exit code: 0, 2 for an
     :class:`~odocal.errors.OdocalError` (one line on stderr), 128 + the signal number when
-    interrupted or terminated."""
+    interrupted or terminated. Without any argument it prints the help on stdout and returns 2
+    (a usage error: no command ran; ``odocal --help`` returns 0)."""
     argv = sys.argv[1:] if argv is None else list(argv)
+    if not argv:  # no command: the help (on stdout), exit status 2 (nothing was run)
+        build_parser("").print_help()
+        return 2
     args = build_parser(_command(argv)).parse_args(argv)
     installed = False
     try:
