@@ -22,6 +22,7 @@ __all__ = [
     "check_text",
     "result_warnings",
     "emits_warnings",
+    "format_topics",
 ]
 
 
@@ -143,3 +144,10 @@ def written_lines(out: Text, written: Iterable[Any]) -> None:
     """One ``wrote PATH`` line per file written."""
     for f in written:
         out(f"wrote {f}")
+
+
+def format_topics(topics: Iterable[Any]) -> str:
+    """A readable table of a bag's topics (name, type, count)."""
+    rows = [("topic", "type", "messages")] + [(t.name, t.msgtype, str(t.count)) for t in topics]
+    w0, w1, w2 = (max(len(r[i]) for r in rows) for i in range(3))
+    return "\n".join(f"{a.ljust(w0)}  {b.ljust(w1)}  {c.rjust(w2)}" for a, b, c in rows)

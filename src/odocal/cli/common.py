@@ -40,7 +40,6 @@ __all__ = [
     "print_json",
     "print_warnings",
     "print_table",
-    "format_topics",
     "ProgressBar",
 ]
 
@@ -359,15 +358,6 @@ def print_table(rows: list[tuple], title: str | None = None) -> None:
     from ..app.text import table_lines
 
     print("\n".join(table_lines(rows, title)))
-
-
-def format_topics(topics) -> str:
-    """A readable table of topics (name, type, count)."""
-    rows = [("topic", "type", "messages")] + [(t.name, t.msgtype, str(t.count)) for t in topics]
-    w0 = max(len(r[0]) for r in rows)
-    w1 = max(len(r[1]) for r in rows)
-    w2 = max(len(r[2]) for r in rows)
-    return "\n".join(f"{a.ljust(w0)}  {b.ljust(w1)}  {c.rjust(w2)}" for a, b, c in rows)
 
 
 class ProgressBar:

@@ -21,7 +21,6 @@ from .common import (
     add_recording_args,
     add_slam_args,
     bag_options,
-    format_topics,
     heading_weight,
     length_m,
     motion_mix,
@@ -184,8 +183,8 @@ def _add_square_args(p: argparse.ArgumentParser) -> None:
 
 
 def _list_topics(paths: list[str]) -> int:
-    from ..app.bag_info import bag_info
-    from ..io.bags import is_bag
+    from ..app.text import format_topics
+    from ..io.bags import is_bag, list_topics
 
     for path in paths:
         if not is_bag(path):
@@ -193,7 +192,7 @@ def _list_topics(paths: list[str]) -> int:
     for path in paths:
         if len(paths) > 1:
             print(f"{path}:")
-        print(format_topics(bag_info(path).topics))
+        print(format_topics(list_topics(path)))
     return 0
 
 

@@ -41,7 +41,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "run its experiment on a real robot)",
     ),
     "ttest": ("ttest", "Student and Welch t-tests of two samples (CSV columns)"),
-    "bag-info": ("bag_info", "list the topics of a ROS bag"),
+    "bag-info": ("bag_info", "list the topics, duration and frames of a ROS bag"),
 }
 
 
