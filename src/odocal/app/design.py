@@ -10,13 +10,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..core.checks import check_seed
 from ..core.model import MeasurementNoise, Robot
 from ..core.plausibility import track_size_problem
 from ..design.analytic import analytic_design_result
 from ..design.robust import RangeDesign, range_design, unknown_errors
 from ..design.spec import ENGINES, DesignSpec, Engine
 from ..design.sweep import DesignResult, Progress, SimulationSettings, design_json, run_design
-from ..errors import InputError
+from ..errors import InputError, ModelError
 from ..io.outputs import OutputPlan
 from ..io.robot_file import load_params
 from ..presets import PRESETS
@@ -217,6 +218,9 @@ def design(
     ``robot`` then only gives the nominal geometry. ``measurement``: the instrument's noise per
     measured final pose, replacing the robot's."""
     spec = spec or DesignSpec()
+    if not isinstance(spec, DesignSpec):
+        raise ModelError(f"spec must be a DesignSpec, got {spec!r}")
+    seed = check_seed("seed", seed)
     _check_work(spec, engine)
     plan = OutputPlan(input_paths(robot, params, *(robot_from or ())))
     if plot is not None:

@@ -9,11 +9,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.checks import check_int, check_positive_float, check_seed
 from ..core.covariance import PosePrediction, correlation, predict
 from ..core.runs import EndPoseRuns
 from ..core.simulate import measure
 from ..core.simulate import simulate as simulate_track
 from ..core.tracks import Track, polygon
+from ..errors import ModelError
+from ..io.limits import TRACK_LENGTH_MAX_M
 from ..io.outputs import OutputPlan
 from ..io.runs_csv import runs_csv_text
 from ..io.track_file import load_track
@@ -167,6 +170,16 @@ def simulate(
     """Drive a regular N-gon (``sides``, ``side_m`` in m) or a ``track`` (a Track, or a track
     file whose direction label is used) ``runs`` times per direction with the robot; optionally
     predict the final-pose covariance to first order; write RUNS.csv to ``out``."""
+    if track is None:
+        sides = check_int("sides", sides, at_least=3)  # polygon() bounds it, with its reason
+        side_m = check_positive_float("side_m", side_m, at_most=TRACK_LENGTH_MAX_M, hint=" m")
+    runs = check_int("runs", runs, at_least=1)
+    seed = check_seed("seed", seed)
+    max_step_m = check_positive_float(
+        "max_step_m", max_step_m, at_most=TRACK_LENGTH_MAX_M, hint=" m"
+    )
+    if isinstance(directions, str) or not set(directions) <= {"cw", "ccw"} or not directions:
+        raise ModelError(f"directions must be some of ('cw', 'ccw'), got {directions!r}")
     plan = OutputPlan(input_paths(robot, params, None if isinstance(track, Track) else track))
     if out is not None:
         plan.file(out, "--out")
