@@ -12,7 +12,16 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 from ..io.bag_options import BagOptions
-from ..io.limits import HEADING_WEIGHT_MAX_M, TICKS_PER_REV, TRACK_LENGTH_MAX_M
+from ..io.limits import (
+    HEADING_WEIGHT_MAX_M,
+    LENGTH_MIN_M,
+    SIGMA_THETA_MAX_DEG,
+    SIGMA_XY_MAX_M,
+    TICKS_PER_REV,
+    TRACK_LENGTH_MAX_M,
+    speed_problem,
+    twist_window_problem,
+)
 
 __all__ = [
     "MAX_LENGTH_M",
@@ -20,6 +29,10 @@ __all__ = [
     "positive_float",
     "nonnegative_float",
     "length_m",
+    "sigma_xy_m",
+    "sigma_theta_deg",
+    "speed_m_s",
+    "twist_window_s",
     "ticks_per_rev",
     "heading_weight",
     "positive_int",
@@ -91,7 +104,27 @@ def number(
 
 positive_float = number(float, above=0)
 nonnegative_float = number(float, at_least=0)
-length_m = number(float, above=0, at_most=MAX_LENGTH_M, hint=" m (check the units)")
+length_m = number(float, at_least=LENGTH_MIN_M, at_most=MAX_LENGTH_M, hint=" m (check the units)")
+sigma_xy_m = number(float, at_least=0, at_most=SIGMA_XY_MAX_M, hint=" m")
+sigma_theta_deg = number(float, at_least=0, at_most=SIGMA_THETA_MAX_DEG, hint=" deg")
+
+
+def _with_limit(problem: Callable[[float], str | None]) -> Callable[[str], float]:
+    """An argparse type: a finite number > 0 that ``problem`` (odocal.io.limits) accepts; its
+    message, with the reason, otherwise."""
+
+    def parse(text: str) -> float:
+        v = number(float, above=0)(text)
+        said = problem(v)
+        if said:
+            raise argparse.ArgumentTypeError(said)
+        return v
+
+    return parse
+
+
+speed_m_s = _with_limit(speed_problem)
+twist_window_s = _with_limit(twist_window_problem)
 ticks_per_rev = number(
     float,
     at_least=TICKS_PER_REV[0],
@@ -147,8 +180,10 @@ def noise_track(text: str) -> tuple[str, float]:
         d = float(dist)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a distance in m: {dist!r} in {text!r}") from None
-    if not math.isfinite(d) or d <= 0:
-        raise argparse.ArgumentTypeError(f"the distance must be > 0 m, got {dist!r}")
+    if not math.isfinite(d) or d < LENGTH_MIN_M:
+        raise argparse.ArgumentTypeError(
+            f"the distance must be at least {LENGTH_MIN_M:g} m (check the units), got {dist!r}"
+        )
     if d > MAX_LENGTH_M:
         raise argparse.ArgumentTypeError(
             f"the distance must be at most {MAX_LENGTH_M:g} m (check the units), got {dist!r}"

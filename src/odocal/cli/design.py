@@ -11,12 +11,13 @@ from .common import (
     ProgressBar,
     add_robot_args,
     fraction,
-    nonnegative_float,
     positive_int,
     print_json,
     print_warnings,
     seed_int,
     sides_int,
+    sigma_theta_deg,
+    sigma_xy_m,
     trials_int,
 )
 
@@ -198,13 +199,13 @@ def add_parser(sub) -> None:
     )
     p.add_argument(
         "--sigma-xy-m",
-        type=nonnegative_float,
+        type=sigma_xy_m,
         metavar="S",
         help="the instrument's position noise per measured final pose, m (replaces the robot's)",
     )
     p.add_argument(
         "--sigma-theta-deg",
-        type=nonnegative_float,
+        type=sigma_theta_deg,
         metavar="S",
         help="the instrument's heading noise per measured final pose, deg (replaces the robot's)",
     )
