@@ -139,8 +139,6 @@ def test_implausible_flags_are_refused_with_their_reason(cli, tmp_path, argv, ne
 @pytest.mark.parametrize(
     "argv,needle",
     [
-        (["fit", "x.csv", "--segment-length", "5e-324"], "--segment-length"),
-        (["simulate", "--max-step", "1e-320"], "--max-step"),
         (["design", "--sigma-xy-m", "1e9"], "--sigma-xy-m"),
     ],
 )

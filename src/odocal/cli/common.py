@@ -29,6 +29,7 @@ __all__ = [
     "positive_float",
     "nonnegative_float",
     "length_m",
+    "driven_length_m",
     "sigma_xy_m",
     "sigma_theta_deg",
     "speed_m_s",
@@ -104,7 +105,11 @@ def number(
 
 positive_float = number(float, above=0)
 nonnegative_float = number(float, at_least=0)
-length_m = number(float, at_least=LENGTH_MIN_M, at_most=MAX_LENGTH_M, hint=" m (check the units)")
+length_m = number(float, above=0, at_most=MAX_LENGTH_M, hint=" m (check the units)")
+#: a distance a covariance or an estimate divides by (odocal noise): at least 0.1 mm
+driven_length_m = number(
+    float, at_least=LENGTH_MIN_M, at_most=MAX_LENGTH_M, hint=" m (check the units)"
+)
 sigma_xy_m = number(float, at_least=0, at_most=SIGMA_XY_MAX_M, hint=" m")
 sigma_theta_deg = number(float, at_least=0, at_most=SIGMA_THETA_MAX_DEG, hint=" deg")
 

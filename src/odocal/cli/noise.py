@@ -10,7 +10,7 @@ from .common import (
     add_bag_args,
     add_robot_args,
     bag_options,
-    length_m,
+    driven_length_m,
     noise_track,
     print_json,
     print_table,
@@ -98,7 +98,7 @@ def add_parser(sub) -> None:
     )
     r.add_argument(
         "--pose-distance",
-        type=length_m,
+        type=driven_length_m,
         default=1.0,
         metavar="M",
         help="travel after which the pose covariance is given, m (default 1)",

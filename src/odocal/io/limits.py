@@ -27,8 +27,8 @@ SIGMA_THETA_MAX_DEG = 360.0
 
 #: Longest track length: a side, a straight, a radius, a travel (m), 100 km.
 TRACK_LENGTH_MAX_M = 1e5
-#: Shortest length a flag gives (a side, a distance, a segment, a step; m): 0.1 mm. Below it a
-#: length is a unit slip, and the estimators divide by it (k = inf from a 1e-320 m track).
+#: Shortest distance an estimate or a covariance divides by (odocal noise --track and
+#: --pose-distance; m): 0.1 mm. Below it a length is a unit slip (k = inf from a 1e-320 m track).
 LENGTH_MIN_M = 1e-4
 #: Shortest square side given in a file (m).
 SIDE_MIN_M = 1e-4
