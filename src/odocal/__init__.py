@@ -14,8 +14,9 @@ files and in names that say so, ROBOT.yaml / RUNS.csv / PARAMS.yaml)::
 
 Each function is the command of the same name (``odocal.app.<command>``; ``design_track`` is
 ``odocal design``, since ``odocal.design`` is the design subpackage) and returns a frozen result
-with ``as_dict()`` (the ``--json``). Names are imported on first use, so ``import odocal``
-(and ``odocal --help``) stays fast.
+with ``as_dict()`` (the ``--json``); ``print(result)`` shows the command's text, and the command's
+warnings are emitted through :mod:`warnings` as :class:`OdocalWarning`. Names are imported on
+first use, so ``import odocal`` (and ``odocal --help``) stays fast.
 """
 
 from __future__ import annotations
@@ -64,6 +65,7 @@ _API: dict[str, tuple[str, str | None]] = {
     "InputError": ("odocal.errors", "InputError"),
     "ModelError": ("odocal.errors", "ModelError"),
     "CalibrationError": ("odocal.errors", "CalibrationError"),
+    "OdocalWarning": ("odocal.errors", "OdocalWarning"),
 }
 
 __all__ = [
@@ -99,6 +101,7 @@ __all__ = [
     "InputError",
     "ModelError",
     "CalibrationError",
+    "OdocalWarning",
 ]
 
 
@@ -141,6 +144,6 @@ if TYPE_CHECKING:  # for type checkers and IDEs; never executed
     )
     from .design.result import ValidationTrack
     from .design.spec import DesignSpec
-    from .errors import CalibrationError, InputError, ModelError, OdocalError
+    from .errors import CalibrationError, InputError, ModelError, OdocalError, OdocalWarning
     from .io.robot_file import load_params, load_robot
     from .presets import PRESETS

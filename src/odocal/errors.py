@@ -28,3 +28,9 @@ class InputError(OdocalError):
             f"{': '.join([', '.join(where)] if where else [])}{': ' if where else ''}{message}"
         )
         self.path, self.line, self.field = path, line, field
+
+
+class OdocalWarning(UserWarning):
+    """What a command called from Python warns about (the same words as the command line's
+    ``odocal: warning: ...`` lines, also kept in the result's ``warnings``): filter it with
+    ``warnings.simplefilter("ignore", odocal.OdocalWarning)`` or turn it into an error."""

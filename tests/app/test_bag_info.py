@@ -39,3 +39,44 @@ def test_a_file_that_is_not_a_bag(tmp_path):
     path.write_text("time_s,wheel_right_rad\n")
     with pytest.raises(InputError, match="run.bag"):
         bag_info(path)
+
+
+def _tf(w, topic, t, edges):
+    """One TFMessage on ``topic`` at ``t`` s holding an identity transform per (parent, child)."""
+    ts = [
+        w.T("geometry_msgs/msg/TransformStamped")(
+            header=w.header(t, parent),
+            child_frame_id=child,
+            transform=w.T("geometry_msgs/msg/Transform")(
+                translation=w.vec(0.0, 0.0, 0.0), rotation=w.quat((0.0, 0.0, 0.0, 1.0))
+            ),
+        )
+        for parent, child in edges
+    ]
+    w.write(topic, "tf2_msgs/msg/TFMessage", t, w.T("tf2_msgs/msg/TFMessage")(transforms=ts))
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_the_duration_and_the_frame_tree(tmp_path, kind):
+    """bag-info shows how long the bag runs and the frames of /tf and /tf_static (each edge
+    once, as a tree), beside the topics."""
+    path = bag_path(tmp_path, kind, "tf")
+    with BagWriter(path, kind) as w:
+        _tf(w, "/tf_static", 1.0, [("base_link", "laser"), ("base_link", "imu_link")])
+        for k in range(4):
+            w.joints("/joint_states", 1.0 + 0.5 * k, JOINTS, [0.1 * k, 0.2 * k])
+            _tf(w, "/tf", 1.0 + 0.5 * k, [("/map", "odom"), ("odom", "base_link")])
+    info = bag_info(path)
+    assert info.duration_s == pytest.approx(1.5, abs=1e-6)
+    assert info.frames == (
+        ("base_link", "laser", True),
+        ("base_link", "imu_link", True),
+        ("map", "odom", False),
+        ("odom", "base_link", False),
+    )
+    text = str(info)
+    assert f"{path}: 3 topics, 1.500 s" in text
+    assert "  map\n    -> odom\n      -> base_link\n        -> laser (static)\n" in text
+    d = info.as_dict()
+    assert d["duration_s"] == pytest.approx(1.5, abs=1e-6)
+    assert {"parent": "odom", "child": "base_link", "static": False} in d["frames"]

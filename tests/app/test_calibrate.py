@@ -87,3 +87,23 @@ def test_bcpt_circles_give_the_worked_example(tmp_path):
     assert c.corrected.wheelbase_m == pytest.approx(0.34 * 1.01, abs=1e-6)
     assert res.written == (out,)
     np.testing.assert_allclose(values(load_params(out)), values(c.corrected), rtol=1e-8)
+
+
+def test_a_second_round_that_needs_no_correction_says_so(tmp_path):
+    """Runs of a robot already running with its true parameters: E_b and E_d within their
+    95 % intervals of 1, and the report says that no further correction is needed; a robot with
+    a real error is told nothing of the kind."""
+    from odocal.presets import PRESETS
+
+    robot = PRESETS["paper-fig5"]
+    calibrated = robot.with_believed(robot.true_geometry)
+    sheet = tmp_path / "second.csv"
+    simulate_runs(calibrated, sides=4, side_m=2.0, runs=5, seed=3, out=sheet)
+    res = calibrate(sheet, calibrated)
+    assert res.correction_needed is False
+    assert "no further correction needed" in str(res)
+    assert res.as_dict()["correction_needed"] is False
+    first = tmp_path / "first.csv"
+    simulate_runs(robot, sides=4, side_m=2.0, runs=5, seed=3, out=first)
+    res = calibrate(first, robot)
+    assert res.correction_needed is True and "no further correction" not in str(res)

@@ -35,7 +35,7 @@ def test_the_spec_is_validated_once_and_normalised():
         (dict(method="bcpt"), "method"),
         (dict(sides=(8,), method="umbmark"), "squares"),
         (dict(trials=1), "trials"),
-        (dict(side_lengths_m=(1.0, -2.0)), "side lengths"),
+        (dict(side_lengths_m=(1.0, -2.0)), "side_lengths_m"),
     ):
         with pytest.raises(ModelError, match=needle):
             DesignSpec(**bad)

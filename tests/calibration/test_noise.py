@@ -169,3 +169,18 @@ def test_the_statistics_without_scipy_stats_are_scipy_stats_numbers():
     assert _trend(np.full(6, 0.3)) == (0.0, 0.0, 0.0)  # no spread: no trend
     slope, t, r2 = _trend(2.0 * np.arange(6.0))  # an exact line
     assert slope == 2.0 and r2 == 1.0 and t == math.inf
+
+
+def test_few_runs_whose_interval_reaches_zero_say_so_instead_of_an_absurd_factor():
+    """4 runs whose heading spread is barely above the protractor's: the interval's lower end
+    is 0 after the instrument's noise is taken off, and the warning gives the two ends (it once
+    said 'spans a factor 1.47e+294', the upper end over 1e-300)."""
+    z = np.array([-1.0, -0.3, 0.4, 0.9])
+    th = z / np.std(z, ddof=1) * math.sqrt(4.0e-5)
+    err = np.column_stack([np.zeros(4), np.zeros(4), th])
+    meas = MeasurementNoise.from_degrees(0.0, 0.3)
+    est = estimate_k(EndPoseRuns(("fwd",) * 4, err), "out-and-back", 10.0, 0.5, meas)
+    assert est.k_sum_ci95_m[0] == 0.0 and est.k_sum_m > 0
+    (said,) = [w for w in est.warnings if w.startswith("only 4 runs")]
+    assert "factor" not in said and "e+" not in said
+    assert f"runs from 0 to {est.k_sum_ci95_m[1]:.3g} m" in said

@@ -127,3 +127,18 @@ def test_residuals_on_the_optiodom_runs(realdata):
         batched = TrajectoryResiduals(runs, kind, 0.1)
         for p in PARAMETERS[:2]:
             assert np.array_equal(batched(p), _per_run(runs, p, kind, 0.1)), (kind, p)
+
+
+def test_a_5e_324_segment_length_is_the_shortest_segments_without_a_numpy_warning():
+    """travel / 5e-324 overflowed (a raw RuntimeWarning); such segments are shorter than the
+    samples: every sample that moved starts one, as for 1 nm segments."""
+    import warnings
+
+    from odocal.calibration.trajectory_residuals import _segment_marks
+
+    travel = np.array([0.0, 0.1, 0.1, 0.3, 0.6])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        tiny = _segment_marks(travel, 5e-324, len(travel))
+    np.testing.assert_array_equal(tiny, _segment_marks(travel, 1e-9, len(travel)))
+    np.testing.assert_array_equal(tiny, [0, 1, 3, 4])

@@ -109,10 +109,11 @@ def test_cli_design_plot_into_a_file_fails_cleanly(cli, tmp_path):
     cli("design", "--trials", "5", "--side-lengths", "1", "--plot", f).expect_error("file")
 
 
-def test_report_json_and_plots_work_from_required_fields_only(tmp_path, capsys):
+def test_report_json_and_plots_work_from_required_fields_only(tmp_path):
     """Candidates whose optional statistics are missing (NaN) still give a report, JSON and
     figures."""
-    from odocal.cli.design import print_design
+    from odocal.app.design_text import design_report
+    from odocal.app.text import Text
     from odocal.design import DesignResult, ErrorSummary
     from odocal.plot.design import design_figures
 
@@ -127,8 +128,9 @@ def test_report_json_and_plots_work_from_required_fields_only(tmp_path, capsys):
     assert d["candidates"][0]["residual_error_mean_m"] is None
     assert d["recommended_by_other_criterion"] is None
     json.dumps(d, allow_nan=False)
-    print_design(res, "analytic robot")
-    out = capsys.readouterr().out
+    text = Text()
+    design_report(text, res, "analytic robot")
+    out = str(text)
     assert "Recommended: square, side 1.5 m" in out
     from odocal.io.outputs import OutputPlan
 

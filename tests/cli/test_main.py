@@ -48,3 +48,13 @@ def test_help_is_complete_and_imports_no_command_module():
     assert "LOADED ['odocal.cli.main']" in out
     sub = next(a for a in build_parser()._actions if hasattr(a, "choices") and a.choices)
     assert list(sub.choices) == list(COMMANDS)
+
+
+def test_no_arguments_print_the_help_and_exit_2(cli):
+    """'odocal' alone prints the help (every command listed) on stdout, not an error line, and
+    exits 2: no command ran (a script calling it without a command notices)."""
+    from odocal.cli.main import COMMANDS
+
+    status, out, err = cli()
+    assert status == 2 and err == ""
+    assert out.startswith("usage: odocal") and all(name in out for name in COMMANDS)

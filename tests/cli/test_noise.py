@@ -47,7 +47,7 @@ def test_cli_json_contract(cli, tmp_path, returned):
     ("args", "needle"),
     [
         (("--track", "circle:10"), "out-and-back:D or straight:D"),
-        (("--track", "straight:-1"), "> 0 m"),
+        (("--track", "straight:-1"), "at least 0.0001 m"),
         (("--track", "straight:ten"), "not a distance"),
     ],
 )
@@ -115,3 +115,44 @@ def test_noise_cli_bad_inputs(cli, realdata, tmp_path):
     cli("noise", sq).expect_error("no group of repeated runs")
     cli("noise", sq, sq, "--track", "straight:2").expect_error("exactly one RUNS.csv")
     cli("noise", sq, "--params", tmp_path / "p.yaml").expect_error("--params is for RUNS.csv")
+
+
+@pytest.mark.parametrize(
+    "argv,needles",
+    [
+        (["--ros2", "dd.yaml", "--speed", "114"], ["--speed", "114 m/s", "did you type mm/s?"]),
+        (["--ros2", "dd.yaml", "--speed", "1e-320"], ["--speed", "singular"]),
+        (["--ros2", "dd.yaml", "--twist-window", "1e-300"], ["--twist-window", "velocity window"]),
+        (["--ros2", "dd.yaml", "--twist-window", "3600"], ["--twist-window", "0.2 s"]),
+        (["--track", "out-and-back:1e-320"], ["--track", "at least 0.0001 m"]),
+        (["--pose-distance", "5e-324"], ["--pose-distance", "check the units"]),
+        (["--sigma-theta-deg", "1e9"], ["--sigma-theta-deg", "<= 360"]),
+        (["--ticks-per-rev", "1e-300"], ["--ticks-per-rev", "ticks per wheel turn"]),
+    ],
+)
+def test_implausible_flags_are_refused_with_their_reason(cli, tmp_path, argv, needles):
+    """Each bound comes from odocal.io.limits and says why (a speed in mm/s typed as m/s, a
+    window or a distance so small the variances vanish and k becomes inf)."""
+    cli("noise", tmp_path / "runs.csv", *argv).expect_error(*needles)
+
+
+@pytest.mark.parametrize(
+    "argv,needle",
+    [
+        (["design", "--sigma-xy-m", "1e9"], "--sigma-xy-m"),
+    ],
+)
+def test_tiny_lengths_and_huge_noises_are_refused_by_the_other_commands(cli, argv, needle):
+    cli(*argv).expect_error(needle)
+
+
+def test_the_python_api_has_the_same_bounds(tmp_path):
+    from odocal.app.noise import noise, noise_recordings
+    from odocal.errors import OdocalError
+
+    with pytest.raises(OdocalError, match="did you type mm/s"):
+        noise_recordings(tmp_path / "x.csv", ros2=tmp_path / "dd.yaml", speed_m_s=114.0)
+    with pytest.raises(OdocalError, match="window_s"):
+        noise_recordings(tmp_path / "x.csv", window_s="0.2")
+    with pytest.raises(OdocalError, match="distance_m"):
+        noise(tmp_path / "x.csv", distance_m=1e-320)

@@ -82,3 +82,25 @@ def test_plan_bad_inputs_leave_no_file(cli, tmp_path):
     status, _, err = cli("plan", "--robot", tmp_path / "none.yaml", "--out", tmp_path / "a.csv")
     assert status == 2 and "none.yaml" in err
     assert not (tmp_path / "a.csv").exists()
+
+
+def test_a_robot_without_errors_gets_a_spread_table_that_does_not_contradict_its_typical_ends(
+    cli, tmp_path
+):
+    """The typical robots end up to |theta| ~24 deg on average, so the table beside cannot
+    show a mean of 0 and call values far outside +-1 deg mistakes: it shows the spread alone,
+    and a mistake is an end far beyond the typical ones."""
+    robot = tmp_path / "robot.yaml"
+    robot.write_text(
+        "wheel_diameter_m: 0.066\nwheelbase_m: 0.160\n"
+        "measurement: {sigma_xy_m: 0.01, sigma_theta_deg: 1.0}\n"
+    )
+    status, out, err = cli(
+        "plan", "--robot", robot, "--side-length", "1.8", "--out", tmp_path / "runs.csv"
+    )
+    assert status == 0, err
+    assert "|theta| 24." in out  # the typical ends
+    assert "+0.0000 ±" not in out and "+0.000 ±" not in out  # no mean of 0 beside them
+    assert "cw         ± 0.0100  ± 0.0100    ± 1.000" in out
+    assert "values far outside these usually mean" not in out
+    assert "far beyond the typical ones above usually means a frame or sign mistake" in out

@@ -112,3 +112,22 @@ def test_paired_ttest_matches_scipy():
     ref = stats.ttest_rel(a, b)
     assert t.t == pytest.approx(ref.statistic) and t.p_two_sided == pytest.approx(ref.pvalue)
     assert t.df == 18 and t.kind == "paired"
+
+
+@pytest.mark.parametrize("scale", [1e-300, 1e-200, 1e200])
+def test_the_t_tests_do_not_depend_on_the_data_s_scale(scale):
+    """Data on a 1e-300 scale once gave variances that underflowed to 0 (t = -inf, p = 0, 'zero
+    spread'); on a 1e200 scale they overflow. t, df and p are those of the same data in units of
+    1, and an ordinary scale gives exactly the unscaled bits (a power-of-two rescaling)."""
+    a, b = np.array([1.0, 2.0, 3.0]), np.array([2.0, 3.0, 4.5])
+    for test in (ttest_samples, ttest_paired):
+        one = test(a, b)
+        far = test(a * scale, b * scale)
+        assert far.t == pytest.approx(one.t, rel=1e-12) and math.isfinite(far.t)
+        assert far.df == pytest.approx(one.df, rel=1e-12)
+        assert far.p_two_sided == pytest.approx(one.p_two_sided, rel=1e-9)
+        assert far.std_a == pytest.approx(scale * one.std_a, rel=1e-12) and far.std_a > 0
+    student = ttest_samples(a * scale, b * scale, equal_var=True)
+    assert student.t == pytest.approx(ttest_samples(a, b, equal_var=True).t, rel=1e-12)
+    from_stats = ttest_from_stats(2e-300, 1e-300, 3, 3e-300, 1e-300, 3)
+    assert from_stats.t == pytest.approx(ttest_from_stats(2.0, 1.0, 3, 3.0, 1.0, 3).t, rel=1e-12)

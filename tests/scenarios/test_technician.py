@@ -316,7 +316,12 @@ def test_the_range_design_holds_for_every_plausible_robot():
     E = d.errors
     larger = [j for j, c in enumerate(d.candidates) if c.travel_m > d.candidates[i].travel_m]
     assert np.all(E[:, larger] >= 0.95 * E[:, [i]] - 1e-15)  # in every scenario
-    assert d.within == pytest.approx(float(np.max(E[:, i] / E.min(axis=1) - 1)))
+    # the report's figure is in the rule's measure: how much the best size beats it, as a share
+    # of its own error (a regret of 5.1 % is 4.9 % of its error: within a 5 % rule)
+    assert d.within == pytest.approx(float(np.max(1 - E.min(axis=1) / E[:, i])))
+    best_is_larger = np.all(np.argmin(E, axis=1) >= i)
+    assert not best_is_larger or d.within <= d.tolerance
+    assert f"no size beats it by more than {100 * d.within:.1f} % of its error" in d.describe()
     if i > 0:  # the next smaller size is beaten for at least one plausible robot
         assert np.any(E[:, i:].min(axis=1) < 0.95 * E[:, i - 1])
 

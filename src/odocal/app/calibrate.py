@@ -33,12 +33,13 @@ from .common import (
     resolve_robot,
     write_exports,
 )
+from .text import Presented, Text, emits_warnings, written_lines
 
 __all__ = ["CalibrateResult", "calibrate", "resolve_track"]
 
 
 @dataclass(frozen=True)
-class CalibrateResult:
+class CalibrateResult(Presented):
     """A calibration from a run sheet, its warnings (an absurd result is reported, not hidden)
     and the files written.
 
@@ -63,11 +64,23 @@ class CalibrateResult:
     track_source: str = "arguments"
     nominal: WheelGeometry | None = None
 
+    @property
+    def correction_needed(self) -> bool | None:
+        """False when E_b and E_d are both within their 95 % intervals of 1 (a robot that already
+        runs with calibrated parameters: the runs show no correction beyond their noise), True
+        when one is not, None without an uncertainty (fewer than 2 runs in a direction)."""
+        unc = self.calibration.uncertainty
+        if unc is None:
+            return None
+        ci = unc.ci95()
+        return not all(ci[k][0] <= 1.0 <= ci[k][1] for k in ("E_b", "E_d"))
+
     def as_dict(self) -> dict:
         """The JSON of ``odocal calibrate --json``: the result, its uncertainty, the inputs it
-        was computed from, the warnings and the files written."""
+        was computed from, whether a correction is needed, the warnings and the files written."""
         inputs = {k: _jsonable(v) for k, v in self.calibration.inputs.items()}
         return self.calibration.as_dict() | {
+            "correction_needed": self.correction_needed,
             "track": self.track,
             "track_source": self.track_source,
             "inputs": inputs,
@@ -75,6 +88,70 @@ class CalibrateResult:
             "warnings": list(self.warnings),
             "written": [str(p) for p in self.written],
         }
+
+    def text(self) -> str:
+        """The text of ``odocal calibrate``: the method and runs, the table of the calibrated
+        values with their uncertainty, the mean errors and the files written."""
+        out = Text()
+        result = self.calibration
+        ins = result.inputs
+        label = result.method + (f" ({ins['form']}-form)" if "form" in ins else "")
+        where = "" if self.track_source == "arguments" else f" (track from the {self.track_source})"
+        if self.track_source == "both":
+            where = " (track from the run sheet and the arguments)"
+        out(f"{label} from {ins['runs_cw']} CW and {ins['runs_ccw']} CCW runs, {self.track}{where}")
+        r, c, unc = result.ran_with, result.corrected, result.uncertainty
+        ci = unc.ci95() if unc is not None else {}
+
+        def cell(name: str, value: float, digits: int) -> tuple[str, str, str]:
+            if unc is None:
+                return f"{value:.{digits}f}", "-", "-"
+            k = ("E_b", "E_d", *_GEOMETRY).index(name)
+            lo, hi = ci[name]
+            return (
+                f"{value:.{digits}f}",
+                f"{unc.stderr[k]:.{digits}f}",
+                f"{lo:.{digits}f} .. {hi:.{digits}f}",
+            )
+
+        rows: list[tuple] = [("", "ran with", "calibrated", "std error", "95 % interval")]
+        rows.append(("E_b", "", *cell("E_b", result.E_b, 6)))
+        rows.append(("E_d", "", *cell("E_d", result.E_d, 6)))
+        for name, ran, cal in zip(
+            _GEOMETRY,
+            (r.diameter_right_m, r.diameter_left_m, r.wheelbase_m),
+            (c.diameter_right_m, c.diameter_left_m, c.wheelbase_m),
+            strict=True,
+        ):
+            rows.append((name, f"{ran:.6f}", *cell(name, float(cal), 6)))
+        out.table(rows)
+        if unc is not None:
+            out(
+                "  std error and 95 % interval from the run-to-run spread (delta method; Student "
+                f"t with {min(unc.dof):.1f} or more degrees of freedom)"
+            )
+        if "mean_theta_cw_rad" in ins:
+            out(
+                f"  mean heading error: CW {math.degrees(ins['mean_theta_cw_rad']):+.4f} deg, "
+                f"CCW {math.degrees(ins['mean_theta_ccw_rad']):+.4f} deg"
+            )
+        if "mean_radius_cw_m" in ins:
+            out(
+                f"  mean radius: CW {ins['mean_radius_cw_m']:.6f} m, "
+                f"CCW {ins['mean_radius_ccw_m']:.6f} m (first order: E_b "
+                f"{ins['first_order_E_b']:.6f}, E_d {ins['first_order_E_d']:.6f})"
+            )
+        if self.correction_needed is False:
+            out(
+                "  no further correction needed: E_b and E_d are within their 95 % intervals of 1 "
+                "(the robot already runs with calibrated parameters; the corrected values differ "
+                "from them by less than the runs can resolve)"
+            )
+        written_lines(out, self.written)
+        return str(out)
+
+
+_GEOMETRY = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
 
 
 def _jsonable(v):
@@ -167,6 +244,7 @@ def _checked_runs(
     return EndPoseRuns(runs.directions, err), warnings
 
 
+@emits_warnings
 def calibrate(
     runs_csv: str | Path,
     robot: RobotSpec = None,

@@ -27,12 +27,13 @@ from ..io.bag_recording import without_gyro
 from ..io.bag_slam import SlamBag, load_slam_bags
 from ..io.recordings import load_recordings
 from .common import RobotSpec, load_warnings, nominal_geometry, optional_robot
+from .text import Presented, Text, check_text, emits_warnings
 
 __all__ = ["CheckResult", "check", "check_loaded", "noise_model", "slam_noise", "SLAM_POSE_NOISE"]
 
 
 @dataclass(frozen=True)
-class CheckResult:
+class CheckResult(Presented):
     """The check of a log, the noise it assumed and where that came from."""
 
     check: LogCheck
@@ -46,6 +47,14 @@ class CheckResult:
             "noise_source": self.noise_source,
             "load_warnings": list(self.load_warnings),
         }
+
+    def text(self) -> str:
+        """The text of ``odocal check``: enough or not, the predicted standard errors, the
+        motion, its degeneracies and what to drive."""
+        out = Text()
+        out(f"Is this log enough? {self.recordings} run(s)")
+        check_text(out, self)
+        return str(out)
 
 
 def noise_model(r: Robot | None) -> tuple[NoiseModel, str]:
@@ -92,6 +101,7 @@ def check_loaded(
     return CheckResult(chk, source, len(recordings))
 
 
+@emits_warnings
 def check(
     paths: str | Path | Sequence[str | Path],
     *,

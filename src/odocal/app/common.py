@@ -77,19 +77,49 @@ def make_robot(
 ) -> Robot:
     """A Robot from the values of a ROBOT.yaml, in its units (m, deg; k in m): nominal wheel
     diameter and wheelbase, systematic errors E_b, E_d, E_s, wheel noise k_r_m, k_l_m (default
-    k_r_m) and the instrument's sigma_xy_m and sigma_theta_deg. The same checks as the file
+    k_r_m) and the instrument's sigma_xy_m and sigma_theta_deg. Each is one number (ModelError
+    naming it otherwise: a string, None or an array is refused), then the same checks as the file
     (diameter against wheelbase: a unit slip cannot pass)."""
+    from ..core.checks import check_nonnegative_float, check_number
     from ..core.model import MeasurementNoise, NonSystematicError, SystematicError
     from ..core.plausibility import proportions_problem
+    from ..io.limits import (
+        ERROR_FACTOR,
+        K_MAX_M,
+        ROBOT_LENGTH_M,
+        SIGMA_THETA_MAX_DEG,
+        SIGMA_XY_MAX_M,
+    )
 
-    problem = proportions_problem(wheel_diameter_m, wheel_diameter_m, wheelbase_m)
+    lo, hi = ROBOT_LENGTH_M
+    diameter = check_number(
+        "wheel_diameter_m", wheel_diameter_m, at_least=lo, at_most=hi, hint=" m"
+    )
+    b = check_number("wheelbase_m", wheelbase_m, at_least=lo, at_most=hi, hint=" m")
+    problem = proportions_problem(diameter, diameter, b)
     if problem:
         raise InputError(problem, field="wheelbase_m")
+    lo, hi = ERROR_FACTOR
+    E = [
+        check_number(n, v, at_least=lo, at_most=hi, hint=" (a real robot's is near 1)")
+        for n, v in (("E_b", E_b), ("E_d", E_d), ("E_s", E_s))
+    ]
+    k_r = check_nonnegative_float("k_r_m", k_r_m, at_most=K_MAX_M, hint=" m")
+    k_l = (
+        k_r
+        if k_l_m is None
+        else check_nonnegative_float("k_l_m", k_l_m, at_most=K_MAX_M, hint=" m")
+    )
     return Robot(
-        WheelGeometry.symmetric(wheel_diameter_m, wheelbase_m),
-        SystematicError(E_b, E_d, E_s),
-        NonSystematicError(k_r_m, k_r_m if k_l_m is None else k_l_m),
-        MeasurementNoise.from_degrees(sigma_xy_m, sigma_theta_deg),
+        WheelGeometry.symmetric(diameter, b),
+        SystematicError(*E),
+        NonSystematicError(k_r, k_l),
+        MeasurementNoise.from_degrees(
+            check_nonnegative_float("sigma_xy_m", sigma_xy_m, at_most=SIGMA_XY_MAX_M, hint=" m"),
+            check_nonnegative_float(
+                "sigma_theta_deg", sigma_theta_deg, at_most=SIGMA_THETA_MAX_DEG, hint=" deg"
+            ),
+        ),
     )
 
 

@@ -20,6 +20,7 @@ from ..comparison.real import (
     summarize_agreement,
 )
 from ..comparison.simulated import SimulatedComparison, compare_simulated
+from ..core.checks import check_int, check_seed
 from ..core.model import Robot
 from ..errors import InputError
 from ..io.optiodom import load_optiodom_split, read_published
@@ -92,6 +93,7 @@ def comparison_document(comparison: Comparison, **extra: object) -> dict:
 
 
 def _check(trials: int, runs: int) -> None:
+    trials, runs = check_int("trials", trials), check_int("runs", runs)
     if trials < 2:
         raise InputError(f"--trials must be >= 2, got {trials}")
     if runs < 3:
@@ -165,6 +167,7 @@ def compare(
     folder), also calibrated from real runs and validated on held-out ones; the figure into
     the folder ``plot`` (compare.png)."""
     _check(trials, runs)
+    seed = check_seed("seed", seed)
     plan = OutputPlan(input_paths(robot, params, realdata))
     if plot is not None:
         from ..plot._figure import require_matplotlib

@@ -10,17 +10,19 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..core.checks import check_seed
 from ..core.model import MeasurementNoise, Robot
 from ..core.plausibility import track_size_problem
 from ..design.analytic import analytic_design_result
 from ..design.robust import RangeDesign, range_design, unknown_errors
 from ..design.spec import ENGINES, DesignSpec, Engine
 from ..design.sweep import DesignResult, Progress, SimulationSettings, design_json, run_design
-from ..errors import InputError
+from ..errors import InputError, ModelError
 from ..io.outputs import OutputPlan
 from ..io.robot_file import load_params
 from ..presets import PRESETS
 from .common import RobotSpec, input_paths, optional_robot, resolve_robot, robot_label
+from .text import Presented, emits_warnings
 
 if TYPE_CHECKING:
     from .measured import MeasuredRobot
@@ -33,7 +35,7 @@ MAX_SIMULATED_RUNS = 20_000_000
 
 
 @dataclass(frozen=True)
-class DesignRun:
+class DesignRun(Presented):
     """A design and how it was made (engine, seed, robot), plus the figures written.
 
     ``result`` is a :class:`~odocal.design.sweep.DesignResult`, or a
@@ -58,6 +60,12 @@ class DesignRun:
     def warnings(self) -> tuple[str, ...]:
         """The design's warnings (those of its result)."""
         return tuple(self.result.warnings)
+
+    def text(self) -> str:
+        """The text of ``odocal design``."""
+        from .design_text import design_text
+
+        return design_text(self)
 
     def as_dict(self) -> dict:
         """The JSON of ``odocal design --json``."""
@@ -180,6 +188,7 @@ def _figures(result: DesignResult | RangeDesign) -> dict[str, Any]:
     return design_figures(result)
 
 
+@emits_warnings
 def design(
     robot: RobotSpec = None,
     spec: DesignSpec | None = None,
@@ -209,6 +218,9 @@ def design(
     ``robot`` then only gives the nominal geometry. ``measurement``: the instrument's noise per
     measured final pose, replacing the robot's."""
     spec = spec or DesignSpec()
+    if not isinstance(spec, DesignSpec):
+        raise ModelError(f"spec must be a DesignSpec, got {spec!r}")
+    seed = check_seed("seed", seed)
     _check_work(spec, engine)
     plan = OutputPlan(input_paths(robot, params, *(robot_from or ())))
     if plot is not None:

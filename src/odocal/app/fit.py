@@ -45,6 +45,7 @@ from .fit_relative import RelativeFitResult, fit_tuple_files, is_tuple_file
 from .fit_runs import FitResult, check_heading_source, fit_recordings, fit_run_files, fit_runs
 from .fit_scan import fit_scan_bags
 from .fit_slam import fit_slam_bags
+from .text import emits_warnings
 
 __all__ = [
     "METHODS",
@@ -171,6 +172,7 @@ def _output_plan(
     return plan
 
 
+@emits_warnings
 def fit(
     paths: str | Path | Sequence[str | Path],
     method: FitMethod | None = None,

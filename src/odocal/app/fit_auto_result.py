@@ -19,6 +19,7 @@ from ..io.bag_survey import RouteOption
 from .fit_gyro import GyroFitResult
 from .fit_relative import RelativeFitResult
 from .fit_runs import FitResult
+from .text import Presented
 
 __all__ = ["RouteRun", "AutoFitResult"]
 
@@ -71,7 +72,7 @@ class RouteRun:
 
 
 @dataclass(frozen=True)
-class AutoFitResult:
+class AutoFitResult(Presented):
     """The one answer for a bag (module docstring).
 
     Attributes
@@ -136,6 +137,12 @@ class AutoFitResult:
         """The answer route's held-out check."""
         res = None if self.answer is None else self.answer.result
         return res.heldout if isinstance(res, (FitResult, RelativeFitResult)) else None
+
+    def text(self) -> str:
+        """The text ``odocal fit`` prints for the one answer for a bag."""
+        from .fit_text import auto_text
+
+        return auto_text(self)
 
     def as_dict(self) -> dict[str, Any]:
         """The JSON contract of ``odocal fit BAG --method auto --json``."""

@@ -25,12 +25,13 @@ from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
 from ..io.outputs import OutputPlan
 from ..io.robot_file import load_robot
 from .common import NO_EXPORTS, Exports, RobotSpec
+from .text import Presented
 
 __all__ = ["GyroFitResult", "gyro_fit", "fit_gyro_bag", "fit_gyro"]
 
 
 @dataclass(frozen=True)
-class GyroFitResult:
+class GyroFitResult(Presented):
     """A gyro-only calibration from a bag, with the calibrated geometry when the nominal one is
     known (effective wheelbase = nominal b x wheelbase_multiplier; diameters unchanged)."""
 
@@ -53,6 +54,12 @@ class GyroFitResult:
     def time_offsets_s(self) -> dict[str, float]:
         """{'imu': seconds} when the IMU's clock offset was found."""
         return {} if self.time_offset is None else {"imu": self.time_offset.applied_s}
+
+    def text(self) -> str:
+        """The text ``odocal fit`` prints for a gyro calibration."""
+        from .fit_text import gyro_text
+
+        return gyro_text(self)
 
     def as_dict(self) -> dict[str, Any]:
         """The JSON of ``odocal fit BAG --method gyro --json``."""

@@ -38,6 +38,7 @@ from ..io.bag_slam import SlamBag
 from ..io.outputs import OutputPlan
 from ..io.tuples import read_tuples, refuse_repeated_tuples
 from .common import NO_EXPORTS, Exports, RobotSpec, refuse_absurd, refuse_untrusted, robot_nominal
+from .text import Presented
 
 __all__ = [
     "RelativeSource",
@@ -113,7 +114,7 @@ class ScanSummary:
 
 
 @dataclass(frozen=True)
-class RelativeFitResult:
+class RelativeFitResult(Presented):
     """A relative-motion fit, the nominal geometry it is compared with, its inputs and the files
     written.
 
@@ -202,6 +203,12 @@ class RelativeFitResult:
         for o in self.time_offsets:
             out.setdefault(o.source, o.applied_s)
         return out
+
+    def text(self) -> str:
+        """The text ``odocal fit`` prints for a relative-motion fit."""
+        from .fit_text import relative_text
+
+        return relative_text(self)
 
     def as_dict(self) -> dict[str, Any]:
         """The JSON of ``odocal fit --json`` for relative motions."""

@@ -46,6 +46,7 @@ from .common import (
     refuse_untrusted,
 )
 from .measured import MeasuredRobot, measure_robot
+from .text import Presented
 
 __all__ = [
     "FitResult",
@@ -62,7 +63,7 @@ CHECK_MAX_BLOCKS = 300
 
 
 @dataclass(frozen=True)
-class FitResult:
+class FitResult(Presented):
     """A fit from recorded runs, the nominal geometry it is compared with, the loaders'
     warnings and the files written.
 
@@ -114,6 +115,12 @@ class FitResult:
         their standard errors (each data set's own, and whether it was applied, in
         ``time_offsets``)."""
         return {"truth": pooled_offset_s(self.time_offsets)} if self.time_offsets else {}
+
+    def text(self) -> str:
+        """The text ``odocal fit`` prints for a fit of runs with ground truth."""
+        from .fit_text import runs_text
+
+        return runs_text(self)
 
     def as_dict(self) -> dict[str, Any]:
         """The JSON of ``odocal fit --json``."""

@@ -11,12 +11,19 @@ from typing import Any
 import numpy as np
 
 from ..calibration.noise import NoiseEstimate, estimate_k
+from ..core.checks import check_number, check_positive_float
 from ..core.covariance import OdometryCovariance, odometry_covariance
 from ..core.model import MeasurementNoise, Robot, WheelGeometry
 from ..core.recording import Recording
 from ..design.metrics import leg_heading_systematic_rad
 from ..errors import InputError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
+from ..io.limits import (
+    LENGTH_MIN_M,
+    TRACK_LENGTH_MAX_M,
+    speed_problem,
+    twist_window_problem,
+)
 from ..io.outputs import OutputPlan
 from ..io.recordings import load_recordings, require_ground_truth
 from ..io.robot_file import load_robot, robot_yaml
@@ -41,6 +48,7 @@ def noise(
     of ``distance_m``) and estimate k (m). The wheelbase is the robot's TRUE one (nominal x E_b);
     the systematic curvature of the forward path comes from ROBOT.yaml's systematic errors.
     ``force``: estimate even when the runs look dominated by a systematic part (a warning)."""
+    distance_m = _distance("distance_m", distance_m)
     r = resolve_robot(robot, params)
     notes: list[str] = []
     runs = read_runs(runs_csv, directions=("fwd",), warnings=notes)
@@ -55,6 +63,13 @@ def noise(
         strict=not force,
     )
     return replace(est, warnings=(*notes, *est.warnings)) if notes else est
+
+
+def _distance(name: str, value: float) -> float:
+    """A driven distance (m) within the flags' limits (odocal.io.limits)."""
+    return check_number(
+        name, value, at_least=LENGTH_MIN_M, at_most=TRACK_LENGTH_MAX_M, hint=" m (check the units)"
+    )
 
 
 def cruise_speed_m_s(recordings: Sequence[Recording], geometry: WheelGeometry) -> float:
@@ -176,6 +191,15 @@ def noise_recordings(
     ``ros2`` (speed ``speed_m_s``, default the runs' cruise speed; pose after ``distance_m``;
     velocity over ``window_s``)."""
     paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
+    distance_m = _distance("distance_m", distance_m)
+    for name, value, problem in (
+        ("speed_m_s", speed_m_s, speed_problem),
+        ("window_s", window_s, twist_window_problem),
+    ):
+        if value is not None:
+            said = problem(check_positive_float(name, value))
+            if said:
+                raise InputError(said, field=name)
     plan = OutputPlan([*map(Path, paths), *input_paths(robot)])
     if robot_out is not None:
         plan.file(robot_out, "--robot-out")

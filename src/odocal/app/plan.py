@@ -137,8 +137,8 @@ def suggested_side(robot: Robot, sides: int = 4, progress=None) -> tuple[float, 
         d = range_design(robot, spec, progress=progress)
         return d.recommended.side_m, (
             f"side {d.recommended.side_m:g} m: the design's recommendation over the typical "
-            f"ranges of the robot's {' and '.join(unknown)} errors (within "
-            f"{100 * d.within:.1f} % of the best size; 'odocal design --robot ...' shows it)"
+            f"ranges of the robot's {' and '.join(unknown)} errors (no size beats it by more "
+            f"than {100 * d.within:.1f} %; 'odocal design --robot ...' shows it)"
         )
     res = analytic_design_result(robot, spec)
     return res.recommended.side_m, (

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .. import __version__
+from ..core.checks import check_int, check_seed
 from ..design.reproduce import Reproduction
 from ..design.reproduce import reproduce as reproduce_paper
 from ..design.sweep import Progress
@@ -140,6 +141,8 @@ def reproduce(
     """Compute the paper's simulations (``paper``) and, with ``realdata`` (an ``optiodom_diff``
     folder), its experiment on the real robot; draw the figures and write them with REPORT.md
     into the folder ``out`` (all files or none; nothing without ``out``)."""
+    trials = check_int("trials", trials, at_least=2)
+    seed = check_seed("seed", seed)
     plan = OutputPlan([realdata] if realdata is not None else [])
     folder = None
     warm_up = None

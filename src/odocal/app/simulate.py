@@ -9,21 +9,25 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.checks import check_int, check_positive_float, check_seed
 from ..core.covariance import PosePrediction, correlation, predict
 from ..core.runs import EndPoseRuns
 from ..core.simulate import measure
 from ..core.simulate import simulate as simulate_track
 from ..core.tracks import Track, polygon
+from ..errors import ModelError
+from ..io.limits import TRACK_LENGTH_MAX_M
 from ..io.outputs import OutputPlan
 from ..io.runs_csv import runs_csv_text
 from ..io.track_file import load_track
 from .common import RobotSpec, input_paths, resolve_robot
+from .text import Presented, Text, written_lines
 
 __all__ = ["SimulateResult", "simulate", "simulate_runs"]
 
 
 @dataclass(frozen=True)
-class SimulateResult:
+class SimulateResult(Presented):
     """Simulated runs: measured final pose errors per run, optionally the first-order prediction.
 
     Attributes
@@ -62,6 +66,45 @@ class SimulateResult:
                 for d in self.directions
             }
         return out
+
+    def text(self) -> str:
+        """The text of ``odocal simulate``: the mean and spread of the final pose errors per
+        direction (and the prediction beside the Monte Carlo), the files written."""
+        out = Text()
+        summary = self.as_dict()
+        out(f"{self.track}: {self.runs_per_direction} run(s) per direction, seed {self.seed}")
+        rows = [
+            (
+                "direction",
+                "runs",
+                "mean x_m",
+                "mean y_m",
+                "mean theta_deg",
+                "std x_m",
+                "std y_m",
+                "std theta_deg",
+            )
+        ]
+        for d, s in summary["by_direction"].items():
+            m, sd = s["mean"], s["std"]
+            fmt = lambda v, f: "-" if v is None else format(v, f)  # noqa: E731
+            rows.append(
+                (
+                    d,
+                    s["runs"],
+                    fmt(m["x_m"], ".4f"),
+                    fmt(m["y_m"], ".4f"),
+                    fmt(m["theta_deg"], ".3f"),
+                    fmt(sd["x_m"], ".4f"),
+                    fmt(sd["y_m"], ".4f"),
+                    fmt(sd["theta_deg"], ".3f"),
+                )
+            )
+        out.table(rows)
+        if self.predicted is not None:
+            _prediction_text(out, self.runs, self.predicted)
+        written_lines(out, self.written)
+        return str(out)
 
 
 def _stats(e: np.ndarray) -> dict:
@@ -127,6 +170,16 @@ def simulate(
     """Drive a regular N-gon (``sides``, ``side_m`` in m) or a ``track`` (a Track, or a track
     file whose direction label is used) ``runs`` times per direction with the robot; optionally
     predict the final-pose covariance to first order; write RUNS.csv to ``out``."""
+    if track is None:
+        sides = check_int("sides", sides, at_least=3)  # polygon() bounds it, with its reason
+        side_m = check_positive_float("side_m", side_m, at_most=TRACK_LENGTH_MAX_M, hint=" m")
+    runs = check_int("runs", runs, at_least=1)
+    seed = check_seed("seed", seed)
+    max_step_m = check_positive_float(
+        "max_step_m", max_step_m, at_most=TRACK_LENGTH_MAX_M, hint=" m"
+    )
+    if isinstance(directions, str) or not set(directions) <= {"cw", "ccw"} or not directions:
+        raise ModelError(f"directions must be some of ('cw', 'ccw'), got {directions!r}")
     plan = OutputPlan(input_paths(robot, params, None if isinstance(track, Track) else track))
     if out is not None:
         plan.file(out, "--out")
@@ -161,3 +214,44 @@ def simulate(
         )
         written = tuple(plan.commit({Path(out): text}))
     return SimulateResult(end, name, directions, runs, seed, predicted, written)
+
+
+def _prediction_text(out: Text, runs: EndPoseRuns, predicted: dict) -> None:
+    out("predicted (first-order propagation + instrument noise) vs Monte Carlo:")
+    rows = [
+        (
+            "direction",
+            "",
+            "mean x_m",
+            "mean y_m",
+            "mean theta_deg",
+            "std x_m",
+            "std y_m",
+            "std theta_deg",
+            "r_xy",
+            "r_xth",
+            "r_yth",
+        )
+    ]
+    for d, p in predicted.items():
+        e = runs.select(d)
+        cases = [("predicted", p.error_mean, p.measured_covariance)]
+        if len(e) > 1:
+            cases.append((f"MC ({len(e)} runs)", e.mean(axis=0), np.cov(e.T, ddof=1)))
+        for label, m, c in cases:
+            s = np.sqrt(np.maximum(np.diag(c), 0.0))
+            r = correlation(c)
+            rows.append(
+                (
+                    d,
+                    label,
+                    f"{m[0]:.4f}",
+                    f"{m[1]:.4f}",
+                    f"{math.degrees(m[2]):.3f}",
+                    f"{s[0]:.4f}",
+                    f"{s[1]:.4f}",
+                    f"{math.degrees(s[2]):.3f}",
+                    *(f"{r[i, j]:+.3f}" for _, _, i, j in PAIRS),
+                )
+            )
+    out.table(rows)

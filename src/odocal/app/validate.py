@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
@@ -10,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core.model import WheelGeometry
+from ..core.model import Robot, WheelGeometry
 from ..core.odometry import dead_reckon, evaluate
 from ..core.recording import Recording
 from ..errors import InputError
@@ -20,12 +21,13 @@ from ..io.outputs import OutputPlan
 from ..io.recordings import load_recordings, require_ground_truth
 from ..io.robot_file import load_params, load_robot
 from .common import RobotSpec, load_warnings
+from .text import Presented, Text, emits_warnings
 
 __all__ = ["NOMINAL_SOURCES", "Validation", "validate", "validate_recordings"]
 
 
 @dataclass(frozen=True)
-class Validation:
+class Validation(Presented):
     """Per-run errors of ``params`` and of the nominal geometry on recorded runs.
 
     runs : list of dict, one per run: ``path``, ``final_error_m``, ``max_error_m``,
@@ -44,6 +46,8 @@ class Validation:
     nominal_source: str = "firmware"
     load_warnings: tuple[str, ...] = ()
     written: tuple[Path, ...] = ()
+    params_label: str = "the given geometry"
+    robot_label: str | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """The JSON of ``odocal validate --json``: the per-run errors, their means (m, rad), the
@@ -72,6 +76,65 @@ class Validation:
         if self.written:
             out["plots"] = [str(p) for p in self.written]
         return out
+
+    def text(self) -> str:
+        """The text of ``odocal validate``: per run, the final and largest errors with these
+        parameters and with the nominal ones, and their means."""
+        out = Text()
+        result, d = self, self.as_dict()
+
+        def mm(v: float | None) -> str:
+            return "-" if v is None else f"{1000 * v:.1f}"
+
+        def deg(v: float | None) -> str:
+            return "-" if v is None else f"{math.degrees(v):.2f}"
+
+        col = {"robot": "robot", "firmware": "firmware"}.get(result.nominal_source, "nominal")
+        rows = [
+            (
+                "run",
+                "final mm",
+                "max mm",
+                "final deg",
+                f"{col} final mm",
+                f"{col} max mm",
+                f"{col} final deg",
+            )
+        ]
+        for r in result.runs:
+            rows.append(
+                (
+                    Path(r["path"]).name,
+                    mm(r["final_error_m"]),
+                    mm(r["max_error_m"]),
+                    deg(r["final_heading_error_rad"]),
+                    mm(r["nominal_final_error_m"]),
+                    mm(r["nominal_max_error_m"]),
+                    deg(r["nominal_final_heading_error_rad"]),
+                )
+            )
+        rows.append(
+            (
+                "mean",
+                mm(d["mean_final_error_m"]),
+                mm(d["mean_max_error_m"]),
+                deg(d["mean_final_heading_error_rad"]),
+                mm(d["mean_nominal_final_error_m"]),
+                mm(d["mean_nominal_max_error_m"]),
+                deg(d["mean_nominal_final_heading_error_rad"]),
+            )
+        )
+        source = {
+            "robot": f"ROBOT.yaml's nominal geometry ({self.robot_label}; --nominal robot)",
+            "firmware": "each run's firmware values, the parameters it ran with "
+            "(--nominal firmware)",
+            "unknown": "unknown for some runs (they do not say what they ran with; give --robot)",
+        }
+        out(f"  {col} columns: {source[result.nominal_source]}")
+        out.table(rows, title=f"{len(result.runs)} run(s), parameters from {self.params_label}")
+        if result.written:
+            out(f"wrote {len(result.written)} plot(s) to {result.written[0].parent}")
+        return str(out)
 
 
 NOMINAL_SOURCES = ("robot", "firmware")
@@ -182,6 +245,7 @@ def _figure(r: Recording, geometry: WheelGeometry, nominal: WheelGeometry | None
     return run_figure(title, r.ground_truth, trajs)
 
 
+@emits_warnings
 def validate(
     paths: str | Path | Sequence[str | Path],
     params: str | Path | WheelGeometry,
@@ -231,4 +295,10 @@ def validate(
             for r, name in zip(recordings, _plot_names(recordings), strict=True)
         }
         written = tuple(plan.commit(figures))
-    return replace(result, load_warnings=tuple(notes) + load_warnings(recordings), written=written)
+    return replace(
+        result,
+        load_warnings=tuple(notes) + load_warnings(recordings),
+        written=written,
+        params_label=str(params) if isinstance(params, (str, Path)) else "the given geometry",
+        robot_label=None if robot is None or isinstance(robot, Robot) else str(robot),
+    )

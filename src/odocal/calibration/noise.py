@@ -129,6 +129,21 @@ class NoiseEstimate:
         }
 
 
+def _interval_width(ci: tuple[float, float]) -> str:
+    """How wide the 95 % interval of k is, in words: the factor between its ends, or, when its
+    lower end is 0 (the spread not told apart from the instrument's noise) or a factor beyond
+    1000, its two ends."""
+    lo, hi = ci
+    if lo > 0 and hi / lo <= 1e3:
+        return f"spans a factor {hi / lo:.3g} ({lo:.3g} to {hi:.3g} m)"
+    if lo > 0:
+        return f"runs from {lo:.3g} to {hi:.3g} m (more than a factor 1000)"
+    return (
+        f"runs from 0 to {hi:.3g} m (its lower end cannot be told apart from the instrument's "
+        "noise)"
+    )
+
+
 def _coefficients(
     track: str, d: float, b: float, curvature_rad_per_m: float
 ) -> tuple[np.ndarray, ...]:
@@ -222,7 +237,7 @@ def estimate_k(
     warnings: list[str] = []
     if n < RECOMMENDED_RUNS:
         warnings.append(
-            f"only {n} runs: the 95 % interval spans a factor {ci[1] / max(ci[0], 1e-300):.3g}; "
+            f"only {n} runs: the 95 % interval {_interval_width(ci)}; "
             f"{RECOMMENDED_RUNS} to 20 runs are recommended"
         )
     if track == "straight":
@@ -536,8 +551,8 @@ def estimate_k_from_recordings(
     warnings: list[str] = []
     if pooled.dof < RECOMMENDED_RUNS - 1:
         warnings.append(
-            f"only {pooled.dof} degrees of freedom: the 95 % interval spans a factor "
-            f"{ci[1] / max(ci[0], 1e-300):.3g}; more repeats narrow it"
+            f"only {pooled.dof} degrees of freedom: the 95 % interval {_interval_width(ci)}; "
+            "more repeats narrow it"
         )
     warnings += _groups_off_the_pool(pooled.rows, k_sum)
     # k_r - k_l from the x-theta and y-theta covariances (coefficients along each recorded path)

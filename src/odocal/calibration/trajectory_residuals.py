@@ -75,7 +75,7 @@ def block_weight(travel_m: float, count: int, run_weight: RunWeight) -> float:
 
 def _segment_marks(travel: np.ndarray, segment_m: float, n: int) -> np.ndarray:
     """Sample indices where the segments of ``segment_m`` of travel start (and the last ends)."""
-    if travel[-1] / segment_m > 10 * n:
+    if travel[-1] > 10 * n * segment_m:  # (not travel / segment_m: it overflows at 5e-324)
         # segments shorter than the samples: every sample that moved starts one (what the
         # grid below gives in that limit, without a grid of billions of points)
         marks = np.r_[0, np.flatnonzero(np.diff(travel) > 0) + 1]

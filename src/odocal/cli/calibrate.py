@@ -2,14 +2,11 @@
 
 from __future__ import annotations
 
-import math
-
 from .common import (
     add_export_args,
     add_robot_args,
     length_m,
     print_json,
-    print_table,
     print_warnings,
     sides_int,
 )
@@ -104,57 +101,5 @@ def run(args) -> int:
     if args.json:
         print_json(res.as_dict())
         return 0
-    result = res.calibration
-    ins = result.inputs
-    label = result.method + (f" ({ins['form']}-form)" if "form" in ins else "")
-    where = "" if res.track_source == "arguments" else f" (track from the {res.track_source})"
-    if res.track_source == "both":
-        where = " (track from the run sheet and the arguments)"
-    print(f"{label} from {ins['runs_cw']} CW and {ins['runs_ccw']} CCW runs, {res.track}{where}")
-    r, c, unc = result.ran_with, result.corrected, result.uncertainty
-    ci = unc.ci95() if unc is not None else {}
-
-    def cell(name: str, value: float, digits: int) -> tuple[str, str, str]:
-        if unc is None:
-            return f"{value:.{digits}f}", "-", "-"
-        k = ("E_b", "E_d", *_GEOMETRY).index(name)
-        lo, hi = ci[name]
-        return (
-            f"{value:.{digits}f}",
-            f"{unc.stderr[k]:.{digits}f}",
-            f"{lo:.{digits}f} .. {hi:.{digits}f}",
-        )
-
-    rows = [("", "ran with", "calibrated", "std error", "95 % interval")]
-    rows.append(("E_b", "", *cell("E_b", result.E_b, 6)))
-    rows.append(("E_d", "", *cell("E_d", result.E_d, 6)))
-    for name, ran, cal in zip(
-        _GEOMETRY,
-        (r.diameter_right_m, r.diameter_left_m, r.wheelbase_m),
-        (c.diameter_right_m, c.diameter_left_m, c.wheelbase_m),
-        strict=True,
-    ):
-        rows.append((name, f"{ran:.6f}", *cell(name, float(cal), 6)))
-    print_table(rows)
-    if unc is not None:
-        print(
-            "  std error and 95 % interval from the run-to-run spread (delta method; Student t "
-            f"with {min(unc.dof):.1f} or more degrees of freedom)"
-        )
-    if "mean_theta_cw_rad" in ins:
-        print(
-            f"  mean heading error: CW {math.degrees(ins['mean_theta_cw_rad']):+.4f} deg, "
-            f"CCW {math.degrees(ins['mean_theta_ccw_rad']):+.4f} deg"
-        )
-    if "mean_radius_cw_m" in ins:
-        print(
-            f"  mean radius: CW {ins['mean_radius_cw_m']:.6f} m, "
-            f"CCW {ins['mean_radius_ccw_m']:.6f} m"
-            f" (first order: E_b {ins['first_order_E_b']:.6f}, E_d {ins['first_order_E_d']:.6f})"
-        )
-    for f in res.written:
-        print(f"wrote {f}")
+    print(res.text())
     return 0
-
-
-_GEOMETRY = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")

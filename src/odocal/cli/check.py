@@ -11,13 +11,12 @@ from .common import (
     add_recording_args,
     add_slam_args,
     bag_options,
-    print_check,
     print_json,
     print_warnings,
     truth_frames,
 )
 
-__all__ = ["add_parser", "run", "print_check"]
+__all__ = ["add_parser", "run"]
 
 
 def add_parser(sub: Any) -> None:
@@ -76,6 +75,5 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         print_json(res.as_dict())
         return status
-    print(f"Is this log enough? {res.recordings} run(s)")
-    print_check(res)
+    print(res.text())
     return status

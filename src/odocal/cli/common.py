@@ -12,7 +12,16 @@ from collections.abc import Callable, Iterable
 from typing import Any
 
 from ..io.bag_options import BagOptions
-from ..io.limits import HEADING_WEIGHT_MAX_M, TICKS_PER_REV, TRACK_LENGTH_MAX_M
+from ..io.limits import (
+    HEADING_WEIGHT_MAX_M,
+    LENGTH_MIN_M,
+    SIGMA_THETA_MAX_DEG,
+    SIGMA_XY_MAX_M,
+    TICKS_PER_REV,
+    TRACK_LENGTH_MAX_M,
+    speed_problem,
+    twist_window_problem,
+)
 
 __all__ = [
     "MAX_LENGTH_M",
@@ -20,6 +29,11 @@ __all__ = [
     "positive_float",
     "nonnegative_float",
     "length_m",
+    "driven_length_m",
+    "sigma_xy_m",
+    "sigma_theta_deg",
+    "speed_m_s",
+    "twist_window_s",
     "ticks_per_rev",
     "heading_weight",
     "positive_int",
@@ -40,8 +54,6 @@ __all__ = [
     "print_json",
     "print_warnings",
     "print_table",
-    "print_check",
-    "format_topics",
     "ProgressBar",
 ]
 
@@ -94,6 +106,30 @@ def number(
 positive_float = number(float, above=0)
 nonnegative_float = number(float, at_least=0)
 length_m = number(float, above=0, at_most=MAX_LENGTH_M, hint=" m (check the units)")
+#: a distance a covariance or an estimate divides by (odocal noise): at least 0.1 mm
+driven_length_m = number(
+    float, at_least=LENGTH_MIN_M, at_most=MAX_LENGTH_M, hint=" m (check the units)"
+)
+sigma_xy_m = number(float, at_least=0, at_most=SIGMA_XY_MAX_M, hint=" m")
+sigma_theta_deg = number(float, at_least=0, at_most=SIGMA_THETA_MAX_DEG, hint=" deg")
+
+
+def _with_limit(problem: Callable[[float], str | None]) -> Callable[[str], float]:
+    """An argparse type: a finite number > 0 that ``problem`` (odocal.io.limits) accepts; its
+    message, with the reason, otherwise."""
+
+    def parse(text: str) -> float:
+        v = number(float, above=0)(text)
+        said = problem(v)
+        if said:
+            raise argparse.ArgumentTypeError(said)
+        return v
+
+    return parse
+
+
+speed_m_s = _with_limit(speed_problem)
+twist_window_s = _with_limit(twist_window_problem)
 ticks_per_rev = number(
     float,
     at_least=TICKS_PER_REV[0],
@@ -149,8 +185,10 @@ def noise_track(text: str) -> tuple[str, float]:
         d = float(dist)
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a distance in m: {dist!r} in {text!r}") from None
-    if not math.isfinite(d) or d <= 0:
-        raise argparse.ArgumentTypeError(f"the distance must be > 0 m, got {dist!r}")
+    if not math.isfinite(d) or d < LENGTH_MIN_M:
+        raise argparse.ArgumentTypeError(
+            f"the distance must be at least {LENGTH_MIN_M:g} m (check the units), got {dist!r}"
+        )
     if d > MAX_LENGTH_M:
         raise argparse.ArgumentTypeError(
             f"the distance must be at most {MAX_LENGTH_M:g} m (check the units), got {dist!r}"
@@ -355,60 +393,11 @@ def print_json(obj: Any) -> None:
 
 
 def print_table(rows: list[tuple], title: str | None = None) -> None:
-    """Two or more columns, left column left-aligned, the rest right-aligned."""
-    if title:
-        print(title)
-    cells = [[str(c) for c in r] for r in rows]
-    widths = [max(len(r[i]) for r in cells if i < len(r)) for i in range(max(map(len, cells)))]
-    for r in cells:
-        parts = [r[0].ljust(widths[0])] + [c.rjust(widths[i + 1]) for i, c in enumerate(r[1:])]
-        print("  " + "  ".join(parts).rstrip())
+    """Two or more columns, left column left-aligned, the rest right-aligned
+    (:func:`odocal.app.text.table_lines`)."""
+    from ..app.text import table_lines
 
-
-def print_check(res: Any, indent: str = "") -> None:
-    """The human-readable check (also the 'Is this log enough?' section of fit)."""
-    c = res.check
-    d = c.motion.as_dict()
-    print(
-        f"{indent}{'enough' if c.ok else 'NOT enough'} for "
-        f"{', '.join(c.parameters)}: condition number {c.condition_number:.3g}; weakest: "
-        f"{c.weakest_direction}"
-    )
-    rows = [("", "value", "predicted std. error")]
-    for name, value in zip(c.parameters, c.values, strict=True):
-        se = c.stderr[name]
-        rows.append(
-            (
-                indent + name,
-                f"{value:.6g}",
-                "not identifiable" if se == float("inf") else f"{se:.2e}",
-            )
-        )
-    print_table(rows)
-    print(f"{indent}  motion: {_motion_line(d)}")
-    for g in c.degeneracies:
-        print(f"{indent}  {g.severity}: {g.message}")
-    for s in c.suggestions:
-        print(f"{indent}  suggestion: {s}")
-    print(f"{indent}  noise: {res.noise_source}")
-
-
-def _motion_line(d: dict[str, Any]) -> str:
-    return (
-        f"{d['travel_m']:.1f} m driven, {d['rotation_deg']:.0f} deg turned "
-        f"({d['rotation_left_deg']:.0f} left, {d['rotation_right_deg']:.0f} right); wheel "
-        f"travel {100 * d['share_straight']:.0f} % straight, {100 * d['share_spot']:.0f} % spot "
-        f"turns, {100 * d['share_arc']:.0f} % arcs"
-    )
-
-
-def format_topics(topics) -> str:
-    """A readable table of topics (name, type, count)."""
-    rows = [("topic", "type", "messages")] + [(t.name, t.msgtype, str(t.count)) for t in topics]
-    w0 = max(len(r[0]) for r in rows)
-    w1 = max(len(r[1]) for r in rows)
-    w2 = max(len(r[2]) for r in rows)
-    return "\n".join(f"{a.ljust(w0)}  {b.ljust(w1)}  {c.rjust(w2)}" for a, b, c in rows)
+    print("\n".join(table_lines(rows, title)))
 
 
 class ProgressBar:

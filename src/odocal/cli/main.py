@@ -14,9 +14,10 @@ import importlib
 import os
 import signal
 import sys
+import warnings
 
 from .. import __version__
-from ..errors import OdocalError
+from ..errors import OdocalError, OdocalWarning
 
 #: command name -> (module in odocal.cli, the one line of ``odocal --help``)
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -41,7 +42,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "run its experiment on a real robot)",
     ),
     "ttest": ("ttest", "Student and Welch t-tests of two samples (CSV columns)"),
-    "bag-info": ("bag_info", "list the topics of a ROS bag"),
+    "bag-info": ("bag_info", "list the topics, duration and frames of a ROS bag"),
 }
 
 
@@ -103,8 +104,12 @@ def _terminate(signum, frame):  # noqa: ARG001 - the signal module's API
 def main(argv: list[str] | None = None) -> int:
     """Run ``odocal`` with ``argv`` (default ``sys.argv[1:]``); returns the exit code: 0, 2 for an
     :class:`~odocal.errors.OdocalError` (one line on stderr), 128 + the signal number when
-    interrupted or terminated."""
+    interrupted or terminated. Without any argument it prints the help on stdout and returns 2
+    (a usage error: no command ran; ``odocal --help`` returns 0)."""
     argv = sys.argv[1:] if argv is None else list(argv)
+    if not argv:  # no command: the help (on stdout), exit status 2 (nothing was run)
+        build_parser("").print_help()
+        return 2
     args = build_parser(_command(argv)).parse_args(argv)
     installed = False
     try:
@@ -113,7 +118,10 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError:  # not the main thread: leave the signal alone
         pass
     try:
-        return int(args.run(args) or 0)
+        with warnings.catch_warnings():
+            # the command prints its result's warnings itself (odocal: warning: ...)
+            warnings.simplefilter("ignore", OdocalWarning)
+            return int(args.run(args) or 0)
     except OdocalError as exc:
         print(f"odocal: error: {exc}", file=sys.stderr)
         return 2

@@ -10,13 +10,16 @@ from .common import (
     add_bag_args,
     add_robot_args,
     bag_options,
-    length_m,
+    driven_length_m,
     noise_track,
-    nonnegative_float,
-    positive_float,
     print_json,
     print_table,
     print_warnings,
+    sigma_theta_deg,
+    sigma_xy_m,
+    speed_m_s,
+    ticks_per_rev,
+    twist_window_s,
 )
 
 
@@ -58,14 +61,14 @@ def add_parser(sub) -> None:
     r = p.add_argument_group("recorded runs")
     r.add_argument(
         "--sigma-xy-m",
-        type=nonnegative_float,
+        type=sigma_xy_m,
         metavar="S",
         help="the instrument's position noise per measured final pose, m (default: ROBOT.yaml's "
         "measurement, else the tracker's jitter in the recordings)",
     )
     r.add_argument(
         "--sigma-theta-deg",
-        type=nonnegative_float,
+        type=sigma_theta_deg,
         metavar="S",
         help="the instrument's heading noise per measured final pose, deg (as --sigma-xy-m)",
     )
@@ -89,20 +92,20 @@ def add_parser(sub) -> None:
     )
     r.add_argument(
         "--speed",
-        type=positive_float,
+        type=speed_m_s,
         metavar="M_PER_S",
         help="speed the covariances are for, m/s (default: the runs' cruise speed)",
     )
     r.add_argument(
         "--pose-distance",
-        type=length_m,
+        type=driven_length_m,
         default=1.0,
         metavar="M",
         help="travel after which the pose covariance is given, m (default 1)",
     )
     r.add_argument(
         "--twist-window",
-        type=positive_float,
+        type=twist_window_s,
         default=0.2,
         metavar="S",
         help="time over which the controller measures its velocity, s (default 0.2: "
@@ -110,7 +113,7 @@ def add_parser(sub) -> None:
     )
     r.add_argument(
         "--ticks-per-rev",
-        type=positive_float,
+        type=ticks_per_rev,
         metavar="N",
         help="encoder ticks per wheel revolution for tick inputs that do not give it",
     )

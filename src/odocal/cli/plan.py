@@ -107,19 +107,23 @@ def run(args) -> int:
     for i, step in enumerate(plan.steps, start=1):
         print(f"{i}. {step}")
     print()
-    if plan.typical_mean_abs:
+    typical = plan.typical_mean_abs
+    if typical:
         print(
-            "What to expect: ROBOT.yaml gives no systematic errors (the runs will measure them), "
-            "so the mean below is 0; typical robots (E_b 0.97-1.03, E_d 0.995-1.005) end up to"
+            "What to expect: ROBOT.yaml gives no systematic errors (the runs will measure them); "
+            "typical robots (E_b 0.97-1.03, E_d 0.995-1.005) end on average up to"
         )
-        for d, (x, y, th) in plan.typical_mean_abs.items():
+        for d, (x, y, th) in typical.items():
             print(f"  {d}: |x| {x:.3f} m, |y| {y:.3f} m, |theta| {math.degrees(th):.2f} deg")
-        print("from the start, plus the spread below:")
+        print("from the start; each run scatters about its robot's mean by:")
     else:
         print("What to expect (this robot's errors; mean and spread of the measured end errors):")
     rows = [("direction", "x_m", "y_m", "theta_deg")]
     for d, p in plan.predictions.items():
         m, s = np.round(p.error_mean, 12) + 0.0, p.std(measured=True)  # no "-0.0000"
+        if typical:  # the mean is the robot's unknown error: the spread alone
+            rows.append((d, f"± {s[0]:.4f}", f"± {s[1]:.4f}", f"± {math.degrees(s[2]):.3f}"))
+            continue
         rows.append(
             (
                 d,
@@ -129,10 +133,17 @@ def run(args) -> int:
             )
         )
     print_table(rows)
-    print(
-        "  (± one standard deviation of a single run, including the instrument noise in "
-        "ROBOT.yaml; values far outside these usually mean a frame or sign mistake)"
-    )
+    if typical:
+        print(
+            "  (± one standard deviation of a single run, including the instrument noise in "
+            "ROBOT.yaml; runs of one direction should agree within a few of these, and an end "
+            "far beyond the typical ones above usually means a frame or sign mistake)"
+        )
+    else:
+        print(
+            "  (± one standard deviation of a single run, including the instrument noise in "
+            "ROBOT.yaml; values far outside these usually mean a frame or sign mistake)"
+        )
     if "nonsystematic" in plan.unknown:
         print(
             "  (ROBOT.yaml gives no wheel noise k: the spread is the instrument's alone; a real "

@@ -2,15 +2,12 @@
 
 from __future__ import annotations
 
-import math
-
 from .common import (
     add_robot_args,
     add_track_args,
     length_m,
     positive_int,
     print_json,
-    print_table,
     seed_int,
 )
 
@@ -54,52 +51,6 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
-def _print_prediction(runs, predicted: dict) -> None:
-    import numpy as np
-
-    from ..app.simulate import PAIRS
-    from ..core.covariance import correlation
-
-    print("predicted (first-order propagation + instrument noise) vs Monte Carlo:")
-    rows = [
-        (
-            "direction",
-            "",
-            "mean x_m",
-            "mean y_m",
-            "mean theta_deg",
-            "std x_m",
-            "std y_m",
-            "std theta_deg",
-            "r_xy",
-            "r_xth",
-            "r_yth",
-        )
-    ]
-    for d, p in predicted.items():
-        e = runs.select(d)
-        cases = [("predicted", p.error_mean, p.measured_covariance)]
-        if len(e) > 1:
-            cases.append((f"MC ({len(e)} runs)", e.mean(axis=0), np.cov(e.T, ddof=1)))
-        for label, m, c in cases:
-            s = np.sqrt(np.maximum(np.diag(c), 0.0))
-            r = correlation(c)
-            rows.append(
-                (
-                    d,
-                    label,
-                    f"{m[0]:.4f}",
-                    f"{m[1]:.4f}",
-                    f"{math.degrees(m[2]):.3f}",
-                    f"{s[0]:.4f}",
-                    f"{s[1]:.4f}",
-                    f"{math.degrees(s[2]):.3f}",
-                    *(f"{r[i, j]:+.3f}" for _, _, i, j in PAIRS),
-                )
-            )
-    print_table(rows)
-
-
 def run(args) -> int:
     """Run ``odocal simulate`` on the parsed ``args`` and print the result (text or ``--json``);
     returns 0 (errors are raised: :func:`~odocal.cli.main.main` reports them)."""
@@ -118,41 +69,8 @@ def run(args) -> int:
         predict_covariance=args.predict,
         out=args.out,
     )
-    summary = res.as_dict()
     if args.json:
-        print_json(summary)
+        print_json(res.as_dict())
         return 0
-    print(f"{res.track}: {args.runs} run(s) per direction, seed {args.seed}")
-    rows = [
-        (
-            "direction",
-            "runs",
-            "mean x_m",
-            "mean y_m",
-            "mean theta_deg",
-            "std x_m",
-            "std y_m",
-            "std theta_deg",
-        )
-    ]
-    for d, s in summary["by_direction"].items():
-        m, sd = s["mean"], s["std"]
-        fmt = lambda v, f: "-" if v is None else format(v, f)  # noqa: E731
-        rows.append(
-            (
-                d,
-                s["runs"],
-                fmt(m["x_m"], ".4f"),
-                fmt(m["y_m"], ".4f"),
-                fmt(m["theta_deg"], ".3f"),
-                fmt(sd["x_m"], ".4f"),
-                fmt(sd["y_m"], ".4f"),
-                fmt(sd["theta_deg"], ".3f"),
-            )
-        )
-    print_table(rows)
-    if res.predicted is not None:
-        _print_prediction(res.runs, res.predicted)
-    for f in res.written:
-        print(f"wrote {f}")
+    print(res.text())
     return 0

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import math
-from pathlib import Path
 from typing import Any
 
 from .common import (
@@ -12,7 +10,6 @@ from .common import (
     add_slam_args,
     bag_options,
     print_json,
-    print_table,
     print_warnings,
     truth_frames,
 )
@@ -63,59 +60,8 @@ def run(args: argparse.Namespace) -> int:
         slam_stamp_offset_s=args.slam_stamp_offset,
     )
     print_warnings(result.load_warnings)
-    d = result.as_dict()
     if args.json:
-        print_json(d)
+        print_json(result.as_dict())
         return 0
-
-    def mm(v: float | None) -> str:
-        return "-" if v is None else f"{1000 * v:.1f}"
-
-    def deg(v: float | None) -> str:
-        return "-" if v is None else f"{math.degrees(v):.2f}"
-
-    col = {"robot": "robot", "firmware": "firmware"}.get(result.nominal_source, "nominal")
-    rows = [
-        (
-            "run",
-            "final mm",
-            "max mm",
-            "final deg",
-            f"{col} final mm",
-            f"{col} max mm",
-            f"{col} final deg",
-        )
-    ]
-    for r in result.runs:
-        rows.append(
-            (
-                Path(r["path"]).name,
-                mm(r["final_error_m"]),
-                mm(r["max_error_m"]),
-                deg(r["final_heading_error_rad"]),
-                mm(r["nominal_final_error_m"]),
-                mm(r["nominal_max_error_m"]),
-                deg(r["nominal_final_heading_error_rad"]),
-            )
-        )
-    rows.append(
-        (
-            "mean",
-            mm(d["mean_final_error_m"]),
-            mm(d["mean_max_error_m"]),
-            deg(d["mean_final_heading_error_rad"]),
-            mm(d["mean_nominal_final_error_m"]),
-            mm(d["mean_nominal_max_error_m"]),
-            deg(d["mean_nominal_final_heading_error_rad"]),
-        )
-    )
-    source = {
-        "robot": f"ROBOT.yaml's nominal geometry ({args.robot}; --nominal robot)",
-        "firmware": "each run's firmware values, the parameters it ran with (--nominal firmware)",
-        "unknown": "unknown for some runs (they do not say what they ran with; give --robot)",
-    }
-    print(f"  {col} columns: {source[result.nominal_source]}")
-    print_table(rows, title=f"{len(result.runs)} run(s), parameters from {args.params}")
-    if result.written:
-        print(f"wrote {len(result.written)} plot(s) to {args.plot}")
+    print(result.text())
     return 0

@@ -221,16 +221,20 @@ def ttest_from_stats(
     if std_a < 0 or std_b < 0:
         raise ModelError(f"standard deviations must be >= 0, got {std_a!r} and {std_b!r}")
     n_a, n_b = int(n_a), int(n_b)
-    va, vb = std_a**2 / n_a, std_b**2 / n_b
+    # t and df do not depend on the unit: compute them on values scaled to about 1, so that a
+    # variance of data on a 1e-300 (or 1e+200) scale neither underflows to 0 nor overflows
+    scale = _scale(mean_a, mean_b, std_a, std_b)
+    sa, sb = std_a / scale, std_b / scale
+    va, vb = sa**2 / n_a, sb**2 / n_b
     if equal_var:
         df = float(n_a + n_b - 2)
-        sp2 = ((n_a - 1) * std_a**2 + (n_b - 1) * std_b**2) / df
+        sp2 = ((n_a - 1) * sa**2 + (n_b - 1) * sb**2) / df
         se = math.sqrt(sp2 * (1.0 / n_a + 1.0 / n_b))
     else:
         se = math.sqrt(va + vb)
         denom = va**2 / (n_a - 1) + vb**2 / (n_b - 1)
         df = (va + vb) ** 2 / denom if denom > 0 else float(n_a + n_b - 2)
-    diff = mean_a - mean_b
+    diff = mean_a / scale - mean_b / scale
     if se > 0:
         t = diff / se
         p_two, p_less, p_greater = _p_values(t, df)
@@ -256,8 +260,24 @@ def ttest_from_stats(
     )
 
 
+def _scale(*values: float) -> float:
+    """The power of two just above the largest magnitude among ``values`` (1 when all are 0):
+    what a statistic's inputs are divided by before squaring. A power of two divides exactly, so
+    data of an ordinary scale give the same bits as unscaled arithmetic."""
+    m = max(abs(float(v)) for v in values)
+    return math.ldexp(1.0, math.frexp(m)[1]) if m > 0 else 1.0
+
+
+def _mean_std(x: np.ndarray, scale: float) -> tuple[float, float]:
+    """Mean and unbiased standard deviation of ``x``, computed on ``x / scale`` (no underflow of
+    the squared deviations of tiny values, no overflow of huge ones) and given in x's unit."""
+    y = x / scale
+    return float(y.mean()) * scale, float(y.std(ddof=1)) * scale
+
+
 def ttest_samples(a: ArrayLike, b: ArrayLike, equal_var: bool = False) -> TTest:
-    """t-test of sample ``a`` against sample ``b`` (1-D arrays of finite values)."""
+    """t-test of sample ``a`` against sample ``b`` (1-D arrays of finite values; any scale: the
+    statistics are computed on the values divided by the largest magnitude)."""
     a = np.asarray(a, dtype=float).ravel()
     b = np.asarray(b, dtype=float).ravel()
     for name, x in (("a", a), ("b", b)):
@@ -265,15 +285,9 @@ def ttest_samples(a: ArrayLike, b: ArrayLike, equal_var: bool = False) -> TTest:
             raise ModelError(f"a t-test needs at least 2 values per group; {name} has {x.size}")
         if not np.all(np.isfinite(x)):
             raise ModelError(f"group {name} holds non-finite values")
-    return ttest_from_stats(
-        float(a.mean()),
-        float(a.std(ddof=1)),
-        a.size,
-        float(b.mean()),
-        float(b.std(ddof=1)),
-        b.size,
-        equal_var=equal_var,
-    )
+    scale = _scale(np.max(np.abs(a)), np.max(np.abs(b)))
+    (mean_a, std_a), (mean_b, std_b) = _mean_std(a, scale), _mean_std(b, scale)
+    return ttest_from_stats(mean_a, std_a, a.size, mean_b, std_b, b.size, equal_var=equal_var)
 
 
 def ttest_paired(a: ArrayLike, b: ArrayLike) -> TTest:
@@ -291,7 +305,8 @@ def ttest_paired(a: ArrayLike, b: ArrayLike) -> TTest:
     n = int(xa.size)
     if n < 2:
         raise ModelError(f"a paired t-test needs at least 2 finite pairs, got {n}")
-    d = xa - xb
+    scale = _scale(np.max(np.abs(xa)), np.max(np.abs(xb)))
+    d = xa / scale - xb / scale  # on a scale of about 1: no under- or overflow
     diff, sd = float(d.mean()), float(d.std(ddof=1))
     df = float(n - 1)
     if sd > 0:
@@ -303,20 +318,9 @@ def ttest_paired(a: ArrayLike, b: ArrayLike) -> TTest:
         t = math.copysign(math.inf, diff)
         p_less, p_greater = (0.0, 1.0) if diff < 0 else (1.0, 0.0)
         p_two = 0.0
-    return TTest(
-        "paired",
-        float(t),
-        df,
-        p_two,
-        p_less,
-        p_greater,
-        float(xa.mean()),
-        float(xb.mean()),
-        float(xa.std(ddof=1)),
-        float(xb.std(ddof=1)),
-        n,
-        n,
-    )
+    (mean_a, std_a), (mean_b, std_b) = _mean_std(xa, scale), _mean_std(xb, scale)
+    return TTest("paired", float(t), df, p_two, p_less, p_greater, mean_a, mean_b, std_a, std_b,
+                 n, n)  # fmt: skip
 
 
 def circular_mean(angles_rad: ArrayLike, axis: int = -1) -> np.ndarray:

@@ -8,9 +8,12 @@ geometry and instrument kept) the analytic design gives the expected error after
 every candidate. The *regret* of a candidate in one scenario is its error over the best
 candidate's error, minus 1. The recommendation is the smallest candidate that, in every scenario,
 no larger candidate beats by more than the tolerance (the single-robot rule of
-:mod:`odocal.design.recommend`, applied to each plausible robot at once); the report states its
-worst-case regret: "whatever the robot's errors in these ranges, this size is within X of the
-best".
+:mod:`odocal.design.recommend`, applied to each plausible robot at once: a candidate beats it by
+more than 5 % when its error is less than 95 % of the recommended one's). The report states how
+close it stays in the rule's own terms, its worst-case *shortfall* (1 - best error / its error =
+regret / (1 + regret)): "whatever the robot's errors in these ranges, no size beats this one by
+more than X % of its error", so that X <= the tolerance whenever the best size is a larger one
+(a regret of 5.1 % is a shortfall of 4.9 %: within a 5 % rule).
 
 Typical ranges (documented with their sources in docs/design.md, "A new robot"):
 
@@ -105,7 +108,8 @@ class RangeDesign:
     index : int
         The recommended candidate.
     within : float
-        Its worst-case regret: error / best candidate's error - 1, over the scenarios.
+        Its worst-case shortfall, in the rule's terms: 1 - best candidate's error / its error,
+        over the scenarios (at most the tolerance when the best is a larger candidate).
     worst_scenario : int
         Where that worst case is.
     accepted : bool
@@ -143,6 +147,17 @@ class RangeDesign:
     def regret(self) -> np.ndarray:
         """error / best error - 1, shape (scenarios, candidates)."""
         return self.errors / np.nanmin(self.errors, axis=1, keepdims=True) - 1.0
+
+    @property
+    def shortfall(self) -> np.ndarray:
+        """1 - best error / error, shape (scenarios, candidates): by how much (a fraction of this
+        candidate's error) the best candidate beats it, the measure of the rule's tolerance."""
+        return 1.0 - np.nanmin(self.errors, axis=1, keepdims=True) / self.errors
+
+    @property
+    def worst_shortfall(self) -> np.ndarray:
+        """Each candidate's largest shortfall over the scenarios, shape (candidates,)."""
+        return np.nanmax(self.shortfall, axis=0)
 
     @property
     def worst_regret(self) -> np.ndarray:
@@ -188,7 +203,7 @@ class RangeDesign:
             out.append(
                 f"no candidate is within the {100 * self.tolerance:g} % tolerance for every "
                 f"plausible robot; the recommended one has the smallest worst case "
-                f"({100 * self.within:.1f} %)"
+                f"(beaten by {100 * self.within:.1f} %)"
             )
         bad = int(self.no_gain.sum())
         if bad:
@@ -206,6 +221,7 @@ class RangeDesign:
         r = self.recommended
         ranges = {k: self.level_range(k) for k in ("E_b", "E_d", "k_m")}
         worst, lo, hi = self.worst_regret, self.error_min_m, self.error_max_m
+        short = self.worst_shortfall
         return {
             "error_range": {
                 "unknown": list(self.unknown),
@@ -219,6 +235,7 @@ class RangeDesign:
                     "side_m": rounded(c.side_m),
                     "travel_m": rounded(c.travel_m),
                     "worst_regret": rounded(float(worst[i])),
+                    "worst_shortfall": rounded(float(short[i])),
                     "post_error_min_m": rounded(float(lo[i])),
                     "post_error_max_m": rounded(float(hi[i])),
                 }
@@ -250,9 +267,9 @@ class RangeDesign:
         w = self.scenarios[self.worst_scenario]
         return (
             f"{shape_name(r.sides)}, side {r.side_m:g} m ({r.travel_m:g} m travel per run): "
-            f"whatever the robot's errors in these ranges, within {100 * self.within:.1f} % of "
-            f"the best size's error (worst case E_b {w['E_b']:g}, E_d {w['E_d']:g}, "
-            f"k {w['k_m']:.2g} m)"
+            f"whatever the robot's errors in these ranges, no size beats it by more than "
+            f"{100 * self.within:.1f} % of its error (worst case E_b {w['E_b']:g}, "
+            f"E_d {w['E_d']:g}, k {w['k_m']:.2g} m)"
         )
 
 
@@ -313,7 +330,8 @@ def range_design(
             break
     if index is None:  # pragma: no cover - the largest candidate has no rival
         index, accepted = int(np.nanargmin(np.nanmax(regret, axis=0))), False
-    worst = np.nanmax(regret[:, index])
+    shortfall = regret / (1.0 + regret)  # the rule's measure: 1 - best / this error
+    worst = np.nanmax(shortfall[:, index])
     return RangeDesign(
         tuple(candidates),
         tuple(levels for levels, _ in grid),
@@ -322,7 +340,7 @@ def range_design(
         np.array(floor),
         int(index),
         float(worst),
-        int(np.nanargmax(regret[:, index])),
+        int(np.nanargmax(shortfall[:, index])),
         accepted,
         unknown,
         tolerance,

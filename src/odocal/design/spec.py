@@ -10,12 +10,15 @@ The closed sets are :data:`Method`, :data:`Criterion` and :data:`Engine`.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from typing import Literal, get_args
 
 import numpy as np
 
+from ..core.checks import check_int, check_number, check_positive_float
 from ..core.model import ModelError
+from ..core.tracks import MAX_POLYGON_SIDES
 from .result import ValidationTrack
 
 __all__ = [
@@ -115,13 +118,15 @@ class DesignSpec:
     criterion: Criterion = "error"
 
     def __post_init__(self) -> None:
-        if self.runs_per_direction < 1:
-            raise ModelError(f"runs per direction must be >= 1, got {self.runs_per_direction}")
-        if self.trials < 2:
+        check_int("runs_per_direction", self.runs_per_direction, at_least=1)
+        if check_int("trials", self.trials) < 2:
             raise ModelError(
                 f"trials must be >= 2 (a standard deviation is needed), got {self.trials}"
             )
-        object.__setattr__(self, "sides", tuple(int(s) for s in dict.fromkeys(self.sides)))
+        if isinstance(self.sides, (str, bytes)) or not isinstance(self.sides, Iterable):
+            raise ModelError(f"sides must be a sequence of whole numbers, got {self.sides!r}")
+        sides = [check_int("sides", s, at_least=3, at_most=MAX_POLYGON_SIDES) for s in self.sides]
+        object.__setattr__(self, "sides", tuple(dict.fromkeys(sides)))
         if not self.sides:
             raise ModelError("at least one polygon shape (sides) is needed")
         if self.method not in METHODS:
@@ -132,17 +137,20 @@ class DesignSpec:
             raise ModelError(
                 f"criterion must be one of {', '.join(CRITERIA)}, got {self.criterion!r}"
             )
-        if not (0 < self.alpha < 1):
-            raise ModelError(f"alpha must be in (0, 1), got {self.alpha!r}")
-        if not (0 <= self.tolerance < 1):
-            raise ModelError(f"tolerance must be in [0, 1), got {self.tolerance!r}")
+        alpha = check_number("alpha", self.alpha, above=0.0, below=1.0)
+        tolerance = check_number("tolerance", self.tolerance, at_least=0.0, below=1.0)
+        object.__setattr__(self, "alpha", alpha)
+        object.__setattr__(self, "tolerance", tolerance)
         if self.side_lengths_m is not None:
-            lengths = np.asarray(self.side_lengths_m, dtype=float)
-            if lengths.ndim != 1 or lengths.size == 0:
+            given = self.side_lengths_m
+            if isinstance(given, np.ndarray):
+                given = given.tolist() if given.ndim == 1 else [given]
+            if isinstance(given, (str, bytes)) or not isinstance(given, Iterable):
+                raise ModelError(f"side_lengths_m must be a sequence of lengths, got {given!r}")
+            lengths = tuple(check_positive_float("side_lengths_m", v, hint=" m") for v in given)
+            if not lengths:
                 raise ModelError("at least one candidate side length is needed")
-            if not np.all(np.isfinite(lengths) & (lengths > 0)):
-                raise ModelError(f"side lengths must be finite and > 0, got {lengths.tolist()}")
-            object.__setattr__(self, "side_lengths_m", tuple(float(v) for v in lengths))
+            object.__setattr__(self, "side_lengths_m", lengths)
 
     def for_wheelbase(self, wheelbase_m: float) -> DesignSpec:
         """This spec with the sizes left open (None) scaled to a robot of ``wheelbase_m`` (m)."""

@@ -380,6 +380,45 @@ def list_topics(path) -> list[TopicInfo]:
         return bag.topics()
 
 
+@dataclass(frozen=True)
+class BagOverview:
+    """What ``odocal bag-info`` shows of a bag: its topics, its time span (log times, ns since
+    the epoch; 0 and 0 for a bag without messages) and the frame tree of ``/tf`` and
+    ``/tf_static``: each (parent, child, static) edge once, frames without a leading '/', in the
+    order they first appear (``/tf_static`` first)."""
+
+    topics: list[TopicInfo]
+    start_ns: int
+    end_ns: int
+    frames: tuple[tuple[str, str, bool], ...]
+
+    @property
+    def duration_s(self) -> float:
+        """Time between the first and the last message (s)."""
+        return (self.end_ns - self.start_ns) / 1e9
+
+
+def bag_overview(path) -> BagOverview:
+    """The topics, time span and ``/tf`` + ``/tf_static`` frame tree of a bag, opening it once
+    (only the two transform topics are read)."""
+    with _Bag(path) as bag:
+        info = bag.topics()
+        names = {t.name for t in info}
+        tf_topics = [t for t in ("/tf_static", "/tf") if t in names]
+        messages = bag.read(tf_topics) if tf_topics else {}
+        has_messages = any(t.count for t in info)
+        start = int(bag.reader.start_time) if has_messages else 0
+        end = int(bag.reader.end_time) if has_messages else 0
+    edges: dict[tuple[str, str, bool], None] = {}
+    for topic in tf_topics:
+        tf = messages.get(topic)
+        if isinstance(tf, Transforms):
+            for e in dict.fromkeys(tf.edge.tolist()):
+                parent, child = tf.edges[e]
+                edges[(parent.lstrip("/"), child.lstrip("/"), topic == "/tf_static")] = None
+    return BagOverview(info, start, end, tuple(edges))
+
+
 TopicChoice = Callable[[list[TopicInfo]], Mapping[str, str | None]]
 
 

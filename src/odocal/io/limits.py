@@ -27,10 +27,49 @@ SIGMA_THETA_MAX_DEG = 360.0
 
 #: Longest track length: a side, a straight, a radius, a travel (m), 100 km.
 TRACK_LENGTH_MAX_M = 1e5
+#: Shortest distance an estimate or a covariance divides by (odocal noise --track and
+#: --pose-distance; m): 0.1 mm. Below it a length is a unit slip (k = inf from a 1e-320 m track).
+LENGTH_MIN_M = 1e-4
 #: Shortest square side given in a file (m).
 SIDE_MIN_M = 1e-4
 #: Largest spot turn or arc angle of one segment (deg): 100 turns.
 TURN_MAX_DEG = 36_000.0
+
+# --- motion: the speed and time window of a controller's covariances (odocal noise --ros2) ----
+
+#: Robot speed (m/s): 1 mm/s .. 10 m/s. Faster is not a wheeled robot's speed (a value in mm/s
+#: typed as m/s); slower makes the twist variances vanish and a filter's matrix singular.
+SPEED_M_S = (1e-3, 10.0)
+#: The time over which a controller measures its velocity (s): 1 ms .. 60 s.
+TWIST_WINDOW_S = (1e-3, 60.0)
+
+
+def speed_problem(speed_m_s: float) -> str | None:
+    """What is wrong with a robot speed (m/s), with the likely slip; None when plausible."""
+    lo, hi = SPEED_M_S
+    if speed_m_s > hi:
+        return (
+            f"{speed_m_s:g} m/s is not a plausible robot speed (at most {hi:g} m/s); did you "
+            "type mm/s?"
+        )
+    if not speed_m_s >= lo:
+        return (
+            f"{speed_m_s:g} m/s is too slow for covariances (at least {lo:g} m/s: the twist "
+            "variances would vanish and a filter's matrix become singular)"
+        )
+    return None
+
+
+def twist_window_problem(window_s: float) -> str | None:
+    """What is wrong with a controller's velocity window (s); None when plausible."""
+    lo, hi = TWIST_WINDOW_S
+    if not lo <= window_s <= hi:
+        return (
+            f"{window_s:g} s is not a plausible velocity window (a controller averages its "
+            f"velocity over {lo:g} to {hi:g} s; diff_drive_controller: 0.2 s)"
+        )
+    return None
+
 
 # --- encoders ---------------------------------------------------------------------------------
 

@@ -307,15 +307,17 @@ def range_figures(design) -> dict:
     """Figure of a design over plausible errors (``odocal design`` for a robot whose errors are
     not given): every plausible robot's error after calibration relative to its best size.
 
-    The y axis is error / best error on a log scale with labelled ticks from +0 % to the largest
-    excess, so both the steep small tracks and the 5 % tolerance are readable."""
+    The y axis is error / best error on a log scale, its ticks labelled in the rule's measure
+    (how much the best size beats this one, as a share of this one's error: 1 - best / error), so
+    the dashed tolerance line sits on its tick and the recommended star (its worst case) below
+    it; both the steep small tracks and the 5 % tolerance are readable."""
     from ..design.result import shape_name
 
     fig = _new_figure(7.4, 5.6)
     ax = fig.add_subplot()
     cands = design.candidates
     xs = np.array([c.side_m for c in cands])
-    ratio = 1.0 + design.regret
+    ratio = 1.0 / (1.0 - design.shortfall)  # error / best error
     for k in range(ratio.shape[0]):
         ax.plot(xs, ratio[k], color="0.75", lw=0.8, label="one plausible robot" if k == 0 else None)
     worst = np.nanmax(ratio, axis=0)
@@ -323,8 +325,8 @@ def range_figures(design) -> dict:
     ax.plot(xs, worst, color=colour, lw=2.2, marker="o", ms=3, label="worst case")
     r = design.recommended
     ax.plot(
-        [r.side_m], [1.0 + design.within], "*", ms=18, color=colour, mec="k", zorder=5,
-        label=f"recommended: {r.side_m:g} m, within {100 * design.within:.1f} % of the best",
+        [r.side_m], [1.0 / (1.0 - design.within)], "*", ms=18, color=colour, mec="k", zorder=5,
+        label=f"recommended: {r.side_m:g} m, beaten by at most {100 * design.within:.1f} %",
     )  # fmt: skip
     tol = 1.0 / (1.0 - design.tolerance)
     ax.axhline(
@@ -333,12 +335,13 @@ def range_figures(design) -> dict:
     )  # fmt: skip
     ax.set_yscale("log")
     top = float(np.nanmax(worst))
-    ticks = [t for t in (1.0, 1.05, 1.1, 1.2, 1.5, 2.0, 3.0, 5.0, 10.0) if t <= 1.2 * top]
-    ax.set_yticks(ticks, [f"+{100 * (t - 1):g} %" for t in ticks])
+    shares = sorted({0.0, design.tolerance, 0.1, 0.2, 0.5, 0.8, 0.9})
+    ticks = [1.0 / (1.0 - s) for s in shares if 1.0 / (1.0 - s) <= 1.2 * top]
+    ax.set_yticks(ticks, [f"{100 * (1.0 - 1.0 / t):.3g} %" for t in ticks])
     ax.minorticks_off()
     ax.set_ylim(0.99, 1.15 * top)
     ax.set_xlabel(f"side length of the {shape_name(cands[0].sides)} test track (m)")
-    ax.set_ylabel("error after calibration above the best size's")
+    ax.set_ylabel("how much the best size beats it\n(share of its error after calibration)")
     eb, ed, k = (design.level_range(key) for key in ("E_b", "E_d", "k_m"))
     ax.set_title(
         f"Design over plausible errors ({len(design.scenarios)} robots, first-order analytic)\n"
