@@ -228,7 +228,9 @@ def test_cli_bcpt_json(cli, tmp_path, returned):
 def test_cli_bcpt_bad_input(cli, tmp_path, text, args, message):
     runs = _write(tmp_path / "runs.csv", text)
     out = tmp_path / "params.yaml"
-    status, stdout, stderr = cli("calibrate", runs, "--method", "bcpt", *args, "--out", out)
+    status, stdout, stderr = cli(
+        "calibrate", runs, "--robot", "paper-fig5", "--method", "bcpt", *args, "--out", out
+    )
     assert status == 2
     assert stderr.startswith("odocal: error:") and stderr.count("\n") == 1
     assert message in stderr
@@ -242,6 +244,17 @@ def test_cli_radius_without_bcpt_is_an_error(cli, tmp_path):
     runs = _write(
         tmp_path / "runs.csv", "direction,x_m,y_m,theta_deg\ncw,0.1,0.1,1\nccw,0.1,-0.1,-1\n"
     )
-    status, _, err = cli("calibrate", runs, "--radius", 1.0)
+    status, _, err = cli("calibrate", runs, "--robot", "paper-fig5", "--radius", 1.0)
     assert status == 2 and err.count("\n") == 1
     assert "--radius is only used with --method bcpt" in err
+
+
+def test_cli_names_the_robot_and_has_no_default(cli, robot, tmp_path):
+    runs = _write(tmp_path / "runs.csv", "# sides: 4\n# side_m: 4\n" + GOOD_RUNS)
+    status, _, err = cli("calibrate", runs, "--ros2", tmp_path / "ros2.yaml")
+    assert status == 2 and err.count("\n") == 1 and "--robot" in err
+    assert not (tmp_path / "ros2.yaml").exists()
+    status, out, err = cli("calibrate", runs, "--robot", robot)
+    assert status == 0, err
+    assert f"robot {robot}: ran with wheel diameters 0.15 / 0.15 m" in out
+    assert "wheelbase 0.385 m" in out

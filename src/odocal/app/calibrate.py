@@ -25,12 +25,14 @@ from ..errors import InputError
 from ..io.outputs import OutputPlan
 from ..io.ros2_export import DEFAULT_CONTROLLER
 from ..io.runs_csv import RunSheet, read_circle_runs, read_run_sheet
+from ..presets import PRESETS
 from .common import (
     RobotSpec,
     input_paths,
     refuse_absurd,
     register_exports,
     resolve_robot,
+    robot_label,
     write_exports,
 )
 
@@ -54,6 +56,9 @@ class CalibrateResult:
         Where the track came from: 'run sheet', 'arguments' or 'both' (they agree).
     nominal : WheelGeometry or None
         The nominal geometry (the base values of a ros2_control export).
+    robot : str
+        The robot the runs were calibrated for (a ROBOT.yaml path or a built-in's name; there is
+        no default robot: its geometry sets E_d and every exported value).
     """
 
     calibration: CalibrationResult
@@ -62,6 +67,7 @@ class CalibrateResult:
     written: tuple[Path, ...] = ()
     track_source: str = "arguments"
     nominal: WheelGeometry | None = None
+    robot: str = ""
 
     def as_dict(self) -> dict:
         """The JSON of ``odocal calibrate --json``: the result, its uncertainty, the inputs it
@@ -70,6 +76,7 @@ class CalibrateResult:
         return self.calibration.as_dict() | {
             "track": self.track,
             "track_source": self.track_source,
+            "robot": self.robot,
             "inputs": inputs,
             "nominal": None if self.nominal is None else self.nominal.as_dict(),
             "warnings": list(self.warnings),
@@ -182,9 +189,10 @@ def calibrate(
     controller_name: str = DEFAULT_CONTROLLER,
     force: bool = False,
 ) -> CalibrateResult:
-    """Read RUNS.csv (or the BCPT runs file) and calibrate with ``method`` ('heading', 'umbmark'
-    or 'bcpt'), relative to the parameters the robot ran with (``params``, else ROBOT.yaml's
-    'believed', else nominal).
+    """Read RUNS.csv (or the BCPT runs file) and calibrate ``robot`` (required: a ROBOT.yaml
+    path, a built-in's name or a Robot) with ``method`` ('heading', 'umbmark' or 'bcpt'),
+    relative to the parameters the robot ran with (``params``, else ROBOT.yaml's 'believed',
+    else nominal).
 
     The polygon (``sides``, ``side_m`` in m) comes from the arguments or the run sheet's
     ``# sides:``/``# side_m:`` lines (they must agree; there is no default side length). Headings
@@ -192,9 +200,17 @@ def calibrate(
     ros2_control ``diff_drive_controller`` file to ``ros2`` (the export of ``odocal fit``). A
     result more than 25 % from what the robot ran with is absurd for a calibration:
     CalibrationError (nothing written) unless ``force``."""
+    if robot is None:
+        raise InputError(
+            "which robot drove the runs? Give --robot ROBOT.yaml (its nominal geometry, and "
+            "'believed' if it ran with other values) or a built-in robot by name "
+            f"({', '.join(PRESETS)}): there is no default robot, its geometry sets E_d and "
+            "every exported value"
+        )
     plan = OutputPlan(input_paths(runs_csv, robot, params))
     register_exports(plan, out, ros2)
     r = resolve_robot(robot, params)
+    label = robot_label(robot, params)
     ran_with = r.believed_geometry
     notes: list[str] = []
     source = "arguments"
@@ -246,4 +262,4 @@ def calibrate(
         controller_name,
         record={"method": result.method, "E_b": result.E_b, "E_d": result.E_d},
     )
-    return CalibrateResult(result, track, tuple(notes), written, source, r.nominal)
+    return CalibrateResult(result, track, tuple(notes), written, source, r.nominal, label)

@@ -17,7 +17,7 @@ from ..core.tracks import Track, polygon
 from ..io.outputs import OutputPlan
 from ..io.runs_csv import runs_csv_text
 from ..io.track_file import load_track
-from .common import RobotSpec, input_paths, resolve_robot
+from .common import RobotSpec, input_paths, resolve_robot, robot_label
 
 __all__ = ["SimulateResult", "simulate", "simulate_runs"]
 
@@ -36,6 +36,8 @@ class SimulateResult:
     runs_per_direction, seed : int
     predicted : dict of direction -> PosePrediction, or None
     written : tuple of Path
+    robot : str
+        The robot driven (a file, or a built-in's name; by default ``paper-fig5``).
     """
 
     runs: EndPoseRuns
@@ -45,11 +47,13 @@ class SimulateResult:
     seed: int
     predicted: dict[str, PosePrediction] | None = None
     written: tuple[Path, ...] = ()
+    robot: str = ""
 
     def as_dict(self) -> dict:
         """The JSON of ``odocal simulate --json``."""
         out = _stats(self.runs.errors) | {
             "seed": self.seed,
+            "robot": self.robot,
             "track": self.track,
             "by_direction": {d: _stats(self.runs.select(d)) for d in self.directions},
         }
@@ -160,4 +164,6 @@ def simulate(
             track=None if track is not None else (sides, side_m),
         )
         written = tuple(plan.commit({Path(out): text}))
-    return SimulateResult(end, name, directions, runs, seed, predicted, written)
+    return SimulateResult(
+        end, name, directions, runs, seed, predicted, written, robot_label(robot, params)
+    )

@@ -35,6 +35,7 @@ def add_parser(sub) -> None:
         p,
         "the parameters the robot RAN WITH during the runs (default: ROBOT.yaml's "
         "'believed', else nominal)",
+        required=True,
     )
     p.add_argument(
         "--sides",
@@ -112,6 +113,10 @@ def run(args) -> int:
         where = " (track from the run sheet and the arguments)"
     print(f"{label} from {ins['runs_cw']} CW and {ins['runs_ccw']} CCW runs, {res.track}{where}")
     r, c, unc = result.ran_with, result.corrected, result.uncertainty
+    print(
+        f"robot {res.robot}: ran with wheel diameters {r.diameter_right_m:.6g} / "
+        f"{r.diameter_left_m:.6g} m (right / left), wheelbase {r.wheelbase_m:.6g} m"
+    )
     ci = unc.ci95() if unc is not None else {}
 
     def cell(name: str, value: float, digits: int) -> tuple[str, str, str]:

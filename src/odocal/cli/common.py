@@ -169,14 +169,18 @@ def motion_mix(text: str) -> dict[str, float]:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
-def add_robot_args(p: argparse.ArgumentParser, params_help: str) -> None:
-    """``--robot`` and ``--params`` (with the command's own help for ``--params``)."""
+def add_robot_args(p: argparse.ArgumentParser, params_help: str, required: bool = False) -> None:
+    """``--robot`` and ``--params`` (with the command's own help for ``--params``); a
+    ``required`` robot has no default (the command's app function says so when it is missing)."""
     from ..presets import DEFAULT_ROBOT, PRESETS
 
-    names = ", ".join(f"{n} (default)" if n == DEFAULT_ROBOT else n for n in PRESETS)
-    p.add_argument(
-        "--robot", metavar="ROBOT.yaml", default=None, help=f"robot file, or a built-in: {names}"
-    )
+    if required:
+        names = ", ".join(PRESETS)
+        what = f"robot file, or a built-in by name: {names} (required: no default robot)"
+    else:
+        names = ", ".join(f"{n} (default)" if n == DEFAULT_ROBOT else n for n in PRESETS)
+        what = f"robot file, or a built-in: {names}"
+    p.add_argument("--robot", metavar="ROBOT.yaml", default=None, help=what)
     p.add_argument("--params", metavar="PARAMS.yaml", default=None, help=params_help)
 
 

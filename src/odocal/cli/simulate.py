@@ -122,7 +122,7 @@ def run(args) -> int:
     if args.json:
         print_json(summary)
         return 0
-    print(f"{res.track}: {args.runs} run(s) per direction, seed {args.seed}")
+    print(f"{res.track}: {args.runs} run(s) per direction, seed {args.seed}, robot {res.robot}")
     rows = [
         (
             "direction",
