@@ -48,3 +48,12 @@ def test_help_is_complete_and_imports_no_command_module():
     assert "LOADED ['odocal.cli.main']" in out
     sub = next(a for a in build_parser()._actions if hasattr(a, "choices") and a.choices)
     assert list(sub.choices) == list(COMMANDS)
+
+
+def test_a_file_name_with_a_line_break_gives_a_one_line_error(cli, tmp_path):
+    # issue 20, hostile inputs: the file name was printed raw, so the error took two lines
+    name = tmp_path / "a\nb\u2028c.csv"
+    status, out, err = cli("calibrate", name, "--robot", "paper-fig5")
+    assert status == 2 and out == ""
+    assert err.count("\n") == 1 and "\u2028" not in err
+    assert err.startswith("odocal: error: '") and "a\\nb\\u2028c.csv': no such file" in err

@@ -178,3 +178,11 @@ def test_simulate_predict_cli(cli, returned):
     assert set(pred["correlation"]) == {"x_y", "x_theta", "y_theta"}
     assert len(doc["monte_carlo_covariance"]["ccw"]) == 3
     assert "cw" not in doc["predicted"]
+
+
+def test_direction_in_any_case(cli):
+    # issue 20, hostile inputs: --direction CW was refused though the files accept upper case
+    status, out, err = cli("simulate", "--direction", "CW", "--runs", 2, "--side-length", 1)
+    assert status == 0, err
+    rows = [line.split() for line in out.splitlines() if line.split()[:1] in (["cw"], ["ccw"])]
+    assert [r[0] for r in rows] == ["cw"]

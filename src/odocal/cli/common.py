@@ -11,6 +11,7 @@ import time
 from collections.abc import Callable, Iterable
 from typing import Any
 
+from ..errors import one_line
 from ..io.bag_options import BagOptions
 from ..io.limits import HEADING_WEIGHT_MAX_M, TICKS_PER_REV, TRACK_LENGTH_MAX_M
 
@@ -323,7 +324,7 @@ def truth_frames(args: argparse.Namespace) -> tuple[str, str] | None:
 def print_warnings(warnings: Iterable[str], prefix: str = "") -> None:
     """Each warning as one line ``odocal: warning: ...`` on stderr (never on stdout)."""
     for w in warnings:
-        print(f"odocal: warning: {prefix}{w}", file=sys.stderr)
+        print(f"odocal: warning: {one_line(prefix + w)}", file=sys.stderr)
 
 
 def _non_finite(obj: Any, where: str = "") -> str | None:

@@ -28,6 +28,7 @@ def add_parser(sub) -> None:
     p.add_argument("--track", metavar="TRACK.yaml", help="a custom track file instead of --sides")
     p.add_argument(
         "--direction",
+        type=str.lower,  # CW, as the files accept any case
         choices=("cw", "ccw", "both"),
         default="both",
         help="driving direction (default both: n CW runs, then n CCW runs)",

@@ -1,6 +1,7 @@
 """The one reader of comma-separated tables (RUNS.csv, generic run CSVs, t-test samples, ...).
 
-A table is UTF-8 text: blank lines are skipped; lines starting with ``#`` are comments (those
+A table is UTF-8 text whose lines end in LF, CR LF or CR (and nowhere else: a form feed is
+whitespace inside its line): blank lines are skipped; lines starting with ``#`` are comments (those
 before the header may carry ``key: value`` settings); the first other line is the header row of
 unique, non-empty column names; every further line is a row with as many fields as the header.
 Fields are trimmed; CSV quoting is honoured.
@@ -102,16 +103,13 @@ def _split(line: str) -> list[str]:
     return [f.strip() for f in next(csv.reader(io.StringIO(line)))]
 
 
-# Characters that str.splitlines() also breaks lines at (besides "\n" and "\r\n"); a text holding
-# any of them, or a lone "\r", is split the slow way (line numbers are those of splitlines).
-_ODD_BREAKS = "\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029"
-
-
-def _odd_breaks(text: str, start: int = 0) -> bool:
-    """Whether text[start:] breaks lines at anything but "\n" and "\r\n" (fast scans)."""
-    if any(text.find(c, start) >= 0 for c in _ODD_BREAKS):
-        return True
-    return text.find("\r", start) >= 0 and text.count("\r", start) != text.count("\r\n", start)
+def _universal_newlines(text: str) -> str:
+    """``text`` with every line ending (CR LF, a lone CR) as LF: lines end there and nowhere
+    else (a form feed or a vertical tab is whitespace inside its line, as in a spreadsheet's
+    CSV; str.splitlines() would break a comment line at it)."""
+    if "\r" not in text:
+        return text
+    return text.replace("\r\n", "\n").replace("\r", "\n")
 
 
 # Characters of one vectorised pass (the pass ends at a line break).
@@ -175,20 +173,12 @@ class Table:
         at line starts; only for bodies without odd line breaks)."""
         first = self.header_line + 1 + self.text.count("\n", self.body, self.body + start)
         chunk = self.text[self.body + start : None if stop is None else self.body + stop]
-        return enumerate(chunk.splitlines(), start=first)
-
-    @functools.cached_property
-    def _odd(self) -> bool:
-        return _odd_breaks(self.text, self.body)
+        return enumerate(chunk.split("\n"), start=first)
 
     @functools.cached_property
     def rows(self) -> list[tuple[int, list[str]]]:
         """Each data row's line number and its trimmed fields (every line checked)."""
-        if self._odd:  # splitlines() numbering of the whole text, as the header scan had
-            lines = enumerate(self.text.splitlines(), start=1)
-            numbered: Iterator[tuple[int, str]] = (x for x in lines if x[0] > self.header_line)
-        else:
-            numbered = self._lines()
+        numbered = self._lines()
         width = len(self.header)
         out = []
         for no, line in numbered:
@@ -198,8 +188,8 @@ class Table:
         return out
 
     def _split_slowly(self) -> bool:
-        """Rows already split, or comment lines or odd line breaks after the header."""
-        return "rows" in self.__dict__ or self.text.find("#", self.body) >= 0 or self._odd
+        """Rows already split, or comment lines after the header."""
+        return "rows" in self.__dict__ or self.text.find("#", self.body) >= 0
 
     def line_of(self, index: int) -> int:
         """Line number of data row ``index`` (0-based), for messages."""
@@ -327,11 +317,8 @@ class Table:
 
 
 def _head_lines(text: str) -> Iterator[str]:
-    """The lines of ``text`` with their line breaks, one at a time (str.splitlines() semantics;
-    the header is near the top of a file whose rows may be millions)."""
-    if _odd_breaks(text):
-        yield from text.splitlines(keepends=True)
-        return
+    """The lines of ``text`` (line ends already LF) with their line breaks, one at a time
+    (the header is near the top of a file whose rows may be millions)."""
     start = 0
     while start < len(text):
         end = text.find("\n", start)
@@ -358,6 +345,7 @@ def read_table(
     """
     if text is None:
         text = read_text(path)
+    text = _universal_newlines(text)
     if columns is not None:
         if not any(ln.strip() and not ln.lstrip().startswith("#") for ln in _head_lines(text)):
             raise InputError(f"empty file, expected {what}", path)
@@ -366,7 +354,7 @@ def read_table(
     offset = 0  # characters before the current line
     for no, line in enumerate(_head_lines(text), start=1):
         offset += len(line)
-        line = line.rstrip("\r\n\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029")
+        line = line.rstrip("\n")
         if len(line) > MAX_LINE_CHARS:
             raise InputError(f"over-long line ({len(line)} characters)", path, no)
         stripped = line.strip()
