@@ -6,6 +6,12 @@ before the header may carry ``key: value`` settings); the first other line is th
 unique, non-empty column names; every further line is a row with as many fields as the header.
 Fields are trimmed; CSV quoting is honoured.
 
+A sheet saved by a spreadsheet in the European dialect (a header separated by ``;``, decimal
+commas: the default of Excel and LibreOffice where the comma is the decimal separator) is read as
+the comma-separated table it stands for, line for line; separators padding a comment line are
+dropped. What cannot be read unambiguously is refused with what to change: a header that mixes
+``;`` and ``,``, a sheet with both decimal commas and decimal points, a thousands separator.
+
 Every problem is an :class:`~odocal.errors.InputError` naming the file, the line and the field:
 over-long lines or fields, duplicated column names or settings, a row of the wrong width, a value
 that is not a finite number, or a number beyond the plausible magnitude the caller gives.
@@ -327,6 +333,101 @@ def _head_lines(text: str) -> Iterator[str]:
         start = end
 
 
+_DECIMAL_COMMA = re.compile(r"^[+-]?(\d+,\d*|,\d+)([eE][+-]?\d+)?$")
+_DECIMAL_POINT = re.compile(r"^[+-]?(\d+\.\d*|\.\d+)([eE][+-]?\d+)?$")
+_GROUPED = re.compile(r"^[+-]?\d{1,3}([.\s\u00a0\u202f']\d{3})+(,\d*)?$")
+_SETTING_COMMA = re.compile(r"^(#[^:]*:\s*[+-]?\d*),(\d+)$")
+_SEMICOLON_ADVICE = (
+    "save the sheet again as CSV with one decimal separator (in LibreOffice: 'Save As', "
+    "'Text CSV', field delimiter ';' or ',')"
+)
+
+
+def _csv_field(text: str) -> str:
+    return f'"{text.replace(chr(34), chr(34) * 2)}"' if ("," in text or '"' in text) else text
+
+
+def _semicolon_text(path: Any, text: str, header_no: int) -> str:
+    """A sheet saved by a spreadsheet in the European dialect (fields separated by ';', decimal
+    commas: Excel's and LibreOffice's default where the comma is the decimal separator) as the
+    comma-separated text it stands for, line for line. Decimal points are read too, but not both
+    in one sheet (then a point may group thousands); a number with a thousands separator, or a
+    row separated by ',' under a ';' header, is refused with what to change."""
+    out = []
+    comma_line = point_line = 0
+    for no, line in enumerate(text.split("\n"), start=1):
+        stripped = line.strip()
+        if not stripped:
+            out.append(line)
+            continue
+        if stripped.startswith("#"):  # a spreadsheet pads comment lines with separators
+            stripped = stripped.rstrip("; \t")
+            out.append(_SETTING_COMMA.sub(r"\1.\2", stripped) if no < header_no else stripped)
+            continue
+        if len(line) > MAX_LINE_CHARS:
+            raise InputError(f"over-long line ({len(line)} characters)", path, no)
+        if '"' in line:
+            try:
+                fields = next(csv.reader([line], delimiter=";"))
+            except csv.Error as exc:
+                raise InputError(f"not valid CSV: {exc}", path, no) from None
+        else:
+            fields = line.split(";")
+        if len(fields) == 1 and "," in line and no > header_no:
+            raise InputError(
+                "fields separated by ',' under a header separated by ';': use one separator in "
+                f"the whole sheet; {_SEMICOLON_ADVICE}",
+                path,
+                no,
+            )
+        converted = []
+        for f in fields:
+            f = f.strip()
+            if _GROUPED.match(f) and ("," in f or not _DECIMAL_POINT.match(f)):
+                raise InputError(
+                    f"{f!r} groups thousands: write numbers without a thousands separator "
+                    "(format the cells as plain numbers)",
+                    path,
+                    no,
+                )
+            if _DECIMAL_COMMA.match(f):
+                f = f.replace(",", ".")
+                comma_line = comma_line or no
+            elif _DECIMAL_POINT.match(f):
+                point_line = point_line or no
+            converted.append(_csv_field(f))
+        out.append(",".join(converted))
+    if comma_line and point_line:
+        raise InputError(
+            f"separated by ';' with decimal commas (line {comma_line}) and decimal points "
+            f"(line {point_line}): a point may group thousands, so the numbers are ambiguous; "
+            f"{_SEMICOLON_ADVICE}",
+            path,
+            point_line,
+        )
+    return "\n".join(out)
+
+
+def _comma_text(path: Any, text: str) -> str:
+    """``text`` as a comma-separated table: as it is, or converted from the semicolon dialect
+    (:func:`_semicolon_text`) when its header row is separated by ';' and holds no ','."""
+    for no, line in enumerate(_head_lines(text), start=1):
+        stripped = line.strip()
+        if not stripped or stripped.startswith("#"):
+            continue
+        if ";" not in stripped:
+            return text
+        if "," in stripped:
+            raise InputError(
+                "the header row mixes ';' and ',' as field separators: use one of them (commas "
+                "with decimal points, or semicolons with decimal commas)",
+                path,
+                no,
+            )
+        return _semicolon_text(path, text, no)
+    return text
+
+
 def read_table(
     path: Any,
     *,
@@ -346,6 +447,8 @@ def read_table(
     if text is None:
         text = read_text(path)
     text = _universal_newlines(text)
+    if columns is None:
+        text = _comma_text(path, text)
     if columns is not None:
         if not any(ln.strip() and not ln.lstrip().startswith("#") for ln in _head_lines(text)):
             raise InputError(f"empty file, expected {what}", path)
@@ -363,6 +466,7 @@ def read_table(
         if stripped.startswith("#"):
             if settings and ":" in stripped:
                 key, value = (s.strip() for s in stripped[1:].split(":", 1))
+                value = value.rstrip(",; \t")  # a spreadsheet pads a comment with separators
                 if key not in settings:
                     continue
                 if key in found:
