@@ -36,7 +36,8 @@ def test_simulate_then_calibrate_composes(cli, robot, tmp_path, returned):
     # the track is data of the sheet (read back by calibrate), then the header
     lines = runs.read_text().splitlines()
     assert lines[:2] == ["# sides: 4", "# side_m: 4"]
-    assert lines[2].startswith("direction,x_m,y_m,theta_deg")
+    assert lines[2].startswith("# odocal simulate: simulated runs, not measurements (robot ")
+    assert lines[3].startswith("direction,x_m,y_m,theta_deg")
     for method in ("heading", "umbmark"):
         status, out, err = cli(
             "calibrate",

@@ -15,11 +15,14 @@ from ..core.simulate import measure
 from ..core.simulate import simulate as simulate_track
 from ..core.tracks import Track, polygon
 from ..io.outputs import OutputPlan
-from ..io.runs_csv import runs_csv_text
+from ..io.runs_csv import refuse_replacing_measurements, runs_csv_text
 from ..io.track_file import load_track
 from .common import RobotSpec, input_paths, resolve_robot, robot_label
 
-__all__ = ["SimulateResult", "simulate", "simulate_runs"]
+__all__ = ["SimulateResult", "simulate", "simulate_runs", "SIGNATURE"]
+
+#: The comment line that marks a run sheet ``simulate`` wrote (not measurements).
+SIGNATURE = "# odocal simulate:"
 
 
 @dataclass(frozen=True)
@@ -127,13 +130,17 @@ def simulate(
     max_step_m: float = 0.01,
     predict_covariance: bool = False,
     out: str | Path | None = None,
+    force: bool = False,
 ) -> SimulateResult:
     """Drive a regular N-gon (``sides``, ``side_m`` in m) or a ``track`` (a Track, or a track
     file whose direction label is used) ``runs`` times per direction with the robot; optionally
-    predict the final-pose covariance to first order; write RUNS.csv to ``out``."""
+    predict the final-pose covariance to first order; write RUNS.csv to ``out``, marked as
+    simulated (``# odocal simulate:``): an existing ``out`` that may hold measurements (any file
+    but an earlier simulated sheet) is replaced only with ``force``."""
     plan = OutputPlan(input_paths(robot, params, None if isinstance(track, Track) else track))
     if out is not None:
         plan.file(out, "--out")
+        refuse_replacing_measurements(out, "--out", "simulate", SIGNATURE, force=force)
     r = resolve_robot(robot, params)
     if track is not None:
         if isinstance(track, Track):
@@ -157,13 +164,13 @@ def simulate(
     if predict_covariance:
         predicted = {d: predict(track_for(d), r, max_step_m=max_step_m) for d in directions}
     written: tuple[Path, ...] = ()
+    label = robot_label(robot, params)
     if out is not None:
         text = runs_csv_text(
             end,
             {"run": list(range(1, len(end.directions) + 1))},
             track=None if track is not None else (sides, side_m),
+            signature=f"{SIGNATURE} simulated runs, not measurements (robot {label}, seed {seed})",
         )
         written = tuple(plan.commit({Path(out): text}))
-    return SimulateResult(
-        end, name, directions, runs, seed, predicted, written, robot_label(robot, params)
-    )
+    return SimulateResult(end, name, directions, runs, seed, predicted, written, label)

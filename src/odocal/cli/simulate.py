@@ -50,7 +50,17 @@ def add_parser(sub) -> None:
         help="also print the final-pose covariance predicted by first-order propagation "
         "(eqs. (8)-(10), plus the instrument noise) beside the Monte-Carlo one",
     )
-    p.add_argument("--out", metavar="RUNS.csv", help="write the runs in RUNS.csv format")
+    p.add_argument(
+        "--out",
+        metavar="RUNS.csv",
+        help="write the runs in RUNS.csv format (an existing file is replaced only if an "
+        "earlier simulate wrote it)",
+    )
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace --out even if it may hold measured runs (any file simulate did not write)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=run)
 
@@ -118,6 +128,7 @@ def run(args) -> int:
         max_step_m=args.max_step,
         predict_covariance=args.predict,
         out=args.out,
+        force=args.force,
     )
     summary = res.as_dict()
     if args.json:

@@ -23,6 +23,12 @@ The BCPT runs format (``odocal calibrate --method bcpt``) has one row per circle
 
 ``radius_m`` is the measured axle-centre radius of the run (m, > 0), e.g. a least-squares circle
 fit to tracked points (``odocal.calibration.circle_fit.fit_circle``). Same rules as RUNS.csv.
+
+Every command that writes a table (``plan``'s blank run sheet, ``simulate --out``) replaces an
+existing file only when it cannot hold measurements (:func:`refuse_replacing_measurements`): an
+empty file, or a table the same command wrote (its signature comment line, e.g. ``# odocal
+simulate:``) that, for a blank sheet, is still blank (no measured value, no note of the user's, the
+same columns). Anything else, a real run sheet above all, needs ``--force``.
 """
 
 from __future__ import annotations
@@ -30,17 +36,19 @@ from __future__ import annotations
 import csv
 import io
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from ..core.plausibility import circle_radius_problem
 from ..core.runs import CircleRuns, EndPoseRuns
 from ..core.tracks import MAX_POLYGON_SIDES
-from ..errors import InputError
+from ..errors import InputError, one_line
 from .limits import MEASURED_MAX, TRACK_LENGTH_MAX_M
 from .table import parse_number, read_table
-from .textfile import atomic_write
+from .textfile import atomic_write, read_text
 
 __all__ = [
     "RunSheet",
@@ -51,6 +59,8 @@ __all__ = [
     "runs_csv_text",
     "REQUIRED_COLUMNS",
     "CIRCLE_COLUMNS",
+    "holds_measurements",
+    "refuse_replacing_measurements",
 ]
 
 REQUIRED_COLUMNS = ("direction", "x_m", "y_m", "theta_deg")
@@ -212,12 +222,16 @@ def runs_csv_text(
     runs: EndPoseRuns,
     extra: dict[str, list] | None = None,
     track: tuple[int, float] | None = None,
+    signature: str | None = None,
 ) -> str:
     """RUNS.csv text for ``runs``; ``extra`` adds columns (e.g. ``run``); ``track`` (sides,
-    side_m) writes the track settings above the header."""
+    side_m) writes the track settings above the header, then ``signature`` (a comment line
+    naming the command that wrote the sheet; :func:`holds_measurements`)."""
     buf = io.StringIO()
     if track is not None:
         buf.write(track_settings_text(*track))
+    if signature is not None:
+        buf.write(f"{one_line(signature)}\n")
     w = csv.writer(buf, lineterminator="\n")
     extra = extra or {}
     w.writerow([*REQUIRED_COLUMNS, *extra])
@@ -237,3 +251,59 @@ def write_runs(
 ) -> None:
     """Write RUNS.csv atomically."""
     atomic_write(path, runs_csv_text(runs, extra, track))
+
+
+def holds_measurements(
+    path: str | Path, signature: str, blank: tuple[Sequence[str], Sequence[str]] | None = None
+) -> bool:
+    """Whether replacing the existing file ``path`` could lose measurements (module docstring).
+
+    False only for an empty file, or a table with a comment line above its header that starts
+    with ``signature`` (the command that writes it). ``blank`` = (header, comment lines) for a
+    command that writes blank sheets: then the table must also still have that header, no value
+    in its measured columns (x_m, y_m, theta_deg, radius_m) and no comment line of its own
+    besides the signature, the track settings and those comment lines."""
+    path = Path(path)
+    try:
+        text = read_text(path)
+        if not text.strip():
+            return False
+        table = read_table(path, text=text)
+    except InputError:
+        return True  # not a table: not ours
+    head = [ln.strip() for ln in text.splitlines()[: table.header_line - 1]]
+    if not any(ln.startswith(signature) for ln in head):
+        return True
+    if blank is None:
+        return False
+    header, comments = blank
+    if table.header != tuple(header):
+        return True
+    own = ("# sides:", "# side_m:", signature)
+    if any(ln.startswith("#") and ln not in comments and not ln.startswith(own) for ln in head):
+        return True  # a note of the user's
+    if any(ln.strip().startswith("#") for ln in text.splitlines()[table.header_line :]):
+        return True
+    measured = [table.index(c) for c in (*REQUIRED_COLUMNS[1:], "radius_m") if table.has(c)]
+    return any(f[j] != "" for _, f in table.rows for j in measured)
+
+
+def refuse_replacing_measurements(
+    path: str | Path,
+    flag: str,
+    command: str,
+    signature: str,
+    *,
+    force: bool = False,
+    blank: tuple[Sequence[str], Sequence[str]] | None = None,
+) -> None:
+    """The one rule of every command that writes a table: an existing ``path`` that may hold
+    measurements (:func:`holds_measurements`) is not replaced without ``force`` (InputError)."""
+    if force or not Path(path).is_file() or not holds_measurements(path, signature, blank):
+        return
+    what = "a filled-in run sheet" if blank is not None else "a file it did not write"
+    raise InputError(
+        f"{flag}: already holds measured runs, or may: {command} will not replace {what}; "
+        f"choose another {flag.split()[0]} name (or --force to replace it)",
+        path,
+    )
