@@ -162,7 +162,13 @@ def _checked_runs(
             "tell such errors apart: drive a shorter track"
         )
     err[:, 2] = wrapped
-    for i, line in enumerate(sheet.lines):
+    # the first row (in file order) with an implausible heading or end, named as the row checks
+    # name it; found in one vectorised pass (a sheet may hold millions of runs)
+    far = np.abs(np.where(finite, wrapped, 0.0)) > bounds.heading_rad
+    with np.errstate(invalid="ignore"):
+        far |= np.hypot(err[:, 0], err[:, 1]) > bounds.distance_m * (1.0 - 1e-12)
+    for i in np.flatnonzero(far):
+        line = int(sheet.lines[i])
         if finite[i]:
             problem = heading_error_problem(float(wrapped[i]), bounds)
             if problem:

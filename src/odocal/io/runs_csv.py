@@ -47,7 +47,7 @@ from ..core.runs import CircleRuns, EndPoseRuns
 from ..core.tracks import MAX_POLYGON_SIDES
 from ..errors import InputError, one_line
 from .limits import MEASURED_MAX, TRACK_LENGTH_MAX_M
-from .table import parse_number, read_table
+from .table import Cells, parse_number, read_table
 from .textfile import atomic_write, read_text
 
 __all__ = [
@@ -80,7 +80,7 @@ class RunSheet:
     Attributes
     ----------
     runs : EndPoseRuns
-    lines : tuple of int
+    lines : ndarray of int
         Line number of each run's row in the file.
     sides : int or None
     side_m : float or None
@@ -91,7 +91,7 @@ class RunSheet:
     """
 
     runs: EndPoseRuns
-    lines: tuple[int, ...]
+    lines: np.ndarray
     sides: int | None = None
     side_m: float | None = None
     setting_lines: dict = field(default_factory=dict)
@@ -113,6 +113,88 @@ def _track_settings(table) -> tuple[int | None, float | None, dict]:
     return sides, side, where
 
 
+def _parse_row(path, line_no, fields, col, columns, directions, required, positive):
+    """One row split line by line: its direction and values (every problem named)."""
+    raw_dir = fields[col[columns[0]]]
+    d = raw_dir.lower()
+    if d not in directions:
+        raise InputError(
+            f"unknown direction {raw_dir!r}; expected {' or '.join(directions)}",
+            path,
+            line_no,
+            columns[0],
+        )
+    row = []
+    for name in columns[1:]:
+        raw = fields[col[name]]
+        if not raw and name not in required:
+            row.append(math.nan)
+            continue
+        # no floor measurement is this large; the statistics would overflow
+        row.append(parse_number(raw, path, line_no, name, positive=positive, at_most=MAX_MAGNITUDE))
+    return directions.index(d), row
+
+
+def _fast_rows(cells, columns, directions, required, positive):
+    """Direction codes and values of a chunk split in one vectorised pass, or None when a
+    row needs the line-by-line parse (which names what is wrong, or reads what this did not:
+    spaces around a value, an upper-case direction, ...)."""
+    names = np.asarray([d.encode() for d in directions])
+    codes = np.full(len(cells.lines), -1)
+    for k, name in enumerate(names):
+        codes[cells.columns[0] == name] = k
+    if np.any(codes < 0):
+        return None
+    values = np.empty((len(cells.lines), len(columns) - 1))
+    for k, (name, raw) in enumerate(zip(columns[1:], cells.columns[1:], strict=True)):
+        empty = raw == b""
+        if name in required and np.any(empty):
+            return None
+        try:
+            v = np.where(empty, b"0", raw).astype(np.float64)
+        except ValueError:
+            return None
+        filled = v[~empty]
+        if not np.all(np.isfinite(filled)) or np.any(np.abs(filled) > MAX_MAGNITUDE):
+            return None
+        if positive and np.any(filled <= 0):
+            return None
+        v[empty] = math.nan
+        values[:, k] = v
+    return codes, values
+
+
+def _repeats(codes: np.ndarray, values: np.ndarray, lines: np.ndarray, path) -> list[str]:
+    """A note for every row with the same direction and values as an earlier one (not for rows
+    without any value). Rows are grouped by a 64-bit hash of their values (a stable sort keeps
+    each group in file order), then compared in full."""
+    if len(codes) < 2:
+        return []
+    key = np.column_stack([codes.astype(np.float64), values])
+    key[np.isnan(key)] = np.inf  # an empty value: equal to another empty one
+    key += 0.0  # -0.0 as 0.0
+    bits = key.view(np.uint64)
+    digest = bits[:, 0].copy()
+    for j in range(1, bits.shape[1]):
+        digest = (digest * np.uint64(0x100000001B3)) ^ bits[:, j]
+    order = np.argsort(digest, kind="stable")
+    same = digest[order[1:]] == digest[order[:-1]]
+    if not np.any(same):
+        return []
+    same &= np.all(key[order[1:]] == key[order[:-1]], axis=1)
+    # runs of equal keys in sorted order start at their first row in the file
+    first = order[np.r_[0, np.flatnonzero(~same) + 1]][np.cumsum(np.r_[True, ~same]) - 1]
+    repeat = np.flatnonzero(np.r_[False, same])
+    firsts = dict(zip(order[repeat].tolist(), first[repeat].tolist(), strict=True))
+    rows = np.sort(order[repeat])
+    filled = ~np.all(np.isnan(values[rows]), axis=1)
+    return [
+        f"{path}: line {lines[r]} repeats line {lines[firsts[r]]} exactly: the same run entered "
+        "twice? Each row counts as a run"
+        for r in rows[filled].tolist()
+    ]
+
+
 def _read_runs_table(
     path, columns: tuple[str, ...], directions, required, positive=False, warnings=None
 ):
@@ -121,48 +203,38 @@ def _read_runs_table(
     Returns (table, directions, values of shape (n, len(columns) - 1), line numbers); an empty
     value not in ``required`` is NaN. Every problem raises InputError naming the file, line and
     field; two rows with the same direction and values (the same run entered twice?) are
-    appended to ``warnings``.
+    appended to ``warnings``. Chunks of a few megabytes are parsed in vectorised passes; one
+    that fails is parsed line by line, which names the first bad line or field.
     """
     table = read_table(path, what=f"a header row '{','.join(columns)}'", settings=TRACK_SETTINGS)
     table.require(columns)
     col = {c: table.index(c) for c in columns}
-    dirs: list[str] = []
-    values: list[list[float]] = []
-    lines: list[int] = []
-    seen: dict[tuple, int] = {}
-    for line_no, fields in table.rows:
-        raw_dir = fields[col[columns[0]]]
-        d = raw_dir.lower()
-        if d not in directions:
-            raise InputError(
-                f"unknown direction {raw_dir!r}; expected {' or '.join(directions)}",
-                path,
-                line_no,
-                columns[0],
-            )
-        row = []
-        for name in columns[1:]:
-            raw = fields[col[name]]
-            if not raw and name not in required:
-                row.append(math.nan)
+    directions = tuple(directions)
+    code_parts, value_parts, line_parts = [], [], []
+    for chunk in table.row_chunks(columns):
+        if isinstance(chunk, Cells):
+            fast = _fast_rows(chunk, columns, directions, required, positive)
+            if fast is not None:
+                code_parts.append(fast[0])
+                value_parts.append(fast[1])
+                line_parts.append(chunk.lines)
                 continue
-            # no floor measurement is this large; the statistics would overflow
-            row.append(
-                parse_number(raw, path, line_no, name, positive=positive, at_most=MAX_MAGNITUDE)
-            )
-        dirs.append(d)
-        values.append(row)
-        lines.append(line_no)
-        key = (d, *(fields[col[c]] for c in columns[1:]))
-        if warnings is not None and key in seen and any(fields[col[c]] for c in columns[1:]):
-            warnings.append(
-                f"{path}: line {line_no} repeats line {seen[key]} exactly: the same run entered "
-                "twice? Each row counts as a run"
-            )
-        seen.setdefault(key, line_no)
-    if not values:
+        rows = table.split(chunk) if isinstance(chunk, Cells) else chunk
+        parsed = [
+            _parse_row(path, no, f, col, columns, directions, required, positive) for no, f in rows
+        ]
+        code_parts.append(np.array([c for c, _ in parsed], dtype=int))
+        value_parts.append(np.array([v for _, v in parsed], float).reshape(-1, len(columns) - 1))
+        line_parts.append(np.array([no for no, _ in rows], dtype=int))
+    codes = np.concatenate(code_parts) if code_parts else np.empty(0, dtype=int)
+    if not len(codes):
         raise InputError("no runs: the file has a header but no data rows", path)
-    return table, tuple(dirs), np.array(values), tuple(lines)
+    values = np.concatenate(value_parts)
+    lines = np.concatenate(line_parts)
+    if warnings is not None:
+        warnings += _repeats(codes, values, lines, path)
+    labels = np.array(directions, dtype=object)[codes]
+    return table, tuple(labels.tolist()), values, lines
 
 
 def read_run_sheet(

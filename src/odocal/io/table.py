@@ -41,6 +41,7 @@ from .textfile import read_text
 
 __all__ = [
     "Table",
+    "Cells",
     "LineNumbers",
     "ColumnSample",
     "read_table",
@@ -137,6 +138,27 @@ def _body_fields(path, no: int, line: str, width: int) -> list[str] | None:
     if len(fields) != width:
         raise InputError(f"expected {width} fields as in the header, got {len(fields)}", path, no)
     return fields
+
+
+@dataclass(frozen=True)
+class Cells:
+    """Some columns of a chunk of rows, split in one vectorised pass (:meth:`Table.row_chunks`).
+
+    Attributes
+    ----------
+    lines : ndarray of int
+        The line number of each row.
+    columns : list of ndarray of bytes
+        Each column's fields as they are in the file (dtype ``S``; not trimmed).
+    start, stop : int
+        The chunk's characters in the table's body (:meth:`Table.split` splits them line by
+        line).
+    """
+
+    lines: np.ndarray
+    columns: list[np.ndarray]
+    start: int
+    stop: int
 
 
 class LineNumbers:
@@ -238,6 +260,81 @@ class Table:
         j = self.index(name)
         return [(no, f[j]) for no, f in self.rows]
 
+    def _chunks(self) -> Iterator[tuple[int, int]]:
+        """(start, stop) offsets into the body of chunks of a few megabytes, at line starts."""
+        end = len(self.text) - self.body
+        start = 0
+        while start < end:
+            stop = self.text.find("\n", self.body + min(start + _CHUNK_CHARS, end - 1))
+            stop = end if stop < 0 else stop - self.body + 1
+            yield start, stop
+            start = stop
+
+    def _chunk_rows(self, start: int, stop: int) -> list[tuple[int, list[str]]]:
+        """The rows of the body's characters [start, stop), split line by line (each checked)."""
+        rows = []
+        width = len(self.header)
+        for no, line in self._lines(start, stop):
+            fields = _body_fields(self.path, no, line, width)
+            if fields is not None:
+                rows.append((no, fields))
+        return rows
+
+    def row_chunks(self, names: Sequence[str]) -> Iterator[Cells | list[tuple[int, list[str]]]]:
+        """The rows in chunks of a few megabytes, each either :class:`Cells` (the columns
+        ``names`` split in one vectorised pass) or, where that pass cannot be trusted (quotes,
+        comment lines, a row of the wrong width, an over-long field), the rows split line by
+        line as in :attr:`rows` (an InputError names a bad line)."""
+        idx = [self.index(n) for n in names]
+        if self._split_slowly():
+            yield self.rows
+            return
+        for start, stop in self._chunks():
+            cells = self._cells(start, stop, idx)
+            yield self._chunk_rows(start, stop) if cells is None else cells
+
+    def _cells(self, start: int, stop: int, idx: list[int]) -> Cells | None:
+        """The fields ``idx`` of the body's characters [start, stop) as byte strings, or None
+        where a vectorised split cannot be trusted."""
+        chunk = self.text[self.body + start : self.body + stop]
+        if '"' in chunk:
+            return None
+        raw = np.frombuffer(chunk.encode("utf-8"), dtype=np.uint8)
+        ends = np.flatnonzero(raw == 10)
+        if len(raw) and raw[-1] != 10:
+            ends = np.append(ends, len(raw))
+        starts = np.r_[0, ends[:-1] + 1] if len(ends) else ends
+        filled = ends > starts
+        if np.any(ends - starts > MAX_LINE_CHARS):
+            return None
+        commas = np.flatnonzero(raw == 44)
+        width = len(self.header)
+        count = np.searchsorted(commas, ends) - np.searchsorted(commas, starts)
+        if np.any(count[filled] != width - 1):
+            return None
+        # every comma belongs to a filled row, width - 1 of them each
+        sep = commas.reshape(-1, width - 1)
+        first = self.header_line + 1 + self.text.count("\n", self.body, self.body + start)
+        columns = []
+        for j in idx:
+            lo = starts[filled] if j == 0 else sep[:, j - 1] + 1
+            hi = ends[filled] if j == width - 1 else sep[:, j]
+            size = hi - lo
+            chars = int(size.max(initial=0))
+            if chars > MAX_FIELD_CHARS:
+                return None
+            chars = max(chars, 1)
+            offsets = np.arange(chars)
+            at = np.minimum(lo[:, None] + offsets, max(len(raw) - 1, 0))
+            block = np.where(offsets < size[:, None], raw[at] if len(raw) else 0, 0)
+            columns.append(np.ascontiguousarray(block, dtype=np.uint8).view(f"S{chars}")[:, 0])
+        return Cells(first + np.flatnonzero(filled), columns, start, stop)
+
+    def split(self, cells: Cells) -> list[tuple[int, list[str]]]:
+        """The rows of the chunk of ``cells`` split line by line, as :attr:`rows` (where the
+        caller cannot trust its vectorised values: the slow way names what is wrong)."""
+        return self._chunk_rows(cells.start, cells.stop)
+
     def numbers(
         self,
         names: Sequence[str],
@@ -258,22 +355,11 @@ class Table:
         if self._split_slowly():
             return self._parse_rows(self.rows, checks)
         parts = []
-        end = len(self.text) - self.body
-        start = 0
-        width = len(self.header)
-        while start < end:
-            stop = self.text.find("\n", self.body + min(start + _CHUNK_CHARS, end - 1))
-            stop = end if stop < 0 else stop - self.body + 1
+        for start, stop in self._chunks():
             part = self._fast(start, stop, idx, limits)
             if part is None:  # the slow way names what is wrong (or accepts what numpy did not)
-                rows = []
-                for no, line in self._lines(start, stop):
-                    fields = _body_fields(self.path, no, line, width)
-                    if fields is not None:
-                        rows.append((no, fields))
-                part = self._parse_rows(rows, checks)
+                part = self._parse_rows(self._chunk_rows(start, stop), checks)
             parts.append(part)
-            start = stop
         if not parts:
             return np.empty((0, len(names)))
         return parts[0] if len(parts) == 1 else np.concatenate(parts)

@@ -1,0 +1,115 @@
+"""Speed and memory of ``odocal calibrate`` on a large RUNS.csv: this tree against an older one.
+
+Writes a synthetic run sheet of N rows (``direction,x_m,y_m,theta_deg,run``, alternate CW and
+CCW runs of a 1 m square, six decimals), then times ``odocal.app.calibrate.calibrate`` on it
+(heading method, ``paper-fig5``) in a fresh child process per tree and size, recording the wall
+time and the child's peak resident memory (``resource.getrusage``, ru_maxrss). The older tree
+(default: dc0f233, the commit before the vectorised reader) is extracted with ``git archive``
+and run from its own ``src``; both run in the same invocation, so that their ratio holds on a
+shared machine whose absolute speed varies.
+
+Usage::
+
+    .venv/bin/python benchmarks/bench_runs_csv.py [--rows 100000,1000000,5000000] [--old dc0f233]
+
+Results (2 shared cores under a load average of about 10, 2026-11-26; seconds and peak MB):
+
+====== ============= ============= ============== ===============
+rows   old time (s)  new time (s)  old peak (MB)  new peak (MB)
+====== ============= ============= ============== ===============
+1e5    see below
+====== ============= ============= ============== ===============
+
+The issue's figures for 5 million rows: 85 s and 4.5 GB at dc0f233, 39 s and 2.6 GB a week
+before.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+CHILD = """
+import json, resource, sys, time
+from odocal.app.calibrate import calibrate
+start = time.perf_counter()
+res = calibrate(sys.argv[1], "paper-fig5")
+wall = time.perf_counter() - start
+peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+c = res.calibration
+print(json.dumps({"wall_s": wall, "peak_mb": peak_mb, "E_b": c.E_b, "E_d": c.E_d}))
+"""
+
+
+def write_sheet(path: Path, rows: int, seed: int = 0) -> None:
+    """A RUNS.csv of ``rows`` runs on a 1 m square (written in blocks: little memory)."""
+    rng = np.random.default_rng(seed)
+    with open(path, "w", encoding="utf-8") as fh:
+        fh.write("# sides: 4\n# side_m: 1\ndirection,x_m,y_m,theta_deg,run\n")
+        block = 200_000
+        for first in range(0, rows, block):
+            n = min(block, rows - first)
+            k = np.arange(first, first + n)
+            cw = k % 2 == 0
+            v = rng.normal([0.01, 0.02, 1.0], [0.005, 0.005, 0.2], size=(n, 3))
+            v[~cw, 1:] *= -1
+            fh.writelines(
+                f"{'cw' if c else 'ccw'},{a:.6f},{b:.6f},{t:.4f},{i + 1}\n"
+                for c, (a, b, t), i in zip(cw, v.tolist(), k.tolist(), strict=True)
+            )
+
+
+def run(src: Path, sheet: Path) -> dict:
+    """``calibrate`` on ``sheet`` in a fresh interpreter importing odocal from ``src``."""
+    env = dict(os.environ, PYTHONPATH=str(src), ODOCAL_THREADS="1")
+    out = subprocess.run(
+        [sys.executable, "-c", CHILD, str(sheet)], env=env, capture_output=True, text=True
+    )
+    if out.returncode != 0:
+        return {"error": out.stderr.strip().splitlines()[-1:]}
+    return json.loads(out.stdout)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--rows", default="100000,1000000,5000000")
+    ap.add_argument("--old", default="dc0f233", help="the older commit (default dc0f233)")
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        old = Path(tmp, "old")
+        old.mkdir()
+        archive = subprocess.run(
+            ["git", "-C", str(ROOT), "archive", args.old, "src"], check=True, capture_output=True
+        ).stdout
+        subprocess.run(["tar", "-x", "-C", str(old)], input=archive, check=True)
+        print("| rows | old s | new s | old/new time | old peak MB | new peak MB | E_b equal |")
+        print("|---:|---:|---:|---:|---:|---:|---|")
+        for rows in (int(float(r)) for r in args.rows.split(",")):
+            sheet = Path(tmp, f"runs-{rows}.csv")
+            write_sheet(sheet, rows)
+            a = run(old / "src", sheet)
+            b = run(ROOT / "src", sheet)
+            if "error" in a or "error" in b:
+                print(f"| {rows} | {a} | {b} |")
+                continue
+            same = abs(a["E_b"] - b["E_b"]) < 1e-12 and abs(a["E_d"] - b["E_d"]) < 1e-12
+            print(
+                f"| {rows} | {a['wall_s']:.2f} | {b['wall_s']:.2f} | "
+                f"{a['wall_s'] / b['wall_s']:.1f} | {a['peak_mb']:.0f} | {b['peak_mb']:.0f} | "
+                f"{same} |",
+                flush=True,
+            )
+            sheet.unlink()
+
+
+if __name__ == "__main__":
+    main()
