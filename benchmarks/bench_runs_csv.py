@@ -11,6 +11,7 @@ shared machine whose absolute speed varies.
 Usage::
 
     .venv/bin/python benchmarks/bench_runs_csv.py [--rows 100000,1000000,5000000] [--old dc0f233]
+        [--new COMMIT]
 
 Results (2 shared cores under a load average of about 10, 2026-11-26; seconds and peak MB):
 
@@ -79,25 +80,33 @@ def run(src: Path, sheet: Path) -> dict:
     return json.loads(out.stdout)
 
 
+def extract(commit: str, folder: Path) -> Path:
+    """The ``src`` tree of ``commit`` extracted into ``folder`` (``git archive``)."""
+    folder.mkdir()
+    archive = subprocess.run(
+        ["git", "-C", str(ROOT), "archive", commit, "src"], check=True, capture_output=True
+    ).stdout
+    subprocess.run(["tar", "-x", "-C", str(folder)], input=archive, check=True)
+    return folder
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--rows", default="100000,1000000,5000000")
     ap.add_argument("--old", default="dc0f233", help="the older commit (default dc0f233)")
+    ap.add_argument("--new", default=None, help="the newer commit (default: this working tree)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
-        old = Path(tmp, "old")
-        old.mkdir()
-        archive = subprocess.run(
-            ["git", "-C", str(ROOT), "archive", args.old, "src"], check=True, capture_output=True
-        ).stdout
-        subprocess.run(["tar", "-x", "-C", str(old)], input=archive, check=True)
+        old, new = extract(args.old, Path(tmp, "old")), ROOT
+        if args.new is not None:
+            new = extract(args.new, Path(tmp, "new"))
         print("| rows | old s | new s | old/new time | old peak MB | new peak MB | E_b equal |")
         print("|---:|---:|---:|---:|---:|---:|---|")
         for rows in (int(float(r)) for r in args.rows.split(",")):
             sheet = Path(tmp, f"runs-{rows}.csv")
             write_sheet(sheet, rows)
             a = run(old / "src", sheet)
-            b = run(ROOT / "src", sheet)
+            b = run(new / "src", sheet)
             if "error" in a or "error" in b:
                 print(f"| {rows} | {a} | {b} |")
                 continue
