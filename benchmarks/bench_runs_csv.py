@@ -1,12 +1,12 @@
 """Speed and memory of ``odocal calibrate`` on a large RUNS.csv: this tree against an older one.
 
 Writes a synthetic run sheet of N rows (``direction,x_m,y_m,theta_deg,run``, alternate CW and
-CCW runs of a 1 m square, six decimals), then times ``odocal.app.calibrate.calibrate`` on it
-(heading method, ``paper-fig5``) in a fresh child process per tree and size, recording the wall
-time and the child's peak resident memory (``resource.getrusage``, ru_maxrss). The older tree
-(default: dc0f233, the commit before the vectorised reader) is extracted with ``git archive``
-and run from its own ``src``; both run in the same invocation, so that their ratio holds on a
-shared machine whose absolute speed varies.
+CCW runs of ``paper-fig5`` on a 1 m square with measurement noise, six decimals), then times
+``odocal.app.calibrate.calibrate`` on it (heading method, ``paper-fig5``) in a fresh child
+process per tree and size, recording the wall time and the child's peak resident memory
+(``resource.getrusage``, ru_maxrss). The older tree (default: dc0f233, the commit before the
+vectorised reader) is extracted with ``git archive`` and run from its own ``src``; both run in
+the same invocation, so that their ratio holds on a shared machine whose speed varies.
 
 Usage::
 
@@ -51,9 +51,26 @@ print(json.dumps({"wall_s": wall, "peak_mb": peak_mb, "E_b": c.E_b, "E_d": c.E_d
 """
 
 
+def _mean_ends() -> dict[str, np.ndarray]:
+    """Noise-free final pose errors of paper-fig5 on a 1 m square, per direction (so that the
+    synthetic runs are honest: their headings agree with their positions)."""
+    from odocal.core.model import NonSystematicError
+    from odocal.core.simulate import drive
+    from odocal.core.tracks import polygon
+    from odocal.presets import PRESETS
+
+    r, still = PRESETS["paper-fig5"], NonSystematicError(0.0, 0.0)
+    return {
+        d: drive(polygon(4, 1.0, d), r.true_geometry, r.nominal, still, 1, None).errors[0]
+        for d in ("cw", "ccw")
+    }
+
+
 def write_sheet(path: Path, rows: int, seed: int = 0) -> None:
-    """A RUNS.csv of ``rows`` runs on a 1 m square (written in blocks: little memory)."""
+    """A RUNS.csv of ``rows`` runs of paper-fig5 on a 1 m square, alternately CW and CCW: the
+    noise-free ends plus a tape's 2 mm and a protractor's 0.3 deg (written in blocks)."""
     rng = np.random.default_rng(seed)
+    ends = _mean_ends()
     with open(path, "w", encoding="utf-8") as fh:
         fh.write("# sides: 4\n# side_m: 1\ndirection,x_m,y_m,theta_deg,run\n")
         block = 200_000
@@ -61,8 +78,9 @@ def write_sheet(path: Path, rows: int, seed: int = 0) -> None:
             n = min(block, rows - first)
             k = np.arange(first, first + n)
             cw = k % 2 == 0
-            v = rng.normal([0.01, 0.02, 1.0], [0.005, 0.005, 0.2], size=(n, 3))
-            v[~cw, 1:] *= -1
+            v = np.where(cw[:, None], ends["cw"], ends["ccw"])
+            v[:, 2] = np.degrees(v[:, 2])
+            v += rng.normal(0.0, [0.002, 0.002, 0.3], size=(n, 3))
             fh.writelines(
                 f"{'cw' if c else 'ccw'},{a:.6f},{b:.6f},{t:.4f},{i + 1}\n"
                 for c, (a, b, t), i in zip(cw, v.tolist(), k.tolist(), strict=True)

@@ -95,7 +95,7 @@ def test_no_default_robot_and_the_result_names_its_robot(tmp_path):
     sheet = tmp_path / "runs.csv"
     sheet.write_text(
         "# sides: 4\n# side_m: 1\ndirection,x_m,y_m,theta_deg\n"
-        "cw,0.01,0.02,1.0\ncw,0.012,0.021,1.1\nccw,0.01,-0.02,-0.8\nccw,0.011,-0.019,-0.9\n"
+        "cw,,,1.0\ncw,,,1.1\nccw,,,-0.8\nccw,,,-0.9\n"
     )
     ros2 = tmp_path / "ros2.yaml"
     with pytest.raises(InputError, match="which robot drove the runs.*--robot.*paper-fig5"):
