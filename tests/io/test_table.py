@@ -73,3 +73,10 @@ def test_an_ambiguous_semicolon_sheet_says_what_to_change(tmp_path, text, line, 
         read_table(p).numbers(["a", "b"])
     for n in needles:
         assert n in str(info.value)
+
+
+def test_one_column_tables_split_in_the_vectorised_pass(tmp_path):
+    p = tmp_path / "one.csv"
+    p.write_text("a\n1\n\n2\n")
+    (chunk,) = read_table(p).row_chunks(["a"])
+    assert chunk.columns[0].tolist() == [b"1", b"2"] and chunk.lines.tolist() == [2, 4]

@@ -313,7 +313,7 @@ class Table:
         if np.any(count[filled] != width - 1):
             return None
         # every comma belongs to a filled row, width - 1 of them each
-        sep = commas.reshape(-1, width - 1)
+        sep = commas.reshape(int(filled.sum()), width - 1)
         first = self.header_line + 1 + self.text.count("\n", self.body, self.body + start)
         columns = []
         for j in idx:
