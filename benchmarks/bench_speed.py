@@ -219,7 +219,9 @@ def section_startup() -> None:
             "odocal simulate (5 runs, 1 cm)": odocal_cmd(
                 "simulate", "--runs", "5", "--seed", "1", "--out", str(runs)
             ),
-            "odocal calibrate (heading)": odocal_cmd("calibrate", str(runs)),
+            "odocal calibrate (heading)": odocal_cmd(
+                "calibrate", str(runs), "--robot", "paper-fig5"
+            ),
             "odocal plan": odocal_cmd("plan"),
             "odocal ttest": odocal_cmd("ttest", str(a), str(b)),
         }

@@ -1,5 +1,24 @@
 """Exceptions that the CLI turns into one line ``odocal: error: ...`` and exit status 2."""
 
+# Every character at which str.splitlines() (or a terminal) would break a line.
+_LINE_BREAKS = "\n\r\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029"
+_ESCAPES = {ord(c): repr(c)[1:-1] for c in _LINE_BREAKS}
+
+
+def one_line(text: str) -> str:
+    """``text`` with every line-breaking character written as its escape (``\\n``, ...): a
+    message naming a file called ``a<newline>b.csv`` stays one line."""
+    return text.translate(_ESCAPES)
+
+
+def quote_path(path) -> str:
+    """How a message names ``path``: as it is, or quoted with escapes (Python's repr) when it
+    holds a character that is not printable (a line break, a tab, ...) or spaces at an end."""
+    name = str(path)
+    if name.isprintable() and name == name.strip():
+        return name
+    return repr(name)
+
 
 class OdocalError(Exception):
     """Base of every error odocal reports to a user as a one-line message."""
@@ -19,7 +38,7 @@ class InputError(OdocalError):
     def __init__(self, message: str, path=None, line: int | None = None, field: str | None = None):
         where = []
         if path is not None:
-            where.append(str(path))
+            where.append(quote_path(path))
         if line is not None:
             where.append(f"line {line}")
         if field is not None:

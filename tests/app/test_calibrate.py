@@ -14,6 +14,7 @@ from odocal.app.simulate import simulate as simulate_runs
 from odocal.core.simulate import measure, simulate
 from odocal.core.tracks import polygon
 from odocal.design.plan import build_plan
+from odocal.errors import InputError
 from odocal.io.robot_file import load_params
 from odocal.io.runs_csv import read_runs
 from odocal.presets import PRESETS
@@ -70,7 +71,7 @@ def test_filled_template_calibrates(tmp_path):
     sheet.write_text(fill(plan.template_csv(), errs))
     runs = read_runs(sheet)
     assert runs.directions == plan.order
-    res = calibrate(sheet, side_m=2.0)  # the default robot: paper-fig5
+    res = calibrate(sheet, "paper-fig5", side_m=2.0)
     # 5 runs per direction on a 2 m square: E_b within a few of its predicted standard deviations
     assert res.calibration.E_b == pytest.approx(1.028, abs=0.005)
 
@@ -107,3 +108,18 @@ def test_a_second_round_that_needs_no_correction_says_so(tmp_path):
     simulate_runs(robot, sides=4, side_m=2.0, runs=5, seed=3, out=first)
     res = calibrate(first, robot)
     assert res.correction_needed is True and "no further correction" not in str(res)
+
+
+def test_no_default_robot_and_the_result_names_its_robot(tmp_path):
+    # issue 20.1: without a robot, the built-in 0.385 m robot was calibrated without a word
+    sheet = tmp_path / "runs.csv"
+    sheet.write_text(
+        "# sides: 4\n# side_m: 1\ndirection,x_m,y_m,theta_deg\n"
+        "cw,,,1.0\ncw,,,1.1\nccw,,,-0.8\nccw,,,-0.9\n"
+    )
+    ros2 = tmp_path / "ros2.yaml"
+    with pytest.raises(InputError, match="which robot drove the runs.*--robot.*paper-fig5"):
+        calibrate(sheet, ros2=ros2)
+    assert not ros2.exists()
+    res = calibrate(sheet, "paper-fig5")
+    assert res.robot == "paper-fig5" and res.as_dict()["robot"] == "paper-fig5"

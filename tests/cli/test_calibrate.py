@@ -36,7 +36,8 @@ def test_simulate_then_calibrate_composes(cli, robot, tmp_path, returned):
     # the track is data of the sheet (read back by calibrate), then the header
     lines = runs.read_text().splitlines()
     assert lines[:2] == ["# sides: 4", "# side_m: 4"]
-    assert lines[2].startswith("direction,x_m,y_m,theta_deg")
+    assert lines[2].startswith("# odocal simulate: simulated runs, not measurements (robot ")
+    assert lines[3].startswith("direction,x_m,y_m,theta_deg")
     for method in ("heading", "umbmark"):
         status, out, err = cli(
             "calibrate",
@@ -228,7 +229,9 @@ def test_cli_bcpt_json(cli, tmp_path, returned):
 def test_cli_bcpt_bad_input(cli, tmp_path, text, args, message):
     runs = _write(tmp_path / "runs.csv", text)
     out = tmp_path / "params.yaml"
-    status, stdout, stderr = cli("calibrate", runs, "--method", "bcpt", *args, "--out", out)
+    status, stdout, stderr = cli(
+        "calibrate", runs, "--robot", "paper-fig5", "--method", "bcpt", *args, "--out", out
+    )
     assert status == 2
     assert stderr.startswith("odocal: error:") and stderr.count("\n") == 1
     assert message in stderr
@@ -242,6 +245,49 @@ def test_cli_radius_without_bcpt_is_an_error(cli, tmp_path):
     runs = _write(
         tmp_path / "runs.csv", "direction,x_m,y_m,theta_deg\ncw,0.1,0.1,1\nccw,0.1,-0.1,-1\n"
     )
-    status, _, err = cli("calibrate", runs, "--radius", 1.0)
+    status, _, err = cli("calibrate", runs, "--robot", "paper-fig5", "--radius", 1.0)
     assert status == 2 and err.count("\n") == 1
     assert "--radius is only used with --method bcpt" in err
+
+
+def test_cli_names_the_robot_and_has_no_default(cli, robot, tmp_path):
+    runs = _write(tmp_path / "runs.csv", "# sides: 4\n# side_m: 4\n" + GOOD_RUNS)
+    status, _, err = cli("calibrate", runs, "--ros2", tmp_path / "ros2.yaml")
+    assert status == 2 and err.count("\n") == 1 and "--robot" in err
+    assert not (tmp_path / "ros2.yaml").exists()
+    status, out, err = cli("calibrate", runs, "--robot", robot)
+    assert status == 0, err
+    assert f"robot {robot}: ran with wheel diameters 0.15 / 0.15 m" in out
+    assert "wheelbase 0.385 m" in out
+
+
+def test_a_heading_with_the_wrong_sign_is_refused(cli, tmp_path):
+    # issue 20.2: theta read with the protractor the other way gave the inverse correction
+    # (E_b 0.98 instead of 1.02); the positions on the same sheet contradict it
+    robot = _write(
+        tmp_path / "tb3.yaml",
+        "wheel_diameter_m: 0.066\nwheelbase_m: 0.16\nsystematic: {E_b: 1.019, E_d: 1.003}\n"
+        "nonsystematic: {k_r_m: 2.0e-6, k_l_m: 2.0e-6}\n"
+        "measurement: {sigma_xy_m: 0.002, sigma_theta_deg: 0.3}\n",
+    )
+    sheet = tmp_path / "runs.csv"
+    args = ("--robot", robot, "--side-length", 1, "--runs", 5, "--seed", 3)
+    assert cli("simulate", *args, "--out", sheet)[0] == 0
+    lines = sheet.read_text().splitlines()
+    start = next(i for i, ln in enumerate(lines) if ln.startswith("direction")) + 1
+    for i in range(start, len(lines)):
+        f = lines[i].split(",")
+        f[3] = repr(-float(f[3]))
+        lines[i] = ",".join(f)
+    flipped = _write(tmp_path / "flipped.csv", "\n".join(lines) + "\n")
+    plain = _write(tmp_path / "plain.yaml", "wheel_diameter_m: 0.066\nwheelbase_m: 0.16\n")
+    status, out, err = cli("calibrate", sheet, "--robot", plain, "--json")
+    assert status == 0, err
+    assert json.loads(out)["E_b"] == pytest.approx(1.019, abs=0.004)
+    cli("calibrate", flipped, "--robot", plain).expect_error(
+        str(flipped), "the headings contradict the positions", "counter-clockwise positive",
+        "--force",
+    )  # fmt: skip
+    status, out, err = cli("calibrate", flipped, "--robot", plain, "--force", "--json")
+    assert status == 0 and "contradict the positions" in err
+    assert json.loads(out)["E_b"] < 1.0  # as written, with the warning

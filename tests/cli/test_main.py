@@ -58,3 +58,12 @@ def test_no_arguments_print_the_help_and_exit_2(cli):
     status, out, err = cli()
     assert status == 2 and err == ""
     assert out.startswith("usage: odocal") and all(name in out for name in COMMANDS)
+
+
+def test_a_file_name_with_a_line_break_gives_a_one_line_error(cli, tmp_path):
+    # issue 20, hostile inputs: the file name was printed raw, so the error took two lines
+    name = tmp_path / "a\nb\u2028c.csv"
+    status, out, err = cli("calibrate", name, "--robot", "paper-fig5")
+    assert status == 2 and out == ""
+    assert err.count("\n") == 1 and "\u2028" not in err
+    assert err.startswith("odocal: error: '") and "a\\nb\\u2028c.csv': no such file" in err

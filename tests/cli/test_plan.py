@@ -57,7 +57,7 @@ def test_plan_json_is_the_app_result(cli, tmp_path, returned):
 def test_unfilled_template_is_a_clear_error_in_calibrate(cli, tmp_path):
     out = tmp_path / "runs-template.csv"
     assert cli("plan", "--out", out)[0] == 0
-    status, text, err = cli("calibrate", out)
+    status, text, err = cli("calibrate", out, "--robot", "paper-fig5")
     assert status == 2 and text == ""
     assert err.startswith("odocal: error:") and len(err.strip().splitlines()) == 1
     assert str(out) in err and "field 'theta_deg'" in err and "not filled in" in err

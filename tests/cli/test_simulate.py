@@ -119,7 +119,7 @@ def test_failed_write_keeps_previous_file(cli, robot, tmp_path, monkeypatch):
 
     monkeypatch.setattr(app_simulate, "runs_csv_text", boom)
     with pytest.raises(OSError):
-        cli("simulate", "--robot", robot, "--out", out)
+        cli("simulate", "--robot", robot, "--out", out, "--force")
     assert out.read_text() == "previous\n"
     assert [p.name for p in tmp_path.iterdir() if p.name.endswith(".tmp")] == []
 
@@ -178,3 +178,32 @@ def test_simulate_predict_cli(cli, returned):
     assert set(pred["correlation"]) == {"x_y", "x_theta", "y_theta"}
     assert len(doc["monte_carlo_covariance"]["ccw"]) == 3
     assert "cw" not in doc["predicted"]
+
+
+def test_direction_in_any_case(cli):
+    # issue 20, hostile inputs: --direction CW was refused though the files accept upper case
+    status, out, err = cli("simulate", "--direction", "CW", "--runs", 2, "--side-length", 1)
+    assert status == 0, err
+    rows = [line.split() for line in out.splitlines() if line.split()[:1] in (["cw"], ["ccw"])]
+    assert [r[0] for r in rows] == ["cw"]
+
+
+def test_out_never_replaces_measurements_without_force(cli, tmp_path):
+    # issue 20.3: simulate --out runs.csv replaced a sheet of real measurements without a word
+    sheet = tmp_path / "runs.csv"
+    measured = "# sides: 4\n# side_m: 1\ndirection,x_m,y_m,theta_deg\ncw,0.01,0.02,1.5\n"
+    sheet.write_text(measured)
+    args = ("simulate", "--runs", 2, "--side-length", 1, "--out", sheet)
+    cli(*args).expect_error("--out", "already holds measured runs", "--force")
+    assert sheet.read_text() == measured
+    # a blank sheet from plan is not simulate's either: refused too
+    blank = tmp_path / "blank.csv"
+    assert cli("plan", "--side-length", 1, "--out", blank)[0] == 0
+    cli("simulate", "--out", blank).expect_error("already holds")
+    # simulate replaces its own sheet; --force replaces anything
+    assert cli(*args, "--force")[0] == 0
+    first = sheet.read_text()
+    assert "# odocal simulate: simulated runs, not measurements" in first
+    assert cli(*args, "--seed", 7)[0] == 0 and sheet.read_text() != first
+    # and plan will not replace a simulated sheet (not its own)
+    cli("plan", "--side-length", 1, "--out", sheet).expect_error("already holds")

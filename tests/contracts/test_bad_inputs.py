@@ -53,7 +53,7 @@ ROBOT = "wheel_diameter_m: 0.15\nwheelbase_m: 0.385\n"
     [
         ["simulate", "--runs", "1", "--out"],
         ["plan", "--out"],
-        ["calibrate", "RUNS", "--out"],
+        ["calibrate", "--robot", "paper-fig5", "RUNS", "--out"],
     ],
 )
 def test_output_that_is_a_directory_or_a_fifo(cli, tmp_path, argv):
@@ -131,7 +131,10 @@ def test_oversized_work_is_a_clear_error(cli, tmp_path, argv, needle):
     [
         (["simulate", "--side-length", "1e300"], "--side-length"),
         (["plan", "--side-length", "1e300"], "--side-length"),
-        (["calibrate", "RUNS", "--method", "bcpt", "--radius", "1e300"], "--radius"),
+        (
+            ["calibrate", "--robot", "paper-fig5", "RUNS", "--method", "bcpt", "--radius", "1e300"],
+            "--radius",
+        ),
         (["noise", "RUNS", "--track", "straight:1e300"], "--track"),
         (["design", "--validate", "4:1e300:ccw", "--analytic"], "--validate"),
         (["design", "--side-lengths", "1:1e300:1", "--analytic"], "--side-lengths"),
@@ -205,7 +208,11 @@ def test_implausible_runs_csv_values(cli, tmp_path):
         cli("noise", runs, "--track", "out-and-back:2", "--force"), runs, "line 2", "'x_m'"
     )
     circles = write(tmp_path / "c.csv", "direction,radius_m\ncw,1e300\nccw,1\n")
-    assert_error(cli("calibrate", circles, "--method", "bcpt", "--radius", 1), circles, "radius_m")
+    assert_error(
+        cli("calibrate", "--robot", "paper-fig5", circles, "--method", "bcpt", "--radius", 1),
+        circles,
+        "radius_m",
+    )
 
 
 def test_ttest_overflow_names_the_file(cli, tmp_path):
@@ -241,7 +248,19 @@ def test_absurd_calibration_result_is_refused_unless_forced(cli, tmp_path):
     # absurd for a calibration (the wheelbase 60 % off)
     circles = write(tmp_path / "c.csv", "direction,radius_m\ncw,1.6\nccw,1.6\ncw,1.6\nccw,1.6\n")
     params = tmp_path / "p.yaml"
-    argv = ["calibrate", circles, "--method", "bcpt", "--radius", 1, "--json", "--out", params]
+    argv = [
+        "calibrate",
+        "--robot",
+        "paper-fig5",
+        circles,
+        "--method",
+        "bcpt",
+        "--radius",
+        1,
+        "--json",
+        "--out",
+        params,
+    ]
     assert_error(cli(*argv), "wheelbase_m", "from nominal", "--force")
     assert not params.exists()
     status, out, err = cli(*argv, "--force")
@@ -255,9 +274,9 @@ def test_circle_radius_far_from_the_commanded_one_is_refused(cli, tmp_path):
     # 160 (cm typed into radius_m) for a 1.6 m circle, or 1e-5: no circle run ends like that
     for bad in ("160", "1e-5"):
         circles = write(tmp_path / "c.csv", f"direction,radius_m\ncw,1.6\nccw,{bad}\n")
-        cli("calibrate", circles, "--method", "bcpt", "--radius", 1.6).expect_error(
-            "c.csv", "line 3", "radius_m", "commanded"
-        )
+        cli(
+            "calibrate", "--robot", "paper-fig5", circles, "--method", "bcpt", "--radius", 1.6
+        ).expect_error("c.csv", "line 3", "radius_m", "commanded")
 
 
 def test_plan_for_a_track_smaller_than_the_robot_is_refused(cli, tmp_path):

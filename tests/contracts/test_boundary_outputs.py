@@ -65,8 +65,11 @@ def test_output_equal_to_an_input_file_in_every_spelling(cli, tmp_path, runs_dir
         (["simulate", "--robot", robot, "--out", robot], "--out would overwrite an input file"),
         (["simulate", "--robot", robot, "--out", tmp_path / "." / "robot.yaml"], "input file"),
         (["simulate", "--robot", robot, "--out", tmp_path / "robot-link.yaml"], "input file"),
-        (["calibrate", runs, "--out", runs], "input file"),
-        (["calibrate", runs, "--out", tmp_path / "runs-hardlink.csv"], "input file"),
+        (["calibrate", "--robot", "paper-fig5", runs, "--out", runs], "input file"),
+        (
+            ["calibrate", "--robot", "paper-fig5", runs, "--out", tmp_path / "runs-hardlink.csv"],
+            "input file",
+        ),
         (["calibrate", runs, "--robot", robot, "--out", tmp_path / "robot-link.yaml"], "input"),
         # a hard link OUTSIDE the input folder to a run INSIDE it
         (["fit", runs_dir, "--method", "linear", "--out", tmp_path / "a-hardlink.csv"], "link"),

@@ -489,12 +489,12 @@ def test_tuples_through_the_command_line(cli, tmp_path, line, needle):
 
 def test_runs_csv_values_and_a_repeated_row(cli, tmp_path):
     runs = write(tmp_path / "runs.csv", RUNS_CSV.replace("-0.2531", "2e6"))
-    cli("calibrate", runs, "--side-length", 4, "--method", "umbmark").expect_error(
-        "line 3", "x_m", "implausibly"
-    )
+    cli(
+        "calibrate", "--robot", "paper-fig5", runs, "--side-length", 4, "--method", "umbmark"
+    ).expect_error("line 3", "x_m", "implausibly")
     rows = RUNS_CSV.splitlines()
     runs.write_text("\n".join([*rows, rows[3]]) + "\n")  # a row pasted twice
-    status, out, err = cli("calibrate", runs, "--side-length", 4)
+    status, out, err = cli("calibrate", "--robot", "paper-fig5", runs, "--side-length", 4)
     assert status == 0
     assert "odocal: warning: " in err and "line 9 repeats line 4" in err
 
@@ -559,7 +559,10 @@ ROBOT = "ROBOT"
         (["compare", "--travel", "1e-3", "--trials", "2"], "--travel 0.001 m is too little"),
         (["compare", "--travel", "1e9"], "--travel"),
         (["compare", "--ivanjko-straight", "-4"], "--ivanjko-straight"),
-        (["calibrate", "RUNS", "--method", "bcpt", "--radius", "0"], "--radius"),
+        (
+            ["calibrate", "--robot", "paper-fig5", "RUNS", "--method", "bcpt", "--radius", "0"],
+            "--radius",
+        ),
         (["design", "--alpha", "1"], "--alpha"),
         (["design", "--tolerance", "-0.1"], "--tolerance"),
         (["design", "--trials", "1"], "--trials"),

@@ -263,7 +263,14 @@ YAML = [deep, deep_block, alias_bomb, dup_key, merge_key, tag, two_documents, re
 
 def _setup_runs(tmp, data):
     (tmp / "runs.csv").write_bytes(data)
-    return ["calibrate", tmp / "runs.csv", "--out", tmp / "out" / "params.yaml"]
+    return [
+        "calibrate",
+        "--robot",
+        "paper-fig5",
+        tmp / "runs.csv",
+        "--out",
+        tmp / "out" / "params.yaml",
+    ]
 
 
 def _setup_generic_validate(tmp, data):

@@ -10,6 +10,7 @@ import numpy as np
 
 from ..calibration.bcpt import calibrate_bcpt
 from ..calibration.heading import calibrate_heading
+from ..calibration.heading_check import check_heading_sign
 from ..calibration.result import CalibrationResult, check_physical
 from ..calibration.umbmark import calibrate_umbmark
 from ..core.model import Robot, WheelGeometry
@@ -25,12 +26,14 @@ from ..errors import InputError
 from ..io.outputs import OutputPlan
 from ..io.ros2_export import DEFAULT_CONTROLLER
 from ..io.runs_csv import RunSheet, read_circle_runs, read_run_sheet
+from ..presets import PRESETS
 from .common import (
     RobotSpec,
     input_paths,
     refuse_absurd,
     register_exports,
     resolve_robot,
+    robot_label,
     write_exports,
 )
 from .text import Presented, Text, emits_warnings, written_lines
@@ -55,6 +58,9 @@ class CalibrateResult(Presented):
         Where the track came from: 'run sheet', 'arguments' or 'both' (they agree).
     nominal : WheelGeometry or None
         The nominal geometry (the base values of a ros2_control export).
+    robot : str
+        The robot the runs were calibrated for (a ROBOT.yaml path or a built-in's name; there is
+        no default robot: its geometry sets E_d and every exported value).
     """
 
     calibration: CalibrationResult
@@ -63,6 +69,7 @@ class CalibrateResult(Presented):
     written: tuple[Path, ...] = ()
     track_source: str = "arguments"
     nominal: WheelGeometry | None = None
+    robot: str = ""
 
     @property
     def correction_needed(self) -> bool | None:
@@ -83,6 +90,7 @@ class CalibrateResult(Presented):
             "correction_needed": self.correction_needed,
             "track": self.track,
             "track_source": self.track_source,
+            "robot": self.robot,
             "inputs": inputs,
             "nominal": None if self.nominal is None else self.nominal.as_dict(),
             "warnings": list(self.warnings),
@@ -101,6 +109,10 @@ class CalibrateResult(Presented):
             where = " (track from the run sheet and the arguments)"
         out(f"{label} from {ins['runs_cw']} CW and {ins['runs_ccw']} CCW runs, {self.track}{where}")
         r, c, unc = result.ran_with, result.corrected, result.uncertainty
+        out(
+            f"robot {self.robot}: ran with wheel diameters {r.diameter_right_m:.6g} / "
+            f"{r.diameter_left_m:.6g} m (right / left), wheelbase {r.wheelbase_m:.6g} m"
+        )
         ci = unc.ci95() if unc is not None else {}
 
         def cell(name: str, value: float, digits: int) -> tuple[str, str, str]:
@@ -232,7 +244,13 @@ def _checked_runs(
             "tell such errors apart: drive a shorter track"
         )
     err[:, 2] = wrapped
-    for i, line in enumerate(sheet.lines):
+    # the first row (in file order) with an implausible heading or end, named as the row checks
+    # name it; found in one vectorised pass (a sheet may hold millions of runs)
+    far = np.abs(np.where(finite, wrapped, 0.0)) > bounds.heading_rad
+    with np.errstate(invalid="ignore"):
+        far |= np.hypot(err[:, 0], err[:, 1]) > bounds.distance_m * (1.0 - 1e-12)
+    for i in np.flatnonzero(far):
+        line = int(sheet.lines[i])
         if finite[i]:
             problem = heading_error_problem(float(wrapped[i]), bounds)
             if problem:
@@ -242,6 +260,34 @@ def _checked_runs(
             if problem:
                 raise InputError(problem, sheet.path, line, "x_m")
     return EndPoseRuns(runs.directions, err), warnings
+
+
+def _heading_sign(
+    sheet: RunSheet,
+    runs: EndPoseRuns,
+    sides: int,
+    side_m: float,
+    ran_with: WheelGeometry,
+    force: bool,
+) -> list[str]:
+    """Where the sheet has both headings and positions, the positions must not say that the
+    headings have the wrong sign (:mod:`odocal.calibration.heading_check`): InputError, or a
+    warning with ``force``."""
+    check = check_heading_sign(runs, sides, side_m, ran_with)
+    if check is None or not check.contradicted:
+        return []
+    problem = (
+        f"the headings contradict the positions: theta_deg as written gives E_b "
+        f"{check.E_b_written:.4f}, E_d {check.E_d_written:.4f}, but the x_m, y_m of the same "
+        f"{check.runs} runs lie {check.t:.1f} standard errors towards theta_deg with the "
+        f"opposite sign (E_b {check.E_b_flipped:.4f}, E_d {check.E_d_flipped:.4f}; the two are "
+        f"{check.separation:.1f} standard errors apart). Was the protractor read the other way? "
+        "theta is counter-clockwise positive (seen from above), the final heading ERROR actual "
+        "- odometric (docs/conventions.md); correct the sign in the sheet"
+    )
+    if not force:
+        raise InputError(f"{problem} (--force calibrates the sheet as written)", sheet.path)
+    return [f"{sheet.path}: {problem}; calibrated as written (--force)"]
 
 
 @emits_warnings
@@ -260,19 +306,30 @@ def calibrate(
     controller_name: str = DEFAULT_CONTROLLER,
     force: bool = False,
 ) -> CalibrateResult:
-    """Read RUNS.csv (or the BCPT runs file) and calibrate with ``method`` ('heading', 'umbmark'
-    or 'bcpt'), relative to the parameters the robot ran with (``params``, else ROBOT.yaml's
-    'believed', else nominal).
+    """Read RUNS.csv (or the BCPT runs file) and calibrate ``robot`` (required: a ROBOT.yaml
+    path, a built-in's name or a Robot) with ``method`` ('heading', 'umbmark' or 'bcpt'),
+    relative to the parameters the robot ran with (``params``, else ROBOT.yaml's 'believed',
+    else nominal).
 
     The polygon (``sides``, ``side_m`` in m) comes from the arguments or the run sheet's
     ``# sides:``/``# side_m:`` lines (they must agree; there is no default side length). Headings
     are in degrees in the sheet, as on the command line. Writes PARAMS.yaml to ``out`` and the
     ros2_control ``diff_drive_controller`` file to ``ros2`` (the export of ``odocal fit``). A
     result more than 25 % from what the robot ran with is absurd for a calibration:
-    CalibrationError (nothing written) unless ``force``."""
+    CalibrationError (nothing written) unless ``force``; so are headings that the positions of
+    the same runs say have the wrong sign (:mod:`odocal.calibration.heading_check`; an
+    InputError)."""
+    if robot is None:
+        raise InputError(
+            "which robot drove the runs? Give --robot ROBOT.yaml (its nominal geometry, and "
+            "'believed' if it ran with other values) or a built-in robot by name "
+            f"({', '.join(PRESETS)}): there is no default robot, its geometry sets E_d and "
+            "every exported value"
+        )
     plan = OutputPlan(input_paths(runs_csv, robot, params))
     register_exports(plan, out, ros2)
     r = resolve_robot(robot, params)
+    label = robot_label(robot, params)
     ran_with = r.believed_geometry
     notes: list[str] = []
     source = "arguments"
@@ -296,6 +353,7 @@ def calibrate(
             raise InputError(problem, sheet.path, sheet.setting_lines.get("side_m"), "side_m")
         runs, wrapped = _checked_runs(sheet, sides, side_m, r)
         notes += wrapped
+        notes += _heading_sign(sheet, runs, sides, side_m, ran_with, force)
         track = f"{sides}-gon side {side_m:g} m"
         if method == "umbmark":
             if sides != 4:
@@ -324,4 +382,4 @@ def calibrate(
         controller_name,
         record={"method": result.method, "E_b": result.E_b, "E_d": result.E_d},
     )
-    return CalibrateResult(result, track, tuple(notes), written, source, r.nominal)
+    return CalibrateResult(result, track, tuple(notes), written, source, r.nominal, label)

@@ -14,8 +14,7 @@ from ..design.robust import range_design, unknown_errors
 from ..design.spec import DesignSpec
 from ..errors import InputError
 from ..io.outputs import OutputPlan
-from ..io.table import read_table
-from ..io.textfile import read_text
+from ..io.runs_csv import refuse_replacing_measurements
 from ..presets import DEFAULT_ROBOT
 from .common import RobotSpec, input_paths, resolve_robot
 
@@ -41,28 +40,8 @@ class PlanResult:
 
 
 _SHEET_HEADER = ("direction", "x_m", "y_m", "theta_deg", "run")
-
-
-def _holds_measurements(path: Path) -> bool:
-    """False only for a blank run sheet as ``plan`` writes it (its header and comments, no
-    measured value); True for a sheet with a measurement, a note, an extra column, or a file
-    that is not a run sheet at all: never overwrite what we did not write."""
-    try:
-        text = read_text(path)
-        table = read_table(path, text=text)
-    except InputError:
-        return path.stat().st_size > 0
-    if table.header != _SHEET_HEADER:
-        return True
-    blank_comments = set(FloorPlan.template_comments())
-    for line in text.splitlines():
-        line = line.strip()
-        if line.startswith("#") and not (
-            line in blank_comments
-            or line.startswith(("# odocal run sheet:", "# sides:", "# side_m:"))
-        ):
-            return True  # a note of the user's
-    return any(f[table.index(c)] != "" for _, f in table.rows for c in ("x_m", "y_m", "theta_deg"))
+#: The comment line that marks a run sheet ``plan`` wrote.
+SIGNATURE = "# odocal run sheet:"
 
 
 def plan(
@@ -90,12 +69,14 @@ def plan(
     flag = "--out" if str(out) != DEFAULT_TEMPLATE else f"--out (default {DEFAULT_TEMPLATE})"
     outputs = OutputPlan(input_paths(robot, params))
     outputs.file(out, flag)
-    if out.is_file() and _holds_measurements(out) and not force:
-        raise InputError(
-            f"{flag}: already holds measured runs: plan will not overwrite a filled-in run "
-            "sheet; choose another --out name (or --force to replace it)",
-            out,
-        )
+    refuse_replacing_measurements(
+        out,
+        flag,
+        "plan",
+        SIGNATURE,
+        force=force,
+        blank=(_SHEET_HEADER, FloorPlan.template_comments()),
+    )
     r = resolve_robot(robot, params)
     notes = []
     if side_m is None and noise_track is None:

@@ -18,12 +18,15 @@ from ..core.tracks import Track, polygon
 from ..errors import ModelError
 from ..io.limits import TRACK_LENGTH_MAX_M
 from ..io.outputs import OutputPlan
-from ..io.runs_csv import runs_csv_text
+from ..io.runs_csv import refuse_replacing_measurements, runs_csv_text
 from ..io.track_file import load_track
-from .common import RobotSpec, input_paths, resolve_robot
+from .common import RobotSpec, input_paths, resolve_robot, robot_label
 from .text import Presented, Text, written_lines
 
-__all__ = ["SimulateResult", "simulate", "simulate_runs"]
+__all__ = ["SimulateResult", "simulate", "simulate_runs", "SIGNATURE"]
+
+#: The comment line that marks a run sheet ``simulate`` wrote (not measurements).
+SIGNATURE = "# odocal simulate:"
 
 
 @dataclass(frozen=True)
@@ -40,6 +43,8 @@ class SimulateResult(Presented):
     runs_per_direction, seed : int
     predicted : dict of direction -> PosePrediction, or None
     written : tuple of Path
+    robot : str
+        The robot driven (a file, or a built-in's name; by default ``paper-fig5``).
     """
 
     runs: EndPoseRuns
@@ -49,11 +54,13 @@ class SimulateResult(Presented):
     seed: int
     predicted: dict[str, PosePrediction] | None = None
     written: tuple[Path, ...] = ()
+    robot: str = ""
 
     def as_dict(self) -> dict:
         """The JSON of ``odocal simulate --json``."""
         out = _stats(self.runs.errors) | {
             "seed": self.seed,
+            "robot": self.robot,
             "track": self.track,
             "by_direction": {d: _stats(self.runs.select(d)) for d in self.directions},
         }
@@ -72,7 +79,10 @@ class SimulateResult(Presented):
         direction (and the prediction beside the Monte Carlo), the files written."""
         out = Text()
         summary = self.as_dict()
-        out(f"{self.track}: {self.runs_per_direction} run(s) per direction, seed {self.seed}")
+        out(
+            f"{self.track}: {self.runs_per_direction} run(s) per direction, seed {self.seed}, "
+            f"robot {self.robot}"
+        )
         rows = [
             (
                 "direction",
@@ -166,10 +176,13 @@ def simulate(
     max_step_m: float = 0.01,
     predict_covariance: bool = False,
     out: str | Path | None = None,
+    force: bool = False,
 ) -> SimulateResult:
     """Drive a regular N-gon (``sides``, ``side_m`` in m) or a ``track`` (a Track, or a track
     file whose direction label is used) ``runs`` times per direction with the robot; optionally
-    predict the final-pose covariance to first order; write RUNS.csv to ``out``."""
+        predict the final-pose covariance to first order; write RUNS.csv to ``out``, marked as
+    simulated (``# odocal simulate:``): an existing ``out`` that may hold measurements (any file
+    but an earlier simulated sheet) is replaced only with ``force``."""
     if track is None:
         sides = check_int("sides", sides, at_least=3)  # polygon() bounds it, with its reason
         side_m = check_positive_float("side_m", side_m, at_most=TRACK_LENGTH_MAX_M, hint=" m")
@@ -183,6 +196,7 @@ def simulate(
     plan = OutputPlan(input_paths(robot, params, None if isinstance(track, Track) else track))
     if out is not None:
         plan.file(out, "--out")
+        refuse_replacing_measurements(out, "--out", "simulate", SIGNATURE, force=force)
     r = resolve_robot(robot, params)
     if track is not None:
         if isinstance(track, Track):
@@ -206,14 +220,16 @@ def simulate(
     if predict_covariance:
         predicted = {d: predict(track_for(d), r, max_step_m=max_step_m) for d in directions}
     written: tuple[Path, ...] = ()
+    label = robot_label(robot, params)
     if out is not None:
         text = runs_csv_text(
             end,
             {"run": list(range(1, len(end.directions) + 1))},
             track=None if track is not None else (sides, side_m),
+            signature=f"{SIGNATURE} simulated runs, not measurements (robot {label}, seed {seed})",
         )
         written = tuple(plan.commit({Path(out): text}))
-    return SimulateResult(end, name, directions, runs, seed, predicted, written)
+    return SimulateResult(end, name, directions, runs, seed, predicted, written, label)
 
 
 def _prediction_text(out: Text, runs: EndPoseRuns, predicted: dict) -> None:

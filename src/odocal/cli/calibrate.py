@@ -32,6 +32,7 @@ def add_parser(sub) -> None:
         p,
         "the parameters the robot RAN WITH during the runs (default: ROBOT.yaml's "
         "'believed', else nominal)",
+        required=True,
     )
     p.add_argument(
         "--sides",

@@ -11,6 +11,7 @@ import time
 from collections.abc import Callable, Iterable
 from typing import Any
 
+from ..errors import one_line
 from ..io.bag_options import BagOptions
 from ..io.limits import (
     HEADING_WEIGHT_MAX_M,
@@ -207,14 +208,18 @@ def motion_mix(text: str) -> dict[str, float]:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
-def add_robot_args(p: argparse.ArgumentParser, params_help: str) -> None:
-    """``--robot`` and ``--params`` (with the command's own help for ``--params``)."""
+def add_robot_args(p: argparse.ArgumentParser, params_help: str, required: bool = False) -> None:
+    """``--robot`` and ``--params`` (with the command's own help for ``--params``); a
+    ``required`` robot has no default (the command's app function says so when it is missing)."""
     from ..presets import DEFAULT_ROBOT, PRESETS
 
-    names = ", ".join(f"{n} (default)" if n == DEFAULT_ROBOT else n for n in PRESETS)
-    p.add_argument(
-        "--robot", metavar="ROBOT.yaml", default=None, help=f"robot file, or a built-in: {names}"
-    )
+    if required:
+        names = ", ".join(PRESETS)
+        what = f"robot file, or a built-in by name: {names} (required: no default robot)"
+    else:
+        names = ", ".join(f"{n} (default)" if n == DEFAULT_ROBOT else n for n in PRESETS)
+        what = f"robot file, or a built-in: {names}"
+    p.add_argument("--robot", metavar="ROBOT.yaml", default=None, help=what)
     p.add_argument("--params", metavar="PARAMS.yaml", default=None, help=params_help)
 
 
@@ -357,7 +362,7 @@ def truth_frames(args: argparse.Namespace) -> tuple[str, str] | None:
 def print_warnings(warnings: Iterable[str], prefix: str = "") -> None:
     """Each warning as one line ``odocal: warning: ...`` on stderr (never on stdout)."""
     for w in warnings:
-        print(f"odocal: warning: {prefix}{w}", file=sys.stderr)
+        print(f"odocal: warning: {one_line(prefix + w)}", file=sys.stderr)
 
 
 def _non_finite(obj: Any, where: str = "") -> str | None:

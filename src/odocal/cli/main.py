@@ -17,7 +17,7 @@ import sys
 import warnings
 
 from .. import __version__
-from ..errors import OdocalError, OdocalWarning
+from ..errors import OdocalError, OdocalWarning, one_line
 
 #: command name -> (module in odocal.cli, the one line of ``odocal --help``)
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -50,7 +50,7 @@ class _Parser(argparse.ArgumentParser):
     """argparse with one-line errors (exit status 2), as every other odocal error."""
 
     def error(self, message: str):  # noqa: D401 - argparse API
-        self.exit(2, f"odocal: error: {message} (see '{self.prog} --help')\n")
+        self.exit(2, f"odocal: error: {one_line(message)} (see '{self.prog} --help')\n")
 
 
 class _Listed:
@@ -123,7 +123,7 @@ def main(argv: list[str] | None = None) -> int:
             warnings.simplefilter("ignore", OdocalWarning)
             return int(args.run(args) or 0)
     except OdocalError as exc:
-        print(f"odocal: error: {exc}", file=sys.stderr)
+        print(f"odocal: error: {one_line(str(exc))}", file=sys.stderr)
         return 2
     except Terminated:
         print("odocal: terminated (SIGTERM); nothing half-written", file=sys.stderr)

@@ -25,6 +25,7 @@ def add_parser(sub) -> None:
     p.add_argument("--track", metavar="TRACK.yaml", help="a custom track file instead of --sides")
     p.add_argument(
         "--direction",
+        type=str.lower,  # CW, as the files accept any case
         choices=("cw", "ccw", "both"),
         default="both",
         help="driving direction (default both: n CW runs, then n CCW runs)",
@@ -46,7 +47,17 @@ def add_parser(sub) -> None:
         help="also print the final-pose covariance predicted by first-order propagation "
         "(eqs. (8)-(10), plus the instrument noise) beside the Monte-Carlo one",
     )
-    p.add_argument("--out", metavar="RUNS.csv", help="write the runs in RUNS.csv format")
+    p.add_argument(
+        "--out",
+        metavar="RUNS.csv",
+        help="write the runs in RUNS.csv format (an existing file is replaced only if an "
+        "earlier simulate wrote it)",
+    )
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace --out even if it may hold measured runs (any file simulate did not write)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=run)
 
@@ -68,6 +79,7 @@ def run(args) -> int:
         max_step_m=args.max_step,
         predict_covariance=args.predict,
         out=args.out,
+        force=args.force,
     )
     if args.json:
         print_json(res.as_dict())

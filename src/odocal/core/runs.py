@@ -5,6 +5,7 @@ What a person measures on the floor (RUNS.csv) or a tracker records, before any 
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -30,10 +31,13 @@ class EndPoseRuns:
     directions: tuple[str, ...]
     errors: np.ndarray
 
+    @functools.cached_property
+    def _labels(self) -> np.ndarray:
+        return np.asarray(self.directions, dtype=object)
+
     def select(self, direction: str) -> np.ndarray:
         """Errors of the runs in ``direction``, shape (k, 3)."""
-        mask = np.array([d == direction for d in self.directions], dtype=bool)
-        return self.errors[mask]
+        return self.errors[self._labels == direction]
 
     def mean(self, direction: str) -> np.ndarray:
         """Mean error (x, y arithmetic; theta circular) of the runs in ``direction``, shape (3,)."""
@@ -44,7 +48,7 @@ class EndPoseRuns:
 
     def count(self, direction: str) -> int:
         """Number of runs in ``direction`` ('cw' or 'ccw')."""
-        return int(sum(d == direction for d in self.directions))
+        return int(np.count_nonzero(self._labels == direction))
 
 
 @dataclass(frozen=True)

@@ -1,9 +1,16 @@
 """The one reader of comma-separated tables (RUNS.csv, generic run CSVs, t-test samples, ...).
 
-A table is UTF-8 text: blank lines are skipped; lines starting with ``#`` are comments (those
+A table is UTF-8 text whose lines end in LF, CR LF or CR (and nowhere else: a form feed is
+whitespace inside its line): blank lines are skipped; lines starting with ``#`` are comments (those
 before the header may carry ``key: value`` settings); the first other line is the header row of
 unique, non-empty column names; every further line is a row with as many fields as the header.
 Fields are trimmed; CSV quoting is honoured.
+
+A sheet saved by a spreadsheet in the European dialect (a header separated by ``;``, decimal
+commas: the default of Excel and LibreOffice where the comma is the decimal separator) is read as
+the comma-separated table it stands for, line for line; separators padding a comment line are
+dropped. What cannot be read unambiguously is refused with what to change: a header that mixes
+``;`` and ``,``, a sheet with both decimal commas and decimal points, a thousands separator.
 
 Every problem is an :class:`~odocal.errors.InputError` naming the file, the line and the field:
 over-long lines or fields, duplicated column names or settings, a row of the wrong width, a value
@@ -34,6 +41,7 @@ from .textfile import read_text
 
 __all__ = [
     "Table",
+    "Cells",
     "LineNumbers",
     "ColumnSample",
     "read_table",
@@ -102,16 +110,13 @@ def _split(line: str) -> list[str]:
     return [f.strip() for f in next(csv.reader(io.StringIO(line)))]
 
 
-# Characters that str.splitlines() also breaks lines at (besides "\n" and "\r\n"); a text holding
-# any of them, or a lone "\r", is split the slow way (line numbers are those of splitlines).
-_ODD_BREAKS = "\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029"
-
-
-def _odd_breaks(text: str, start: int = 0) -> bool:
-    """Whether text[start:] breaks lines at anything but "\n" and "\r\n" (fast scans)."""
-    if any(text.find(c, start) >= 0 for c in _ODD_BREAKS):
-        return True
-    return text.find("\r", start) >= 0 and text.count("\r", start) != text.count("\r\n", start)
+def _universal_newlines(text: str) -> str:
+    """``text`` with every line ending (CR LF, a lone CR) as LF: lines end there and nowhere
+    else (a form feed or a vertical tab is whitespace inside its line, as in a spreadsheet's
+    CSV; str.splitlines() would break a comment line at it)."""
+    if "\r" not in text:
+        return text
+    return text.replace("\r\n", "\n").replace("\r", "\n")
 
 
 # Characters of one vectorised pass (the pass ends at a line break).
@@ -133,6 +138,27 @@ def _body_fields(path, no: int, line: str, width: int) -> list[str] | None:
     if len(fields) != width:
         raise InputError(f"expected {width} fields as in the header, got {len(fields)}", path, no)
     return fields
+
+
+@dataclass(frozen=True)
+class Cells:
+    """Some columns of a chunk of rows, split in one vectorised pass (:meth:`Table.row_chunks`).
+
+    Attributes
+    ----------
+    lines : ndarray of int
+        The line number of each row.
+    columns : list of ndarray of bytes
+        Each column's fields as they are in the file (dtype ``S``; not trimmed).
+    start, stop : int
+        The chunk's characters in the table's body (:meth:`Table.split` splits them line by
+        line).
+    """
+
+    lines: np.ndarray
+    columns: list[np.ndarray]
+    start: int
+    stop: int
 
 
 class LineNumbers:
@@ -175,20 +201,12 @@ class Table:
         at line starts; only for bodies without odd line breaks)."""
         first = self.header_line + 1 + self.text.count("\n", self.body, self.body + start)
         chunk = self.text[self.body + start : None if stop is None else self.body + stop]
-        return enumerate(chunk.splitlines(), start=first)
-
-    @functools.cached_property
-    def _odd(self) -> bool:
-        return _odd_breaks(self.text, self.body)
+        return enumerate(chunk.split("\n"), start=first)
 
     @functools.cached_property
     def rows(self) -> list[tuple[int, list[str]]]:
         """Each data row's line number and its trimmed fields (every line checked)."""
-        if self._odd:  # splitlines() numbering of the whole text, as the header scan had
-            lines = enumerate(self.text.splitlines(), start=1)
-            numbered: Iterator[tuple[int, str]] = (x for x in lines if x[0] > self.header_line)
-        else:
-            numbered = self._lines()
+        numbered = self._lines()
         width = len(self.header)
         out = []
         for no, line in numbered:
@@ -198,8 +216,8 @@ class Table:
         return out
 
     def _split_slowly(self) -> bool:
-        """Rows already split, or comment lines or odd line breaks after the header."""
-        return "rows" in self.__dict__ or self.text.find("#", self.body) >= 0 or self._odd
+        """Rows already split, or comment lines after the header."""
+        return "rows" in self.__dict__ or self.text.find("#", self.body) >= 0
 
     def line_of(self, index: int) -> int:
         """Line number of data row ``index`` (0-based), for messages."""
@@ -242,6 +260,81 @@ class Table:
         j = self.index(name)
         return [(no, f[j]) for no, f in self.rows]
 
+    def _chunks(self) -> Iterator[tuple[int, int]]:
+        """(start, stop) offsets into the body of chunks of a few megabytes, at line starts."""
+        end = len(self.text) - self.body
+        start = 0
+        while start < end:
+            stop = self.text.find("\n", self.body + min(start + _CHUNK_CHARS, end - 1))
+            stop = end if stop < 0 else stop - self.body + 1
+            yield start, stop
+            start = stop
+
+    def _chunk_rows(self, start: int, stop: int) -> list[tuple[int, list[str]]]:
+        """The rows of the body's characters [start, stop), split line by line (each checked)."""
+        rows = []
+        width = len(self.header)
+        for no, line in self._lines(start, stop):
+            fields = _body_fields(self.path, no, line, width)
+            if fields is not None:
+                rows.append((no, fields))
+        return rows
+
+    def row_chunks(self, names: Sequence[str]) -> Iterator[Cells | list[tuple[int, list[str]]]]:
+        """The rows in chunks of a few megabytes, each either :class:`Cells` (the columns
+        ``names`` split in one vectorised pass) or, where that pass cannot be trusted (quotes,
+        comment lines, a row of the wrong width, an over-long field), the rows split line by
+        line as in :attr:`rows` (an InputError names a bad line)."""
+        idx = [self.index(n) for n in names]
+        if self._split_slowly():
+            yield self.rows
+            return
+        for start, stop in self._chunks():
+            cells = self._cells(start, stop, idx)
+            yield self._chunk_rows(start, stop) if cells is None else cells
+
+    def _cells(self, start: int, stop: int, idx: list[int]) -> Cells | None:
+        """The fields ``idx`` of the body's characters [start, stop) as byte strings, or None
+        where a vectorised split cannot be trusted."""
+        chunk = self.text[self.body + start : self.body + stop]
+        if '"' in chunk:
+            return None
+        raw = np.frombuffer(chunk.encode("utf-8"), dtype=np.uint8)
+        ends = np.flatnonzero(raw == 10)
+        if len(raw) and raw[-1] != 10:
+            ends = np.append(ends, len(raw))
+        starts = np.r_[0, ends[:-1] + 1] if len(ends) else ends
+        filled = ends > starts
+        if np.any(ends - starts > MAX_LINE_CHARS):
+            return None
+        commas = np.flatnonzero(raw == 44)
+        width = len(self.header)
+        count = np.searchsorted(commas, ends) - np.searchsorted(commas, starts)
+        if np.any(count[filled] != width - 1):
+            return None
+        # every comma belongs to a filled row, width - 1 of them each
+        sep = commas.reshape(int(filled.sum()), width - 1)
+        first = self.header_line + 1 + self.text.count("\n", self.body, self.body + start)
+        columns = []
+        for j in idx:
+            lo = starts[filled] if j == 0 else sep[:, j - 1] + 1
+            hi = ends[filled] if j == width - 1 else sep[:, j]
+            size = hi - lo
+            chars = int(size.max(initial=0))
+            if chars > MAX_FIELD_CHARS:
+                return None
+            chars = max(chars, 1)
+            offsets = np.arange(chars)
+            at = np.minimum(lo[:, None] + offsets, max(len(raw) - 1, 0))
+            block = np.where(offsets < size[:, None], raw[at] if len(raw) else 0, 0)
+            columns.append(np.ascontiguousarray(block, dtype=np.uint8).view(f"S{chars}")[:, 0])
+        return Cells(first + np.flatnonzero(filled), columns, start, stop)
+
+    def split(self, cells: Cells) -> list[tuple[int, list[str]]]:
+        """The rows of the chunk of ``cells`` split line by line, as :attr:`rows` (where the
+        caller cannot trust its vectorised values: the slow way names what is wrong)."""
+        return self._chunk_rows(cells.start, cells.stop)
+
     def numbers(
         self,
         names: Sequence[str],
@@ -262,22 +355,11 @@ class Table:
         if self._split_slowly():
             return self._parse_rows(self.rows, checks)
         parts = []
-        end = len(self.text) - self.body
-        start = 0
-        width = len(self.header)
-        while start < end:
-            stop = self.text.find("\n", self.body + min(start + _CHUNK_CHARS, end - 1))
-            stop = end if stop < 0 else stop - self.body + 1
+        for start, stop in self._chunks():
             part = self._fast(start, stop, idx, limits)
             if part is None:  # the slow way names what is wrong (or accepts what numpy did not)
-                rows = []
-                for no, line in self._lines(start, stop):
-                    fields = _body_fields(self.path, no, line, width)
-                    if fields is not None:
-                        rows.append((no, fields))
-                part = self._parse_rows(rows, checks)
+                part = self._parse_rows(self._chunk_rows(start, stop), checks)
             parts.append(part)
-            start = stop
         if not parts:
             return np.empty((0, len(names)))
         return parts[0] if len(parts) == 1 else np.concatenate(parts)
@@ -327,17 +409,109 @@ class Table:
 
 
 def _head_lines(text: str) -> Iterator[str]:
-    """The lines of ``text`` with their line breaks, one at a time (str.splitlines() semantics;
-    the header is near the top of a file whose rows may be millions)."""
-    if _odd_breaks(text):
-        yield from text.splitlines(keepends=True)
-        return
+    """The lines of ``text`` (line ends already LF) with their line breaks, one at a time
+    (the header is near the top of a file whose rows may be millions)."""
     start = 0
     while start < len(text):
         end = text.find("\n", start)
         end = len(text) if end < 0 else end + 1
         yield text[start:end]
         start = end
+
+
+_DECIMAL_COMMA = re.compile(r"^[+-]?(\d+,\d*|,\d+)([eE][+-]?\d+)?$")
+_DECIMAL_POINT = re.compile(r"^[+-]?(\d+\.\d*|\.\d+)([eE][+-]?\d+)?$")
+_GROUPED = re.compile(r"^[+-]?\d{1,3}([.\s\u00a0\u202f']\d{3})+(,\d*)?$")
+_SETTING_COMMA = re.compile(r"^(#[^:]*:\s*[+-]?\d*),(\d+)$")
+_SEMICOLON_ADVICE = (
+    "save the sheet again as CSV with one decimal separator (in LibreOffice: 'Save As', "
+    "'Text CSV', field delimiter ';' or ',')"
+)
+
+
+def _csv_field(text: str) -> str:
+    return f'"{text.replace(chr(34), chr(34) * 2)}"' if ("," in text or '"' in text) else text
+
+
+def _semicolon_text(path: Any, text: str, header_no: int) -> str:
+    """A sheet saved by a spreadsheet in the European dialect (fields separated by ';', decimal
+    commas: Excel's and LibreOffice's default where the comma is the decimal separator) as the
+    comma-separated text it stands for, line for line. Decimal points are read too, but not both
+    in one sheet (then a point may group thousands); a number with a thousands separator, or a
+    row separated by ',' under a ';' header, is refused with what to change."""
+    out = []
+    comma_line = point_line = 0
+    for no, line in enumerate(text.split("\n"), start=1):
+        stripped = line.strip()
+        if not stripped:
+            out.append(line)
+            continue
+        if stripped.startswith("#"):  # a spreadsheet pads comment lines with separators
+            stripped = stripped.rstrip("; \t")
+            out.append(_SETTING_COMMA.sub(r"\1.\2", stripped) if no < header_no else stripped)
+            continue
+        if len(line) > MAX_LINE_CHARS:
+            raise InputError(f"over-long line ({len(line)} characters)", path, no)
+        if '"' in line:
+            try:
+                fields = next(csv.reader([line], delimiter=";"))
+            except csv.Error as exc:
+                raise InputError(f"not valid CSV: {exc}", path, no) from None
+        else:
+            fields = line.split(";")
+        if len(fields) == 1 and "," in line and no > header_no:
+            raise InputError(
+                "fields separated by ',' under a header separated by ';': use one separator in "
+                f"the whole sheet; {_SEMICOLON_ADVICE}",
+                path,
+                no,
+            )
+        converted = []
+        for f in fields:
+            f = f.strip()
+            if _GROUPED.match(f) and ("," in f or not _DECIMAL_POINT.match(f)):
+                raise InputError(
+                    f"{f!r} groups thousands: write numbers without a thousands separator "
+                    "(format the cells as plain numbers)",
+                    path,
+                    no,
+                )
+            if _DECIMAL_COMMA.match(f):
+                f = f.replace(",", ".")
+                comma_line = comma_line or no
+            elif _DECIMAL_POINT.match(f):
+                point_line = point_line or no
+            converted.append(_csv_field(f))
+        out.append(",".join(converted))
+    if comma_line and point_line:
+        raise InputError(
+            f"separated by ';' with decimal commas (line {comma_line}) and decimal points "
+            f"(line {point_line}): a point may group thousands, so the numbers are ambiguous; "
+            f"{_SEMICOLON_ADVICE}",
+            path,
+            point_line,
+        )
+    return "\n".join(out)
+
+
+def _comma_text(path: Any, text: str) -> str:
+    """``text`` as a comma-separated table: as it is, or converted from the semicolon dialect
+    (:func:`_semicolon_text`) when its header row is separated by ';' and holds no ','."""
+    for no, line in enumerate(_head_lines(text), start=1):
+        stripped = line.strip()
+        if not stripped or stripped.startswith("#"):
+            continue
+        if ";" not in stripped:
+            return text
+        if "," in stripped:
+            raise InputError(
+                "the header row mixes ';' and ',' as field separators: use one of them (commas "
+                "with decimal points, or semicolons with decimal commas)",
+                path,
+                no,
+            )
+        return _semicolon_text(path, text, no)
+    return text
 
 
 def read_table(
@@ -358,6 +532,9 @@ def read_table(
     """
     if text is None:
         text = read_text(path)
+    text = _universal_newlines(text)
+    if columns is None:
+        text = _comma_text(path, text)
     if columns is not None:
         if not any(ln.strip() and not ln.lstrip().startswith("#") for ln in _head_lines(text)):
             raise InputError(f"empty file, expected {what}", path)
@@ -366,7 +543,7 @@ def read_table(
     offset = 0  # characters before the current line
     for no, line in enumerate(_head_lines(text), start=1):
         offset += len(line)
-        line = line.rstrip("\r\n\x0b\x0c\x1c\x1d\x1e\x85\u2028\u2029")
+        line = line.rstrip("\n")
         if len(line) > MAX_LINE_CHARS:
             raise InputError(f"over-long line ({len(line)} characters)", path, no)
         stripped = line.strip()
@@ -375,6 +552,7 @@ def read_table(
         if stripped.startswith("#"):
             if settings and ":" in stripped:
                 key, value = (s.strip() for s in stripped[1:].split(":", 1))
+                value = value.rstrip(",; \t")  # a spreadsheet pads a comment with separators
                 if key not in settings:
                     continue
                 if key in found:

@@ -1,0 +1,56 @@
+"""``odocal.calibration.heading_check``: headings held against the positions of the same runs."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from odocal.app.common import make_robot
+from odocal.app.simulate import simulate_runs
+from odocal.calibration.heading_check import check_heading_sign
+from odocal.core.runs import EndPoseRuns
+from odocal.core.tracks import polygon
+
+# a TurtleBot3-sized robot as the issue's trial: E_b 1.019, tape to 2 mm, protractor to 0.3 deg
+TB3 = make_robot(
+    0.066, 0.16, E_b=1.019, E_d=1.003, k_r_m=2e-6, sigma_xy_m=0.002, sigma_theta_deg=0.3
+)
+FLIP = np.array([1.0, 1.0, -1.0])
+
+
+def _runs(robot, seed: int, n: int = 5, sides: int = 4, side_m: float = 1.0) -> EndPoseRuns:
+    return simulate_runs(robot, lambda d: polygon(sides, side_m, d), ("cw", "ccw"), n, seed, 0.05)
+
+
+@pytest.mark.parametrize("sides, side_m", [(4, 1.0), (3, 1.5)])
+def test_honest_sheets_pass_and_a_flipped_heading_is_caught(sides, side_m):
+    # issue 20.2: theta read with the wrong sign gave the inverse correction without a word
+    for seed in range(12):
+        runs = _runs(TB3, seed, sides=sides, side_m=side_m)
+        honest = check_heading_sign(runs, sides, side_m, TB3.believed_geometry)
+        assert honest is not None and not honest.contradicted
+        assert abs(honest.t) < honest.threshold / 2
+        flipped = EndPoseRuns(runs.directions, runs.errors * FLIP)
+        caught = check_heading_sign(flipped, sides, side_m, TB3.believed_geometry)
+        assert caught is not None and caught.contradicted, (seed, caught)
+        # the written answer is the inverse correction; the flipped one is the truth's
+        assert caught.E_b_written < 1.0 < caught.E_b_flipped
+        assert caught.E_b_flipped == pytest.approx(1.019, abs=0.004)
+
+
+def test_no_check_without_positions_or_scatter():
+    runs = _runs(TB3, 0)
+    err = runs.errors.copy()
+    err[:, :2] = np.nan  # headings only (a protractor, no tape)
+    assert check_heading_sign(EndPoseRuns(runs.directions, err), 4, 1.0, TB3.nominal) is None
+    one = EndPoseRuns(("cw", "ccw"), runs.errors[[0, 5]])
+    assert check_heading_sign(one, 4, 1.0, TB3.nominal) is None
+
+
+def test_an_almost_perfect_robot_is_not_flagged():
+    # tiny headings (mostly the runs' noise): the honest sheet passes; the check judges the
+    # noise by the runs' own scatter
+    good = make_robot(0.066, 0.16, E_b=1.0003, k_r_m=2e-6, sigma_xy_m=0.002, sigma_theta_deg=0.3)
+    for seed in range(8):
+        c = check_heading_sign(_runs(good, seed), 4, 1.0, good.nominal)
+        assert c is not None and not c.contradicted
