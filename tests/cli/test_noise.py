@@ -60,13 +60,16 @@ def test_cli_bad_track(cli, tmp_path, args, needle):
 
 def test_cli_bad_inputs(cli, tmp_path):
     status, _, err = cli("noise", tmp_path / "missing.csv", "--track", "straight:5")
+    assert status == 2 and "no default robot" in err and "--robot" in err  # issue 20.1
+    robot = ("--robot", "paper-fig5")
+    status, _, err = cli("noise", tmp_path / "missing.csv", *robot, "--track", "straight:5")
     assert status == 2 and "missing.csv" in err and "no such file" in err
     p = tmp_path / "cw.csv"
     p.write_text("direction,x_m,y_m,theta_deg\ncw,0,0,1\nfwd,0,0,2\nfwd,0,0,3\n")
-    status, _, err = cli("noise", p, "--track", "straight:5")
+    status, _, err = cli("noise", p, *robot, "--track", "straight:5")
     assert status == 2 and "line 2" in err and "direction" in err and "fwd" in err
     p.write_text("direction,x_m,y_m,theta_deg\nfwd,0,0,1\nfwd,0,0,2\n")
-    status, _, err = cli("noise", p, "--track", "straight:5")
+    status, _, err = cli("noise", p, *robot, "--track", "straight:5")
     assert status == 2 and "at least 3" in err and len(err.strip().splitlines()) == 1
 
 
@@ -74,9 +77,11 @@ def test_cli_force_turns_the_error_into_a_warning(cli, tmp_path):
     runs = fwd_runs(noise_robot(), out_and_back(10.0), 15, seed=4)
     bad = EndPoseRuns(runs.directions, runs.errors + [0.0, 0.0, math.radians(2.0)])
     path = _write(tmp_path, bad)
-    status, _, err = cli("noise", path, "--track", "out-and-back:10")
+    status, _, err = cli("noise", path, "--robot", "paper-fig5", "--track", "out-and-back:10")
     assert status == 2 and "--force" in err
-    status, out, err = cli("noise", path, "--track", "out-and-back:10", "--force", "--json")
+    status, out, err = cli(
+        "noise", path, "--robot", "paper-fig5", "--track", "out-and-back:10", "--force", "--json"
+    )
     assert status == 0 and "odocal: warning:" in err
     assert json.loads(out)["warnings"]
 

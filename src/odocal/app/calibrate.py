@@ -26,12 +26,12 @@ from ..errors import InputError
 from ..io.outputs import OutputPlan
 from ..io.ros2_export import DEFAULT_CONTROLLER
 from ..io.runs_csv import RunSheet, read_circle_runs, read_run_sheet
-from ..presets import PRESETS
 from .common import (
     RobotSpec,
     input_paths,
     refuse_absurd,
     register_exports,
+    require_robot,
     resolve_robot,
     robot_label,
     write_exports,
@@ -319,13 +319,7 @@ def calibrate(
     CalibrationError (nothing written) unless ``force``; so are headings that the positions of
     the same runs say have the wrong sign (:mod:`odocal.calibration.heading_check`; an
     InputError)."""
-    if robot is None:
-        raise InputError(
-            "which robot drove the runs? Give --robot ROBOT.yaml (its nominal geometry, and "
-            "'believed' if it ran with other values) or a built-in robot by name "
-            f"({', '.join(PRESETS)}): there is no default robot, its geometry sets E_d and "
-            "every exported value"
-        )
+    require_robot(robot, "its geometry sets E_d and every exported value")
     plan = OutputPlan(input_paths(runs_csv, robot, params))
     register_exports(plan, out, ros2)
     r = resolve_robot(robot, params)

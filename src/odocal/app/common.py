@@ -33,6 +33,7 @@ __all__ = [
     "refuse_absurd",
     "implausible_geometry",
     "refuse_untrusted",
+    "require_robot",
     "robot_nominal",
     "robot_ran_with",
     "load_warnings",
@@ -53,6 +54,17 @@ def resolve_robot(
     if params is not None:
         r = r.with_believed(params if isinstance(params, WheelGeometry) else load_params(params))
     return r
+
+
+def require_robot(robot: RobotSpec, why: str) -> None:
+    """A command whose answer depends on the robot's geometry has no default robot: InputError
+    when ``robot`` is None (``why``: what the geometry sets)."""
+    if robot is None:
+        raise InputError(
+            "which robot drove the runs? Give --robot ROBOT.yaml (its nominal geometry, and "
+            "'believed' if it ran with other values) or a built-in robot by name "
+            f"({', '.join(PRESETS)}): there is no default robot, {why}"
+        )
 
 
 def optional_robot(robot: RobotSpec) -> Robot | None:

@@ -29,7 +29,7 @@ from ..io.recordings import load_recordings, require_ground_truth
 from ..io.robot_file import load_robot, robot_yaml
 from ..io.ros2_export import DEFAULT_CONTROLLER, ros2_params_yaml
 from ..io.runs_csv import read_runs
-from .common import RobotSpec, input_paths, load_warnings, resolve_robot
+from .common import RobotSpec, input_paths, load_warnings, require_robot, resolve_robot
 from .measured import MeasuredRobot, measure_robot
 
 __all__ = ["noise", "noise_recordings", "RecordedNoiseResult", "cruise_speed_m_s"]
@@ -49,6 +49,7 @@ def noise(
     the systematic curvature of the forward path comes from ROBOT.yaml's systematic errors.
     ``force``: estimate even when the runs look dominated by a systematic part (a warning)."""
     distance_m = _distance("distance_m", distance_m)
+    require_robot(robot, "its wheelbase and systematic errors set the estimate of k")
     r = resolve_robot(robot, params)
     notes: list[str] = []
     runs = read_runs(runs_csv, directions=("fwd",), warnings=notes)

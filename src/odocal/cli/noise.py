@@ -43,6 +43,7 @@ def add_parser(sub) -> None:
         p,
         "RUNS.csv: parameters the robot ran with (default: ROBOT.yaml's 'believed', else "
         "nominal); the wheelbase b of the estimators is ROBOT.yaml's true one, nominal x E_b",
+        required=True,
     )
     p.add_argument(
         "--track",
