@@ -205,7 +205,10 @@ def test_implausible_runs_csv_values(cli, tmp_path):
         "direction,x_m,y_m,theta_deg\nfwd,1e300,0,1\nfwd,-1,0,-1\nfwd,0,1,0.5\n",
     )
     assert_error(
-        cli("noise", runs, "--track", "out-and-back:2", "--force"), runs, "line 2", "'x_m'"
+        cli("noise", runs, "--robot", "paper-fig5", "--track", "out-and-back:2", "--force"),
+        runs,
+        "line 2",
+        "'x_m'",
     )
     circles = write(tmp_path / "c.csv", "direction,radius_m\ncw,1e300\nccw,1\n")
     assert_error(
