@@ -41,6 +41,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     ),
     "ttest": ("ttest", "Student and Welch t-tests of two samples (CSV columns)"),
     "bag-info": ("bag_info", "list the topics of a ROS bag"),
+    "fleet": ("fleet", "a fleet: calibrate every new bag, drift alarms, dashboard (ingest, ...)"),
 }
 
 
