@@ -16,6 +16,7 @@ per bag: slow wear is followed, a sudden change is not).
    While either CUSUM is above zero (a change may be under way) the bags are held out of the
    level, so that the level does not follow a step before it is detected; when both return
    to zero the bags held are filtered in.
+   The CUSUM starts once the level rests on :data:`WARMUP` bags.
 3. **After an alarm** the filter restarts at the alarm's bag (the CUSUM's change point): the
    level then describes the robot as it is now, and a second change can be detected.
 
@@ -30,7 +31,15 @@ import numpy as np
 
 from ..errors import ModelError
 
-__all__ = ["DriftAlarm", "DriftTrack", "track_parameter", "DEFAULT_K", "DEFAULT_H", "PROCESS_NOISE"]
+__all__ = [
+    "DriftAlarm",
+    "DriftTrack",
+    "track_parameter",
+    "DEFAULT_K",
+    "DEFAULT_H",
+    "PROCESS_NOISE",
+    "WARMUP",
+]
 
 #: the CUSUM's allowance (standard deviations of the innovation): half of a 3-se step
 DEFAULT_K = 1.5
@@ -38,6 +47,9 @@ DEFAULT_K = 1.5
 #: 100 robot-months at 20 bags a month and three parameters; a 3-se step found after 3.7 bags
 #: on average)
 DEFAULT_H = 4.0
+#: bags that make a level before the CUSUM watches it (at the start, and after a change):
+#: against a level of one bag, the innovations share its error and a CUSUM would add it up
+WARMUP = 4
 #: the level's random walk per bag, as a fraction of the bag's standard error
 PROCESS_NOISE = 0.05
 
@@ -73,6 +85,13 @@ def _weighted_mean(y: np.ndarray, se: np.ndarray) -> tuple[float, float]:
     return float(np.sum(w * y) / np.sum(w)), float(np.sqrt(1.0 / np.sum(w)))
 
 
+def _update(x: float, p: float, y: float, se: float, q: float) -> tuple[float, float]:
+    """One Kalman step of the level (x, its variance p) with the estimate y (se)."""
+    p_pred = p + (q * se) ** 2
+    gain = p_pred / (p_pred + se**2)
+    return x + gain * (y - x), (1.0 - gain) * p_pred
+
+
 def track_parameter(
     values: np.ndarray,
     std_errors: np.ndarray,
@@ -80,6 +99,7 @@ def track_parameter(
     k: float = DEFAULT_K,
     h: float = DEFAULT_H,
     q: float = PROCESS_NOISE,
+    warmup: int = WARMUP,
 ) -> DriftTrack:
     """Filter and watch one parameter's estimates (in time order) with their standard errors
     (module docstring). Every standard error must be finite and positive."""
@@ -89,8 +109,8 @@ def track_parameter(
         raise ModelError("values and std_errors must be 1-D arrays of one length")
     if not (np.all(np.isfinite(y)) and np.all(np.isfinite(se)) and np.all(se > 0)):
         raise ModelError("every value must be finite and every standard error positive")
-    if k < 0 or h <= 0 or q < 0:
-        raise ModelError(f"need k >= 0, h > 0, q >= 0; got k={k}, h={h}, q={q}")
+    if k < 0 or h <= 0 or q < 0 or warmup < 1:
+        raise ModelError(f"need k >= 0, h > 0, q >= 0, warmup >= 1; got {k}, {h}, {q}, {warmup}")
     n = len(y)
     level, level_se, z = np.empty(n), np.empty(n), np.zeros(n)
     up, down = np.zeros(n), np.zeros(n)
@@ -100,10 +120,16 @@ def track_parameter(
     g_up = g_down = 0.0
     pending: list[int] = []  # bags held out of the level while a CUSUM is above zero
     began_up = began_down = 0  # where each CUSUM last left zero
+    in_level = 1  # bags in the current level (since the start or the last change)
     for i in range(1, n):
         # the level's prediction over the bags held (it walks on meanwhile)
         walk = sum((q * se[j]) ** 2 for j in (*pending, i))
         z[i] = (y[i] - x) / np.sqrt(p + walk + se[i] ** 2)
+        if in_level < warmup:
+            x, p = _update(x, p, y[i], se[i], q)
+            in_level += 1
+            level[i], level_se[i] = x, np.sqrt(p)
+            continue
         began_up = i if g_up == 0.0 else began_up
         began_down = i if g_down == 0.0 else began_down
         g_up = max(0.0, g_up + z[i] - k)
@@ -116,14 +142,14 @@ def track_parameter(
             alarms.append(DriftAlarm(i, c, size, size / np.sqrt(after_se**2 + p)))
             # restart at the change: the level of the bags since it
             x, p = after, after_se**2
+            in_level = i + 1 - c
             g_up = g_down = 0.0
             pending = []
         elif g_up == 0.0 and g_down == 0.0:
             # no change under way: the bags held go into the level, one Kalman update each
             for j in pending:
-                p_pred = p + (q * se[j]) ** 2
-                gain = p_pred / (p_pred + se[j] ** 2)
-                x, p = x + gain * (y[j] - x), (1.0 - gain) * p_pred
+                x, p = _update(x, p, y[j], se[j], q)
+            in_level += len(pending)
             pending = []
         level[i], level_se[i], up[i], down[i] = x, np.sqrt(p), g_up, g_down
     return DriftTrack(level, level_se, z, up, down, tuple(alarms))
