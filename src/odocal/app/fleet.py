@@ -152,7 +152,7 @@ def _run_dask(tasks: Sequence[BagTask], address: str) -> Iterator[BagOutcome]:
         if not tasks:
             return
         futures = client.map(calibrate_bag, list(tasks), pure=False)
-        for f in as_completed(futures):
+        for f in as_completed(futures, loop=client.loop):
             yield f.result()
     finally:
         client.close()
@@ -190,12 +190,11 @@ def _choose(db: FleetDb, robots: Sequence[RobotFolder], now: str):
         owners = sorted({r.robot_id for r, _, _ in f.claims})
         stored = db.bag_status(h)
         if stored is not None and stored[0] in ("done", "failed"):
-            others = [o for o in owners if o != stored[1]]
-            if others:
-                warnings.append(
-                    f"{f.claims[0][1]}: the same bag as one of robot {stored[1]}, also under "
-                    f"robot {', '.join(others)}: counted once, for {stored[1]}"
-                )
+            strays = [str(p) for r, p, _ in f.claims if r.robot_id != stored[1]]
+            warnings += [
+                f"{p}: the same bag as one of robot {stored[1]}: counted once, for {stored[1]}"
+                for p in strays
+            ]
             continue
         r, bag, snap = f.claims[0]
         if len(owners) > 1:
