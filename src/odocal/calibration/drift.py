@@ -43,9 +43,9 @@ __all__ = [
 
 #: the CUSUM's allowance (standard deviations of the innovation): half of a 3-se step
 DEFAULT_K = 1.5
-#: the CUSUM's threshold (benchmarks/bench_fleet.py, docs/fleet.md: about 0.3 false alarm per
-#: 100 robot-months at 20 bags a month and three parameters; a 3-se step found after 3.7 bags
-#: on average)
+#: the CUSUM's threshold (benchmarks/bench_fleet.py, docs/fleet.md: 0.04 false alarm per 100
+#: robot-months at 20 bags a month and three parameters; a 3-se step found after 3.5 bags on
+#: average, 92 % of them within 5 bags)
 DEFAULT_H = 4.0
 #: bags that make a level before the CUSUM watches it (at the start, and after a change):
 #: against a level of one bag, the innovations share its error and a CUSUM would add it up
