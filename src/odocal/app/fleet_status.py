@@ -104,6 +104,7 @@ class RobotDrift:
                         "size_percent": 100.0 * a.size / before,
                         "z": a.z,
                         "bag": bag.path,
+                        "change_bag": self.history[p.bags[a.start_index]].path,
                         "bags_since": len(self.history) - 1 - p.bags[a.index],
                     }
                 )

@@ -24,7 +24,7 @@ __all__ = ["fleet_pages", "bag_page_name", "robot_page_name"]
 _CSS = """
 body{font-family:system-ui,sans-serif;margin:1.5em;color:#222;max-width:72em}
 table{border-collapse:collapse;font-size:0.9em}
-th,td{border:1px solid #ccc;padding:0.3em 0.6em;text-align:right}
+th,td{border:1px solid #ccc;padding:0.3em 0.6em;text-align:right;white-space:nowrap}
 th{background:#f0f0f0} td:first-child,th:first-child{text-align:left}
 tr.alarm td{background:#fde8e8} .ok{color:#2a7d2a} .bad{color:#b22}
 pre{background:#f7f7f7;padding:1em;overflow-x:auto} a{color:#1a5fb4}
@@ -95,7 +95,7 @@ def _index(status: Mapping[str, Any], generated: str) -> str:
             f'<a href="{_e(quote(robot_page_name(r["robot_id"])))}">{_e(r["robot_id"])}</a>',
             _e(r["bags"]),
             _e(r["bags_failed"]),
-            _e(r["last_calibrated"] or "never"),
+            _e((r["last_calibrated"] or "never")[:16].replace("T", " ")),
             *(_mm(r["parameters"], k) for k, _ in _KEYS),
             _drift_cell(r),
         ]
@@ -116,14 +116,15 @@ def _robot(robot: Mapping[str, Any], bags: Sequence[Mapping[str, Any]], svg: str
     alarms = robot["alarms"]
     alarm_rows = "".join(
         f"<tr><td>{_e(a['parameter'])}</td><td>{1e3 * a['size_m']:+.3f}</td>"
-        f"<td>{a['size_percent']:+.2f}</td><td>{a['z']:+.1f}</td><td>{_e(a['bag'])}</td></tr>"
+        f"<td>{a['size_percent']:+.2f}</td><td>{a['z']:+.1f}</td><td>{_e(a['change_bag'])}</td>"
+        f"<td>{_e(a['bag'])}</td></tr>"
         for a in alarms
     )
     alarm_html = (
         "<p>No active drift alarm.</p>"
         if not alarms
         else "<table><tr><th>parameter</th><th>step (mm)</th><th>step (%)</th><th>se</th>"
-        f"<th>first bag after it</th></tr>{alarm_rows}</table>"
+        f"<th>first bag of the new level</th><th>found at bag</th></tr>{alarm_rows}</table>"
     )
     bag_rows = []
     for i, b in enumerate(bags):
