@@ -13,14 +13,15 @@ one-command bag route (:func:`odocal.app.fit_auto.fit_auto`, unchanged) and stor
    (``dask=ADDRESS``: ``Client(ADDRESS).map``). Workers return plain results
    (:mod:`odocal.app.fleet_task`); this process alone writes the database, one transaction per
    bag as its result arrives, so an interrupted run loses only the bags in flight.
-4. **Watch**: each robot with new results gets its change detector run again and its alarms
+4. **Watch**: every robot's change detector runs again on its history and its alarms are
    stored (:mod:`odocal.app.fleet_status`).
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Generator, Sequence
+from contextlib import closing
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -122,7 +123,7 @@ def _engine(workers: int, dask: str | None) -> str:
     return "this process" if workers == 1 else f"{workers} processes"
 
 
-def _run_local(tasks: Sequence[BagTask], workers: int) -> Iterator[BagOutcome]:
+def _run_local(tasks: Sequence[BagTask], workers: int) -> Generator[BagOutcome, None, None]:
     """The tasks in this process, or in a process pool (results as they finish)."""
     if workers == 1 or len(tasks) <= 1:
         yield from map(calibrate_bag, tasks)
@@ -138,7 +139,7 @@ def _run_local(tasks: Sequence[BagTask], workers: int) -> Iterator[BagOutcome]:
         pool.shutdown(wait=False, cancel_futures=True)
 
 
-def _run_dask(tasks: Sequence[BagTask], address: str) -> Iterator[BagOutcome]:
+def _run_dask(tasks: Sequence[BagTask], address: str) -> Generator[BagOutcome, None, None]:
     """The tasks on the Dask cluster at ``address`` (results as they finish)."""
     try:
         from dask.distributed import Client, as_completed
@@ -174,7 +175,7 @@ def _store(db: FleetDb, o: BagOutcome, now: str) -> None:
     )
 
 
-def _choose(db: FleetDb, robots: Sequence[RobotFolder], now: str):
+def _choose(db: FleetDb, robots: Sequence[RobotFolder]):
     """Hash every bag; the tasks to run, the bags recorded as retry now, the warnings."""
     found: dict[str, _Found] = {}
     unsteady: list[tuple[RobotFolder, Path, Snapshot, str]] = []
@@ -231,27 +232,24 @@ def fleet_ingest(
         now = now_utc()
         for r in robots:
             db.upsert_robot(r.robot_id, nominals[r.robot_id], str(r.folder), now)
-        found, tasks, retry, warnings = _choose(db, robots, now)
+        found, tasks, retry, warnings = _choose(db, robots)
         db.forget_stale_retries(set(found))
         failures: list[tuple[str, str]] = []
         for task, why in retry:
             _store(db, BagOutcome(task, "retry", why, None, None), now)
             failures.append((task.bag, why))
         counts = {"done": 0, "failed": 0, "retry": len(retry)}
-        touched: set[str] = set()
-        outcomes: Iterable[BagOutcome] = (
-            _run_dask(tasks, dask) if dask is not None else _run_local(tasks, workers)
-        )
-        for o in outcomes:
-            _store(db, o, now_utc())
-            counts[o.status] += 1
-            if o.status == "done":
-                touched.add(o.task.robot_id)
-            else:
-                failures.append((o.task.bag, o.reason or ""))
-            if on_stored is not None:
-                on_stored(o)
-        for robot_id in sorted(touched):
+        outcomes = _run_dask(tasks, dask) if dask is not None else _run_local(tasks, workers)
+        with closing(outcomes):  # an interruption stops the pool or the client at once
+            for o in outcomes:
+                _store(db, o, now_utc())
+                counts[o.status] += 1
+                if o.status != "done":
+                    failures.append((o.task.bag, o.reason or ""))
+                if on_stored is not None:
+                    on_stored(o)
+        # every robot's alarms (milliseconds each): also those of a run interrupted before here
+        for robot_id, _ in db.robots():
             drift = robot_drift(db.history(robot_id))
             db.replace_alarms(robot_id, drift.alarm_rows(), now)
         skipped = len(found) - len(tasks) - sum(1 for t, w in retry if w != CHANGED)
