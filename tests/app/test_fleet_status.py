@@ -64,3 +64,17 @@ def test_export_refuses_a_robot_without_a_trustworthy_bag(db, tmp_path):
     assert not (tmp_path / "x.yaml").exists()
     res = fleet_export(db, "worn", tmp_path / "worn.yaml")  # no covariance in these results
     assert res.bags == 40 and "pose_covariance_diagonal" not in (tmp_path / "worn.yaml").read_text()
+
+
+def test_the_ingest_stores_every_robot_s_alarms(db, tmp_path):
+    from odocal.app.fleet import fleet_ingest
+    from tests.support.fleet import robot_yaml
+
+    robot_yaml(tmp_path / "root" / "steady")  # a run that finds no new bag
+    assert fleet_ingest(tmp_path / "root", db).bags_total == 0
+    with open_db(db, write=False) as fdb:
+        (worn,) = fdb.alarms("worn")
+        assert worn[0] == "wheel_diameter_right_m" and worn[1].startswith("worn-002")
+        assert worn[3] == pytest.approx(0.006 * TRUE[0], rel=0.35) and worn[4] > 3
+        assert [a[0] for a in fdb.alarms("old-step")] == ["wheelbase_m"]
+        assert fdb.alarms("steady") == []
