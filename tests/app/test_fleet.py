@@ -153,12 +153,13 @@ def test_an_interrupted_run_keeps_every_bag_stored(tmp_path):
     db = tmp_path / "f.db"
     seen = []
 
-    def stop_after_one(outcome):
-        seen.append(outcome)
+    def stop_after_one(outcome, done, total):
+        seen.append((done, total))
         raise KeyboardInterrupt  # Ctrl-C (SIGTERM is raised the same way by the CLI)
 
     with pytest.raises(KeyboardInterrupt):
         fleet_ingest(root, db, on_stored=stop_after_one)
+    assert seen == [(1, 3)]
     with sqlite3.connect(db) as con:
         assert con.execute("PRAGMA integrity_check").fetchone() == ("ok",)
         assert con.execute("SELECT COUNT(*) FROM bags").fetchone() == (1,)

@@ -219,10 +219,10 @@ def fleet_ingest(
     *,
     workers: int = 1,
     dask: str | None = None,
-    on_stored: Callable[[BagOutcome], None] | None = None,
+    on_stored: Callable[[BagOutcome, int, int], None] | None = None,
 ) -> IngestResult:
-    """Calibrate and store every new bag under ``root`` (module docstring). ``on_stored`` is
-    called after each bag is committed (a progress bar)."""
+    """Calibrate and store every new bag under ``root`` (module docstring). ``on_stored(outcome,
+    done, total)`` is called after each bag is committed (a progress bar)."""
     start = time.perf_counter()
     if workers < 1:
         raise InputError(f"--workers must be at least 1, got {workers}")
@@ -241,13 +241,13 @@ def fleet_ingest(
         counts = {"done": 0, "failed": 0, "retry": len(retry)}
         outcomes = _run_dask(tasks, dask) if dask is not None else _run_local(tasks, workers)
         with closing(outcomes):  # an interruption stops the pool or the client at once
-            for o in outcomes:
+            for done, o in enumerate(outcomes, start=1):
                 _store(db, o, now_utc())
                 counts[o.status] += 1
                 if o.status != "done":
                     failures.append((o.task.bag, o.reason or ""))
                 if on_stored is not None:
-                    on_stored(o)
+                    on_stored(o, done, len(tasks))
         # every robot's alarms (milliseconds each): also those of a run interrupted before here
         for robot_id, _ in db.robots():
             drift = robot_drift(db.history(robot_id))

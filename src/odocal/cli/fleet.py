@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from .common import positive_int, print_json, print_table, print_warnings
+from .common import ProgressBar, positive_int, print_json, print_table, print_warnings
 
 
 def add_parser(sub) -> None:
@@ -70,7 +70,17 @@ def run(args: argparse.Namespace) -> int:
     if cmd == "ingest":
         from ..app.fleet import fleet_ingest
 
-        res = fleet_ingest(args.root, args.db, workers=args.workers, dask=args.dask)
+        bar = ProgressBar("ingest")
+        try:
+            res = fleet_ingest(
+                args.root,
+                args.db,
+                workers=args.workers,
+                dask=args.dask,
+                on_stored=lambda o, done, total: bar(done, total, o.status),
+            )
+        finally:
+            bar.close()
         print_warnings(res.warnings)
         if args.json:
             print_json(res.as_dict())
