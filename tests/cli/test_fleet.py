@@ -34,13 +34,14 @@ def test_status_text_and_json(cli, tmp_path):
         "wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m"}  # fmt: skip
 
 
-def test_export_and_report(cli, tmp_path):
+def test_export(cli, tmp_path):
     db = _db(tmp_path / "f.db")
     status, out, _ = cli("fleet", "export", "r1", "--db", db, "--ros2", tmp_path / "r1.yaml")
     assert status == 0 and "filtered level of 6 bags" in out
     assert "diff_drive_controller:" in (tmp_path / "r1.yaml").read_text()
-    status, out, _ = cli("fleet", "report", "--db", db, "--html", tmp_path / "html", "--json")
-    assert status == 0 and json.loads(out)["robots"] == 1
+    status, out, _ = cli("fleet", "export", "r1", "--db", db, "--ros2", tmp_path / "2.yaml",
+                         "--json")  # fmt: skip
+    assert status == 0 and json.loads(out)["bags"] == 6
 
 
 def test_ingest_text(cli, tmp_path):
