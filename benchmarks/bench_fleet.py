@@ -174,8 +174,8 @@ def ingest(args) -> None:
           f"({time.perf_counter() - t:.0f} s to write or find)")  # fmt: skip
     print(f"machine: {os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f}")
     dbs = {}
-    engines = [("2 workers", {"workers": 2}), ("LocalCluster 2 workers", None),
-               ("1 worker", {"workers": 1})]  # fmt: skip
+    engines = [e for e in [("2 workers", {"workers": 2}), ("LocalCluster 2 workers", None),
+                           ("1 worker", {"workers": 1})] if e[0].split()[0] in args.engines]  # fmt: skip
     with tempfile.TemporaryDirectory() as tmp:
         for name, kw in engines:
             db = Path(tmp) / f"{name.replace(' ', '_')}.db"
@@ -216,6 +216,8 @@ def main() -> None:
     i.add_argument("--robots", type=int, default=50)
     i.add_argument("--bags", type=int, default=20)
     i.add_argument("--seed", type=int, default=1)
+    i.add_argument("--engines", nargs="+", default=["1", "2", "LocalCluster"],
+                   help="which of: 1 (worker), 2 (workers), LocalCluster")
     i.add_argument("--cache", default=str(Path(tempfile.gettempdir()) / "odocal_bench_fleet"))
     args = p.parse_args()
     (drift if args.what == "drift" else ingest)(args)
