@@ -18,8 +18,9 @@ what the bag route reports on the synthetic bags of tests/support/fleet.py). Mea
 
 **ingest**: writes (once, cached under ``--cache``) a fleet of ``--robots`` x ``--bags`` small
 synthetic ROS 2 bags (tests/support/fleet.py; per robot one recording and copies of it that
-differ in a comment of their metadata, each a bag of its own), then ingests it into a fresh database with 2 worker processes, on a 2-worker
-``dask.distributed.LocalCluster`` and with 1 worker (this process); prints bags per minute,
+differ in a comment of their metadata, each a bag of its own), then ingests it into a fresh
+database with 2 worker processes, on a 2-worker ``dask.distributed.LocalCluster`` and with 1
+worker (this process) (``--engines`` chooses); prints bags per minute,
 the wall time and the CPU time per bag (this process and its children), and checks that the
 three databases hold the same numbers.
 """
@@ -174,8 +175,12 @@ def ingest(args) -> None:
           f"({time.perf_counter() - t:.0f} s to write or find)")  # fmt: skip
     print(f"machine: {os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f}")
     dbs = {}
-    engines = [e for e in [("2 workers", {"workers": 2}), ("LocalCluster 2 workers", None),
-                           ("1 worker", {"workers": 1})] if e[0].split()[0] in args.engines]  # fmt: skip
+    every = [
+        ("2 workers", {"workers": 2}),
+        ("LocalCluster 2 workers", None),
+        ("1 worker", {"workers": 1}),
+    ]
+    engines = [e for e in every if e[0].split()[0] in args.engines]
     with tempfile.TemporaryDirectory() as tmp:
         for name, kw in engines:
             db = Path(tmp) / f"{name.replace(' ', '_')}.db"
@@ -216,8 +221,12 @@ def main() -> None:
     i.add_argument("--robots", type=int, default=50)
     i.add_argument("--bags", type=int, default=20)
     i.add_argument("--seed", type=int, default=1)
-    i.add_argument("--engines", nargs="+", default=["1", "2", "LocalCluster"],
-                   help="which of: 1 (worker), 2 (workers), LocalCluster")
+    i.add_argument(
+        "--engines",
+        nargs="+",
+        default=["1", "2", "LocalCluster"],
+        help="which of: 1 (worker), 2 (workers), LocalCluster",
+    )
     i.add_argument("--cache", default=str(Path(tempfile.gettempdir()) / "odocal_bench_fleet"))
     args = p.parse_args()
     (drift if args.what == "drift" else ingest)(args)
