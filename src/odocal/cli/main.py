@@ -43,6 +43,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     ),
     "ttest": ("ttest", "Student and Welch t-tests of two samples (CSV columns)"),
     "bag-info": ("bag_info", "list the topics, duration and frames of a ROS bag"),
+    "fleet": ("fleet", "a fleet: calibrate every new bag, drift alarms, dashboard (ingest, ...)"),
 }
 
 

@@ -1,0 +1,268 @@
+"""``odocal fleet status`` and ``odocal fleet export``: each robot's history through the change
+detector (:mod:`odocal.calibration.drift`), its current parameters and its alarms.
+
+The history of a parameter is the robot's trustworthy bags (the bag route's verdict
+``enough``) that estimate it with a standard error, in the order of the bags' start times.
+The **current parameters** are the filtered levels after the last bag (since the last change:
+a step restarts the filter), with their standard errors. An alarm is **active** while it is
+younger than :data:`ACTIVE_S` (30 days) of bag time before the robot's latest bag: the
+``drift_alarm`` of ``status``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..calibration.cross_check import KEYS
+from ..calibration.drift import DriftTrack, track_parameter
+from ..core.covariance import odometry_covariance
+from ..core.model import WheelGeometry
+from ..errors import InputError
+from ..io.fleet_db import BagRow, open_db
+from ..io.outputs import OutputPlan
+from ..io.ros2_export import DEFAULT_CONTROLLER, ros2_params_yaml
+
+__all__ = [
+    "ParameterHistory",
+    "RobotDrift",
+    "RobotStatus",
+    "FleetStatus",
+    "robot_drift",
+    "fleet_status",
+    "fleet_export",
+    "ExportResult",
+    "ACTIVE_S",
+    "robot_status",
+]
+
+#: how long an alarm stays active (s of bag time before the robot's latest bag): 30 days
+ACTIVE_S = 30 * 86400.0
+
+
+@dataclass(frozen=True)
+class ParameterHistory:
+    """One parameter of one robot: the bags (indices into the robot's history) that estimate
+    it, their values and standard errors, and the detector's track."""
+
+    key: str
+    bags: tuple[int, ...]
+    values: np.ndarray
+    std_errors: np.ndarray
+    track: DriftTrack | None
+
+
+@dataclass(frozen=True)
+class RobotDrift:
+    """A robot's history through the detector."""
+
+    history: tuple[BagRow, ...]
+    parameters: tuple[ParameterHistory, ...]
+
+    def alarm_rows(self) -> list[tuple[str, str, float | None, float, float]]:
+        """(parameter, content_hash, start_s, size, z) of every alarm, for the database."""
+        out = []
+        for p in self.parameters:
+            for a in () if p.track is None else p.track.alarms:
+                bag = self.history[p.bags[a.index]]
+                out.append((p.key, bag.content_hash, bag.start_s, a.size, a.z))
+        return out
+
+    def current(self) -> dict[str, dict[str, float]] | None:
+        """Each parameter's filtered level and its standard error after the last bag."""
+        out = {}
+        for p in self.parameters:
+            if p.track is None:
+                return None
+            out[p.key] = {
+                "value": float(p.track.level[-1]),
+                "std_error": float(p.track.level_se[-1]),
+            }
+        return out
+
+    def active_alarms(self) -> list[dict[str, Any]]:
+        """The alarms younger than :data:`ACTIVE_S` before the latest bag, largest first."""
+        latest = max((b.start_s for b in self.history if b.start_s is not None), default=None)
+        out = []
+        for p in self.parameters:
+            if p.track is None:
+                continue
+            for a in p.track.alarms:
+                bag = self.history[p.bags[a.index]]
+                t = bag.start_s
+                if latest is not None and t is not None and latest - t > ACTIVE_S:
+                    continue
+                before = float(p.track.level[a.index] - a.size)
+                out.append(
+                    {
+                        "parameter": p.key,
+                        "size_m": a.size,
+                        "size_percent": 100.0 * a.size / before,
+                        "z": a.z,
+                        "bag": bag.path,
+                        "change_bag": self.history[p.bags[a.start_index]].path,
+                        "bags_since": len(self.history) - 1 - p.bags[a.index],
+                    }
+                )
+        return sorted(out, key=lambda d: -abs(d["z"]))
+
+
+def robot_drift(history: Sequence[BagRow]) -> RobotDrift:
+    """The detector on each parameter of a robot's history (module docstring)."""
+    params = []
+    for key in KEYS:
+        idx, vals, ses = [], [], []
+        for i, b in enumerate(history):
+            p = ((b.result or {}).get("parameters") or {}).get(key) or {}
+            v, se = p.get("value"), p.get("std_error")
+            if b.status == "done" and b.enough and v is not None and se is not None and se > 0:
+                idx.append(i)
+                vals.append(v)
+                ses.append(se)
+        y, s = np.asarray(vals, float), np.asarray(ses, float)
+        track = track_parameter(y, s) if len(y) else None
+        params.append(ParameterHistory(key, tuple(idx), y, s, track))
+    return RobotDrift(tuple(history), tuple(params))
+
+
+@dataclass(frozen=True)
+class RobotStatus:
+    """One row of ``odocal fleet status``."""
+
+    robot_id: str
+    bags: int
+    bags_done: int
+    bags_failed: int
+    last_calibrated: str | None
+    parameters: dict[str, dict[str, float]] | None
+    nominal: dict[str, float]
+    alarms: tuple[dict[str, Any], ...]
+
+    @property
+    def drift_alarm(self) -> bool:
+        """An active alarm (module docstring)."""
+        return bool(self.alarms)
+
+    @property
+    def drift_z(self) -> float:
+        """The largest active alarm's size in standard errors (0 without one): the sort key."""
+        return max((abs(a["z"]) for a in self.alarms), default=0.0)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON of one robot in ``odocal fleet status --json``."""
+        top = self.alarms[0] if self.alarms else None
+        return {
+            "robot_id": self.robot_id,
+            "bags": self.bags,
+            "bags_done": self.bags_done,
+            "bags_failed": self.bags_failed,
+            "last_calibrated": self.last_calibrated,
+            "parameters": self.parameters,
+            "nominal": self.nominal,
+            "drift_alarm": self.drift_alarm,
+            "drift": None if top is None else dict(top),
+            "alarms": [dict(a) for a in self.alarms],
+        }
+
+
+@dataclass(frozen=True)
+class FleetStatus:
+    """``odocal fleet status``: one row per robot, the largest drift first."""
+
+    db: Path
+    robots: tuple[RobotStatus, ...]
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON of ``odocal fleet status --json``."""
+        return {"db": str(self.db), "robots": [r.as_dict() for r in self.robots]}
+
+
+def robot_status(robot_id: str, nominal: dict, history: Sequence[BagRow]) -> RobotStatus:
+    """One robot's row of the status (its history through the detector)."""
+    drift = robot_drift(history)
+    done = [b for b in history if b.status == "done"]
+    return RobotStatus(
+        robot_id,
+        len(history),
+        len(done),
+        sum(b.status != "done" for b in history),
+        max((b.ingested_at for b in done), default=None),
+        drift.current(),
+        nominal,
+        tuple(drift.active_alarms()),
+    )
+
+
+def fleet_status(db_path: str | Path) -> FleetStatus:
+    """Every robot's row (module docstring), sorted by drift (largest first), then by id."""
+    with open_db(db_path, write=False) as db:
+        rows = [robot_status(r, nom, db.history(r)) for r, nom in db.robots()]
+    return FleetStatus(Path(db_path), tuple(sorted(rows, key=lambda r: (-r.drift_z, r.robot_id))))
+
+
+@dataclass(frozen=True)
+class ExportResult:
+    """``odocal fleet export``: the robot's current geometry, written for diff_drive_controller."""
+
+    robot_id: str
+    geometry: WheelGeometry
+    bags: int
+    written: tuple[Path, ...]
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON of ``odocal fleet export --json``."""
+        return {
+            "robot_id": self.robot_id,
+            "parameters": self.geometry.as_dict(),
+            "bags": self.bags,
+            "written": [str(p) for p in self.written],
+        }
+
+
+def fleet_export(
+    db_path: str | Path,
+    robot_id: str,
+    ros2: str | Path,
+    *,
+    controller_name: str = DEFAULT_CONTROLLER,
+) -> ExportResult:
+    """Write the robot's current parameters (the filtered levels) as ``fit --ros2`` does, with
+    the covariances of its latest trustworthy bag."""
+    plan = OutputPlan([Path(db_path)])
+    plan.file(ros2, "--ros2")
+    with open_db(db_path, write=False) as db:
+        robots = dict(db.robots())
+        if robot_id not in robots:
+            known = ", ".join(robots) or "none"
+            raise InputError(
+                f"no robot '{robot_id}' in the fleet database (robots: {known})", db_path
+            )
+        history = db.history(robot_id)
+    drift = robot_drift(history)
+    current = drift.current()
+    if current is None:
+        raise InputError(
+            f"robot '{robot_id}' has no trustworthy calibration yet (bags: {len(history)})", db_path
+        )
+    g = WheelGeometry(*(float(current[k]["value"]) for k in KEYS))
+    nominal = WheelGeometry(*(robots[robot_id][k] for k in KEYS))
+    cov = None
+    latest = [b.result for b in history if b.status == "done" and b.enough and b.result]
+    c = latest[-1].get("covariance") if latest else None
+    if c:
+        cov = odometry_covariance(
+            c["k_r_m"],
+            c["k_l_m"],
+            float(g.wheelbase_m),
+            speed_m_s=c["speed_m_s"],
+            distance_m=c["distance_m"],
+            window_s=c["window_s"],
+        )
+    n = len(drift.parameters[0].bags)
+    method = f"odocal fleet: robot {robot_id}, filtered level of {n} bags"
+    text = ros2_params_yaml(g, nominal, controller_name, cov, method=method)
+    return ExportResult(robot_id, g, n, tuple(plan.commit({Path(ros2): text})))

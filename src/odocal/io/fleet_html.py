@@ -1,0 +1,181 @@
+"""The fleet dashboard (``odocal fleet report --html DIR``): static, self-contained HTML pages
+(inline CSS, inline SVG figures; no script, no server, no network), opened from disk.
+
+- ``index.html``: the fleet table, the largest drift first, each robot linked to its page;
+- ``robots/<robot_id>.html``: the parameter history figure, the alarms, every bag with its
+  status and a link to its calibration report;
+- ``bags/<hash>.html``: one bag's calibration report (the bag route's report, as
+  ``odocal fit BAG --method auto --out`` writes it).
+"""
+
+from __future__ import annotations
+
+import html
+from collections.abc import Mapping, Sequence
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any
+from urllib.parse import quote
+
+from .auto_report import auto_report_markdown
+
+__all__ = ["fleet_pages", "bag_page_name", "robot_page_name"]
+
+_CSS = """
+body{font-family:system-ui,sans-serif;margin:1.5em;color:#222;max-width:72em}
+table{border-collapse:collapse;font-size:0.9em}
+th,td{border:1px solid #ccc;padding:0.3em 0.6em;text-align:right;white-space:nowrap}
+th{background:#f0f0f0} td:first-child,th:first-child{text-align:left}
+tr.alarm td{background:#fde8e8} .ok{color:#2a7d2a} .bad{color:#b22}
+pre{background:#f7f7f7;padding:1em;overflow-x:auto} a{color:#1a5fb4}
+"""
+
+_KEYS = (
+    ("wheel_diameter_right_m", "D_R (mm)"),
+    ("wheel_diameter_left_m", "D_L (mm)"),
+    ("wheelbase_m", "b (mm)"),
+)
+
+
+def bag_page_name(content_hash: str) -> str:
+    """The file of a bag's report, relative to the dashboard's folder."""
+    return f"bags/{content_hash[:16]}.html"
+
+
+def robot_page_name(robot_id: str) -> str:
+    """The file of a robot's page, relative to the dashboard's folder."""
+    return f"robots/{robot_id}.html"
+
+
+def _e(v: Any) -> str:
+    return html.escape(str(v), quote=True)
+
+
+def _page(title: str, body: str) -> str:
+    return (
+        f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8">'
+        f"<title>{_e(title)}</title><style>{_CSS}</style></head>\n<body>\n{body}\n"
+        "</body></html>\n"
+    )
+
+
+def _mm(p: Mapping[str, Any] | None, key: str) -> str:
+    v = (p or {}).get(key)
+    if not v:
+        return "—"
+    return f"{1e3 * v['value']:.3f} ± {1e3 * v['std_error']:.3f}"
+
+
+def _drift_cell(r: Mapping[str, Any]) -> str:
+    d = r.get("drift")
+    if not d:
+        return '<span class="ok">no</span>'
+    return (
+        f'<span class="bad">{_e(d["parameter"])} {d["size_percent"]:+.2f} % '
+        f"({d['z']:+.1f} se)</span>"
+    )
+
+
+def _index(status: Mapping[str, Any], generated: str) -> str:
+    head = "".join(
+        f"<th>{_e(h)}</th>"
+        for h in (
+            "robot",
+            "bags",
+            "failed",
+            "last calibrated",
+            *(t for _, t in _KEYS),
+            "drift alarm",
+        )
+    )
+    rows = []
+    for r in status["robots"]:
+        cls = ' class="alarm"' if r["drift_alarm"] else ""
+        cells = [
+            f'<a href="{_e(quote(robot_page_name(r["robot_id"])))}">{_e(r["robot_id"])}</a>',
+            _e(r["bags"]),
+            _e(r["bags_failed"]),
+            _e((r["last_calibrated"] or "never")[:16].replace("T", " ")),
+            *(_mm(r["parameters"], k) for k, _ in _KEYS),
+            _drift_cell(r),
+        ]
+        rows.append(f"<tr{cls}>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
+    n_alarm = sum(1 for r in status["robots"] if r["drift_alarm"])
+    body = (
+        f"<h1>Fleet odometry</h1><p>{len(status['robots'])} robots, {n_alarm} with a drift "
+        f"alarm; generated {_e(generated)} from {_e(status['db'])}. Parameters: the "
+        "filtered level ± its standard error (docs/fleet.md).</p>\n"
+        f'<table id="fleet"><thead><tr>{head}</tr></thead><tbody>\n'
+        + "\n".join(rows)
+        + "\n</tbody></table>"
+    )
+    return _page("Fleet odometry", body)
+
+
+def _robot(robot: Mapping[str, Any], bags: Sequence[Mapping[str, Any]], svg: str) -> str:
+    alarms = robot["alarms"]
+    alarm_rows = "".join(
+        f"<tr><td>{_e(a['parameter'])}</td><td>{1e3 * a['size_m']:+.3f}</td>"
+        f"<td>{a['size_percent']:+.2f}</td><td>{a['z']:+.1f}</td><td>{_e(a['change_bag'])}</td>"
+        f"<td>{_e(a['bag'])}</td></tr>"
+        for a in alarms
+    )
+    alarm_html = (
+        "<p>No active drift alarm.</p>"
+        if not alarms
+        else "<table><tr><th>parameter</th><th>step (mm)</th><th>step (%)</th><th>se</th>"
+        f"<th>first bag of the new level</th><th>found at bag</th></tr>{alarm_rows}</table>"
+    )
+    bag_rows = []
+    for i, b in enumerate(bags):
+        link = (
+            f'<a href="../{_e(bag_page_name(b["content_hash"]))}">report</a>'
+            if b["result"] is not None
+            else ""
+        )
+        verdict = ("trustworthy" if b["enough"] else "not trustworthy") if b["result"] else ""
+        bag_rows.append(
+            f"<tr><td>{i}</td><td>{_e(b['path'])}</td><td>{_e(b['start'])}</td>"
+            f"<td>{_e(b['status'])}</td><td>{_e(verdict or b['reason'] or '')}</td>"
+            f"<td>{link}</td></tr>"
+        )
+    body = (
+        f'<p><a href="../index.html">fleet</a></p><h1>{_e(robot["robot_id"])}</h1>'
+        f"<h2>Drift alarms</h2>{alarm_html}<h2>Parameter history</h2>{svg}"
+        "<h2>Bags</h2><table><tr><th>#</th><th>bag</th><th>start (UTC)</th><th>status</th>"
+        "<th>verdict or reason</th><th></th></tr>" + "".join(bag_rows) + "</table>"
+    )
+    return _page(f"robot {robot['robot_id']}", body)
+
+
+def _bag(robot_id: str, b: Mapping[str, Any]) -> str:
+    md = auto_report_markdown(b["result"])
+    body = (
+        f'<p><a href="../{_e(quote(robot_page_name(robot_id)))}">{_e(robot_id)}</a></p>'
+        f"<h1>{_e(b['path'])}</h1><p>sha256 {_e(b['content_hash'])}</p><pre>{_e(md)}</pre>"
+    )
+    return _page(f"bag {b['path']}", body)
+
+
+def _utc(t: float | None) -> str:
+    return "" if t is None else datetime.fromtimestamp(t, UTC).strftime("%Y-%m-%d %H:%M:%S")
+
+
+def fleet_pages(
+    status: Mapping[str, Any],
+    robots: Mapping[str, tuple[Sequence[Mapping[str, Any]], str]],
+    folder: Path,
+    generated: str,
+) -> dict[Path, str]:
+    """Every page of the dashboard: ``status`` is ``odocal fleet status --json``; ``robots``
+    maps each robot id to (its bags: content_hash, path, start_s, status, reason, enough,
+    result; its history figure as SVG text)."""
+    out = {folder / "index.html": _index(status, generated)}
+    by_id = {r["robot_id"]: r for r in status["robots"]}
+    for robot_id, (bags, svg) in robots.items():
+        rows = [dict(b, start=_utc(b.get("start_s"))) for b in bags]
+        out[folder / robot_page_name(robot_id)] = _robot(by_id[robot_id], rows, svg)
+        for b in rows:
+            if b["result"] is not None:
+                out[folder / bag_page_name(b["content_hash"])] = _bag(robot_id, b)
+    return out

@@ -1,0 +1,80 @@
+"""`odocal fleet status` and `export` on databases filled with simulated histories (no bags):
+the detector's alarms as the operator sees them."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from odocal.errors import InputError
+from odocal.io.fleet_db import open_db
+from tests.support.fleet import fill_db
+
+SE = np.array([5e-5, 5e-5, 2.5e-4])  # 0.1 % per bag
+TRUE = np.array([0.0505, 0.0495, 0.25])
+
+
+def _history(rng, n, step_at=None, step=(0.0, 0.0, 0.0)):
+    out = []
+    for i in range(n):
+        v = TRUE * (1 + (np.asarray(step) if step_at is not None and i >= step_at else 0))
+        out.append((tuple(v + SE * rng.standard_normal(3)), tuple(SE)))
+    return out
+
+
+@pytest.fixture
+def db(tmp_path):
+    rng = np.random.default_rng(2)
+    path = tmp_path / "f.db"
+    with open_db(path, write=True) as fdb:
+        fill_db(fdb, {
+            "steady": _history(rng, 40),
+            "worn": _history(rng, 40, step_at=25, step=(0.006, 0, 0)),  # D_R +0.6 % (6 se)
+            "old-step": _history(rng, 70, step_at=20, step=(0, 0, -0.005)),  # b -0.5 %, long ago
+        })  # fmt: skip
+    return path
+
+
+def test_the_robot_with_a_step_comes_first_with_its_alarm(db):
+    from odocal.app.fleet_status import fleet_status
+
+    rows = fleet_status(db).as_dict()["robots"]
+    assert [r["robot_id"] for r in rows] == ["worn", "old-step", "steady"]
+    worn = rows[0]
+    assert worn["drift_alarm"] is True
+    d = worn["drift"]
+    assert d["parameter"] == "wheel_diameter_right_m" and d["bag"].startswith("/fleet/worn/bag02")
+    assert d["size_percent"] == pytest.approx(0.6, abs=0.2) and d["z"] > 3
+    # after the step the current value is the new one
+    p = worn["parameters"]["wheel_diameter_right_m"]
+    assert p["value"] == pytest.approx(TRUE[0] * 1.006, abs=4 * p["std_error"])
+    # an alarm more than 30 days of bag time before the latest bag is no longer active
+    assert rows[1]["drift_alarm"] is False and rows[2]["drift_alarm"] is False
+    assert rows[1]["parameters"]["wheelbase_m"]["value"] == pytest.approx(0.25 * 0.995, rel=6e-4)
+
+
+def test_export_refuses_a_robot_without_a_trustworthy_bag(db, tmp_path):
+    from odocal.app.fleet_status import fleet_export
+
+    with open_db(db, write=True) as fdb:
+        fdb.upsert_robot("new", {"wheel_diameter_right_m": 0.05, "wheel_diameter_left_m": 0.05,
+                                 "wheelbase_m": 0.25}, "/fleet/new", "2026-01-01")  # fmt: skip
+    with pytest.raises(InputError, match="robot 'new' has no trustworthy calibration yet"):
+        fleet_export(db, "new", tmp_path / "x.yaml")
+    assert not (tmp_path / "x.yaml").exists()
+    res = fleet_export(db, "worn", tmp_path / "worn.yaml")  # no covariance in these results
+    assert res.bags == 40 and "pose_covariance_diagonal" not in (tmp_path / "worn.yaml").read_text()
+
+
+def test_the_ingest_stores_every_robot_s_alarms(db, tmp_path):
+    from odocal.app.fleet import fleet_ingest
+    from tests.support.fleet import robot_yaml
+
+    robot_yaml(tmp_path / "root" / "steady")  # a run that finds no new bag
+    assert fleet_ingest(tmp_path / "root", db).bags_total == 0
+    with open_db(db, write=False) as fdb:
+        (worn,) = fdb.alarms("worn")
+        assert worn[0] == "wheel_diameter_right_m" and worn[1].startswith("worn-002")
+        assert worn[3] == pytest.approx(0.006 * TRUE[0], rel=0.35) and worn[4] > 3
+        assert [a[0] for a in fdb.alarms("old-step")] == ["wheelbase_m"]
+        assert fdb.alarms("steady") == []

@@ -1,0 +1,68 @@
+"""A fleet on disk: robot folders, the bags below them, content hashes and snapshots."""
+
+from __future__ import annotations
+
+import shutil
+
+import pytest
+
+from odocal.errors import InputError
+from odocal.io.fleet_files import content_hash, find_bags, find_robots, snapshot
+
+
+def _ros2(folder, data=b"rows"):
+    folder.mkdir(parents=True)
+    (folder / "metadata.yaml").write_text("rosbag2_bagfile_information: {}\n")
+    (folder / "bag_0.db3").write_bytes(data)
+    return folder
+
+
+def test_robots_and_their_bags(tmp_path):
+    for r in ("r2", "r1"):
+        (tmp_path / r).mkdir()
+        (tmp_path / r / "robot.yaml").write_text("wheel_diameter_m: 0.05\nwheelbase_m: 0.25\n")
+    (tmp_path / ".trash").mkdir()  # hidden: not a robot
+    _ros2(tmp_path / "r1" / "2026" / "jan" / "run1")
+    (tmp_path / "r1" / "a.bag").write_bytes(b"ros1")
+    (tmp_path / "r1" / "b.mcap").write_bytes(b"mcap")
+    (tmp_path / "r1" / "notes.txt").write_text("not a bag")
+    (tmp_path / "r1" / ".partial.bag").write_bytes(b"hidden")
+    robots = find_robots(tmp_path)
+    assert [r.robot_id for r in robots] == ["r1", "r2"]
+    bags = find_bags(robots[0].folder)
+    assert [b.relative_to(tmp_path).as_posix() for b in bags] == [
+        "r1/2026/jan/run1", "r1/a.bag", "r1/b.mcap"]  # fmt: skip
+    assert find_bags(robots[1].folder) == []
+
+
+def test_a_robot_folder_without_robot_yaml_is_named(tmp_path):
+    (tmp_path / "r1").mkdir()
+    with pytest.raises(InputError, match=r"r1: robot folder without robot.yaml"):
+        find_robots(tmp_path)
+    with pytest.raises(InputError, match="not a folder"):
+        find_robots(tmp_path / "missing")
+    with pytest.raises(InputError, match="no robot folders"):
+        find_robots(tmp_path / "r1")
+
+
+def test_a_copy_or_a_renamed_bag_has_the_same_hash(tmp_path):
+    a = _ros2(tmp_path / "a", b"x" * 1_500_000)
+    shutil.copytree(a, tmp_path / "copy")
+    (tmp_path / "copy").rename(tmp_path / "renamed")
+    assert content_hash(a) == content_hash(tmp_path / "renamed")
+    (tmp_path / "one.bag").write_bytes(b"y" * 10)
+    shutil.copy(tmp_path / "one.bag", tmp_path / "two.bag")
+    assert content_hash(tmp_path / "one.bag") == content_hash(tmp_path / "two.bag")
+    assert content_hash(tmp_path / "one.bag") != content_hash(a)
+
+
+def test_a_bag_being_written_changes_its_snapshot(tmp_path):
+    bag = tmp_path / "a.bag"
+    bag.write_bytes(b"x")
+    s = snapshot(bag)
+    assert s.size_bytes == 1 and snapshot(bag) == s
+    with bag.open("ab") as f:
+        f.write(b"more")
+    assert snapshot(bag) != s and snapshot(bag).size_bytes == 5
+    with pytest.raises(InputError, match="cannot read the bag"):
+        snapshot(tmp_path / "gone.bag")

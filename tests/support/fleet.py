@@ -1,0 +1,79 @@
+"""Simulated fleets for ``odocal fleet`` (tests and benchmarks/bench_fleet.py): one folder per
+robot with its robot.yaml and small synthetic ROS 2 bags (tests/support/synthetic_robot.py: the
+room tour once, joint states and odometry at 50 Hz, a SLAM ``map -> odom`` at 2 Hz with noise,
+an 8-ray laser the scan route declines, no IMU): about 0.36 MB and 0.2-0.3 s of
+``fit --method auto`` each."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from odocal.core.model import WheelGeometry
+from tests.support.synthetic_robot import Laser, default_track, simulate_robot, write_ros2_bag
+
+NOMINAL = WheelGeometry.symmetric(0.050, 0.250)
+DAY_NS = 86400 * 10**9
+
+
+def robot_yaml(folder: Path, nominal: WheelGeometry = NOMINAL) -> Path:
+    """Write ``folder/robot.yaml`` with the nominal geometry (the robot runs with it)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "robot.yaml"
+    path.write_text(
+        f"wheel_diameter_right_m: {nominal.diameter_right_m!r}\n"
+        f"wheel_diameter_left_m: {nominal.diameter_left_m!r}\n"
+        f"wheel_diameter_m: {nominal.mean_diameter_m!r}\nwheelbase_m: {nominal.wheelbase_m!r}\n"
+    )
+    return path
+
+
+def write_bag(
+    path: Path,
+    true: WheelGeometry,
+    day: int,
+    rng: np.random.Generator,
+    *,
+    believed: WheelGeometry = NOMINAL,
+    slam_noise: tuple[float, float] = (0.002, 0.001),
+) -> Path:
+    """One bag of a robot whose true geometry is ``true``, recorded ``day`` days after the
+    simulation's epoch (its stamps shifted)."""
+    run = simulate_robot(default_track(), true, believed, laser=Laser(every=10, n_rays=8))
+    run = replace(run, time_ns=run.time_ns + day * DAY_NS)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    write_ros2_bag(path, run, map_odom_every=25, imu=False, slam_noise=slam_noise, rng=rng)
+    return path
+
+
+def fake_result(bag: str, values, std_errors, *, enough: bool = True) -> dict:
+    """A ``fit --method auto`` JSON with the given (D_R, D_L, b) and standard errors: the
+    keys odocal fleet reads and the bag report prints (for databases filled without bags)."""
+    keys = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
+    params = {k: {"value": float(v), "std_error": float(s)}
+              for k, v, s in zip(keys, values, std_errors, strict=True)}  # fmt: skip
+    return {
+        "method": "auto", "bag": bag, "answer_route": "slam", "parameters": params,
+        "routes": [{"name": "slam", "used": True, "reason": "simulated"}],
+        "nominal": NOMINAL.as_dict(), "time_offsets_s": {}, "time_offsets": [],
+        "heldout": None, "cross_checks": [], "noise": None, "covariance": None,
+        "verdict": {"enough": enough, "reasons": [] if enough else ["simulated doubt"]},
+        "warnings": [], "written": [],
+    }  # fmt: skip
+
+
+def fill_db(db, robots: dict, *, now: str = "2026-01-01T00:00:00+00:00") -> None:
+    """Store simulated histories in an open FleetDb without bags: ``robots`` maps each robot id
+    to a list of ((D_R, D_L, b), (se, se, se)) per bag, one bag a day."""
+    for robot_id, bags in robots.items():
+        db.upsert_robot(robot_id, NOMINAL.as_dict(), f"/fleet/{robot_id}", now)
+        for i, (values, ses) in enumerate(bags):
+            path = f"/fleet/{robot_id}/bag{i:03d}"
+            db.store_bag(
+                content_hash=f"{robot_id}-{i:04d}".ljust(64, "0"), robot_id=robot_id, path=path,
+                size_bytes=1000, span_s=(1.7e9 + 86400.0 * i, 1.7e9 + 86400.0 * i + 60),
+                status="done", reason=None, version="test", now=now,
+                result=fake_result(path, values, ses),
+            )  # fmt: skip
