@@ -245,8 +245,12 @@ def cluster():
         yield c
 
 
-def test_the_same_numbers_on_a_process_pool_and_on_dask(fleet, tmp_path, cluster):
+def test_the_same_numbers_on_a_process_pool_and_on_dask(fleet, tmp_path, cluster, monkeypatch):
+    from odocal.app import fleet as app_fleet
     from odocal.app.fleet import fleet_ingest
+
+    # Dask retries a refused connection until its timeout: the unreachable scheduler below
+    monkeypatch.setattr(app_fleet, "DASK_CONNECT_TIMEOUT_S", 0.5)
 
     root, db, _ = fleet
     one = tmp_path / "one"  # robot r1 alone (two bags): cheaper

@@ -139,6 +139,10 @@ def _run_local(tasks: Sequence[BagTask], workers: int) -> Generator[BagOutcome, 
         pool.shutdown(wait=False, cancel_futures=True)
 
 
+#: How long to try to reach the Dask scheduler (s): Dask retries a refused connection until then.
+DASK_CONNECT_TIMEOUT_S = 10.0
+
+
 def _run_dask(tasks: Sequence[BagTask], address: str) -> Generator[BagOutcome, None, None]:
     """The tasks on the Dask cluster at ``address`` (results as they finish)."""
     try:
@@ -146,7 +150,7 @@ def _run_dask(tasks: Sequence[BagTask], address: str) -> Generator[BagOutcome, N
     except ImportError:
         raise InputError("--dask needs dask.distributed: pip install 'odocal[fleet]'") from None
     try:
-        client = Client(address, timeout="10s", set_as_default=False)
+        client = Client(address, timeout=f"{DASK_CONNECT_TIMEOUT_S}s", set_as_default=False)
     except (OSError, TimeoutError, ValueError) as exc:
         raise InputError(f"cannot reach the Dask scheduler at {address} ({exc})") from None
     try:
