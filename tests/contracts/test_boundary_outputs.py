@@ -125,6 +125,22 @@ def test_design_plot_and_reproduce_out_that_are_files(cli, tmp_path):
     assert f.read_text() == "mine\n"
 
 
+def test_a_folder_where_the_last_figure_goes_leaves_no_figure(cli, tmp_path, runs_dir):
+    """Every file of an output folder is checked before the first is written (issue #20)."""
+    params = write(tmp_path / "p.yaml", PARAMS_YAML)
+    design, valid = tmp_path / "design", tmp_path / "valid"
+    (design / "design_share.png").mkdir(parents=True)  # the third figure of design
+    (valid / "c.png").mkdir(parents=True)  # the figure of the third run
+    cli("design", "--analytic", "--side-lengths", "1:3:1", "--plot", design).expect_error(
+        "design_share.png: --plot: is a directory"
+    )
+    cli("validate", runs_dir, "--params", params, "--plot", valid).expect_error(
+        "c.png: --plot: is a directory"
+    )
+    assert sorted(p.name for p in design.iterdir()) == ["design_share.png"]
+    assert sorted(p.name for p in valid.iterdir()) == ["c.png"]
+
+
 # --- plan never overwrites a run sheet that holds measurements --------------------------------
 
 
