@@ -28,3 +28,8 @@ class InputError(OdocalError):
             f"{': '.join([', '.join(where)] if where else [])}{': ' if where else ''}{message}"
         )
         self.path, self.line, self.field = path, line, field
+
+
+class WorkerLost(OdocalError):
+    """A worker process ended without returning its result (killed by a signal or for lack of
+    memory): reported as one line, never waited for."""

@@ -132,11 +132,12 @@ def _sigterm_unwinds():
     installs its own handler) unwinds like Ctrl-C, so that no temporary file or created folder
     is left behind; the process then terminates as it was asked to."""
     try:
-        if signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
-            yield
-            return
-        signal.signal(signal.SIGTERM, _raise_sigterm)
+        ours = signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+        if ours:
+            signal.signal(signal.SIGTERM, _raise_sigterm)
     except ValueError:  # not the main thread
+        ours = False
+    if not ours:  # (a yield outside the try: an error thrown in at it goes on, as it should)
         yield
         return
     try:
