@@ -147,3 +147,13 @@ def test_without_joint_states_the_odometry_stands_in(cli, run, tmp_path):
     # without the robot file there is no geometry to invert through: said so
     status, _, err = cli("fit", path, "--truth-frames", "map:base_link")
     assert status == 2 and "the geometry the controller ran with" in err
+
+
+def test_robot_out_is_refused_before_the_slam_route_works(cli, slam_bag, tmp_path):
+    """Issue #20: `fit BAG --truth-frames --out P --robot-out M` was a RuntimeError (no content
+    for the planned output) after the whole fit."""
+    out, measured = tmp_path / "p.yaml", tmp_path / "m.yaml"
+    cli(
+        "fit", slam_bag, "--truth-frames", "map:base_link", "--out", out, "--robot-out", measured
+    ).expect_error("--robot-out needs runs with ground truth")
+    assert list(tmp_path.iterdir()) == []
