@@ -75,7 +75,7 @@ def one_run(argv: list[str], delay_s: float, signum: int, timeout_s: float) -> t
         if code == 0:
             return ("finished", "") if out.is_dir() else ("other", "exit 0, no output")
         if "Traceback" in stderr or "Error" in stderr.replace("odocal: error", ""):
-            return "traceback", stderr.strip().splitlines()[-1] if stderr.strip() else ""
+            return "traceback", f"exit {code}:\n{stderr.strip()}"
         if files:
             return "partial", ", ".join(files[:5])
         if code == -signum and stderr == "" and stdout == "":
@@ -91,6 +91,7 @@ def one_run(argv: list[str], delay_s: float, signum: int, timeout_s: float) -> t
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--runs", type=int, default=40)
+    parser.add_argument("--min-delay", type=float, default=0.0, help="s")
     parser.add_argument("--max-delay", type=float, default=None, help="s (default: measured)")
     parser.add_argument("--trials", type=int, default=5)
     parser.add_argument("--realdata", default=None, help="an optiodom_diff folder")
@@ -105,6 +106,8 @@ def main() -> None:
     if args.realdata:
         argv += ["--realdata", args.realdata]
     signum = getattr(signal, f"SIG{args.signal}")
+    # a job started in the background inherits SIGINT ignored, and so would the command
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     max_delay = args.max_delay
     if max_delay is None:  # the time of one undisturbed run
         start = time.monotonic()
@@ -113,7 +116,7 @@ def main() -> None:
         print(f"one undisturbed run: {max_delay:.1f} s ({kind} {detail})", flush=True)
     counts: collections.Counter[str] = collections.Counter()
     for i in range(args.runs):
-        delay = rng.uniform(0.0, max_delay)
+        delay = rng.uniform(args.min_delay, max_delay)
         kind, detail = one_run(argv, delay, signum, args.timeout)
         counts[kind] += 1
         if kind not in ("clean", "early", "finished"):

@@ -166,3 +166,24 @@ def test_workers_start_with_the_callers_signals_blocked(monkeypatch):
     assert run_tasks([state, state]) == [(signal.SIG_IGN, signal.SIG_DFL, False)] * 2
     assert seen[0] == 4  # both blocked when the worker began
     assert signal.pthread_sigmask(signal.SIG_BLOCK, []) == before  # here, as it was
+
+
+def test_an_interruption_leaves_no_worker_and_no_pool_thread(monkeypatch):
+    """Ctrl-C or SIGTERM here (in ``meanwhile``) while the workers compute: they are ended and
+    the pool's threads joined before the interruption goes on (a pool thread still running at
+    exit made Python 3.11 print a traceback from its exit handler, or abort)."""
+    import multiprocessing as mp
+    import threading
+
+    monkeypatch.setenv("ODOCAL_THREADS", "2")
+    threads = set(threading.enumerate())
+
+    def interrupted():
+        raise KeyboardInterrupt
+
+    start = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        run_tasks([lambda: time.sleep(30)] * 3, meanwhile=interrupted)
+    assert time.monotonic() - start < 10  # not waiting for the tasks
+    assert set(threading.enumerate()) <= threads
+    assert mp.active_children() == [] and parallel._TASKS == ()

@@ -9,6 +9,8 @@
   tasks run here, one after the other. Tasks must not depend on one another or on their order:
   the results are the same either way (each task owns its random stream).
 - :func:`shared_zeros`: an array of zeros that forked workers write into and this process sees.
+- :func:`signals_held`: SIGINT and SIGTERM held back while a block runs (their handlers run
+  after it), for work that must not be cut in the middle.
 """
 
 from __future__ import annotations
@@ -19,13 +21,14 @@ import signal
 import sys
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
+from types import FrameType
 from typing import Any, TypeVar
 
 import numpy as np
 
 from ..errors import WorkerLost
 
-__all__ = ["workers", "run_tasks", "can_fork", "shared_zeros"]
+__all__ = ["workers", "run_tasks", "can_fork", "shared_zeros", "signals_held"]
 
 T = TypeVar("T")
 
@@ -67,6 +70,38 @@ def shared_zeros(shape: tuple[int, ...]) -> np.ndarray:
 
 # The tasks of the current run_tasks call: forked workers inherit them (nothing is pickled).
 _TASKS: Sequence[Callable[[], Any]] = ()
+
+
+@contextmanager
+def signals_held() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM back: their Python handlers run when the block ends.
+
+    Done with Python-level handlers, not a thread signal mask: a process-directed signal may be
+    delivered to any thread (numpy's BLAS starts some) and Python then runs the handler in the
+    main thread anyway, so a mask on the main thread alone would not hold it."""
+    pending: list[int] = []
+
+    def note(signum: int, frame: FrameType | None) -> None:  # noqa: ARG001 - signal's API
+        pending.append(signum)
+
+    held = (signal.SIGINT, signal.SIGTERM)
+    try:
+        old = {s: signal.signal(s, note) for s in held}
+    except ValueError:  # not the main thread: signals cannot be handled here anyway
+        yield
+        return
+    try:
+        yield
+    finally:
+        for s, handler in old.items():
+            signal.signal(s, handler)
+        if pending:
+            signum = pending[0]
+            handler = old[signal.Signals(signum)]
+            if callable(handler):
+                handler(signum, None)  # e.g. raises KeyboardInterrupt
+            elif handler == signal.SIG_DFL:
+                os.kill(os.getpid(), signum)
 
 
 #: The signals the caller decides about: its workers never run the caller's handlers for them.
@@ -198,9 +233,11 @@ def run_tasks(
             if done is not None:
                 done(i)
     except BaseException:
-        pool.shutdown(wait=False, cancel_futures=True)
-        with _callers_signals_blocked():
+        # the workers ended first, then the pool's threads joined: none may still be running
+        # when this process exits (Python 3.11 then fails in its exit handler, or aborts)
+        with signals_held():
             _end_workers(forked or [p for p in mp.active_children() if p not in others])
+            pool.shutdown(wait=True, cancel_futures=True)
         raise
     else:
         pool.shutdown()

@@ -27,14 +27,13 @@ import io
 import os
 import signal
 import tempfile
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from types import FrameType
 from typing import Any, Protocol
 
-from ..core.parallel import run_tasks
+from ..core.parallel import run_tasks, signals_held
 from ..errors import InputError
 
 __all__ = ["OutputPlan", "Savable", "Content"]
@@ -84,38 +83,6 @@ class _Output:
     path: Path
     flag: str
     is_folder: bool
-
-
-@contextmanager
-def _signals_held() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM back: their Python handlers run when the block ends.
-
-    Done with Python-level handlers, not a thread signal mask: a process-directed signal may be
-    delivered to any thread (numpy's BLAS starts some) and Python then runs the handler in the
-    main thread anyway, so a mask on the main thread alone would not hold it."""
-    pending: list[int] = []
-
-    def note(signum: int, frame: FrameType | None) -> None:  # noqa: ARG001 - signal's API
-        pending.append(signum)
-
-    held = (signal.SIGINT, signal.SIGTERM)
-    try:
-        old = {s: signal.signal(s, note) for s in held}
-    except ValueError:  # not the main thread: signals cannot be handled here anyway
-        yield
-        return
-    try:
-        yield
-    finally:
-        for s, handler in old.items():
-            signal.signal(s, handler)
-        if pending:
-            signum = pending[0]
-            handler = old[signal.Signals(signum)]
-            if callable(handler):
-                handler(signum, None)  # e.g. raises KeyboardInterrupt
-            elif handler == signal.SIG_DFL:
-                os.kill(os.getpid(), signum)
 
 
 class _SigTerm(KeyboardInterrupt):
@@ -325,7 +292,7 @@ class OutputPlan:
                 except OSError as exc:
                     raise InputError(f"cannot write: {exc.strerror or exc}", path) from None
             mode = 0o666 & ~_umask()
-            with _signals_held():
+            with signals_held():
                 for tmp, path in staged:
                     try:
                         os.chmod(tmp, mode)  # mkstemp creates 0600; give the usual mode
