@@ -232,6 +232,7 @@ def run_tasks(
                 failed[i] = result
             if done is not None:
                 done(i)
+        pool.shutdown()
     except BaseException:
         # the workers ended first, then the pool's threads joined: none may still be running
         # when this process exits (Python 3.11 then fails in its exit handler, or aborts)
@@ -239,8 +240,6 @@ def run_tasks(
             _end_workers(forked or [p for p in mp.active_children() if p not in others])
             pool.shutdown(wait=True, cancel_futures=True)
         raise
-    else:
-        pool.shutdown()
     finally:
         _TASKS = ()
     if failed:
