@@ -41,7 +41,7 @@ def one_run(argv: list[str], delay_s: float, signum: int, timeout_s: float) -> t
     out = work / "out"
     try:
         proc = subprocess.Popen(
-            [sys.executable, "-m", "odocal", *argv, "--out", str(out)],
+            [sys.executable, "-X", "faulthandler", "-m", "odocal", *argv, "--out", str(out)],
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
@@ -57,9 +57,18 @@ def one_run(argv: list[str], delay_s: float, signum: int, timeout_s: float) -> t
         try:
             stdout, stderr = proc.communicate(timeout=timeout_s)
         except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.communicate()
-            return "hang", f"after {delay_s:.2f} s"
+            ps = subprocess.run(
+                ["ps", "-o", "pid,ppid,stat,wchan:20,cmd", "-g", str(proc.pid)],
+                capture_output=True,
+                text=True,
+            ).stdout
+            os.killpg(proc.pid, signal.SIGABRT)  # faulthandler: every thread's stack
+            try:
+                _, stderr = proc.communicate(timeout=10)
+            except subprocess.TimeoutExpired:
+                os.killpg(proc.pid, signal.SIGKILL)
+                _, stderr = proc.communicate()
+            return "hang", f"after {delay_s:.2f} s\n{ps}{stderr}"
         time.sleep(0.2)  # let a worker the signal missed notice its parent is gone
         try:
             os.killpg(proc.pid, 0)

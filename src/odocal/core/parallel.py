@@ -122,8 +122,9 @@ def _quiet_worker() -> None:
 @contextmanager
 def _callers_signals_blocked() -> Iterator[None]:
     """Block SIGINT and SIGTERM in this thread meanwhile: the processes forked (and the threads
-    started) inside inherit the mask. A signal that comes meanwhile waits, or is taken by another
-    thread of this process; Python runs its handler in the main thread in either case."""
+    started) inside inherit the mask. (A signal that comes meanwhile waits, or is taken by
+    another thread of this process, numpy's BLAS threads say, and Python runs its handler in
+    the main thread anyway: :func:`signals_held` holds that back.)"""
     old = signal.pthread_sigmask(signal.SIG_BLOCK, _CALLERS_SIGNALS)
     try:
         yield
@@ -211,7 +212,10 @@ def run_tasks(
     forked: list[Any] = []
     pool = ProcessPoolExecutor(n - first, mp.get_context("fork"), initializer=_quiet_worker)
     try:
-        with _callers_signals_blocked():  # the workers are forked at the first submit
+        # the workers are forked at the first submit: they inherit the signals blocked, and
+        # this process takes a signal only once it knows every worker (a handler run in the
+        # middle of a fork could leave one unknown, and alive)
+        with signals_held(), _callers_signals_blocked():
             futures = {pool.submit(_indexed, i): i for i in range(first, len(tasks))}
             forked = [p for p in mp.active_children() if p not in others]
         if meanwhile is not None:
