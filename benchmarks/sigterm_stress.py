@@ -92,7 +92,7 @@ def one_run(argv: list[str], delay_s: float, signum: int, timeout_s: float) -> t
         one_line = stderr.count("\n") == 1 and stderr.startswith("odocal: ")
         if code == 128 + signum and one_line and stdout == "":
             return "clean", ""
-        return "other", f"exit {code}: {stderr.strip()[:200]!r}"
+        return "other", f"exit {code}:\n{stderr.strip()}"
     finally:
         shutil.rmtree(work, ignore_errors=True)
 
