@@ -8,7 +8,8 @@ drawing, writing), signals the group, and classifies what happened:
   stdout, no output folder or temporary file, no process of the group left;
 - ``early``: killed by the signal before odocal's handler was installed (interpreter start-up):
   nothing written, nothing printed;
-- ``finished``: the command had already finished (exit 0, every output there);
+- ``finished``: the command had already finished (exit 0), or had written every output when
+  the signal came (then exit 128 + the signal number, the files those of an undisturbed run);
 - ``traceback`` / ``partial`` / ``leftover`` / ``other``: a failure (printed);
 - ``hang``: no exit within ``--timeout`` seconds (the group is then killed).
 
@@ -35,8 +36,11 @@ import time
 from pathlib import Path
 
 
-def one_run(argv: list[str], delay_s: float, signum: int, timeout_s: float) -> tuple[str, str]:
-    """(the class of the outcome, a detail) of one run signalled after ``delay_s``."""
+def one_run(
+    argv: list[str], delay_s: float, signum: int, timeout_s: float, complete: list[str]
+) -> tuple[str, str]:
+    """(the class of the outcome, a detail) of one run signalled after ``delay_s``; ``complete``:
+    the files of an undisturbed run."""
     work = Path(tempfile.mkdtemp(prefix="odocal-sigterm-"))
     out = work / "out"
     try:
@@ -81,12 +85,14 @@ def one_run(argv: list[str], delay_s: float, signum: int, timeout_s: float) -> t
         code = proc.returncode
         if left:
             return "leftover", f"worker processes alive after exit {code}"
-        if code == 0:
-            return ("finished", "") if out.is_dir() else ("other", "exit 0, no output")
         if "Traceback" in stderr or "Error" in stderr.replace("odocal: error", ""):
             return "traceback", f"exit {code}:\n{stderr.strip()}"
+        if code == 0:
+            return ("finished", "") if out.is_dir() else ("other", "exit 0, no output")
+        if files and files == complete and code in (-signum, 128 + signum):
+            return "finished", f"signalled after writing (exit {code})"
         if files:
-            return "partial", ", ".join(files[:5])
+            return "partial", ", ".join(files)
         if code == -signum and stderr == "" and stdout == "":
             return "early", ""
         one_line = stderr.count("\n") == 1 and stderr.startswith("odocal: ")
@@ -95,6 +101,17 @@ def one_run(argv: list[str], delay_s: float, signum: int, timeout_s: float) -> t
         return "other", f"exit {code}:\n{stderr.strip()}"
     finally:
         shutil.rmtree(work, ignore_errors=True)
+
+
+def _files_of_one_run(argv: list[str]) -> list[str]:
+    """The files an undisturbed run writes (relative to its folder)."""
+    with tempfile.TemporaryDirectory(prefix="odocal-sigterm-") as d:
+        subprocess.run(
+            [sys.executable, "-m", "odocal", *argv, "--out", str(Path(d) / "out")],
+            capture_output=True,
+            check=True,
+        )
+        return sorted(str(p.relative_to(d)) for p in Path(d).rglob("*"))
 
 
 def main() -> None:
@@ -118,15 +135,16 @@ def main() -> None:
     # a job started in the background inherits SIGINT ignored, and so would the command
     signal.signal(signal.SIGINT, signal.default_int_handler)
     max_delay = args.max_delay
+    complete = _files_of_one_run(argv)
+    start = time.monotonic()
+    kind, detail = one_run(argv, 0.0, 0, args.timeout, complete)
     if max_delay is None:  # the time of one undisturbed run
-        start = time.monotonic()
-        kind, detail = one_run(argv, 0.0, 0, args.timeout)
         max_delay = time.monotonic() - start
         print(f"one undisturbed run: {max_delay:.1f} s ({kind} {detail})", flush=True)
     counts: collections.Counter[str] = collections.Counter()
     for i in range(args.runs):
         delay = rng.uniform(args.min_delay, max_delay)
-        kind, detail = one_run(argv, delay, signum, args.timeout)
+        kind, detail = one_run(argv, delay, signum, args.timeout, complete)
         counts[kind] += 1
         if kind not in ("clean", "early", "finished"):
             print(f"run {i}: SIG{args.signal} after {delay:.2f} s: {kind}: {detail}", flush=True)
