@@ -53,3 +53,8 @@ class OdocalWarning(UserWarning):
     """What a command called from Python warns about (the same words as the command line's
     ``odocal: warning: ...`` lines, also kept in the result's ``warnings``): filter it with
     ``warnings.simplefilter("ignore", odocal.OdocalWarning)`` or turn it into an error."""
+
+
+class WorkerLost(OdocalError):
+    """A worker process ended without returning its result (killed by a signal or for lack of
+    memory): reported as one line, never waited for."""

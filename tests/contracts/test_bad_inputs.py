@@ -345,3 +345,60 @@ def test_bag_route_bad_inputs_are_one_line_errors(tmp_path, cli):
     assert status == 2 and err.count("\n") == 1
     assert "too short for a held-out check" in err and str(bag) in err
     assert not out.exists()
+
+
+def _still_run_csv(path: Path) -> Path:
+    """A generic run CSV in which the robot never moves (wheels and truth at rest)."""
+    from odocal.core.recording import Recording
+    from odocal.io.generic_csv import write_generic_csv
+    from tests.support.boundary_files import NOMINAL
+
+    n, zero = 40, np.zeros(40)
+    still = Recording(
+        name="still", time_s=np.arange(n) * 0.05, wheel_angle_right_rad=zero,
+        wheel_angle_left_rad=zero, ground_truth=np.zeros((n, 3)), ran_with=NOMINAL, label="ccw",
+    )  # fmt: skip
+    write_generic_csv(path, still)
+    return path
+
+
+def test_a_run_in_which_the_robot_never_moves_is_refused_before_any_output(cli, tmp_path):
+    """Issue #20: check and fit printed a traceback (None * 100) and fit had already written
+    PARAMS.yaml; noise divided by zero."""
+    from tests.support.boundary_files import ROBOT_YAML
+
+    still = _still_run_csv(tmp_path / "still.csv")
+    robot = write(tmp_path / "robot.yaml", ROBOT_YAML)
+    out = tmp_path / "params.yaml"
+    for argv in (
+        ["fit", still, "--out", out],
+        ["fit", still, "--method", "linear", "--out", out],
+        ["check", still],
+        ["noise", still, _still_run_csv(tmp_path / "still2.csv"), "--robot", robot],
+    ):
+        assert_error(cli(*argv), "still", "never moves")
+    assert not out.exists() and leftovers(tmp_path) == []
+
+
+def test_robot_out_of_a_relative_motion_fit_is_refused_before_the_work(cli, tmp_path):
+    """Issue #20: `fit X.tuple --robot-out M` wrote nothing without a word (with --out too, a
+    RuntimeError after the work)."""
+    from tests.support.boundary_files import tuples_text
+
+    tuples = write(tmp_path / "a.tuple", tuples_text())
+    out, measured = tmp_path / "p.yaml", tmp_path / "m.yaml"
+    for extra in ([], ["--out", out]):
+        assert_error(cli("fit", tuples, "--robot-out", measured, *extra), "--robot-out")
+    assert not out.exists() and not measured.exists()
+
+
+def test_tuples_whose_wheels_barely_turn_are_one_line(cli, tmp_path):
+    """Issue #20: every T = 1e-300 s gave numpy's LinAlgError."""
+    from tests.support.boundary_files import tuples_text
+
+    rows = [json.loads(line) for line in tuples_text().splitlines()]
+    text = "".join(json.dumps({**row, "T": 1e-300}) + "\n" for row in rows)
+    tuples = write(tmp_path / "tiny.tuple", text)
+    out = tmp_path / "p.yaml"
+    assert_error(cli("fit", tuples, "--out", out), "wheels do not turn in any tuple")
+    assert not out.exists()

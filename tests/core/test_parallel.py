@@ -1,6 +1,8 @@
 """odocal.core.parallel: independent tasks on worker processes, results in order."""
 
 import os
+import signal
+import time
 
 import numpy as np
 import pytest
@@ -106,3 +108,82 @@ def test_inside_a_daemonic_pool_worker_runs_here():
     with mp.get_context("fork").Pool(1) as pool:
         pids = pool.map(_inside_a_pool_worker, [0])[0]
     assert len(set(pids)) == 1
+
+
+def _die():
+    os.kill(os.getpid(), signal.SIGKILL)
+
+
+def test_a_killed_worker_is_reported_not_waited_for(monkeypatch):
+    """A worker that ends without its result (killed; the pool of multiprocessing waited for
+    ever): one clear error, the other workers reaped."""
+    import multiprocessing as mp
+
+    from odocal.errors import WorkerLost
+
+    monkeypatch.setenv("ODOCAL_THREADS", "2")
+
+    def hung(signum, frame):
+        raise TimeoutError("run_tasks waited for a dead worker")
+
+    previous = signal.signal(signal.SIGALRM, hung)
+    signal.alarm(20)
+    try:
+        with pytest.raises(WorkerLost, match="worker process ended .*signal 9"):
+            run_tasks([lambda: time.sleep(0.2), _die, lambda: 3])
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, previous)
+    assert mp.active_children() == [] and parallel._TASKS == ()
+
+
+def test_workers_start_with_the_callers_signals_blocked(monkeypatch):
+    """A signal between the fork and the worker's own handlers cannot run the caller's handler
+    in the worker (which printed a traceback of its own): it waits, blocked, until the worker
+    ignores Ctrl-C and takes SIGTERM's default action."""
+    monkeypatch.setenv("ODOCAL_THREADS", "2")
+    if not parallel.can_fork():
+        pytest.skip("no worker processes here")
+    seen = shared_zeros((4,))
+    real = parallel._quiet_worker
+
+    def recording() -> None:
+        blocked = signal.pthread_sigmask(signal.SIG_BLOCK, [])
+        seen[0] = 1 + (signal.SIGINT in blocked) + 2 * (signal.SIGTERM in blocked)
+        real()
+
+    monkeypatch.setattr(parallel, "_quiet_worker", recording)
+
+    def state():
+        blocked = signal.pthread_sigmask(signal.SIG_BLOCK, [])
+        return (
+            signal.getsignal(signal.SIGINT),
+            signal.getsignal(signal.SIGTERM),
+            signal.SIGINT in blocked or signal.SIGTERM in blocked,
+        )
+
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, [])
+    assert run_tasks([state, state]) == [(signal.SIG_IGN, signal.SIG_DFL, False)] * 2
+    assert seen[0] == 4  # both blocked when the worker began
+    assert signal.pthread_sigmask(signal.SIG_BLOCK, []) == before  # here, as it was
+
+
+def test_an_interruption_leaves_no_worker_and_no_pool_thread(monkeypatch):
+    """Ctrl-C or SIGTERM here (in ``meanwhile``) while the workers compute: they are ended and
+    the pool's threads joined before the interruption goes on (a pool thread still running at
+    exit made Python 3.11 print a traceback from its exit handler, or abort)."""
+    import multiprocessing as mp
+    import threading
+
+    monkeypatch.setenv("ODOCAL_THREADS", "2")
+    threads = set(threading.enumerate())
+
+    def interrupted():
+        raise KeyboardInterrupt
+
+    start = time.monotonic()
+    with pytest.raises(KeyboardInterrupt):
+        run_tasks([lambda: time.sleep(30)] * 3, meanwhile=interrupted)
+    assert time.monotonic() - start < 10  # not waiting for the tasks
+    assert set(threading.enumerate()) <= threads
+    assert mp.active_children() == [] and parallel._TASKS == ()

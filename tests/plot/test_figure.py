@@ -51,3 +51,24 @@ def test_one_draw_and_the_pixels_of_matplotlibs_own_savefig(monkeypatch):
     # leaves, is first walked once more without painting)
     assert len(draws) == 1
     assert fig.get_layout_engine() is None  # the layout is fixed once saved
+
+
+def test_matplotlib_is_imported_with_the_signals_held(monkeypatch):
+    """A Ctrl-C or SIGTERM during matplotlib's import waits until it is done: an import cut
+    inside its C++ font module made Python abort at exit (issue #20, 'Fatal Python error:
+    PyThreadState_Get' after the one-line message)."""
+    import signal
+
+    from odocal.plot import _figure
+
+    real, seen = _figure._figure_class, []
+
+    def recording():
+        seen.append(signal.getsignal(signal.SIGTERM))
+        return real()
+
+    monkeypatch.setattr(_figure, "_figure_class", recording)
+    before = signal.getsignal(signal.SIGTERM)
+    _figure.new_figure()
+    assert seen and seen[0] is not before  # a holding handler while importing
+    assert signal.getsignal(signal.SIGTERM) is before  # and the caller's again after

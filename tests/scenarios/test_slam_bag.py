@@ -176,3 +176,13 @@ def test_a_truth_frame_mounted_on_the_base_is_read_as_the_base(slam_bag):
     assert (
         "'laser' is mounted on 'base_link' by /tf_static (x 0.15 m, y 0.05 m, yaw 0.1 rad)" in note
     )
+
+
+def test_robot_out_is_refused_before_the_slam_route_works(cli, slam_bag, tmp_path):
+    """Issue #20: `fit BAG --truth-frames --out P --robot-out M` was a RuntimeError (no content
+    for the planned output) after the whole fit."""
+    out, measured = tmp_path / "p.yaml", tmp_path / "m.yaml"
+    cli(
+        "fit", slam_bag, "--truth-frames", "map:base_link", "--out", out, "--robot-out", measured
+    ).expect_error("--robot-out needs runs with ground truth")
+    assert list(tmp_path.iterdir()) == []

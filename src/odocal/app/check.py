@@ -26,7 +26,13 @@ from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
 from ..io.bag_recording import without_gyro
 from ..io.bag_slam import SlamBag, load_slam_bags
 from ..io.recordings import load_recordings
-from .common import RobotSpec, load_warnings, nominal_geometry, optional_robot
+from .common import (
+    RobotSpec,
+    load_warnings,
+    nominal_geometry,
+    optional_robot,
+    refuse_still_runs,
+)
 from .text import Presented, Text, check_text, emits_warnings
 
 __all__ = ["CheckResult", "check", "check_loaded", "noise_model", "slam_noise", "SLAM_POSE_NOISE"]
@@ -84,7 +90,9 @@ def check_loaded(
 ) -> CheckResult:
     """The check of loaded recordings, linearised at ``geometry``, with ``robot``'s noise (or
     ``noise``: a model and where it came from), for the trajectory fit of ``settings`` (its
-    residual, segment length, heading weight, samples and run weight)."""
+    residual, segment length, heading weight, samples and run weight). A run in which the robot
+    never moves is an InputError."""
+    refuse_still_runs(recordings)
     model, source = noise if noise is not None else noise_model(robot)
     chk = check_recordings(
         list(recordings),

@@ -8,6 +8,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from ..calibration.heldout import HeldOut
 from ..calibration.result import WHEELS_HINT, far_from_nominal
 from ..core.model import Robot, WheelGeometry
@@ -177,6 +179,27 @@ def load_warnings(recordings: Sequence[Recording]) -> tuple[str, ...]:
     return tuple(
         f"{r.name}: {w}" for r in recordings for w in (r.meta.get("warnings", ()) if r.meta else ())
     )
+
+
+#: Below this rotation (rad, each wheel, over the whole run) a run's robot never moved.
+STILL_WHEEL_ROTATION_RAD = 0.01
+
+
+def refuse_still_runs(recordings: Sequence[Recording]) -> None:
+    """A run in which the robot never moves (neither wheel turns by
+    :data:`STILL_WHEEL_ROTATION_RAD`) holds nothing to calibrate or check: InputError naming
+    it, before any work and any output."""
+    for r in recordings:
+        turned = max(
+            float(np.ptp(a)) if len(a) else 0.0
+            for a in (r.wheel_angle_right_rad, r.wheel_angle_left_rad)
+        )
+        if not turned >= STILL_WHEEL_ROTATION_RAD:
+            raise InputError(
+                f"the robot never moves in this run (its wheels turn {turned:.3g} rad at most); "
+                "nothing to calibrate or check: remove the run",
+                r.name,
+            )
 
 
 def implausible_geometry(geometry: WheelGeometry) -> str | None:

@@ -190,9 +190,10 @@ def compare(
     agreement: tuple[PublishedAgreement, ...] = ()
     if realdata is not None:
         real, agreement = _real(realdata, circle_set, progress, n_sim)
+    summary = summarize_agreement(agreement)
     written: tuple[Path, ...] = ()
-    if plot is not None:
+    if plot is not None:  # written last, once every number is computed
         from ..plot.compare import comparison_figure
 
         written = tuple(plan.commit({Path(plot) / "compare.png": comparison_figure(sim, real)}))
-    return Comparison(sim, real, agreement, written, summarize_agreement(agreement))
+    return Comparison(sim, real, agreement, written, summary)

@@ -146,8 +146,6 @@ def _refuse_other_routes_outputs(
             "the held-out check of a bag route",
             field="plot",
         )
-    if robot_out is not None and method in ("relative", "scan"):
-        raise InputError("--robot-out needs runs with ground truth (not --method relative/scan)")
     if robot_out is not None and method == "gyro":
         raise InputError("--robot-out needs runs with ground truth (not --method gyro)")
 
@@ -233,9 +231,14 @@ def fit(
         if len(paths) != 1:
             raise InputError("--method gyro takes exactly one bag", field="paths")
         return fit_gyro(paths[0], robot=robot, exports=exports, options=bag, force=force)
-    plan = _output_plan(paths, robot, exports, plot, robot_out)
     refuse_repeated(paths)  # the same file twice would count twice, whatever it holds
     route = choose_route(paths, method, truth_frames)
+    if robot_out is not None and route != "runs":
+        raise InputError(
+            "--robot-out needs runs with ground truth (not .tuple files, a SLAM pose or laser "
+            "scans: their relative motions measure no repeated runs)"
+        )
+    plan = _output_plan(paths, robot, exports, plot, robot_out)
     if route == "scan":
         return fit_scan_bags(
             paths,

@@ -43,6 +43,7 @@ from .common import (
     nominal_geometry,
     optional_robot,
     refuse_absurd,
+    refuse_still_runs,
     refuse_untrusted,
 )
 from .measured import MeasuredRobot, measure_robot
@@ -246,7 +247,9 @@ def fit_runs(
     CalibrationError unless ``force``.
 
     A result more than 25 % from nominal is absurd for a calibration: CalibrationError unless
-    ``force`` (then its messages are warnings)."""
+    ``force`` (then its messages are warnings). A run in which the robot never moves is an
+    InputError."""
+    refuse_still_runs(recordings)
     nominal = nominal_geometry(robot, recordings)
     ran_with = None if robot is None else robot.believed_geometry
     offsets: tuple[TimeOffset, ...] = ()

@@ -29,7 +29,14 @@ from ..io.recordings import load_recordings, require_ground_truth
 from ..io.robot_file import load_robot, robot_yaml
 from ..io.ros2_export import DEFAULT_CONTROLLER, ros2_params_yaml
 from ..io.runs_csv import read_runs
-from .common import RobotSpec, input_paths, load_warnings, require_robot, resolve_robot
+from .common import (
+    RobotSpec,
+    input_paths,
+    load_warnings,
+    refuse_still_runs,
+    require_robot,
+    resolve_robot,
+)
 from .measured import MeasuredRobot, measure_robot
 
 __all__ = ["noise", "noise_recordings", "RecordedNoiseResult", "cruise_speed_m_s"]
@@ -208,6 +215,7 @@ def noise_recordings(
         plan.file(ros2, "--ros2")
     recordings = load_recordings(paths, ticks_per_rev=ticks_per_rev, bag=bag)
     require_ground_truth(recordings, "odocal noise on recorded runs")
+    refuse_still_runs(recordings)
     rob = load_robot(robot) if robot else None
     nominal = _nominal(rob, recordings)
     measurement = _instrument(rob, sigma_xy_m, sigma_theta_deg)

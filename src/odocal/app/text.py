@@ -132,11 +132,15 @@ def check_text(out: Text, res: Any, indent: str = "") -> None:
 
 
 def _motion_line(d: dict[str, Any]) -> str:
-    return (
+    head = (
         f"{d['travel_m']:.1f} m driven, {d['rotation_deg']:.0f} deg turned "
-        f"({d['rotation_left_deg']:.0f} left, {d['rotation_right_deg']:.0f} right); wheel "
-        f"travel {100 * d['share_straight']:.0f} % straight, {100 * d['share_spot']:.0f} % spot "
-        f"turns, {100 * d['share_arc']:.0f} % arcs"
+        f"({d['rotation_left_deg']:.0f} left, {d['rotation_right_deg']:.0f} right); "
+    )
+    if d["share_straight"] is None:  # no wheel travel: no shares (None in the JSON)
+        return head + "no wheel travel"
+    return head + (
+        f"wheel travel {100 * d['share_straight']:.0f} % straight, "
+        f"{100 * d['share_spot']:.0f} % spot turns, {100 * d['share_arc']:.0f} % arcs"
     )
 
 

@@ -15,6 +15,7 @@ import os
 import signal
 import sys
 import warnings
+from typing import Any
 
 from .. import __version__
 from ..errors import OdocalError, OdocalWarning, one_line
@@ -98,45 +99,69 @@ class Terminated(KeyboardInterrupt):
     half-written output)."""
 
 
-def _terminate(signum, frame):  # noqa: ARG001 - the signal module's API
-    raise Terminated
+#: The signals that end a command with one line and exit status 128 + the signal number.
+_STOPS = {
+    signal.SIGINT: "odocal: interrupted; nothing half-written",
+    signal.SIGTERM: "odocal: terminated (SIGTERM); nothing half-written",
+}
+
+
+def _install_stops(received: list[int]) -> dict[int, Any]:
+    """Handlers for SIGINT and SIGTERM that note the signal in ``received`` and unwind (raise
+    KeyboardInterrupt, :class:`Terminated`); the previous handlers, to restore. SIGINT is left
+    alone when it is not Python's default (ignored in a background job, a caller's own)."""
+
+    def stop(signum: int, frame: object) -> None:  # noqa: ARG001 - the signal module's API
+        received.append(signum)
+        raise Terminated if signum == signal.SIGTERM else KeyboardInterrupt
+
+    previous: dict[int, Any] = {}
+    try:
+        if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+            previous[signal.SIGINT] = signal.signal(signal.SIGINT, stop)
+        previous[signal.SIGTERM] = signal.signal(signal.SIGTERM, stop)
+    except ValueError:  # not the main thread: leave the signals alone
+        pass
+    return previous
 
 
 def main(argv: list[str] | None = None) -> int:
     """Run ``odocal`` with ``argv`` (default ``sys.argv[1:]``); returns the exit code: 0, 2 for an
     :class:`~odocal.errors.OdocalError` (one line on stderr), 128 + the signal number when
-    interrupted or terminated. Without any argument it prints the help on stdout and returns 2
-    (a usage error: no command ran; ``odocal --help`` returns 0)."""
+    interrupted (Ctrl-C, SIGINT: 130) or terminated (SIGTERM: 143), with one line on stderr,
+    whatever the signal interrupted (an import, a worker process starting, a figure being
+    drawn, a file being written: nothing is half-written). Without any argument it prints the
+    help on stdout and returns 2 (a usage error: no command ran; ``odocal --help`` returns 0)."""
     argv = sys.argv[1:] if argv is None else list(argv)
     if not argv:  # no command: the help (on stdout), exit status 2 (nothing was run)
         build_parser("").print_help()
         return 2
-    args = build_parser(_command(argv)).parse_args(argv)
-    installed = False
+    received: list[int] = []
+    previous = _install_stops(received)
     try:
-        previous = signal.signal(signal.SIGTERM, _terminate)
-        installed = True
-    except ValueError:  # not the main thread: leave the signal alone
-        pass
-    try:
+        args = build_parser(_command(argv)).parse_args(argv)
         with warnings.catch_warnings():
             # the command prints its result's warnings itself (odocal: warning: ...)
             warnings.simplefilter("ignore", OdocalWarning)
             return int(args.run(args) or 0)
-    except OdocalError as exc:
-        print(f"odocal: error: {one_line(str(exc))}", file=sys.stderr)
-        return 2
-    except Terminated:
-        print("odocal: terminated (SIGTERM); nothing half-written", file=sys.stderr)
-        return 128 + signal.SIGTERM
-    except KeyboardInterrupt:
-        print("odocal: interrupted; nothing half-written", file=sys.stderr)
-        return 128 + signal.SIGINT
-    except BrokenPipeError:
-        return 0
+    except BaseException as exc:
+        # after a signal, whatever surfaces while unwinding (also an error of the machinery it
+        # interrupted) is that signal
+        signum = received[0] if received else None
+        if signum is None and isinstance(exc, KeyboardInterrupt):
+            signum = signal.SIGTERM if isinstance(exc, Terminated) else signal.SIGINT
+        if signum is not None:
+            print(_STOPS[signal.Signals(signum)], file=sys.stderr)
+            return 128 + signum
+        if isinstance(exc, OdocalError):
+            print(f"odocal: error: {one_line(str(exc))}", file=sys.stderr)
+            return 2
+        if isinstance(exc, BrokenPipeError):
+            return 0
+        raise
     finally:
-        if installed:
-            signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler if handler is not None else signal.SIG_DFL)
 
 
 def entry() -> None:

@@ -3,11 +3,14 @@
 - :func:`workers`: how many: ``ODOCAL_THREADS`` if set (``1`` runs everything in this process
   and thread), else the CPUs this process may use.
 - :func:`run_tasks`: run zero-argument callables, each in a worker process, and return their
-  results in order. The workers are forked (Linux only), so a task may be any callable (a closure,
-  a lambda): only its result travels back, pickled. Elsewhere, with one worker or one task, the
+  results in order. The workers are forked (Linux only; concurrent.futures' process pool, which
+  notices a worker that dies), so a task may be any callable (a closure, a lambda): only its
+  result travels back, pickled. Elsewhere, with one worker or one task, the
   tasks run here, one after the other. Tasks must not depend on one another or on their order:
   the results are the same either way (each task owns its random stream).
 - :func:`shared_zeros`: an array of zeros that forked workers write into and this process sees.
+- :func:`signals_held`: SIGINT and SIGTERM held back while a block runs (their handlers run
+  after it), for work that must not be cut in the middle.
 """
 
 from __future__ import annotations
@@ -16,12 +19,16 @@ import mmap
 import os
 import signal
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from types import FrameType
 from typing import Any, TypeVar
 
 import numpy as np
 
-__all__ = ["workers", "run_tasks", "can_fork", "shared_zeros"]
+from ..errors import WorkerLost
+
+__all__ = ["workers", "run_tasks", "can_fork", "shared_zeros", "signals_held"]
 
 T = TypeVar("T")
 
@@ -65,19 +72,102 @@ def shared_zeros(shape: tuple[int, ...]) -> np.ndarray:
 _TASKS: Sequence[Callable[[], Any]] = ()
 
 
+@contextmanager
+def signals_held() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM back: their Python handlers run when the block ends.
+
+    Done with Python-level handlers, not a thread signal mask: a process-directed signal may be
+    delivered to any thread (numpy's BLAS starts some) and Python then runs the handler in the
+    main thread anyway, so a mask on the main thread alone would not hold it."""
+    pending: list[int] = []
+
+    def note(signum: int, frame: FrameType | None) -> None:  # noqa: ARG001 - signal's API
+        pending.append(signum)
+
+    held = (signal.SIGINT, signal.SIGTERM)
+    try:
+        old = {s: signal.signal(s, note) for s in held}
+    except ValueError:  # not the main thread: signals cannot be handled here anyway
+        yield
+        return
+    try:
+        yield
+    finally:
+        for s, handler in old.items():
+            signal.signal(s, handler)
+        if pending:
+            signum = pending[0]
+            handler = old[signal.Signals(signum)]
+            if callable(handler):
+                handler(signum, None)  # e.g. raises KeyboardInterrupt
+            elif handler == signal.SIG_DFL:
+                os.kill(os.getpid(), signum)
+
+
+#: The signals the caller decides about: its workers never run the caller's handlers for them.
+_CALLERS_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
 def _quiet_worker() -> None:
-    """A worker leaves interruptions to the caller: Ctrl-C is ignored, SIGTERM (the pool's
-    terminate) ends it at once, without the caller's handlers."""
+    """A worker leaves interruptions to the caller: Ctrl-C is ignored, SIGTERM (also the one sent
+    to the whole process group) ends it at once, without the caller's handlers. The worker was
+    forked with both signals blocked (:func:`run_tasks`), so that one arriving before this point
+    cannot run a handler inherited from the caller (a traceback of its own); it is delivered
+    only now, under these settings."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _CALLERS_SIGNALS)
 
 
-def _indexed(i: int) -> tuple[int, bool, Any]:
-    """Task ``i`` in a worker: (i, True, its result) or (i, False, the exception it raised)."""
+@contextmanager
+def _callers_signals_blocked() -> Iterator[None]:
+    """Block SIGINT and SIGTERM in this thread meanwhile: the processes forked (and the threads
+    started) inside inherit the mask. (A signal that comes meanwhile waits, or is taken by
+    another thread of this process, numpy's BLAS threads say, and Python runs its handler in
+    the main thread anyway: :func:`signals_held` holds that back.)"""
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, _CALLERS_SIGNALS)
     try:
-        return i, True, _TASKS[i]()
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _indexed(i: int) -> tuple[bool, Any]:
+    """Task ``i`` in a worker: (True, its result) or (False, the exception it raised)."""
+    try:
+        return True, _TASKS[i]()
     except Exception as exc:  # noqa: BLE001 - raised again by the caller, in task order
-        return i, False, exc
+        return False, exc
+
+
+def _end_workers(workers: list[Any]) -> None:
+    """End the worker processes at once (SIGTERM, their default action; SIGKILL for one that
+    has not ended a few seconds later) and reap them."""
+    for p in workers:
+        if p.exitcode is None:
+            p.terminate()
+    for p in workers:
+        p.join(5.0)
+        if p.exitcode is None:
+            p.kill()
+            p.join()
+
+
+def _lost_worker(workers: list[Any]) -> WorkerLost:
+    """The error for a worker process that ended without returning its task's result (the
+    workers reaped first: the pool then ends the others with SIGTERM, which says nothing)."""
+    _end_workers(workers)
+    codes = {p.exitcode for p in workers} - {None, 0}
+    if codes - {-signal.SIGTERM}:
+        codes.discard(-signal.SIGTERM)
+    how = ", ".join(f"signal {-c}" if c < 0 else f"exit status {c}" for c in sorted(codes))
+    if -signal.SIGKILL in codes:
+        how += "; out of memory?"
+    return WorkerLost(
+        "a worker process ended before returning its result"
+        + (f" ({how})" if how else "")
+        + "; nothing was written"
+    )
 
 
 def run_tasks(
@@ -95,7 +185,10 @@ def run_tasks(
     the workers work (called once in any case). ``done(i)`` is called here as task ``i``
     finishes (for a progress display). An exception in a task is raised here once the tasks
     have ended (the first failed task's, in task order, however the workers were scheduled); an
-    interruption here (Ctrl-C, an exception) ends the workers at once."""
+    interruption here (Ctrl-C, SIGTERM, an exception) ends the workers at once. The workers
+    ignore Ctrl-C and end on SIGTERM, leaving what to do to this process; a worker that ends
+    without its result (killed) raises :class:`~odocal.errors.WorkerLost` here, never a wait
+    for ever."""
     global _TASKS
     n = min(len(tasks), workers() if max_workers is None else max_workers)
     if n <= 1 or not can_fork():  # inside a worker too: no nesting
@@ -108,28 +201,50 @@ def run_tasks(
                 done(i)
         return results
     import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures.process import BrokenProcessPool
 
     _TASKS = tasks
     out: dict[int, Any] = {}
     failed: dict[int, BaseException] = {}
     first = 1 if share else 0
+    others = set(mp.active_children())
+    forked: list[Any] = []
+    pool = ProcessPoolExecutor(n - first, mp.get_context("fork"), initializer=_quiet_worker)
     try:
-        with mp.get_context("fork").Pool(n - first, initializer=_quiet_worker) as pool:
-            pending = pool.imap_unordered(_indexed, range(first, len(tasks)))
-            if meanwhile is not None:
-                meanwhile()
-            if share:
-                out[0] = tasks[0]()
-                if done is not None:
-                    done(0)
-            for i, ok, result in pending:
-                if ok:
-                    out[i] = result
-                else:
-                    failed[i] = result
-                if done is not None:
-                    done(i)
-    finally:  # leaving the with block has terminated the workers
+        # the workers are forked at the first submit: they inherit the signals blocked, and
+        # this process takes a signal only once it knows every worker (a handler run in the
+        # middle of a fork could leave one unknown, and alive)
+        with signals_held(), _callers_signals_blocked():
+            futures = {pool.submit(_indexed, i): i for i in range(first, len(tasks))}
+            forked = [p for p in mp.active_children() if p not in others]
+        if meanwhile is not None:
+            meanwhile()
+        if share:
+            out[0] = tasks[0]()
+            if done is not None:
+                done(0)
+        for future in as_completed(futures):
+            i = futures[future]
+            try:
+                ok, result = future.result()
+            except BrokenProcessPool:
+                raise _lost_worker(forked) from None
+            if ok:
+                out[i] = result
+            else:
+                failed[i] = result
+            if done is not None:
+                done(i)
+        pool.shutdown()
+    except BaseException:
+        # the workers ended first, then the pool's threads joined: none may still be running
+        # when this process exits (Python 3.11 then fails in its exit handler, or aborts)
+        with signals_held():
+            _end_workers(forked or [p for p in mp.active_children() if p not in others])
+            pool.shutdown(wait=True, cancel_futures=True)
+        raise
+    finally:
         _TASKS = ()
     if failed:
         raise failed[min(failed)]

@@ -10,7 +10,9 @@ Every command that writes files goes through an :class:`OutputPlan`:
 3. ``plan.commit({path: content})`` AFTER the work: every file is first staged as a temporary file
    beside its target, then all are renamed into place with SIGINT and SIGTERM held back, so that
    an interruption or a failure leaves either every output or none (and no temporary file, and
-   no folder the plan created).
+   no folder the plan created). The files a command names only then (inside an output folder)
+   are checked as in step 2 before anything is written, and a rename that fails anyway undoes
+   the renames before it (the files they replaced come back).
 
 Contents are ``str`` (UTF-8 text), ``bytes``, an object with a matplotlib-like
 ``savefig(path, format="png", metadata=...)`` (a figure; written as PNG without a software
@@ -25,14 +27,13 @@ import io
 import os
 import signal
 import tempfile
-from collections.abc import Callable, Iterable, Iterator, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from types import FrameType
 from typing import Any, Protocol
 
-from ..core.parallel import run_tasks
+from ..core.parallel import run_tasks, signals_held
 from ..errors import InputError
 
 __all__ = ["OutputPlan", "Savable", "Content"]
@@ -84,38 +85,6 @@ class _Output:
     is_folder: bool
 
 
-@contextmanager
-def _signals_held() -> Iterator[None]:
-    """Hold SIGINT and SIGTERM back: their Python handlers run when the block ends.
-
-    Done with Python-level handlers, not a thread signal mask: a process-directed signal may be
-    delivered to any thread (numpy's BLAS starts some) and Python then runs the handler in the
-    main thread anyway, so a mask on the main thread alone would not hold it."""
-    pending: list[int] = []
-
-    def note(signum: int, frame: FrameType | None) -> None:  # noqa: ARG001 - signal's API
-        pending.append(signum)
-
-    held = (signal.SIGINT, signal.SIGTERM)
-    try:
-        old = {s: signal.signal(s, note) for s in held}
-    except ValueError:  # not the main thread: signals cannot be handled here anyway
-        yield
-        return
-    try:
-        yield
-    finally:
-        for s, handler in old.items():
-            signal.signal(s, handler)
-        if pending:
-            signum = pending[0]
-            handler = old[signal.Signals(signum)]
-            if callable(handler):
-                handler(signum, None)  # e.g. raises KeyboardInterrupt
-            elif handler == signal.SIG_DFL:
-                os.kill(os.getpid(), signum)
-
-
 class _SigTerm(KeyboardInterrupt):
     pass
 
@@ -130,11 +99,12 @@ def _sigterm_unwinds():
     installs its own handler) unwinds like Ctrl-C, so that no temporary file or created folder
     is left behind; the process then terminates as it was asked to."""
     try:
-        if signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
-            yield
-            return
-        signal.signal(signal.SIGTERM, _raise_sigterm)
+        ours = signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+        if ours:
+            signal.signal(signal.SIGTERM, _raise_sigterm)
     except ValueError:  # not the main thread
+        ours = False
+    if not ours:  # (a yield outside the try: an error thrown in at it goes on, as it should)
         yield
         return
     try:
@@ -225,6 +195,13 @@ class OutputPlan:
     def file(self, path: Any, flag: str) -> Path:
         """Register an output file (its folder must exist or be a registered output folder)."""
         path = Path(path)
+        self._check_file(path, flag)
+        self._outputs.append(_Output(path, flag, False))
+        return path
+
+    def _check_file(self, path: Path, flag: str) -> None:
+        """Refuse an output file that cannot be written or would replace an input or another
+        output (one line, before anything is written)."""
         if str(path) in ("", "."):
             raise InputError(f"{flag}: an empty output name", path)
         if path.is_dir():
@@ -244,8 +221,6 @@ class OutputPlan:
             raise InputError(f"{flag}: cannot write into this folder (permission denied)", parent)
         self._check_against_inputs(path, flag, is_folder=False)
         self._check_against_outputs(path, flag)
-        self._outputs.append(_Output(path, flag, False))
-        return path
 
     def folder(self, path: Any, flag: str) -> Path:
         """Register an output folder (created at commit if missing, removed again on failure)."""
@@ -280,15 +255,22 @@ class OutputPlan:
         """Write every registered file (all of them or none); returns the paths written.
 
         ``contents`` maps each output file to its content; files inside a registered output
-        folder are registered on the way (their names checked against each other)."""
+        folder are registered on the way, each checked as :meth:`file` checks (a folder or a
+        device standing where it goes, an input, another output) before anything is written."""
         for path in contents:
             if not any(Path(path) == o.path for o in self._outputs if not o.is_folder):
                 parent = Path(path).parent
-                if not any(
-                    o.is_folder and o.path.resolve() == parent.resolve() for o in self._outputs
-                ):
+                folder = next(
+                    (
+                        o
+                        for o in self._outputs
+                        if o.is_folder and o.path.resolve() == parent.resolve()
+                    ),
+                    None,
+                )
+                if folder is None:
                     raise RuntimeError(f"output {path} was not planned")  # a programming error
-                self._check_against_outputs(Path(path), str(path))
+                self._check_file(Path(path), folder.flag)
                 self._outputs.append(_Output(Path(path), str(path), False))
         missing = [o.path for o in self._outputs if not o.is_folder and o.path not in contents]
         if missing:
@@ -310,17 +292,13 @@ class OutputPlan:
                 except OSError as exc:
                     raise InputError(f"cannot write: {exc.strerror or exc}", path) from None
             mode = 0o666 & ~_umask()
-            with _signals_held():
+            with signals_held():
                 for tmp, path in staged:
                     try:
                         os.chmod(tmp, mode)  # mkstemp creates 0600; give the usual mode
                     except OSError as exc:
                         raise InputError(f"cannot write: {exc.strerror or exc}", path) from None
-                for tmp, path in staged:
-                    try:
-                        os.replace(tmp, path)
-                    except OSError as exc:  # pragma: no cover - after staging in the same folder
-                        raise InputError(f"cannot write: {exc.strerror or exc}", path) from None
+                _replace_all(staged)
                 # committed: a signal held back until here must not undo anything
                 staged = []
                 created = []
@@ -333,6 +311,55 @@ class OutputPlan:
                 except OSError:
                     pass
         return list(contents)
+
+
+def _replace_all(staged: list[tuple[Path, Path]]) -> None:
+    """Rename every staged file onto its target; when one rename fails (the targets were checked
+    before, but the file system may still refuse), undo the renames already done: the files they
+    replaced come back (kept as hard links meanwhile), new ones are removed."""
+    done: list[tuple[Path, Path | None]] = []  # (target, the previous file's backup or None)
+    try:
+        for tmp, path in staged:
+            backup = _backup(path)
+            try:
+                os.replace(tmp, path)
+            except OSError as exc:
+                if backup is not None:
+                    backup.unlink(missing_ok=True)
+                raise InputError(
+                    f"cannot write: {exc.strerror or exc}; no output written", path
+                ) from None
+            done.append((path, backup))
+    except BaseException:
+        for path, backup in reversed(done):
+            try:
+                if backup is None:
+                    path.unlink()
+                else:
+                    os.replace(backup, path)
+            except OSError:
+                pass
+        raise
+    for _, backup in done:
+        if backup is not None:
+            backup.unlink(missing_ok=True)
+
+
+def _backup(path: Path) -> Path | None:
+    """A hard link to the file at ``path`` under a temporary name beside it (None when there is
+    no file there, or the file system cannot link: the previous file then cannot come back)."""
+    if not path.is_file():
+        return None
+    for _ in range(100):
+        backup = path.with_name(f".{path.name}.{os.urandom(4).hex()}.bak")
+        try:
+            os.link(path, backup)
+        except FileExistsError:
+            continue
+        except OSError:
+            return None
+        return backup
+    return None
 
 
 def _make_folder(path: Path, flag: str, created: list[Path]) -> None:

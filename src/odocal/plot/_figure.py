@@ -7,6 +7,7 @@ from __future__ import annotations
 import functools
 from typing import Any
 
+from ..core.parallel import signals_held
 from ..errors import OdocalError
 
 __all__ = [
@@ -27,15 +28,24 @@ INSTALL_HINT = (
 
 def new_figure(width: float = 7.0, height: float = 4.4, dpi: float = 120) -> Any:
     """A new ``matplotlib.figure.Figure`` (inches, constrained layout) on an Agg canvas."""
-    try:
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
+    canvas_class, figure_class = _matplotlib()
+    fig = figure_class(figsize=(width, height), dpi=dpi, layout="constrained")
+    canvas_class(fig)
+    return fig
 
-        figure_class = _figure_class()
+
+def _matplotlib() -> tuple[type, type]:
+    """The Agg canvas and the figure class, imported with SIGINT and SIGTERM held back (a
+    Ctrl-C or SIGTERM waits until the import is done): an import interrupted inside matplotlib's
+    C++ font module leaves a map whose destructor, when the process exits, crashes Python
+    ('Fatal Python error: PyThreadState_Get', an abort instead of the command's exit status)."""
+    try:
+        with signals_held():
+            from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+            return FigureCanvasAgg, _figure_class()
     except ImportError:
         raise OdocalError(INSTALL_HINT) from None
-    fig = figure_class(figsize=(width, height), dpi=dpi, layout="constrained")
-    FigureCanvasAgg(fig)
-    return fig
 
 
 @functools.cache
