@@ -15,7 +15,7 @@ from odocal.app import design as app_design
 from odocal.app import fit as app_fit
 from odocal.app import simulate as app_simulate
 from odocal.app import validate as app_validate
-from odocal.app.text import Text, table_lines
+from odocal.app.text import Text, _motion_line, table_lines
 from odocal.core.model import SystematicError
 from odocal.io.generic_csv import write_generic_csv
 from odocal.io.robot_file import params_yaml
@@ -121,3 +121,22 @@ def test_the_table_is_written_in_one_place():
     out.table([("", "a", "bb"), ("row", "1", "2")])
     assert str(out) == "title\n" + "\n".join(table_lines([("", "a", "bb"), ("row", "1", "2")]))
     assert table_lines([("", "a", "bb"), ("row", "1", "2")]) == ["       a  bb", "  row  1   2"]
+
+
+MOTION = {
+    "travel_m": 0.0,
+    "rotation_deg": 0.0,
+    "rotation_left_deg": 0.0,
+    "rotation_right_deg": 0.0,
+    "share_straight": 0.5,
+    "share_spot": 0.25,
+    "share_arc": 0.25,
+}
+
+
+def test_the_motion_line_without_wheel_travel_says_so():
+    """No wheel travel: the shares are None in the JSON (NaN); the text printer multiplied them
+    (a traceback after fit had written PARAMS.yaml, issue #20)."""
+    none = {**MOTION, "share_straight": None, "share_spot": None, "share_arc": None}
+    assert _motion_line(none).endswith("; no wheel travel")
+    assert _motion_line(MOTION).endswith("50 % straight, 25 % spot turns, 25 % arcs")
