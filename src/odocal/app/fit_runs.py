@@ -261,11 +261,13 @@ def fit_runs(
     log_check = None
     heldout: HeldOut | None = None
     notes: tuple[str, ...] = ()
+    blind: list[str] = []
     if method == "trajectory":
         fit, log_check = _with_log_check(recordings, fit, robot, settings)
+        blind = _refuse_blind(log_check, force)
         if heldout_check:
             heldout, notes = _heldout(_used(recordings, fit), nominal, fit, settings, force)
-    forced = refuse_absurd(fit.geometry, nominal, force)
+    forced = [*blind, *refuse_absurd(fit.geometry, nominal, force)]
     measured = None
     if measure:
         if nominal is None:
@@ -284,6 +286,22 @@ def fit_runs(
         heldout,
         notes,
     )
+
+
+def _refuse_blind(log_check: CheckResult | None, force: bool) -> list[str]:
+    """A log that cannot see a parameter at all (the check's 'blind' findings: only straight
+    lines leave b undetermined, and the fit moves it anywhere) gives no calibration to export:
+    CalibrationError (nothing written) unless ``force``; then the findings are warnings."""
+    if log_check is None:
+        return []
+    found = [g.message for g in log_check.check.degeneracies if g.severity == "blind"]
+    if not found:
+        return []
+    advice = "".join(f"; suggestion: {s}" for s in log_check.check.suggestions[:1])
+    problem = f"these runs cannot determine the calibration: {found[0]}{advice}"
+    if not force:
+        raise CalibrationError(f"{problem}; nothing written (--force exports it anyway)")
+    return [f"{problem} (exported anyway: --force)"]
 
 
 def _heldout(
