@@ -293,10 +293,12 @@ class Table:
             cells = self._cells(start, stop, idx)
             yield self._chunk_rows(start, stop) if cells is None else cells
 
-    def _cells(self, start: int, stop: int, idx: list[int]) -> Cells | None:
-        """The fields ``idx`` of the body's characters [start, stop) as byte strings, or None
-        where a vectorised split cannot be trusted."""
-        chunk = self.text[self.body + start : self.body + stop]
+    def _line_bounds(
+        self, chunk: str
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+        """The bytes of ``chunk``, where its lines start and end, and its commas; None where a
+        vectorised split cannot be trusted (quotes, a filled line without a comma per column
+        boundary)."""
         if '"' in chunk:
             return None
         raw = np.frombuffer(chunk.encode("utf-8"), dtype=np.uint8)
@@ -304,14 +306,24 @@ class Table:
         if len(raw) and raw[-1] != 10:
             ends = np.append(ends, len(raw))
         starts = np.r_[0, ends[:-1] + 1] if len(ends) else ends
+        commas = np.flatnonzero(raw == 44)
+        count = np.searchsorted(commas, ends) - np.searchsorted(commas, starts)
+        if np.any(count[ends > starts] != len(self.header) - 1):
+            return None
+        return raw, starts, ends, commas
+
+    def _cells(self, start: int, stop: int, idx: list[int]) -> Cells | None:
+        """The fields ``idx`` of the body's characters [start, stop) as byte strings, or None
+        where a vectorised split cannot be trusted."""
+        chunk = self.text[self.body + start : self.body + stop]
+        lines = self._line_bounds(chunk)
+        if lines is None:
+            return None
+        raw, starts, ends, commas = lines
         filled = ends > starts
         if np.any(ends - starts > MAX_LINE_CHARS):
             return None
-        commas = np.flatnonzero(raw == 44)
         width = len(self.header)
-        count = np.searchsorted(commas, ends) - np.searchsorted(commas, starts)
-        if np.any(count[filled] != width - 1):
-            return None
         # every comma belongs to a filled row, width - 1 of them each
         sep = commas.reshape(int(filled.sum()), width - 1)
         first = self.header_line + 1 + self.text.count("\n", self.body, self.body + start)
@@ -370,21 +382,14 @@ class Table:
         field, a row of the wrong width, a value numpy does not read, a non-finite or too large
         value."""
         chunk = self.text[self.body + start : self.body + stop]
-        if '"' in chunk:
+        lines = self._line_bounds(chunk)
+        if lines is None:
             return None
-        raw = np.frombuffer(chunk.encode("utf-8"), dtype=np.uint8)
-        ends = np.flatnonzero(raw == 10)
-        if len(raw) and raw[-1] != 10:
-            ends = np.append(ends, len(raw))
-        starts = np.r_[0, ends[:-1] + 1]
+        _, starts, ends, _ = lines
         lengths = ends - starts
         if lengths.max(initial=0) > MAX_FIELD_CHARS:
             return None
         filled = lengths > 0  # numpy's loadtxt skips empty lines, as the table does
-        commas = np.flatnonzero(raw == 44)
-        count = np.searchsorted(commas, ends) - np.searchsorted(commas, starts)
-        if np.any(count[filled] != len(self.header) - 1):
-            return None
         try:
             data = np.loadtxt(
                 io.StringIO(chunk), delimiter=",", usecols=idx, ndmin=2, comments=None
