@@ -78,3 +78,26 @@ def test_the_ingest_stores_every_robot_s_alarms(db, tmp_path):
         assert worn[3] == pytest.approx(0.006 * TRUE[0], rel=0.35) and worn[4] > 3
         assert [a[0] for a in fdb.alarms("old-step")] == ["wheelbase_m"]
         assert fdb.alarms("steady") == []
+
+
+def test_a_route_that_holds_the_diameters_still_shows_and_exports_its_wheelbase(tmp_path):
+    """The gyro route estimates b only (the diameters held at nominal, no standard error): the
+    status shows b and the export writes it with the nominal diameters, saying so (the robot was
+    shown without any parameter and could not be exported)."""
+    from odocal.app.fleet_status import fleet_export, fleet_status
+    from tests.support.fleet import NOMINAL
+
+    path = tmp_path / "f.db"
+    d = NOMINAL.diameter_right_m
+    with open_db(path, write=True) as fdb:
+        fill_db(fdb, {"gyro": [((d, d, 0.2512), (None, None, 2.5e-4))] * 3})
+    (row,) = fleet_status(path).as_dict()["robots"]
+    assert set(row["parameters"]) == {"wheelbase_m"}
+    assert row["parameters"]["wheelbase_m"]["value"] == pytest.approx(0.2512, abs=1e-6)
+    res = fleet_export(path, "gyro", tmp_path / "g.yaml")
+    assert res.geometry.wheelbase_m == pytest.approx(0.2512, abs=1e-6)
+    assert res.geometry.diameter_right_m == NOMINAL.diameter_right_m
+    assert (
+        "nominal (never estimated): wheel_diameter_right_m, wheel_diameter_left_m"
+        in (tmp_path / "g.yaml").read_text()
+    )

@@ -66,3 +66,14 @@ def test_a_bag_being_written_changes_its_snapshot(tmp_path):
     assert snapshot(bag) != s and snapshot(bag).size_bytes == 5
     with pytest.raises(InputError, match="cannot read the bag"):
         snapshot(tmp_path / "gone.bag")
+
+
+def test_a_linked_bag_folder_is_followed_and_a_loop_is_not(tmp_path):
+    """Bag storage linked into a robot's folder (a ROS 2 bag folder behind a link was not
+    found); a link back up the tree is walked once, not for ever."""
+    storage = _ros2(tmp_path / "storage" / "run1")
+    robot = tmp_path / "fleet" / "r1"
+    robot.mkdir(parents=True)
+    (robot / "run1").symlink_to(storage)
+    (robot / "loop").symlink_to(robot)
+    assert [b.name for b in find_bags(robot)] == ["run1"]

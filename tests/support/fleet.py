@@ -52,7 +52,7 @@ def fake_result(bag: str, values, std_errors, *, enough: bool = True) -> dict:
     """A ``fit --method auto`` JSON with the given (D_R, D_L, b) and standard errors: the
     keys odocal fleet reads and the bag report prints (for databases filled without bags)."""
     keys = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
-    params = {k: {"value": float(v), "std_error": float(s)}
+    params = {k: {"value": float(v), "std_error": None if s is None else float(s)}
               for k, v, s in zip(keys, values, std_errors, strict=True)}  # fmt: skip
     return {
         "method": "auto", "bag": bag, "answer_route": "slam", "parameters": params,

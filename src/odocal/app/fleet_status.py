@@ -73,16 +73,17 @@ class RobotDrift:
         return out
 
     def current(self) -> dict[str, dict[str, float]] | None:
-        """Each parameter's filtered level and its standard error after the last bag."""
+        """Each estimated parameter's filtered level and its standard error after the last bag
+        (a parameter no trustworthy bag estimated is absent: the gyro route, for one, holds the
+        diameters at nominal), or None when none was estimated."""
         out = {}
         for p in self.parameters:
-            if p.track is None:
-                return None
-            out[p.key] = {
-                "value": float(p.track.level[-1]),
-                "std_error": float(p.track.level_se[-1]),
-            }
-        return out
+            if p.track is not None:
+                out[p.key] = {
+                    "value": float(p.track.level[-1]),
+                    "std_error": float(p.track.level_se[-1]),
+                }
+        return out or None
 
     def active_alarms(self) -> list[dict[str, Any]]:
         """The alarms younger than :data:`ACTIVE_S` before the latest bag, largest first."""
@@ -248,8 +249,12 @@ def fleet_export(
         raise InputError(
             f"robot '{robot_id}' has no trustworthy calibration yet (bags: {len(history)})", db_path
         )
-    g = WheelGeometry(*(float(current[k]["value"]) for k in KEYS))
     nominal = WheelGeometry(*(robots[robot_id][k] for k in KEYS))
+    # a parameter no bag estimated stays at its nominal value (said in the file)
+    g = WheelGeometry(
+        *(float(current[k]["value"]) if k in current else robots[robot_id][k] for k in KEYS)
+    )
+    kept = [k for k in KEYS if k not in current]
     cov = None
     latest = [b.result for b in history if b.status == "done" and b.enough and b.result]
     c = latest[-1].get("covariance") if latest else None
@@ -262,7 +267,9 @@ def fleet_export(
             distance_m=c["distance_m"],
             window_s=c["window_s"],
         )
-    n = len(drift.parameters[0].bags)
-    method = f"odocal fleet: robot {robot_id}, filtered level of {n} bags"
+    n = max(len(p.bags) for p in drift.parameters)
+    method = f"odocal fleet: robot {robot_id}, filtered level of {n} bags" + (
+        f"; nominal (never estimated): {', '.join(kept)}" if kept else ""
+    )
     text = ros2_params_yaml(g, nominal, controller_name, cov, method=method)
     return ExportResult(robot_id, g, n, tuple(plan.commit({Path(ros2): text})))

@@ -59,7 +59,7 @@ def add_parser(sub) -> None:
 
 
 def _mm(p: dict | None, key: str) -> str:
-    if not p:
+    if not p or key not in p:
         return "-"
     return f"{1e3 * p[key]['value']:.3f}"
 

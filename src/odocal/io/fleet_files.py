@@ -86,10 +86,17 @@ def _is_ros2_folder(p: Path) -> bool:
 
 def find_bags(folder: Path) -> list[Path]:
     """Every bag below ``folder`` (sorted): ROS 2 folders whole, ``.bag``/``.mcap``/``.db3``
-    files that are not inside one. Hidden files and folders are skipped."""
+    files that are not inside one. Hidden files and folders are skipped; linked folders are
+    followed (bag storage linked into a robot's folder), each real folder once (no loop)."""
     out: list[Path] = []
-    for dirpath, dirnames, filenames in os.walk(folder):
+    seen: set[str] = set()
+    for dirpath, dirnames, filenames in os.walk(folder, followlinks=True):
         d = Path(dirpath)
+        real = os.path.realpath(d)
+        if real in seen:
+            dirnames[:] = []
+            continue
+        seen.add(real)
         dirnames[:] = sorted(n for n in dirnames if not n.startswith("."))
         if d != folder and _is_ros2_folder(d):
             out.append(d)
