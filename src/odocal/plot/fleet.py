@@ -31,7 +31,15 @@ def history_figure(robot_id: str, parameters: Sequence[Any]) -> Any:
         x = np.asarray(p.bags, float)
         ax.set_ylabel(_LABELS.get(p.key, p.key), fontsize=8)
         if len(x) == 0:
-            ax.text(0.5, 0.5, "no trustworthy estimate", transform=ax.transAxes, ha="center")
+            ax.text(
+                0.5,
+                0.5,
+                "no trustworthy bag estimated it (e.g. the gyro route holds it at nominal)",
+                transform=ax.transAxes,
+                ha="center",
+                fontsize=8,
+            )
+            ax.set_yticks([])
             continue
         mm = 1e3
         ax.errorbar(
@@ -52,7 +60,12 @@ def history_figure(robot_id: str, parameters: Sequence[Any]) -> Any:
             ax.axvline(x[a.index], color="tab:red", lw=1.2, ls="--")
         ax.tick_params(labelsize=8)
     axes[0].set_title(f"{robot_id}: parameter history (red dashes: drift alarms)", fontsize=10)
-    axes[0].legend(fontsize=7, loc="best")
+    drawn = [ax for ax in axes if ax.get_legend_handles_labels()[1]]
+    if drawn:  # on the first panel with estimates
+        drawn[0].legend(fontsize=7, loc="best")
+    last = max((int(max(p.bags)) for p in parameters if len(p.bags)), default=0)
+    axes[-1].set_xlim(-0.5, last + 0.5)
+    axes[-1].set_xticks(range(0, last + 1, max(1, -(-(last + 1) // 10))))  # whole bags
     axes[-1].set_xlabel("bag (in time order)", fontsize=8)
     return fig
 
