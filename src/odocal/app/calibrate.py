@@ -10,7 +10,7 @@ import numpy as np
 
 from ..calibration.bcpt import calibrate_bcpt
 from ..calibration.heading import calibrate_heading
-from ..calibration.heading_check import check_heading_sign
+from ..calibration.heading_check import refuse_flipped_headings
 from ..calibration.result import CalibrationResult, check_physical
 from ..calibration.umbmark import calibrate_umbmark
 from ..core.model import Robot, WheelGeometry
@@ -262,34 +262,6 @@ def _checked_runs(
     return EndPoseRuns(runs.directions, err), warnings
 
 
-def _heading_sign(
-    sheet: RunSheet,
-    runs: EndPoseRuns,
-    sides: int,
-    side_m: float,
-    ran_with: WheelGeometry,
-    force: bool,
-) -> list[str]:
-    """Where the sheet has both headings and positions, the positions must not say that the
-    headings have the wrong sign (:mod:`odocal.calibration.heading_check`): InputError, or a
-    warning with ``force``."""
-    check = check_heading_sign(runs, sides, side_m, ran_with)
-    if check is None or not check.contradicted:
-        return []
-    problem = (
-        f"the headings contradict the positions: theta_deg as written gives E_b "
-        f"{check.E_b_written:.4f}, E_d {check.E_d_written:.4f}, but the x_m, y_m of the same "
-        f"{check.runs} runs lie {check.t:.1f} standard errors towards theta_deg with the "
-        f"opposite sign (E_b {check.E_b_flipped:.4f}, E_d {check.E_d_flipped:.4f}; the two are "
-        f"{check.separation:.1f} standard errors apart). Was the protractor read the other way? "
-        "theta is counter-clockwise positive (seen from above), the final heading ERROR actual "
-        "- odometric (docs/conventions.md); correct the sign in the sheet"
-    )
-    if not force:
-        raise InputError(f"{problem} (--force calibrates the sheet as written)", sheet.path)
-    return [f"{sheet.path}: {problem}; calibrated as written (--force)"]
-
-
 @emits_warnings
 def calibrate(
     runs_csv: str | Path,
@@ -347,7 +319,7 @@ def calibrate(
             raise InputError(problem, sheet.path, sheet.setting_lines.get("side_m"), "side_m")
         runs, wrapped = _checked_runs(sheet, sides, side_m, r)
         notes += wrapped
-        notes += _heading_sign(sheet, runs, sides, side_m, ran_with, force)
+        notes += refuse_flipped_headings(runs, sides, side_m, ran_with, force, sheet.path)
         track = f"{sides}-gon side {side_m:g} m"
         if method == "umbmark":
             if sides != 4:

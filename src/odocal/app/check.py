@@ -21,7 +21,7 @@ from ..calibration.relative_motions import stack_motions
 from ..calibration.slam_noise import SLAM_POSE_NOISE, slam_noise_model
 from ..core.model import Robot, WheelGeometry
 from ..core.recording import Recording
-from ..errors import InputError
+from ..errors import CalibrationError, InputError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
 from ..io.bag_recording import without_gyro
 from ..io.bag_slam import SlamBag, load_slam_bags
@@ -35,7 +35,15 @@ from .common import (
 )
 from .text import Presented, Text, check_text, emits_warnings
 
-__all__ = ["CheckResult", "check", "check_loaded", "noise_model", "slam_noise", "SLAM_POSE_NOISE"]
+__all__ = [
+    "CheckResult",
+    "check",
+    "check_loaded",
+    "noise_model",
+    "refuse_blind",
+    "slam_noise",
+    "SLAM_POSE_NOISE",
+]
 
 
 @dataclass(frozen=True)
@@ -173,3 +181,19 @@ def slam_noise(
     the SLAM route's relative-motion fit would have with that noise, else None."""
     noise = slam_noise_model(stack_motions([b.relative_motions for b in bags]), robot, geometry)
     return noise.model, noise.description, noise.covariance
+
+
+def refuse_blind(log_check: CheckResult | None, force: bool) -> list[str]:
+    """A log that cannot see a parameter at all (the check's 'blind' findings: only straight
+    lines leave b undetermined, and the fit moves it anywhere) gives no calibration to export:
+    CalibrationError (nothing written) unless ``force``; then the findings are warnings."""
+    if log_check is None:
+        return []
+    found = [g.message for g in log_check.check.degeneracies if g.severity == "blind"]
+    if not found:
+        return []
+    advice = "".join(f"; suggestion: {s}" for s in log_check.check.suggestions[:1])
+    problem = f"these runs cannot determine the calibration: {found[0]}{advice}"
+    if not force:
+        raise CalibrationError(f"{problem}; nothing written (--force exports it anyway)")
+    return [f"{problem} (exported anyway: --force)"]

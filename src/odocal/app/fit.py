@@ -31,6 +31,7 @@ from ..calibration.fit_settings import (
     DEFAULT_TRAJECTORY,
     SquareSettings,
     TrajectorySettings,
+    check_heading_source,
 )
 from ..errors import InputError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
@@ -42,7 +43,7 @@ from .common import Exports, RobotSpec, input_paths
 from .fit_auto import AutoFitResult, fit_auto
 from .fit_gyro import GyroFitResult, fit_gyro, fit_gyro_bag, gyro_fit
 from .fit_relative import RelativeFitResult, fit_tuple_files, is_tuple_file
-from .fit_runs import FitResult, check_heading_source, fit_recordings, fit_run_files, fit_runs
+from .fit_runs import FitResult, fit_recordings, fit_run_files, fit_runs
 from .fit_scan import fit_scan_bags
 from .fit_slam import fit_slam_bags
 from .text import emits_warnings

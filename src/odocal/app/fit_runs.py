@@ -15,12 +15,13 @@ from pathlib import Path
 from typing import Any
 
 from ..calibration.banded import fit_trajectory_bands
-from ..calibration.fit_methods import FitMethod, HeadingSource
+from ..calibration.fit_methods import FitMethod
 from ..calibration.fit_settings import (
     DEFAULT_SQUARES,
     DEFAULT_TRAJECTORY,
     SquareSettings,
     TrajectorySettings,
+    check_method_settings,
 )
 from ..calibration.heldout import HeldOut, heldout_runs
 from ..calibration.linear import fit_linear
@@ -34,7 +35,7 @@ from ..errors import CalibrationError, InputError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
 from ..io.outputs import OutputPlan
 from ..io.recordings import load_recordings, require_ground_truth
-from .check import CheckResult, check_loaded
+from .check import CheckResult, check_loaded, refuse_blind
 from .common import (
     NO_EXPORTS,
     Exports,
@@ -51,7 +52,6 @@ from .text import Presented
 
 __all__ = [
     "FitResult",
-    "check_heading_source",
     "fit_recordings",
     "fit_runs",
     "fit_run_files",
@@ -138,25 +138,6 @@ class FitResult(Presented):
         return out
 
 
-def check_heading_source(method: str | None, heading_source: HeadingSource) -> None:
-    """The gyro heading is for the heading method only."""
-    if heading_source == "gyro" and method != "heading":
-        raise InputError(f"--heading-source gyro is for --method heading, not {method}")
-
-
-def _check_method_settings(
-    method: str, settings: TrajectorySettings, squares: SquareSettings
-) -> None:
-    """The settings that only some methods take."""
-    if method != "trajectory" and (settings.wheelbase_model != "constant" or settings.motion_mix):
-        raise InputError(
-            "--wheelbase-model banded and --motion-mix need the trajectory method "
-            "(--method trajectory)",
-            field="method",
-        )
-    check_heading_source(method, squares.heading_source)
-
-
 def fit_recordings(
     recordings: Sequence[Recording],
     method: FitMethod = "trajectory",
@@ -176,7 +157,7 @@ def fit_recordings(
     (band -> share of the rotation) fits the banded model too and makes the result's wheelbase
     the single value that is best for that mix of its band wheelbases, with its standard error
     and what it costs (``motion_mix``); a share in a band the runs do not excite is refused."""
-    _check_method_settings(method, settings, squares)
+    check_method_settings(method, settings, squares)
     if squares.heading_source != "gyro":
         require_ground_truth(recordings, f"--method {method}")
     if method == "linear":
@@ -264,7 +245,7 @@ def fit_runs(
     blind: list[str] = []
     if method == "trajectory":
         fit, log_check = _with_log_check(recordings, fit, robot, settings)
-        blind = _refuse_blind(log_check, force)
+        blind = refuse_blind(log_check, force)
         if heldout_check:
             heldout, notes = _heldout(_used(recordings, fit), nominal, fit, settings, force)
     forced = [*blind, *refuse_absurd(fit.geometry, nominal, force)]
@@ -286,22 +267,6 @@ def fit_runs(
         heldout,
         notes,
     )
-
-
-def _refuse_blind(log_check: CheckResult | None, force: bool) -> list[str]:
-    """A log that cannot see a parameter at all (the check's 'blind' findings: only straight
-    lines leave b undetermined, and the fit moves it anywhere) gives no calibration to export:
-    CalibrationError (nothing written) unless ``force``; then the findings are warnings."""
-    if log_check is None:
-        return []
-    found = [g.message for g in log_check.check.degeneracies if g.severity == "blind"]
-    if not found:
-        return []
-    advice = "".join(f"; suggestion: {s}" for s in log_check.check.suggestions[:1])
-    problem = f"these runs cannot determine the calibration: {found[0]}{advice}"
-    if not force:
-        raise CalibrationError(f"{problem}; nothing written (--force exports it anyway)")
-    return [f"{problem} (exported anyway: --force)"]
 
 
 def _heldout(

@@ -32,6 +32,8 @@ from .fit_methods import (
 )
 
 __all__ = [
+    "check_heading_source",
+    "check_method_settings",
     "MAX_HEADING_WEIGHT_M",
     "TrajectorySettings",
     "SquareSettings",
@@ -176,3 +178,22 @@ class SquareSettings:
 #: The defaults of every setting.
 DEFAULT_TRAJECTORY = TrajectorySettings()
 DEFAULT_SQUARES = SquareSettings()
+
+
+def check_heading_source(method: str | None, heading_source: HeadingSource) -> None:
+    """The gyro heading is for the heading method only."""
+    if heading_source == "gyro" and method != "heading":
+        raise InputError(f"--heading-source gyro is for --method heading, not {method}")
+
+
+def check_method_settings(
+    method: str, settings: TrajectorySettings, squares: SquareSettings
+) -> None:
+    """The settings that only some methods take."""
+    if method != "trajectory" and (settings.wheelbase_model != "constant" or settings.motion_mix):
+        raise InputError(
+            "--wheelbase-model banded and --motion-mix need the trajectory method "
+            "(--method trajectory)",
+            field="method",
+        )
+    check_heading_source(method, squares.heading_source)

@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -37,9 +38,16 @@ from ..core.runs import EndPoseRuns
 from ..core.simulate import drive
 from ..core.stats import student_t_quantile
 from ..core.tracks import Track, polygon
+from ..errors import InputError
 from .heading import calibrate_heading
 
-__all__ = ["HeadingCheck", "check_heading_sign", "ALPHA", "MIN_RUNS"]
+__all__ = [
+    "HeadingCheck",
+    "check_heading_sign",
+    "refuse_flipped_headings",
+    "ALPHA",
+    "MIN_RUNS",
+]
 
 #: One-sided false-alarm probability of the check on an honest sheet (before the t > D/2 rule).
 ALPHA = 1e-5
@@ -173,3 +181,31 @@ def check_heading_sign(
         E_d_flipped=float(flipped.E_d),
         runs=sum(counts),
     )
+
+
+def refuse_flipped_headings(
+    runs: EndPoseRuns,
+    sides: int,
+    side_m: float,
+    ran_with: WheelGeometry,
+    force: bool,
+    where: str | Path | None = None,
+) -> list[str]:
+    """Where a sheet (``where``) has both headings and positions, the positions must not say
+    that the headings have the wrong sign (:func:`check_heading_sign`): InputError, or with
+    ``force`` a warning (returned)."""
+    check = check_heading_sign(runs, sides, side_m, ran_with)
+    if check is None or not check.contradicted:
+        return []
+    problem = (
+        f"the headings contradict the positions: theta_deg as written gives E_b "
+        f"{check.E_b_written:.4f}, E_d {check.E_d_written:.4f}, but the x_m, y_m of the same "
+        f"{check.runs} runs lie {check.t:.1f} standard errors towards theta_deg with the "
+        f"opposite sign (E_b {check.E_b_flipped:.4f}, E_d {check.E_d_flipped:.4f}; the two are "
+        f"{check.separation:.1f} standard errors apart). Was the protractor read the other way? "
+        "theta is counter-clockwise positive (seen from above), the final heading ERROR actual "
+        "- odometric (docs/conventions.md); correct the sign in the sheet"
+    )
+    if not force:
+        raise InputError(f"{problem} (--force calibrates the sheet as written)", where)
+    return [f"{where}: {problem}; calibrated as written (--force)"]
