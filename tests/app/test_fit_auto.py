@@ -113,10 +113,11 @@ def test_text_output_and_refusals(result, bag, robot, cli, capsys):
 
 
 def test_an_answer_that_is_no_robot_is_never_written_even_with_force(tmp_path):
-    # the one command writes its report itself: the same guard as every export
+    # the one command writes through the one export path: the same guard as every export
     from pathlib import Path
 
-    from odocal.app.fit_auto import _files
+    from odocal.app.fit_auto import _write
+    from odocal.io.outputs import OutputPlan
     from odocal.app.fit_auto_result import AutoFitResult, RouteRun
     from odocal.errors import CalibrationError
     from odocal.io.bag_survey import RouteOption
@@ -124,4 +125,5 @@ def test_an_answer_that_is_no_robot_is_never_written_even_with_force(tmp_path):
     odd = RouteRun(RouteOption("slam", True, ""), True, "", WheelGeometry(7e-4, 7e-4, 0.088))
     result = AutoFitResult(Path("x.bag"), (odd,), odd, WheelGeometry(0.042, 0.042, 0.088))
     with pytest.raises(CalibrationError, match="not a plausible robot"):
-        _files(result, tmp_path / "report", None, "diff_drive_controller", force=True)
+        _write(OutputPlan([]), result, tmp_path / "report", None, "diff_drive_controller", True)
+    assert not (tmp_path / "report").exists()

@@ -2,6 +2,7 @@
 
 import os
 import signal
+import sys
 import time
 
 import numpy as np
@@ -137,13 +138,13 @@ def test_a_killed_worker_is_reported_not_waited_for(monkeypatch):
     assert mp.active_children() == [] and parallel._TASKS == ()
 
 
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="worker processes fork on Linux")
 def test_workers_start_with_the_callers_signals_blocked(monkeypatch):
     """A signal between the fork and the worker's own handlers cannot run the caller's handler
     in the worker (which printed a traceback of its own): it waits, blocked, until the worker
     ignores Ctrl-C and takes SIGTERM's default action."""
     monkeypatch.setenv("ODOCAL_THREADS", "2")
-    if not parallel.can_fork():
-        pytest.skip("no worker processes here")
+    assert parallel.can_fork()
     seen = shared_zeros((4,))
     real = parallel._quiet_worker
 

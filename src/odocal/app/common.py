@@ -12,6 +12,7 @@ import numpy as np
 
 from ..calibration.heldout import HeldOut
 from ..calibration.result import WHEELS_HINT, far_from_nominal
+from ..core.covariance import OdometryCovariance
 from ..core.model import Robot, WheelGeometry
 from ..core.plausibility import calibrated_geometry_problem
 from ..core.recording import Recording
@@ -271,12 +272,14 @@ def write_exports(
     *,
     files: Mapping[Path, Any] | None = None,
     record: Mapping[str, str | float] | None = None,
+    covariance: OdometryCovariance | None = None,
 ) -> tuple[Path, ...]:
     """The one export path of every calibration: PARAMS.yaml (``out``) and the ros2_control
     ``diff_drive_controller`` file (``ros2``; nominal base values, the calibration in the
-    multipliers), written all or none with the command's other ``files`` (path -> content, e.g.
-    figures). ``record`` (method, E_b, ...) goes beside the values. A geometry the robot-file
-    reader would refuse (:func:`implausible_geometry`) is never written: CalibrationError."""
+    multipliers, the pose/twist ``covariance`` when known), written all or none with the
+    command's other ``files`` (path -> content, e.g. figures). ``record`` (method, E_b, ...)
+    goes beside the values. A geometry the robot-file reader would refuse
+    (:func:`implausible_geometry`) is never written: CalibrationError."""
     record = dict(record or {})
     implausible = implausible_geometry(geometry) if (out or ros2) else None
     if implausible:
@@ -289,7 +292,9 @@ def write_exports(
         if nominal is None:
             raise InputError("--ros2 needs the nominal geometry: give --robot ROBOT.yaml")
         text = {k: v for k, v in record.items() if isinstance(v, str)}
-        contents[Path(ros2)] = ros2_params_yaml(geometry, nominal, controller_name, None, **text)
+        contents[Path(ros2)] = ros2_params_yaml(
+            geometry, nominal, controller_name, covariance, **text
+        )
     if out is not None:
         contents[Path(out)] = params_yaml(geometry, **record)
     return tuple(plan.commit(contents)) if contents else ()

@@ -37,9 +37,9 @@ from ..errors import CalibrationError, InputError, OdocalError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
 from ..io.bag_survey import BagSurvey, RouteOption, survey
 from ..io.outputs import OutputPlan
-from ..io.robot_file import load_robot, params_yaml
-from ..io.ros2_export import DEFAULT_CONTROLLER, ros2_params_yaml
-from .common import RobotSpec, implausible_geometry, input_paths
+from ..io.robot_file import load_robot
+from ..io.ros2_export import DEFAULT_CONTROLLER
+from .common import RobotSpec, input_paths, write_exports
 from .fit_auto_result import AutoFitResult, RouteRun
 from .fit_gyro import GyroFitResult, fit_gyro
 from .fit_relative import RelativeFitResult
@@ -184,39 +184,42 @@ def _warnings(runs: Sequence[RouteRun], answer: RouteRun | None) -> tuple[str, .
     return warnings
 
 
-def _files(
+def _write(
+    plan: OutputPlan,
     result: AutoFitResult,
     out: str | Path | None,
     ros2: str | Path | None,
     controller_name: str,
     force: bool,
-) -> dict[Path, Any] | None:
-    """What to write: the diff_drive_controller file ``ros2`` and the report into the folder
-    ``out`` (report.md, params.yaml and the figures); None when nothing is to be written (none
-    asked for, no answer, or an answer not to be trusted without ``force``)."""
+) -> AutoFitResult:
+    """Write the diff_drive_controller file ``ros2`` and the report into the folder ``out``
+    (report.md, params.yaml and the figures) through the one export path
+    (:func:`~odocal.app.common.write_exports`); nothing when none is asked for, there is no
+    answer, or the answer is not to be trusted without ``force``."""
     a = result.answer
     if (out is None and ros2 is None) or a is None or a.geometry is None:
-        return None
+        return result
     if result.reasons and not force:
-        return None
-    implausible = implausible_geometry(a.geometry)
-    if implausible:  # never written, whatever force says: the file could not be read back
-        raise CalibrationError(f"not a plausible robot: {implausible}; nothing written")
-    contents: dict[Path, Any] = {}
-    method = f"auto ({a.name})"
-    if ros2 is not None:
-        contents[Path(ros2)] = ros2_params_yaml(
-            a.geometry, result.nominal, controller_name, result.covariance, method=method
-        )
+        return result
+    files: dict[Path, Any] = {}
     if out is not None:
         from ..io.auto_report import auto_report_markdown
         from ..plot.bag import bag_figures
 
-        folder = Path(out)
-        contents[folder / "params.yaml"] = params_yaml(a.geometry, method=method)
-        contents.update(bag_figures(result.time_offsets, result.heldout, folder))
-        contents[folder / "report.md"] = auto_report_markdown(result.as_dict())
-    return contents
+        files.update(bag_figures(result.time_offsets, result.heldout, Path(out)))
+        files[Path(out) / "report.md"] = auto_report_markdown(result.as_dict())
+    written = write_exports(
+        plan,
+        a.geometry,
+        result.nominal,
+        None if out is None else Path(out) / "params.yaml",
+        ros2,
+        controller_name,
+        files=files,
+        record={"method": f"auto ({a.name})"},
+        covariance=result.covariance,
+    )
+    return replace(result, written=written)
 
 
 def fit_auto(
@@ -255,8 +258,7 @@ def fit_auto(
     reasons = tuple(_reasons(answer, runs, checks))
     result = AutoFitResult(found.path, tuple(runs), answer, nominal, checks, noise, cov, reasons,
                            (), _warnings(runs, answer))  # fmt: skip
-    files = _files(result, out, ros2, controller_name, force)
-    return result if files is None else replace(result, written=tuple(plan.commit(files)))
+    return _write(plan, result, out, ros2, controller_name, force)
 
 
 def _trajectory_noise(answer: RouteRun, bag: Path, options: BagOptions) -> IntervalNoise | None:

@@ -7,6 +7,7 @@ import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ..calibration.censi import PARAMETERS
 from .text import Text, check_text, written_lines
 
 if TYPE_CHECKING:
@@ -190,14 +191,7 @@ def relative_text(res: RelativeFitResult) -> str:
     d = r.as_dict()
     rows = [("", "nominal", "calibrated", "std. error")]
     nom = {} if nominal is None else nominal.as_dict()
-    for key in (
-        "wheel_diameter_right_m",
-        "wheel_diameter_left_m",
-        "wheelbase_m",
-        "sensor_x_m",
-        "sensor_y_m",
-        "sensor_yaw_rad",
-    ):
+    for key in PARAMETERS:
         if key.startswith("sensor") and r.sensor_pose_fixed:
             continue
         v, se = d[key], d["stderr"].get(key)
