@@ -117,10 +117,10 @@ def test_an_answer_that_is_no_robot_is_never_written_even_with_force(tmp_path):
     from pathlib import Path
 
     from odocal.app.fit_auto import _write
-    from odocal.io.outputs import OutputPlan
     from odocal.app.fit_auto_result import AutoFitResult, RouteRun
     from odocal.errors import CalibrationError
     from odocal.io.bag_survey import RouteOption
+    from odocal.io.outputs import OutputPlan
 
     odd = RouteRun(RouteOption("slam", True, ""), True, "", WheelGeometry(7e-4, 7e-4, 0.088))
     result = AutoFitResult(Path("x.bag"), (odd,), odd, WheelGeometry(0.042, 0.042, 0.088))
