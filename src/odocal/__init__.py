@@ -24,7 +24,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
-__version__ = "0.1.0"
+from ._version import __version__
 
 # name -> (module, attribute): resolved on first access (PEP 562). The design command is
 # ``design_track``: a function named ``design`` would be replaced by the subpackage odocal.design

@@ -13,6 +13,7 @@ from ..calibration.heading import calibrate_heading
 from ..calibration.heading_check import refuse_flipped_headings
 from ..calibration.result import CalibrationResult, check_physical
 from ..calibration.umbmark import calibrate_umbmark
+from ..core.jsonable import jsonable
 from ..core.model import Robot, WheelGeometry
 from ..core.plausibility import (
     end_distance_problem,
@@ -85,7 +86,7 @@ class CalibrateResult(Presented):
     def as_dict(self) -> dict:
         """The JSON of ``odocal calibrate --json``: the result, its uncertainty, the inputs it
         was computed from, whether a correction is needed, the warnings and the files written."""
-        inputs = {k: _jsonable(v) for k, v in self.calibration.inputs.items()}
+        inputs = {k: jsonable(v) for k, v in self.calibration.inputs.items()}
         return self.calibration.as_dict() | {
             "correction_needed": self.correction_needed,
             "track": self.track,
@@ -164,18 +165,6 @@ class CalibrateResult(Presented):
 
 
 _GEOMETRY = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
-
-
-def _jsonable(v):
-    if isinstance(v, (np.floating, float)):
-        return float(v) if math.isfinite(v) else None
-    if isinstance(v, np.integer):
-        return int(v)
-    if isinstance(v, (list, tuple, np.ndarray)):
-        return [_jsonable(x) for x in v]
-    if isinstance(v, dict):
-        return {k: _jsonable(x) for k, x in v.items()}
-    return v
 
 
 def resolve_track(

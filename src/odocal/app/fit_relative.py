@@ -30,7 +30,6 @@ from ..calibration.relative_checks import (
     preferred_answer,
 )
 from ..calibration.relative_motions import RelativeMotions, overlapping_sources, stack_motions
-from ..calibration.scan_matching import ScanIntervals
 from ..calibration.time_offset import TimeOffset, TimingCheck
 from ..core.model import WheelGeometry
 from ..errors import InputError
@@ -38,6 +37,7 @@ from ..io.bag_slam import SlamBag
 from ..io.outputs import OutputPlan
 from ..io.tuples import read_tuples, refuse_repeated_tuples
 from .common import NO_EXPORTS, Exports, RobotSpec, refuse_absurd, refuse_untrusted, robot_nominal
+from .relative_inputs import ScanSummary, TupleInput
 from .text import Presented
 
 __all__ = [
@@ -65,52 +65,6 @@ ABSURD_HINTS: dict[str, str] = {
     "scan": "check the scan header (angle_min, angle_increment; an upside-down laser), the "
     "laser's mounting in /tf_static, the wheel joints and --ticks-per-rev",
 }
-
-
-@dataclass(frozen=True)
-class TupleInput:
-    """One ``.tuple`` file of a fit: its path and how many tuples it holds."""
-
-    path: str
-    tuples: int
-
-    def as_dict(self) -> dict[str, Any]:
-        """JSON-ready: the file and its tuple count."""
-        return {"path": self.path, "tuples": self.tuples}
-
-
-@dataclass(frozen=True)
-class ScanSummary:
-    """One bag of a scan-matching fit: the topics, the scans and intervals matched, and the
-    laser's mounting the matcher started from (x_m, y_m, yaw_rad on the base)."""
-
-    bag: str
-    scan_topic: str
-    joint_topic: str
-    scans: int
-    intervals: ScanIntervals
-    mount_guess: tuple[float, float, float]
-    mount_source: str
-    warnings: tuple[str, ...]
-
-    def as_dict(self) -> dict[str, Any]:
-        """JSON-ready: this bag's entry of ``scan`` in ``fit --method scan --json``."""
-        iv = self.intervals
-        x, y, yaw = self.mount_guess
-        return {
-            "bag": self.bag,
-            "scan_topic": self.scan_topic,
-            "joint_topic": self.joint_topic,
-            "scans": self.scans,
-            "interval_scans": iv.interval_scans,
-            "intervals": iv.intervals,
-            "matched": iv.matched,
-            "not_converged": iv.not_converged,
-            "degenerate": iv.degenerate,
-            "mount_guess": {"x_m": x, "y_m": y, "yaw_rad": yaw},
-            "mount_source": self.mount_source,
-            "warnings": list(self.warnings),
-        }
 
 
 @dataclass(frozen=True)

@@ -25,13 +25,8 @@ from ..io.bags import is_bag
 from ..io.outputs import OutputPlan
 from ..io.robot_file import load_robot
 from .common import NO_EXPORTS, Exports, RobotSpec
-from .fit_relative import (
-    RelativeFitResult,
-    ScanSummary,
-    fit_relative,
-    relative_checks,
-    write_bag_route,
-)
+from .fit_relative import RelativeFitResult, fit_relative, relative_checks, write_bag_route
+from .relative_inputs import ScanSummary
 
 __all__ = ["fit_scan_bags", "scan_intervals"]
 

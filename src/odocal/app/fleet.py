@@ -27,7 +27,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from .. import __version__
+from .._version import __version__
 from ..errors import InputError
 from ..io.fleet_db import FleetDb, open_db
 from ..io.fleet_files import RobotFolder, Snapshot, content_hash, find_bags, find_robots, snapshot

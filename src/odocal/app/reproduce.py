@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .. import __version__
+from .._version import __version__
 from ..core.checks import check_int, check_seed
 from ..design.reproduce import Reproduction
 from ..design.reproduce import reproduce as reproduce_paper

@@ -5,14 +5,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..core.jsonable import finite_or_none
 from ..core.stats import TTest, ttest_samples
 from ..io.table import ColumnSample, read_column, read_table
 
 __all__ = ["SampleInfo", "TTestStatistics", "TTestResult", "ttest"]
-
-
-def _finite(v: float | None) -> float | None:
-    return v if v is not None and v == v and abs(v) != float("inf") else None
 
 
 @dataclass(frozen=True)
@@ -48,11 +45,11 @@ class TTestStatistics:
     def of(cls, test: TTest) -> TTestStatistics:
         """The statistics of ``test``, non-finite values as None."""
         return cls(
-            _finite(test.t),
-            _finite(test.df),
-            _finite(test.p_two_sided),
-            _finite(test.p_less),
-            _finite(test.p_greater),
+            finite_or_none(test.t),
+            finite_or_none(test.df),
+            finite_or_none(test.p_two_sided),
+            finite_or_none(test.p_less),
+            finite_or_none(test.p_greater),
         )
 
     def as_dict(self) -> dict:

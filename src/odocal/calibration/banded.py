@@ -47,10 +47,10 @@ from .turning import (
     MIN_SEGMENTS,
     MixChoice,
     band_of_increments,
+    disagreeing_bands,
     effective_wheelbase,
     nearest_estimated_band,
     wheelbase_for_mix,
-    with_bands,
 )
 
 __all__ = ["fit_banded", "banded_after_constant", "fit_trajectory_bands"]
@@ -289,7 +289,7 @@ def fit_trajectory_bands(
     recordings: Sequence[Recording], nominal: WheelGeometry | None, settings: TrajectorySettings
 ) -> GeometryFit:
     """The trajectory fit (:func:`~odocal.calibration.trajectory.fit_trajectory`) with its
-    effective wheelbase per band of motion (:func:`~odocal.calibration.turning.with_bands`), or
+    effective wheelbase per band of motion (:func:`with_bands`), or
     with ``settings.wheelbase_model`` 'banded' or a ``settings.motion_mix`` the banded model
     started from it (:func:`banded_after_constant`; the single wheelbase for the mix comes from
     its band wheelbases)."""
@@ -298,3 +298,13 @@ def fit_trajectory_bands(
     if settings.wheelbase_model == "banded" or settings.motion_mix:
         return banded_after_constant(fit, used, nominal, settings)
     return with_bands(fit, used)
+
+
+def with_bands(fit: GeometryFit, runs: Sequence[Recording]) -> GeometryFit:
+    """A constant-wheelbase trajectory ``fit`` of ``runs`` with its effective wheelbase per band
+    of motion (``effective_wheelbase``) and a warning when excited bands disagree. (A single
+    wheelbase for a motion mix comes from the banded model's band wheelbases:
+    :mod:`odocal.calibration.banded`.)"""
+    table = effective_wheelbase(runs, fit.geometry)
+    warnings = list(fit.warnings) + disagreeing_bands(table)
+    return replace(fit, warnings=warnings, effective_wheelbase=table)

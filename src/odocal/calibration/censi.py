@@ -57,6 +57,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.jsonable import finite_list, finite_or_none
 from ..core.model import ModelError, WheelGeometry
 from ..core.odometry import (
     arc_displacement,
@@ -198,19 +199,25 @@ class SensorOdometryFit:
 
     def as_dict(self) -> dict:
         """The JSON contract of ``odocal fit FILE.tuple --json`` (non-finite values as None)."""
-        values = {k: _num(v) for k, v in zip(PARAMETERS, self.parameters, strict=True)}
+        values = {k: finite_or_none(v) for k, v in zip(PARAMETERS, self.parameters, strict=True)}
         paper = self.covariance_paper
         return {
             "method": self.method,
             **values,
-            "stderr": {k: _num(v) for k, v in self.stderr.items()},
+            "stderr": {k: finite_or_none(v) for k, v in self.stderr.items()},
             "stderr_paper": None if paper is None else _stderr(paper),
             "parameters": list(PARAMETERS),
-            "covariance": _finite_or_none(self.covariance),
-            "covariance_paper": None if paper is None else _finite_or_none(paper),
-            "closed_form": {k: _num(v) for k, v in zip(PARAMETERS, self.closed_form, strict=True)},
+            "covariance": finite_list(self.covariance),
+            "covariance_paper": None if paper is None else finite_list(paper),
+            "closed_form": {
+                k: finite_or_none(v) for k, v in zip(PARAMETERS, self.closed_form, strict=True)
+            },
             "noise_std": dict(
-                zip(("x_m", "y_m", "theta_rad"), (_num(v) for v in self.noise_std), strict=True)
+                zip(
+                    ("x_m", "y_m", "theta_rad"),
+                    (finite_or_none(v) for v in self.noise_std),
+                    strict=True,
+                )
             ),
             "tuples_total": self.tuples_total,
             "tuples_used": self.tuples_used,
@@ -235,20 +242,10 @@ class SensorOdometryFit:
         return {
             "uncertainty": self.uncertainty,
             "dof": self.dof,
-            "stderr_formal": {k: _num(v) for k, v in _stderr(self.covariance_formal).items()},
+            "stderr_formal": {
+                k: finite_or_none(v) for k, v in _stderr(self.covariance_formal).items()
+            },
         }
-
-
-def _finite_or_none(a: ArrayLike) -> list:
-    """Nested lists of floats with non-finite entries as None (JSON has no NaN)."""
-    return [_finite_or_none(v) if np.ndim(v) else _num(v) for v in np.asarray(a, dtype=float)]
-
-
-def _num(v: float | None) -> float | None:
-    if v is None:
-        return None
-    v = float(v)
-    return v if np.isfinite(v) else None
 
 
 def _stderr(cov: np.ndarray) -> dict:

@@ -35,11 +35,11 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.jsonable import jsonable
 from ..core.model import MeasurementNoise, NonSystematicError, WheelGeometry
 from ..core.odometry import body_increments, dead_reckon, wheel_jacobian, wheel_travel
 from ..core.recording import Recording
@@ -177,9 +177,9 @@ class MotionSummary:
 
     def as_dict(self) -> dict:
         """JSON-ready."""
-        d = {k: _json(v) for k, v in self.__dict__.items()}
+        d = {k: jsonable(v) for k, v in self.__dict__.items()}
         for k in ("rotation_rad", "rotation_left_rad", "rotation_right_rad"):
-            d[k.replace("_rad", "_deg")] = _json(math.degrees(getattr(self, k)))
+            d[k.replace("_rad", "_deg")] = jsonable(math.degrees(getattr(self, k)))
             del d[k]
         return d
 
@@ -278,38 +278,24 @@ class LogCheck:
         return {
             "ok": self.ok,
             "parameters": list(self.parameters),
-            "values": _json(self.values),
-            "stderr": {k: _json(v) for k, v in self.stderr.items()},
-            "stderr_best": {k: _json(v) for k, v in self.stderr_best.items()},
-            "covariance": _json(self.covariance),
-            "fisher_information": _json(self.fisher_information),
-            "condition_number": _json(self.condition_number),
+            "values": jsonable(self.values),
+            "stderr": {k: jsonable(v) for k, v in self.stderr.items()},
+            "stderr_best": {k: jsonable(v) for k, v in self.stderr_best.items()},
+            "covariance": jsonable(self.covariance),
+            "fisher_information": jsonable(self.fisher_information),
+            "condition_number": jsonable(self.condition_number),
             "weakest_direction": self.weakest_direction,
             "blind_directions": list(self.blind_directions),
-            "weakest_vector": _json(self.weakest_vector),
-            "weakest_relative_stderr": _json(self.weakest_relative_stderr),
+            "weakest_vector": jsonable(self.weakest_vector),
+            "weakest_relative_stderr": jsonable(self.weakest_relative_stderr),
             "degeneracies": [d.as_dict() for d in self.degeneracies],
             "suggestions": list(self.suggestions),
             "motion": self.motion.as_dict(),
             "per_recording": [m.as_dict() for m in self.per_recording],
             "noise": self.noise.as_dict(),
-            "residual_scale": _json(self.residual_scale),
-            "settings": {k: _json(v) for k, v in self.settings.items()},
+            "residual_scale": jsonable(self.residual_scale),
+            "settings": {k: jsonable(v) for k, v in self.settings.items()},
         }
-
-
-def _json(v: Any) -> Any:
-    """Floats, lists and None only; non-finite numbers become None."""
-    if v is None or isinstance(v, (str, bool)):
-        return v
-    if isinstance(v, (dict,)):
-        return {k: _json(x) for k, x in v.items()}
-    if isinstance(v, (list, tuple, np.ndarray)):
-        return [_json(x) for x in v]
-    if isinstance(v, (int, np.integer)):
-        return int(v)
-    f = float(v)
-    return f if math.isfinite(f) else None
 
 
 # --------------------------------------------------------------------------------------------

@@ -5,20 +5,18 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, SupportsFloat
+from typing import Any, SupportsFloat
 
 import numpy as np
-from numpy.typing import ArrayLike
 
+from ..core.jsonable import finite_list
 from ..core.model import WheelGeometry
 from ..errors import CalibrationError
 from .fit_methods import HeadingSource, UmbmarkForm, WheelbaseModel
 from .fit_settings import TrajectorySettings
 from .robust_covariance import Consistency
+from .turning import EffectiveWheelbase, MixChoice
 from .uncertainty import CalibrationUncertainty
-
-if TYPE_CHECKING:  # turning imports this module
-    from .turning import EffectiveWheelbase, MixChoice
 
 __all__ = [
     "ABSURD_FRACTION",
@@ -335,7 +333,7 @@ class GeometryFit:
     def as_dict(self) -> dict[str, Any]:
         """The JSON contract of ``odocal fit --json``: the geometry and its uncertainty, the
         runs, then what the method adds."""
-        cov = None if self.covariance is None else _finite_or_none(self.covariance)
+        cov = None if self.covariance is None else finite_list(self.covariance)
         out: dict[str, Any] = {
             "method": self.method,
             **self.geometry.as_dict(),
@@ -388,14 +386,6 @@ class GeometryFit:
         if self.constant_fit is not None:
             out["constant_fit"] = self.constant_fit.as_dict()
         return out
-
-
-def _finite_or_none(a: ArrayLike) -> list[Any]:
-    """Nested lists of floats with non-finite entries as None (JSON has no NaN)."""
-    return [
-        _finite_or_none(v) if np.ndim(v) else (float(v) if np.isfinite(v) else None)
-        for v in np.asarray(a, dtype=float)
-    ]
 
 
 _KEYS = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")

@@ -53,8 +53,8 @@ table's estimates are at the constant fit's diameters and see only the segments'
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field, replace
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -64,7 +64,6 @@ from ..core.recording import Recording
 from ..core.stats import student_t_quantile
 from ..errors import CalibrationError
 from .fit_methods import BANDS
-from .result import GeometryFit
 
 __all__ = [
     "BANDS",
@@ -81,7 +80,7 @@ __all__ = [
     "MixChoice",
     "wheelbase_for_mix",
     "parse_motion_mix",
-    "with_bands",
+    "disagreeing_bands",
 ]
 
 # BANDS (odocal.calibration.fit_methods): the band names, from the tightest turning to straight.
@@ -499,7 +498,7 @@ def wheelbase_for_mix(wheelbases_m: dict[str, float], mix: dict[str, float]) -> 
     return MixChoice(float(b), w, errors, float(rms), unused)
 
 
-def _disagreeing_bands(table: EffectiveWheelbase) -> list[str]:
+def disagreeing_bands(table: EffectiveWheelbase) -> list[str]:
     """A warning for every two excited bands whose 95 % intervals do not overlap."""
     warnings = []
     excited = [(b, b.ci95_m) for b in table.bands if b.excited and b.ci95_m is not None]
@@ -513,13 +512,3 @@ def _disagreeing_bands(table: EffectiveWheelbase) -> list[str]:
                     "banded and --motion-mix"
                 )
     return warnings
-
-
-def with_bands(fit: GeometryFit, runs: Sequence[Recording]) -> GeometryFit:
-    """A constant-wheelbase trajectory ``fit`` of ``runs`` with its effective wheelbase per band
-    of motion (``effective_wheelbase``) and a warning when excited bands disagree. (A single
-    wheelbase for a motion mix comes from the banded model's band wheelbases:
-    :mod:`odocal.calibration.banded`.)"""
-    table = effective_wheelbase(runs, fit.geometry)
-    warnings = list(fit.warnings) + _disagreeing_bands(table)
-    return replace(fit, warnings=warnings, effective_wheelbase=table)

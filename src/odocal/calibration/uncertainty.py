@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.jsonable import finite_or_none
 from ..core.model import WheelGeometry
 from ..core.stats import student_t_quantile
 
@@ -67,18 +68,13 @@ class CalibrationUncertainty:
         values as None), the runs per direction and the method."""
         ci = self.ci95()
         return {
-            "stderr": {n: _num(s) for n, s in zip(NAMES, self.stderr, strict=True)},
-            "ci95": {n: [_num(ci[n][0]), _num(ci[n][1])] for n in NAMES},
-            "dof": {n: _num(v) for n, v in zip(NAMES, self.dof, strict=True)},
+            "stderr": {n: finite_or_none(s) for n, s in zip(NAMES, self.stderr, strict=True)},
+            "ci95": {n: [finite_or_none(ci[n][0]), finite_or_none(ci[n][1])] for n in NAMES},
+            "dof": {n: finite_or_none(v) for n, v in zip(NAMES, self.dof, strict=True)},
             "runs": dict(self.runs),
             "method": "delta method on the run-to-run spread of the CW and CCW means; 95 % "
             "intervals with Student t at Welch-Satterthwaite dof",
         }
-
-
-def _num(v: float) -> float | None:
-    v = float(v)
-    return v if math.isfinite(v) else None
 
 
 def _jacobian(fun: Callable[[np.ndarray], np.ndarray], z: np.ndarray) -> np.ndarray:

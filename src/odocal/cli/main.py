@@ -17,7 +17,7 @@ import sys
 import warnings
 from typing import Any
 
-from .. import __version__
+from .._version import __version__
 from ..errors import OdocalError, OdocalWarning, one_line
 
 #: command name -> (module in odocal.cli, the one line of ``odocal --help``)

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.covariance import PosePrediction, mean_final_pose, predict
+from ..core.jsonable import finite_or_none
 from ..core.model import Robot
 from ..core.simulate import odometric_pose
 from ..core.tracks import Track, out_and_back, polygon, straight_line
@@ -106,22 +107,19 @@ class FloorPlan:
         def pose(v):
             return {"x_m": float(v[0]), "y_m": float(v[1]), "theta_deg": math.degrees(v[2])}
 
-        def num(v):  # undefined predictions (e.g. a side too short to resolve E_d) are null
-            return float(v) if math.isfinite(v) else None
-
         extra = {}
         if self.calibration is not None:
             c, r = self.calibration, self.reference
             assert r is not None
             extra["calibration_prediction"] = {
                 "method": "heading",
-                "E_b_mean": num(c.E_b_mean),
-                "E_b_std": num(c.E_b_std),
-                "E_d_mean": num(c.E_d_mean),
-                "E_d_std": num(c.E_d_std),
+                "E_b_mean": finite_or_none(c.E_b_mean),
+                "E_b_std": finite_or_none(c.E_b_std),
+                "E_d_mean": finite_or_none(c.E_d_mean),
+                "E_d_std": finite_or_none(c.E_d_std),
                 "validation": self.validation.as_dict() if self.validation else None,
-                "post_error_mean_m": num(c.post_error_mean_m),
-                "post_error_ci95_m": [num(v) for v in c.post_error_ci95_m],
+                "post_error_mean_m": finite_or_none(c.post_error_mean_m),
+                "post_error_ci95_m": [finite_or_none(v) for v in c.post_error_ci95_m],
                 "floor_m": r.floor_m,
                 "uncalibrated_m": r.uncalibrated_m,
             }
