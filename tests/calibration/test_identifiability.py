@@ -36,11 +36,14 @@ NO_NOISE = NonSystematicError()
 STEPS = 60  # increments per segment (the recording's samples)
 
 
-def simulated(track, rng=None, *, noise=NO_NOISE, measurement=None, name="run", steps=STEPS):
-    """A Recording of ``track`` driven open loop by odocal's simulator: the encoders read the
-    commanded rotation, the ground truth is the true (noisy) path, measured by an instrument
-    with ``measurement`` noise and re-expressed in its measured start frame."""
-    res = drive(track, TRUE, NOMINAL, noise, 1, rng, steps_per_segment=steps, trajectory=True)
+def simulated_runs(
+    track, runs, rng=None, *, noise=NO_NOISE, measurement=None, name="run", steps=STEPS
+):
+    """``runs`` Recordings of ``track`` driven open loop by odocal's simulator (all in one
+    simulation): the encoders read the commanded rotation, the ground truth is the true (noisy)
+    path, measured by an instrument with ``measurement`` noise and re-expressed in its measured
+    start frame."""
+    res = drive(track, TRUE, NOMINAL, noise, runs, rng, steps_per_segment=steps, trajectory=True)
     dr, dl = [], []
     for seg in track.segments:
         s_r, s_l = seg.wheel_travel(NOMINAL.wheelbase_m)
@@ -48,26 +51,35 @@ def simulated(track, rng=None, *, noise=NO_NOISE, measurement=None, name="run", 
         dl.append(np.full(steps, s_l / steps / (0.5 * NOMINAL.diameter_left_m)))
     right = np.concatenate([[0.0], np.cumsum(np.concatenate(dr))])
     left = np.concatenate([[0.0], np.cumsum(np.concatenate(dl))])
-    gt = res.trajectory[0]
-    if measurement is not None:
-        gt = gt + rng.standard_normal(gt.shape) * [
-            measurement.sigma_xy_m,
-            measurement.sigma_xy_m,
-            measurement.sigma_theta_rad,
-        ]
-        c, s = math.cos(gt[0, 2]), math.sin(gt[0, 2])
-        d = gt[:, :2] - gt[0, :2]
-        gt = np.column_stack(
-            [c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1], gt[:, 2] - gt[0, 2]]
+    recs = []
+    for gt in res.trajectory:
+        if measurement is not None:
+            gt = gt + rng.standard_normal(gt.shape) * [
+                measurement.sigma_xy_m,
+                measurement.sigma_xy_m,
+                measurement.sigma_theta_rad,
+            ]
+            c, s = math.cos(gt[0, 2]), math.sin(gt[0, 2])
+            d = gt[:, :2] - gt[0, :2]
+            gt = np.column_stack(
+                [c * d[:, 0] + s * d[:, 1], -s * d[:, 0] + c * d[:, 1], gt[:, 2] - gt[0, 2]]
+            )
+        recs.append(
+            Recording(
+                name=name,
+                time_s=0.05 * np.arange(len(right)),
+                wheel_angle_right_rad=right,
+                wheel_angle_left_rad=left,
+                ground_truth=gt,
+                ran_with=NOMINAL,
+            )
         )
-    return Recording(
-        name=name,
-        time_s=0.05 * np.arange(len(right)),
-        wheel_angle_right_rad=right,
-        wheel_angle_left_rad=left,
-        ground_truth=gt,
-        ran_with=NOMINAL,
-    )
+    return recs
+
+
+def simulated(track, rng=None, **kw):
+    """One Recording of ``track`` (:func:`simulated_runs`)."""
+    return simulated_runs(track, 1, rng, **kw)[0]
 
 
 def spin(angle_rad):
@@ -310,13 +322,20 @@ def test_predicted_stderr_matches_repeated_fits(residual):
     noise = NoiseModel(NonSystematicError(2e-6, 2e-6), MeasurementNoise(1e-3, math.radians(0.3)))
     chk = check_recordings(log(RICH), TRUE, noise=noise, residual=residual)
     rng = np.random.default_rng(2026)
+    # the 100 repeats of each track simulated at once (a log is one repeat of every track)
+    repeats = [
+        simulated_runs(
+            t, 100, rng, noise=noise.wheel, measurement=noise.measurement, name=f"run{i}"
+        )
+        for i, t in enumerate(RICH)
+    ]
     est = []
-    for _ in range(100):
-        recs = log(RICH, rng, noise=noise.wheel, measurement=noise.measurement)
+    for recs in zip(*repeats, strict=True):
         # started at nominal: the fit's segment layout is computed with its starting geometry,
         # and a start that varies from repeat to repeat (the default linear estimate) adds
         # spread of its own (about +20 % in b for segment residuals, docs/check.md)
-        g = fit_trajectory(recs, NOMINAL, settings=TrajectorySettings(residual=residual)).geometry
+        settings = TrajectorySettings(residual=residual)
+        g = fit_trajectory(list(recs), NOMINAL, settings=settings).geometry
         est.append([g.diameter_right_m, g.diameter_left_m, g.wheelbase_m])
     observed = np.std(est, axis=0, ddof=1)
     predicted = np.array(list(chk.stderr.values()))

@@ -62,15 +62,16 @@ def test_noise_free_exactness_and_known_approximations(noise_free):
 
 def test_seeded_determinism_and_independent_streams():
     robot = PRESETS["paper-fig5"]
-    a = compare_simulated(robot, trials=8, seed=3)
-    b = compare_simulated(robot, trials=8, seed=3)
-    c = compare_simulated(robot, trials=8, seed=4)
+    # determinism and stream independence hold at any trial count: 3 trials per method suffice
+    a = compare_simulated(robot, trials=3, seed=3)
+    b = compare_simulated(robot, trials=3, seed=3)
+    c = compare_simulated(robot, trials=3, seed=4)
     for ma, mb, mc in zip(a.methods, b.methods, c.methods, strict=True):
         np.testing.assert_array_equal(ma.final_error_m, mb.final_error_m)
         np.testing.assert_array_equal(ma.E_b_error, mb.E_b_error)
         assert not np.array_equal(ma.E_b_error, mc.E_b_error)
     # One stream per method name: running a subset changes no method's numbers.
-    sub = compare_simulated(robot, trials=8, seed=3, methods=[METHODS[4]])
+    sub = compare_simulated(robot, trials=3, seed=3, methods=[METHODS[4]])
     np.testing.assert_array_equal(sub.methods[0].E_b_error, a.methods[4].E_b_error)
 
 

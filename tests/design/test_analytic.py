@@ -58,10 +58,14 @@ def monte_carlo(robot, sides, side, n, method, trials, seed):
     rng = np.random.default_rng(seed)
     true, ran = robot.true_geometry, robot.believed_geometry
     opts = {"steps_per_segment": 16, "integration": "exact"}
+    # the heading method reads only the final heading: the sum of the increments' heading
+    # changes, whose noise (variance k |ds| each) sums to the same normal law however a segment
+    # is cut, so one exact increment per segment draws the same distribution (16 times cheaper)
+    test_opts = {**opts, "steps_per_segment": 1} if method == "heading" else opts
     means = []
     for d in ("cw", "ccw"):
         res = drive(
-            polygon(sides, side, d), true, ran, robot.nonsystematic, n * trials, rng, **opts
+            polygon(sides, side, d), true, ran, robot.nonsystematic, n * trials, rng, **test_opts
         )
         means.append(measure(res.errors, robot, rng).reshape(trials, n, 3).mean(axis=1))
     cw, ccw = means

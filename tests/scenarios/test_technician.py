@@ -291,18 +291,32 @@ def test_sizes_scale_with_the_robot():
     assert tb[0] == 0.2 and tb[-1] == 4.0 and v.side_m == 1.6
 
 
-def test_unknown_errors_are_designed_over_their_typical_range(cli, tmp_path):
+def test_unknown_errors_are_designed_over_their_typical_range(cli, tmp_path, monkeypatch):
+    import odocal.app.design as app_design
+
     bare = tmp_path / "bare.yaml"
     bare.write_text(TB3 + "measurement: {sigma_xy_m: 0.01, sigma_theta_deg: 1.0}\n")
+    real, asked, results = app_design.design, [], []
+
+    def design(*args, **kwargs):
+        # what the command asks for (the progress bar aside); the design is computed once
+        asked.append((args, {k: v for k, v in kwargs.items() if k != "progress"}))
+        if not results:
+            results.append(real(*args, **kwargs))
+        return results[0]
+
+    monkeypatch.setattr(app_design, "design", design)
     status, out, err = cli("design", "--robot", bare, "--side-lengths", "0.4:2.4:0.4", "--json")
     assert status == 0, err
     d = json.loads(out)
     assert d["engine"] == "analytic" and d["validation"]["side_m"] == 1.6
     assert set(d["error_range"]["unknown"]) == {"systematic", "nonsystematic"}
     assert d["recommended"]["within_best"] < 0.06
-    # the text report of the same design
+    # the text report of the same design: the command asks for the same design as with --json
+    # and prints the result computed above
     status, out, err = cli("design", "--robot", bare, "--side-lengths", "0.4:2.4:0.4")
     assert status == 0, err
+    assert len(asked) == 2 and asked[1] == asked[0]
     assert "Recommended: square" in out and "whatever the robot's errors" in out
 
 

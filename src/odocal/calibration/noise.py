@@ -29,6 +29,7 @@ the standard error of k_r - k_l is below a quarter of k_r + k_l (otherwise None,
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -144,18 +145,23 @@ def _interval_width(ci: tuple[float, float]) -> str:
     )
 
 
+@functools.lru_cache(maxsize=16)
 def _coefficients(
     track: str, d: float, b: float, curvature_rad_per_m: float
 ) -> tuple[np.ndarray, ...]:
-    """Final-pose covariance per unit k_r and per unit k_l, ((3, 3), (3, 3)), on the mean path."""
+    """Final-pose covariance per unit k_r and per unit k_l, ((3, 3), (3, 3)), on the mean path
+    (read-only arrays: kept for the next estimate of the same track, as a coverage study over
+    many sets of runs makes; the propagation is most of an estimate's time)."""
     half = 0.5 * curvature_rad_per_m * b  # (f_r - f_l) / 2 for a path of this curvature
     believed = WheelGeometry.symmetric(1.0, b)
     true = WheelGeometry(1.0 + half, 1.0 - half, b)
     tr = out_and_back(d) if track == "out-and-back" else straight_line(d)
-    return tuple(
-        propagate(tr, true, believed, NonSystematicError(*k), steps_per_segment=400).covariance
-        for k in ((1.0, 0.0), (0.0, 1.0))
-    )
+    out = []
+    for k in ((1.0, 0.0), (0.0, 1.0)):
+        cov = propagate(tr, true, believed, NonSystematicError(*k), steps_per_segment=400)
+        cov.covariance.setflags(write=False)
+        out.append(cov.covariance)
+    return tuple(out)
 
 
 def _trend(values: np.ndarray) -> tuple[float, float, float]:
