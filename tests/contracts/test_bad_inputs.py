@@ -77,9 +77,10 @@ def test_output_in_an_unwritable_place(cli, tmp_path, monkeypatch):
 
     # /proc refuses new files even for root
     assert_error(cli("simulate", "--runs", 1, "--out", "/proc/odocal-x.csv"), "/proc/odocal-x.csv")
-    # the figures rendered as their files are staged, not all three before: the first file
-    # that cannot be created in /proc fails the command either way
+    # the figures staged one by one, not all three rendered before, and not drawn: the first
+    # file that cannot be created in /proc fails the command either way
     monkeypatch.setattr(outputs, "_render_figures", lambda contents: contents)
+    monkeypatch.setattr(outputs, "_png", lambda content: b"a figure")
     assert_error(
         cli("design", "--analytic", "--side-lengths", "1:2:1", "--plot", "/proc"), "/proc/"
     )
