@@ -21,6 +21,8 @@ from odocal.errors import InputError, ModelError
 pytestmark = pytest.mark.filterwarnings("error::RuntimeWarning")
 
 SQUARE = "optiodom_diff/square/230620202042"
+#: the smallest OptiOdom square data set (two runs): a fit of it takes 0.05 s, not 0.5 s
+SMALL_SQUARE = "optiodom_diff/square/231220200045"
 
 
 def assert_error(result, *needles):
@@ -75,9 +77,10 @@ def test_output_in_an_unwritable_place(cli, tmp_path, monkeypatch):
 
     # /proc refuses new files even for root
     assert_error(cli("simulate", "--runs", 1, "--out", "/proc/odocal-x.csv"), "/proc/odocal-x.csv")
-    # the figures rendered as their files are staged, not all three before: the first file
-    # that cannot be created in /proc fails the command either way
+    # the figures staged one by one, not all three rendered before, and not drawn: the first
+    # file that cannot be created in /proc fails the command either way
     monkeypatch.setattr(outputs, "_render_figures", lambda contents: contents)
+    monkeypatch.setattr(outputs, "_png", lambda content: b"a figure")
     assert_error(
         cli("design", "--analytic", "--side-lengths", "1:2:1", "--plot", "/proc"), "/proc/"
     )
@@ -304,11 +307,13 @@ def test_print_json_prints_all_or_nothing(capsys):
 def test_tiny_fit_segments_do_not_blow_up(cli, realdata):
     # 1 nm segments used to build a grid of billions of points (27 GB); below the sample
     # spacing every sample starts a segment, exactly as 10 um segments give on these runs
+    # (a run of a few metres at 1 nm is billions of points too: the small data set shows it)
     fits = []
     for seg in ("1e-9", "1e-5"):
         status, out, err = cli(
-            "fit", realdata / SQUARE, "--residual", "segment", "--segment-length", seg, "--json"
-        )
+            "fit", realdata / SMALL_SQUARE, "--residual", "segment", "--segment-length", seg,
+            "--json",
+        )  # fmt: skip
         assert status == 0, err
         doc = json.loads(out)
         doc.pop("segment_m")

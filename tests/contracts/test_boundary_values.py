@@ -402,9 +402,12 @@ def test_optiodom_run_files_are_checked(cli, tmp_path, edit, needle):
 
 @pytest.fixture(scope="module")
 def bag_run():
-    from tests.support.bag_files import TRACK, make_run
+    """A short run (a straight and a turn, 7.6 s: half the samples of bag_files.TRACK's): these
+    tests are about values and stamps, not about what the robot drove."""
+    from odocal.core.tracks import Track, spot_turn, straight
+    from tests.support.bag_files import make_run
 
-    return make_run(TRACK)
+    return make_run(Track("a straight and a turn", (straight(1.0), spot_turn(math.pi / 2))))
 
 
 @pytest.mark.parametrize(

@@ -53,12 +53,18 @@ def test_the_first_failure_in_task_order_is_raised(monkeypatch, share):
     from odocal.errors import InputError
 
     monkeypatch.setenv("ODOCAL_THREADS", "2")
+    quick_failed = shared_zeros((1,))  # seen by every forked worker
 
     def slow_bad():
-        time.sleep(0.3)
+        # fails after quick_bad has (without share its worker runs quick_bad meanwhile; with
+        # share the one worker runs both in turn, and the wait ends at 0.3 s as the sleep did)
+        deadline = time.monotonic() + 0.3
+        while quick_failed[0] == 0 and time.monotonic() < deadline:
+            time.sleep(0.001)
         raise InputError("bad file", "a.csv", 3)
 
     def quick_bad():
+        quick_failed[0] = 1
         raise InputError("also bad", "b.csv", 1)
 
     with pytest.raises(InputError, match="a.csv, line 3: bad file"):

@@ -84,6 +84,12 @@ class _Output:
     flag: str
     is_folder: bool
 
+    @functools.cached_property
+    def resolved(self) -> Path:
+        """``path.resolve()``, once (when first asked, as before): a plan of many files (a fleet
+        report's pages) compares each new output with every earlier one."""
+        return self.path.resolve()
+
 
 class _SigTerm(KeyboardInterrupt):
     pass
@@ -186,11 +192,20 @@ class OutputPlan:
                 )
 
     def _check_against_outputs(self, path: Path, flag: str) -> None:
+        resolved = path.resolve() if self._outputs else path
         for o in self._outputs:
-            if path.resolve() == o.path.resolve() or _same(path, o.path):
+            if resolved == o.resolved or _same(path, o.path):
                 raise InputError(
                     f"{flag} names the same file as {o.flag}; give each output its own name", path
                 )
+
+    def _planned_folder(self, folder: Path) -> _Output | None:
+        """The registered output folder that is ``folder``, if any."""
+        folders = [o for o in self._outputs if o.is_folder]
+        if not folders:
+            return None
+        resolved = folder.resolve()
+        return next((o for o in folders if o.resolved == resolved), None)
 
     def file(self, path: Any, flag: str) -> Path:
         """Register an output file (its folder must exist or be a registered output folder)."""
@@ -212,9 +227,7 @@ class OutputPlan:
                 f"{flag}: exists and is not a regular file; choose another output name", path
             )
         parent = path.parent
-        planned_folder = any(
-            o.is_folder and o.path.resolve() == parent.resolve() for o in self._outputs
-        )
+        planned_folder = self._planned_folder(parent) is not None
         if not parent.is_dir() and not planned_folder:
             raise InputError(f"{flag}: the output folder does not exist", parent)
         if parent.is_dir() and not os.access(parent, os.W_OK | os.X_OK):
@@ -259,15 +272,7 @@ class OutputPlan:
         device standing where it goes, an input, another output) before anything is written."""
         for path in contents:
             if not any(Path(path) == o.path for o in self._outputs if not o.is_folder):
-                parent = Path(path).parent
-                folder = next(
-                    (
-                        o
-                        for o in self._outputs
-                        if o.is_folder and o.path.resolve() == parent.resolve()
-                    ),
-                    None,
-                )
+                folder = self._planned_folder(Path(path).parent)
                 if folder is None:
                     raise RuntimeError(f"output {path} was not planned")  # a programming error
                 self._check_file(Path(path), folder.flag)
