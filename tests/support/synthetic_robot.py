@@ -318,9 +318,11 @@ class _Ros2Writer:
 
     def __init__(self, path: Path):
         from rosbags.rosbag2 import Writer
-        from rosbags.typesys import Stores, get_typestore
 
-        self.ts = get_typestore(Stores.ROS2_HUMBLE)
+        from tests.support.bag_files import typestore
+
+        # one ROS 2 (Humble) type store per process: rosbags compiles each serialiser once
+        self.ts = typestore(ros1=False)
         self.w = Writer(path, version=9)  # the default storage (sqlite3 in rosbags 0.11)
         self.conns: dict[str, object] = {}
         self.counts: dict[str, int] = {}
