@@ -505,9 +505,13 @@ def test_transform_buffer_errors_name_the_bag_and_the_topic(tmp_path, run):
 
 @pytest.fixture(scope="module")
 def laser_run():
-    from tests.support.synthetic_robot import Laser, default_track, simulate_robot
+    # the scan header checks need a few scans, not the 8 m tour: 0.5 m and a quarter turn (23
+    # scans of 100 rays)
+    from odocal.core.tracks import Track, spot_turn, straight
+    from tests.support.synthetic_robot import Laser, simulate_robot
 
-    return simulate_robot(default_track(), TRUE, NOMINAL, laser=Laser(n_rays=100))
+    short = Track("short", (straight(0.5), spot_turn(math.pi / 2)))
+    return simulate_robot(short, TRUE, NOMINAL, laser=Laser(n_rays=100), still_s=0.2)
 
 
 @pytest.mark.parametrize(
