@@ -196,10 +196,15 @@ def test_a_motion_mix_exports_the_single_wheelbase_and_keeps_the_constant_fit(ru
     assert list(d)[-1] == "constant_fit"
 
 
-def test_the_banded_model_is_a_trajectory_setting(runs):
-    banded = fit_recordings(
+@pytest.fixture(scope="module")
+def banded(runs):
+    """The banded fit of ``runs``, made once and only inspected."""
+    return fit_recordings(
         runs, nominal=NOMINAL, settings=TrajectorySettings(wheelbase_model="banded")
     )
+
+
+def test_the_banded_model_is_a_trajectory_setting(runs, banded):
     assert banded.wheelbase_model == "banded" and banded.trajectory is None
     assert set(banded.banded.band_wheelbase_m) == {"spot", "tight"}
     assert banded.constant_fit is not None
@@ -293,13 +298,10 @@ def test_the_residual_layout_is_rows_of_three_columns_per_run(runs):
     assert rows[0].weight == block_weight(rows[0].travel_m, len(rows[0].idx), "travel")
 
 
-def test_the_figure_is_chosen_from_the_fit_alone(runs):
+def test_the_figure_is_chosen_from_the_fit_alone(runs, banded):
     pytest.importorskip("matplotlib")
     from odocal.plot.fit import FIT_FIGURE, fit_figures
 
-    banded = fit_recordings(
-        runs, nominal=NOMINAL, settings=TrajectorySettings(wheelbase_model="banded")
-    )
     figures = fit_figures(banded, "out")
     assert list(figures) == [Path("out") / FIT_FIGURE]
     linear = fit_recordings(runs, "linear", nominal=NOMINAL)
