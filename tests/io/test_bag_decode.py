@@ -17,7 +17,6 @@ import pytest
 from rosbags.highlevel import AnyReader
 from rosbags.rosbag1 import Writer as Writer1
 from rosbags.rosbag2 import StoragePlugin
-from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from odocal.app.fit import fit_gyro_bag
@@ -27,7 +26,15 @@ from odocal.errors import InputError
 from odocal.io import bag_decode, bags
 from odocal.io.bag_recording import load_bag_recording
 from odocal.io.bag_slam import load_slam_bag
-from tests.support.bag_files import KINDS, TRACK, BagWriter, bag_path, make_run, write_bag
+from tests.support.bag_files import (
+    KINDS,
+    TRACK,
+    BagWriter,
+    Writer2,
+    bag_path,
+    make_run,
+    write_bag,
+)
 from tests.support.synthetic_robot import Gyro, Laser, simulate_robot, write_ros2_bag
 
 IMU, ODOMETRY = bag_decode.IMU, bag_decode.ODOMETRY

@@ -188,3 +188,23 @@ def test_scans_in_the_bag_match_back_to_the_true_laser_motion(run, contents):
     # the worst of 68 matches (along the whole tour) within 5 mm and 0.1 deg
     assert np.hypot(err[:, 0], err[:, 1]).max() < 5e-3
     assert np.abs(err[:, 2]).max() < math.radians(0.1)
+
+
+def test_the_bag_writer_without_fsync_writes_rosbags_bytes(tmp_path, monkeypatch):
+    # every sqlite3 bag of the tests is written with PRAGMA synchronous = OFF (bag_files.Writer2):
+    # the same files as rosbags' own writer, byte for byte
+    from rosbags.rosbag2 import Writer
+
+    import tests.support.bag_files as bag_files
+    from odocal.core.tracks import Track, spot_turn, straight
+
+    short = Track("short", (straight(0.3), spot_turn(math.pi / 2)))
+    run = simulate_robot(short, TRUE, NOMINAL, laser=Laser(n_rays=8), gyro=Gyro(0.01))
+    write_ros2_bag(tmp_path / "ours" / "bag", run, map_odom_every=5)
+    monkeypatch.setattr(bag_files, "Writer2", Writer)
+    write_ros2_bag(tmp_path / "rosbags" / "bag", run, map_odom_every=5)
+    files = sorted(p.name for p in (tmp_path / "ours" / "bag").iterdir())
+    assert files == ["bag.db3", "metadata.yaml"]
+    for name in files:
+        ours, theirs = (tmp_path / d / "bag" / name for d in ("ours", "rosbags"))
+        assert ours.read_bytes() == theirs.read_bytes(), name
