@@ -42,10 +42,25 @@ def run() -> Run:
     return make_run(TRACK)
 
 
-@pytest.fixture(scope="module", params=KINDS)
-def synthetic(request, tmp_path_factory, run):
-    kind = request.param
-    return kind, write_bag(bag_path(tmp_path_factory.mktemp(kind), kind), kind, run, odom=True)
+@pytest.fixture(scope="module")
+def written(tmp_path_factory, run):
+    """kind -> the bag of ``run`` of that kind (with the odometry), written on first use and
+    only read by the tests."""
+    paths = {}
+
+    def get(kind):
+        if kind not in paths:
+            folder = tmp_path_factory.mktemp(kind)
+            paths[kind] = write_bag(bag_path(folder, kind), kind, run, odom=True)
+        return paths[kind]
+
+    return get
+
+
+@pytest.fixture(params=KINDS)
+def synthetic(request, written):
+    """(kind, path) of each bag kind: for the tests of what is read."""
+    return request.param, written(request.param)
 
 
 # --------------------------------------------------------------------------- happy paths
@@ -392,8 +407,8 @@ def test_swapped_wheels_are_detected(plain_ros1):
         )
 
 
-def test_gyro_with_swapped_joints_says_so(synthetic):
-    kind, path = synthetic
+def test_gyro_with_swapped_joints_says_so(written):
+    path = written("mcap")  # the fit's verdict on what was read: one kind (reads: above)
     with pytest.raises(InputError, match="opposite directions.*or the wheel joints are swapped"):
         fit_gyro_bag(
             path,
@@ -414,10 +429,11 @@ def test_joint_names(tmp_path, run):
     np.testing.assert_allclose(rec.wheel_angle_right_rad, run.right - run.right[0], atol=1e-12)
 
 
-def test_gyro_export_composes_with_what_the_controller_ran_with(synthetic, tmp_path, cli):
+def test_gyro_export_composes_with_what_the_controller_ran_with(written, tmp_path, cli):
     # the controller integrated /odom with b = 0.5 m, i.e. its nominal 0.49 m times a
-    # wheel_separation_multiplier of 1.0204: the correction applies to the 0.5 m it ran with
-    kind, path = synthetic
+    # wheel_separation_multiplier of 1.0204: the correction applies to the 0.5 m it ran with.
+    # The export of what was read: one bag kind (test_gyro_from_odometry_topic reads each)
+    path = written("sqlite3")
     robot = tmp_path / "robot.yaml"
     robot.write_text(
         "wheel_diameter_m: 0.2\nwheelbase_m: 0.49\n"
@@ -438,13 +454,13 @@ def test_gyro_export_composes_with_what_the_controller_ran_with(synthetic, tmp_p
     assert set(d["time_offsets_s"]) == {"imu"}
 
 
-def test_gyro_text_without_a_still_period(synthetic):
+def test_gyro_text_without_a_still_period(written):
     # its standard error is None: the text says why instead of a TypeError
     from dataclasses import replace
 
     from odocal.app.fit_gyro import GyroFitResult
 
-    kind, path = synthetic
+    path = written("ros1")  # the text of a result: one bag kind
     res = GyroFitResult(replace(fit_gyro_bag(path, odom_topic="/odom"),
                                 rotation_ratio_stderr=None), None, None)  # fmt: skip
     assert "no still period: bias unknown" in str(res)  # the text odocal fit prints
