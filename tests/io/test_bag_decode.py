@@ -28,7 +28,6 @@ from odocal.io.bag_recording import load_bag_recording
 from odocal.io.bag_slam import load_slam_bag
 from tests.support.bag_files import (
     KINDS,
-    TRACK,
     BagWriter,
     Writer2,
     bag_path,
@@ -92,7 +91,9 @@ def assert_fast_equals_rosbags(path, monkeypatch, expect_fast=True) -> bags.BagC
 
 @pytest.fixture(scope="module")
 def run():
-    return make_run(TRACK)
+    # a straight and a half turn between 3 s of standing still: 381 joint states, 760 Imu and
+    # 77 Odometry messages (a decoder reads each message alone: the tour adds only more of them)
+    return make_run(Track("short", (straight(0.5), spot_turn(math.pi))))
 
 
 @pytest.fixture(scope="module")
@@ -113,7 +114,7 @@ def written(run, tmp_path_factory):
 @pytest.mark.parametrize("kind", KINDS)
 def test_fast_path_equals_rosbags_on_written_bags(kind, written, monkeypatch):
     messages = assert_fast_equals_rosbags(written(kind), monkeypatch).messages
-    assert len(messages["/imu"]) > 1000 and len(messages["/odom"]) > 100
+    assert len(messages["/imu"]) > 700 and len(messages["/odom"]) > 70
 
 
 @pytest.fixture(scope="module")
