@@ -321,8 +321,13 @@ def test_the_router_fits_tuple_files_to_a_typed_relative_result(realdata):
     assert res.as_dict()["inputs"] == [{"path": str(path), "tuples": res.fit.tuples_total}]
 
 
-def test_the_gyro_route_takes_its_topics_from_bag_options(realdata):
+def test_the_gyro_route_takes_its_topics_from_bag_options(realdata, monkeypatch):
     pytest.importorskip("rosbags")
+    from tests.support.bag_files import read_husky_once
+
+    # the bag is read once per test process (the topics are still picked from the options on
+    # each fit; the axis acts after the read): a worker that ran test_fit_bags reuses its read
+    read_husky_once(monkeypatch)
     bag = realdata / "husky" / "husky_test1.bag"
     res = fit([bag], "gyro", bag=BagOptions(imu_axis="y"))
     assert isinstance(res, GyroFitResult)
