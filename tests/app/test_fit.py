@@ -196,10 +196,15 @@ def test_a_motion_mix_exports_the_single_wheelbase_and_keeps_the_constant_fit(ru
     assert list(d)[-1] == "constant_fit"
 
 
-def test_the_banded_model_is_a_trajectory_setting(runs):
-    banded = fit_recordings(
+@pytest.fixture(scope="module")
+def banded(runs):
+    """The banded fit of ``runs``, made once and only inspected."""
+    return fit_recordings(
         runs, nominal=NOMINAL, settings=TrajectorySettings(wheelbase_model="banded")
     )
+
+
+def test_the_banded_model_is_a_trajectory_setting(runs, banded):
     assert banded.wheelbase_model == "banded" and banded.trajectory is None
     assert set(banded.banded.band_wheelbase_m) == {"spot", "tight"}
     assert banded.constant_fit is not None
@@ -293,13 +298,10 @@ def test_the_residual_layout_is_rows_of_three_columns_per_run(runs):
     assert rows[0].weight == block_weight(rows[0].travel_m, len(rows[0].idx), "travel")
 
 
-def test_the_figure_is_chosen_from_the_fit_alone(runs):
+def test_the_figure_is_chosen_from_the_fit_alone(runs, banded):
     pytest.importorskip("matplotlib")
     from odocal.plot.fit import FIT_FIGURE, fit_figures
 
-    banded = fit_recordings(
-        runs, nominal=NOMINAL, settings=TrajectorySettings(wheelbase_model="banded")
-    )
     figures = fit_figures(banded, "out")
     assert list(figures) == [Path("out") / FIT_FIGURE]
     linear = fit_recordings(runs, "linear", nominal=NOMINAL)
@@ -319,8 +321,13 @@ def test_the_router_fits_tuple_files_to_a_typed_relative_result(realdata):
     assert res.as_dict()["inputs"] == [{"path": str(path), "tuples": res.fit.tuples_total}]
 
 
-def test_the_gyro_route_takes_its_topics_from_bag_options(realdata):
+def test_the_gyro_route_takes_its_topics_from_bag_options(realdata, monkeypatch):
     pytest.importorskip("rosbags")
+    from tests.support.bag_files import read_husky_once
+
+    # the bag is read once per test process (the topics are still picked from the options on
+    # each fit; the axis acts after the read): a worker that ran test_fit_bags reuses its read
+    read_husky_once(monkeypatch)
     bag = realdata / "husky" / "husky_test1.bag"
     res = fit([bag], "gyro", bag=BagOptions(imu_axis="y"))
     assert isinstance(res, GyroFitResult)

@@ -105,7 +105,9 @@ def test_helpers():
 def test_a_heading_can_stand_in_for_the_wheels():
     # the gyro route has the odometry's heading, not two wheels: (heading, zeros) is a model
     # with one coefficient (it was singular, and every candidate fitted nothing)
-    t, right, left = drive(seed=7)
+    # 120 s, not 240: the offset's standard error is ~1 ms (0.5 ms over 240 s), so 5 ms is
+    # 5 standard errors (a false failure < 1e-6); a singular model fits nothing at any length
+    t, right, left = drive(duration_s=120.0, seed=7)
     heading = (0.5 * D_R * right - 0.5 * D_L * left) / B
     a, b, dth = source_intervals(t, right, left, 0.09, 30.0, math.radians(0.1))
     est = estimate_time_offset(t, heading, np.zeros_like(heading), a, b, dth, source="imu")

@@ -24,14 +24,12 @@ from tests.support.bag_files import (
     GYRO_BIAS,
     KINDS,
     NOMINAL,
-    R_BASE_IMU,
     TRACK,
     TRUE,
     BagWriter,
     Run,
     bag_path,
     make_run,
-    read_husky_once,
     world,
     write_bag,
 )
@@ -42,10 +40,25 @@ def run() -> Run:
     return make_run(TRACK)
 
 
-@pytest.fixture(scope="module", params=KINDS)
-def synthetic(request, tmp_path_factory, run):
-    kind = request.param
-    return kind, write_bag(bag_path(tmp_path_factory.mktemp(kind), kind), kind, run, odom=True)
+@pytest.fixture(scope="module")
+def written(tmp_path_factory, run):
+    """kind -> the bag of ``run`` of that kind (with the odometry), written on first use and
+    only read by the tests."""
+    paths = {}
+
+    def get(kind):
+        if kind not in paths:
+            folder = tmp_path_factory.mktemp(kind)
+            paths[kind] = write_bag(bag_path(folder, kind), kind, run, odom=True)
+        return paths[kind]
+
+    return get
+
+
+@pytest.fixture(params=KINDS)
+def synthetic(request, written):
+    """(kind, path) of each bag kind: for the tests of what is read."""
+    return request.param, written(request.param)
 
 
 # --------------------------------------------------------------------------- happy paths
@@ -187,57 +200,6 @@ def test_ticks_per_rev(tmp_path, run):
     rec = load_bag_recording(path, ticks_per_rev=4096)
     # quantisation: half a tick = pi / 4096 rad
     np.testing.assert_allclose(rec.wheel_angle_right_rad, run.right, atol=math.pi / 4096 + 1e-12)
-
-
-@pytest.fixture
-def husky_read_once(monkeypatch):
-    read_husky_once(monkeypatch)
-
-
-@pytest.fixture(scope="module")
-def husky(realdata):
-    d = realdata / "husky"
-    with pytest.MonkeyPatch.context() as m:
-        read_husky_once(m)
-        return {
-            "ros1": fit_gyro_bag(d / "husky_test1.bag"),
-            "ros2": fit_gyro_bag(d / "husky_test1_ros2"),
-        }
-
-
-def test_husky_gyro_ratio_ros1_and_ros2(husky):
-    r1, r2 = husky["ros1"], husky["ros2"]
-    # golden values: the IMU's y axis integrates to -206.3 deg, the odometry pose yaw to
-    # -198.4 deg (SOURCE.md: -206 vs -198 deg); ROS 2 is a lossless conversion of ROS 1
-    assert r1.rotation_ratio == pytest.approx(1.0398, abs=5e-4)
-    assert r2.rotation_ratio == pytest.approx(r1.rotation_ratio, abs=1e-12)
-    assert math.degrees(r1.odometry_rotation_rad) == pytest.approx(-198.4, abs=0.1)
-    assert math.degrees(r1.gyro_rotation_rad) == pytest.approx(-206.3, abs=0.1)
-    assert r1.wheelbase_multiplier == pytest.approx(1 / r1.rotation_ratio)
-    for r in (r1, r2):
-        assert r.axis == "y" and r.mounting_source == "detected"  # no /tf_static in the bag
-        assert r.meta["odometry_source"] == "pose_yaw"
-        # one 10 s still period (236-247 s); its bias is not significant (1.8 sigma): reported
-        assert r.still_duration_s == pytest.approx(10.3, abs=0.1)
-        assert r.bias_source.startswith("none")
-        assert r.bias_estimate_rad_s == pytest.approx(-2.87e-4, abs=1e-6)
-        assert r.rotation_ratio_bias_corrected == pytest.approx(1.0071, abs=5e-4)
-
-
-def test_husky_forced_bias_and_axis_flag(realdata, husky_read_once):
-    path = realdata / "husky" / "husky_test1.bag"
-    r = fit_gyro_bag(path, imu_axis="y", bias="still")
-    assert r.mounting_source == "flag" and r.bias_source == "still"
-    assert r.rotation_ratio == pytest.approx(1.0071, abs=5e-4)
-    assert not any("detected" in w for w in r.warnings)
-
-
-def test_husky_mount_from_the_test_launch(husky, realdata, husky_read_once):
-    """robot_localization's launch: static_transform_publisher 0 -0.3 0.52 -pi/2 0 pi/2
-    (yaw pitch roll) base_link imu_link; as a rotation it gives the detected result."""
-    r = fit_gyro_bag(realdata / "husky" / "husky_test1_ros2", imu_rotation=R_BASE_IMU)
-    assert r.mounting_source == "rotation" and r.axis == "y"
-    assert r.rotation_ratio == pytest.approx(husky["ros2"].rotation_ratio, abs=1e-12)
 
 
 def test_husky_has_no_joint_states(realdata):
@@ -392,8 +354,8 @@ def test_swapped_wheels_are_detected(plain_ros1):
         )
 
 
-def test_gyro_with_swapped_joints_says_so(synthetic):
-    kind, path = synthetic
+def test_gyro_with_swapped_joints_says_so(written):
+    path = written("mcap")  # the fit's verdict on what was read: one kind (reads: above)
     with pytest.raises(InputError, match="opposite directions.*or the wheel joints are swapped"):
         fit_gyro_bag(
             path,
@@ -414,10 +376,11 @@ def test_joint_names(tmp_path, run):
     np.testing.assert_allclose(rec.wheel_angle_right_rad, run.right - run.right[0], atol=1e-12)
 
 
-def test_gyro_export_composes_with_what_the_controller_ran_with(synthetic, tmp_path, cli):
+def test_gyro_export_composes_with_what_the_controller_ran_with(written, tmp_path, cli):
     # the controller integrated /odom with b = 0.5 m, i.e. its nominal 0.49 m times a
-    # wheel_separation_multiplier of 1.0204: the correction applies to the 0.5 m it ran with
-    kind, path = synthetic
+    # wheel_separation_multiplier of 1.0204: the correction applies to the 0.5 m it ran with.
+    # The export of what was read: one bag kind (test_gyro_from_odometry_topic reads each)
+    path = written("sqlite3")
     robot = tmp_path / "robot.yaml"
     robot.write_text(
         "wheel_diameter_m: 0.2\nwheelbase_m: 0.49\n"
@@ -438,13 +401,13 @@ def test_gyro_export_composes_with_what_the_controller_ran_with(synthetic, tmp_p
     assert set(d["time_offsets_s"]) == {"imu"}
 
 
-def test_gyro_text_without_a_still_period(synthetic):
+def test_gyro_text_without_a_still_period(written):
     # its standard error is None: the text says why instead of a TypeError
     from dataclasses import replace
 
     from odocal.app.fit_gyro import GyroFitResult
 
-    kind, path = synthetic
+    path = written("ros1")  # the text of a result: one bag kind
     res = GyroFitResult(replace(fit_gyro_bag(path, odom_topic="/odom"),
                                 rotation_ratio_stderr=None), None, None)  # fmt: skip
     assert "no still period: bias unknown" in str(res)  # the text odocal fit prints
@@ -505,9 +468,13 @@ def test_transform_buffer_errors_name_the_bag_and_the_topic(tmp_path, run):
 
 @pytest.fixture(scope="module")
 def laser_run():
-    from tests.support.synthetic_robot import Laser, default_track, simulate_robot
+    # the scan header checks need a few scans, not the 8 m tour: 0.5 m and a quarter turn (23
+    # scans of 100 rays)
+    from odocal.core.tracks import Track, spot_turn, straight
+    from tests.support.synthetic_robot import Laser, simulate_robot
 
-    return simulate_robot(default_track(), TRUE, NOMINAL, laser=Laser(n_rays=100))
+    short = Track("short", (straight(0.5), spot_turn(math.pi / 2)))
+    return simulate_robot(short, TRUE, NOMINAL, laser=Laser(n_rays=100), still_s=0.2)
 
 
 @pytest.mark.parametrize(

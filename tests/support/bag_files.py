@@ -6,12 +6,16 @@ a once-per-process read of the real Husky bags."""
 from __future__ import annotations
 
 import math
+import sqlite3
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
 from rosbags.rosbag1 import Writer as Writer1
-from rosbags.rosbag2 import StoragePlugin
-from rosbags.rosbag2 import Writer as Writer2
+from rosbags.rosbag2 import StoragePlugin, WriterError
+from rosbags.rosbag2 import Writer as _RosbagsWriter2
+from rosbags.rosbag2.enums import CompressionMode
+from rosbags.rosbag2.storage_sqlite3 import Sqlite3Writer
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from odocal.calibration.gyro import rotation_from_rpy
@@ -105,6 +109,32 @@ def quat_of(r):
         (r[1, 0] - r[0, 1]) / (4 * w),
         w,
     )
+
+
+class _Sqlite3WriterNoSync(Sqlite3Writer):
+    """rosbags' sqlite3 storage writer, told not to wait for the disk (``PRAGMA synchronous =
+    OFF``): the same file (tests/support/test_synthetic_robot.py compares the bytes), without
+    an fsync for every statement of its schema (0.13 s per bag here, most of the time a short
+    bag took). A test's bag lives in its tmp_path: nothing to keep across a crash."""
+
+    def __init__(self, path: Path, compression: CompressionMode) -> None:
+        # rosbags 0.11's Sqlite3Writer.__init__, with the pragma before the schema
+        if compression == CompressionMode.STORAGE:
+            raise WriterError("SQLITE3 writer does not support storage-side compression.")
+        self.path = path / f"{path.name}.db3"
+        self.conn = sqlite3.connect(f"file:{self.path}", uri=True)
+        self.conn.execute("PRAGMA synchronous = OFF")
+        self.conn.executescript(self.SQLITE_SCHEMA)
+        self.cursor = self.conn.cursor()
+
+
+class Writer2(_RosbagsWriter2):
+    """rosbags' ROS 2 bag writer (mcap or sqlite3) with the sqlite3 storage of
+    :class:`_Sqlite3WriterNoSync`: every test's ROS 2 bag is written through it."""
+
+    STORAGE_PLUGINS = {
+        **_RosbagsWriter2.STORAGE_PLUGINS, StoragePlugin.SQLITE3: _Sqlite3WriterNoSync
+    }  # fmt: skip
 
 
 _STORES: dict = {}

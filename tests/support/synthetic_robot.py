@@ -317,11 +317,11 @@ class _Ros2Writer:
     """Thin layer over rosbags' ROS 2 writer: typestore, connections, int-ns stamps."""
 
     def __init__(self, path: Path):
-        from rosbags.rosbag2 import Writer
-        from rosbags.typesys import Stores, get_typestore
+        from tests.support.bag_files import Writer2, typestore
 
-        self.ts = get_typestore(Stores.ROS2_HUMBLE)
-        self.w = Writer(path, version=9)  # the default storage (sqlite3 in rosbags 0.11)
+        # one ROS 2 (Humble) type store per process: rosbags compiles each serialiser once
+        self.ts = typestore(ros1=False)
+        self.w = Writer2(path, version=9)  # the default storage (sqlite3 in rosbags 0.11)
         self.conns: dict[str, object] = {}
         self.counts: dict[str, int] = {}
 
