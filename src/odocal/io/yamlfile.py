@@ -25,6 +25,9 @@ import re
 from typing import Any
 
 import yaml
+from yaml.composer import Composer
+from yaml.constructor import SafeConstructor
+from yaml.resolver import Resolver
 
 from ..errors import InputError
 from .limits import MAX_YAML_BYTES
@@ -54,14 +57,12 @@ _BOOL_RE = re.compile(r"^(?:true|True|TRUE|false|False|FALSE)$")
 _NULL_RE = re.compile(r"^(?:~|null|Null|NULL|)$")
 
 
-class _Loader(yaml.SafeLoader):
-    """PyYAML's safe loader with YAML 1.2 core resolution and bounded composition."""
+class _Bounded:
+    """Bounded composition (aliases, depth) over PyYAML's composer."""
 
-    def __init__(self, stream, path) -> None:
-        super().__init__(stream)
-        self._path = path
-        self._depth = 0
-        self._aliases = 0
+    _path: Any
+    _depth: int
+    _aliases: int
 
     def compose_node(self, parent, index):  # noqa: D102 - PyYAML's API
         event = self.peek_event()
@@ -84,6 +85,16 @@ class _Loader(yaml.SafeLoader):
             self._depth -= 1
 
 
+class _Loader(_Bounded, yaml.SafeLoader):
+    """PyYAML's safe loader with YAML 1.2 core resolution and bounded composition."""
+
+    def __init__(self, stream, path) -> None:
+        super().__init__(stream)
+        self._path = path
+        self._depth = 0
+        self._aliases = 0
+
+
 # Replace YAML 1.1's implicit resolvers (bool yes/no, sexagesimal and octal numbers, dates,
 # '=' values, ...) with the YAML 1.2 core schema's; keep the merge key.
 _Loader.yaml_implicit_resolvers = {}
@@ -92,6 +103,28 @@ _Loader.add_implicit_resolver(_INT, _INT_RE, list("-+0123456789"))
 _Loader.add_implicit_resolver(_FLOAT, _FLOAT_RE, list("-+.0123456789"))
 _Loader.add_implicit_resolver(_NULL, _NULL_RE, ["~", "n", "N", ""])
 _Loader.add_implicit_resolver(_MERGE, re.compile(r"^<<$"), ["<"])
+
+try:  # libyaml's scanner and parser (events), about ten times faster than PyYAML's
+    from yaml._yaml import CParser
+except ImportError:  # pragma: no cover - PyYAML built without libyaml
+    _CLoader: type | None = None
+else:
+
+    class _CLoaderImpl(_Bounded, Composer, CParser, SafeConstructor, Resolver):
+        """:class:`_Loader` over libyaml's events: the same (Python) composer, bounds and
+        resolution; only the scanning and parsing are libyaml's."""
+
+        def __init__(self, stream, path) -> None:
+            CParser.__init__(self, stream)
+            Composer.__init__(self)
+            SafeConstructor.__init__(self)
+            Resolver.__init__(self)
+            self._path = path
+            self._depth = 0
+            self._aliases = 0
+
+    _CLoaderImpl.yaml_implicit_resolvers = _Loader.yaml_implicit_resolvers
+    _CLoader = _CLoaderImpl
 
 
 class YamlDoc:
@@ -354,9 +387,23 @@ def _check_expansion(node, path) -> None:
 
 
 def load_yaml(path, what: str = "YAML file") -> YamlDoc:
-    """Parse a YAML file whose top level must be a mapping (see the module docstring)."""
+    """Parse a YAML file whose top level must be a mapping (see the module docstring).
+
+    Parsed with libyaml where PyYAML has it; a file it refuses (or anything else going wrong
+    on that way) is judged again by PyYAML's own parser, whose verdict and messages are the
+    ones kept: libyaml only speeds up the files both accept."""
     text = read_text(path, max_bytes=MAX_YAML_BYTES)
-    loader = _Loader(text, path)
+    if _CLoader is not None:
+        try:
+            return _load(text, path, what, _CLoader)
+        except Exception:  # noqa: BLE001 - the pure-Python parser decides, as without libyaml
+            pass
+    return _load(text, path, what, _Loader)
+
+
+def _load(text: str, path, what: str, loader_class: type) -> YamlDoc:
+    """:func:`load_yaml` of ``text`` with ``loader_class``."""
+    loader = loader_class(text, path)
     try:
         node = loader.get_single_node()
         if node is None:
