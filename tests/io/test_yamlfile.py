@@ -33,7 +33,7 @@ DOCUMENTS = [
     "a: 1\n---\nb: 2\n",
     "- 1\n- 2\n",
     "",
-    "k: \x07\n",  # (PyYAML's ReaderError escapes load_yaml: a bug, kept as it was)
+    "k: \x07\n",
     "k: v\n\tbad: 1\n",
     "k: 1e400\n",
     "k: '\ufeff'\n",
@@ -63,3 +63,11 @@ def test_libyaml_reads_as_pyyaml_does(text, tmp_path):
     assert _result(text, tmp_path, None) == pure
     if pure[0] == "ok":  # the libyaml way itself, not its fallback
         assert _result(text, tmp_path, yamlfile._CLoader) == pure
+
+
+def test_a_character_yaml_does_not_allow_is_an_input_error(tmp_path):
+    # (PyYAML's ReaderError used to escape load_yaml: a traceback instead of a message)
+    path = tmp_path / "robot.yaml"
+    path.write_text("wheelbase_m: 0.4\nwheel_diameter_m: \x07\n")
+    with pytest.raises(InputError, match=r"robot.yaml, line 2: invalid YAML: special characters"):
+        yamlfile.load_yaml(path)

@@ -403,7 +403,14 @@ def load_yaml(path, what: str = "YAML file") -> YamlDoc:
 
 def _load(text: str, path, what: str, loader_class: type) -> YamlDoc:
     """:func:`load_yaml` of ``text`` with ``loader_class``."""
-    loader = loader_class(text, path)
+    try:
+        loader = loader_class(text, path)
+    except yaml.reader.ReaderError as exc:  # PyYAML checks the characters before parsing
+        raise InputError(
+            f"invalid YAML: {exc.reason} (character #x{exc.character:04x})",
+            path,
+            text.count("\n", 0, exc.position) + 1,
+        ) from None
     try:
         node = loader.get_single_node()
         if node is None:
