@@ -111,9 +111,16 @@ def midpoint_poses(ds_m: np.ndarray, dtheta_rad: np.ndarray) -> np.ndarray:
     poses = np.empty((3, *ds.shape[:-1], ds.shape[-1] + 1))
     poses[..., 0] = 0.0
     np.cumsum(dth, axis=-1, out=poses[2, ..., 1:])
-    mid = poses[2, ..., :-1] + 0.5 * dth
-    np.cumsum(ds * np.cos(mid), axis=-1, out=poses[0, ..., 1:])
-    np.cumsum(ds * np.sin(mid), axis=-1, out=poses[1, ..., 1:])
+    # mid = theta_before + dtheta / 2, ds cos(mid), ds sin(mid), in place (the same sums and
+    # products: they commute exactly)
+    mid = np.multiply(dth, 0.5)
+    mid += poses[2, ..., :-1]
+    part = np.cos(mid)
+    part *= ds
+    np.cumsum(part, axis=-1, out=poses[0, ..., 1:])
+    np.sin(mid, out=part)
+    part *= ds
+    np.cumsum(part, axis=-1, out=poses[1, ..., 1:])
     return poses
 
 
