@@ -11,6 +11,7 @@ import pytest
 from odocal.app.common import Exports
 from odocal.app.fit import fit
 from odocal.app.fit_relative import fit_relative, fit_tuple_files
+from odocal.calibration.relative_motions import overlapping_sources
 from odocal.core.model import WheelGeometry
 from odocal.errors import CalibrationError, InputError
 from odocal.io.outputs import OutputPlan
@@ -66,6 +67,24 @@ def test_two_bags_covering_the_same_time_are_refused():
     later = replace(a, start_s=a.start_s + 60.0, end_s=a.end_s + 60.0)  # the next hour's bag
     fit, _ = fit_relative([a, later], None, sensor_pose=(0, 0, 0), names=["a.bag", "b.bag"])
     assert fit.tuples_used == 120
+    # a log and its second half: the half's intervals are the log's
+    half = replace(a, **{f: getattr(a, f)[30:] for f in ("phi_right_rad", "phi_left_rad",
+                                                         "sensor_motion", "start_s", "end_s")},
+                   increments=tuple(x[30:] for x in a.increments))  # fmt: skip
+    with pytest.raises(InputError, match="b.bag cover the same time .30 s of it"):
+        fit_relative([a, half], None, sensor_pose=(0, 0, 0), names=["a.bag", "b.bag"])
+
+
+def test_two_recordings_that_only_share_a_clock_are_both_used():
+    # a simulator whose time restarts at zero, a robot without a clock that starts at the same
+    # date at every boot: two runs on the same stamps, but different measurements
+    a, b = motions(n=60, seed=0), motions(n=60, seed=1)
+    assert (a.start_s == b.start_s).all()
+    fit, _ = fit_relative([a, b], None, sensor_pose=(0, 0, 0), names=["a.bag", "b.bag"])
+    assert fit.tuples_used == 120
+    # standing still on the same stamps is no shared measurement either
+    still = replace(b, sensor_motion=0.0 * b.sensor_motion)
+    assert overlapping_sources([replace(a, sensor_motion=0.0 * a.sensor_motion), still]) is None
 
 
 def test_a_folder_of_tuple_files_is_fitted_as_its_files(tmp_path):

@@ -208,16 +208,17 @@ def fit_relative(
     messages accepted with ``force`` (without it a result more than 25 % from ``nominal``, or
     one that is no plausible robot, is a CalibrationError whose hint names what ``source``'s
     inputs can get wrong). Two sources (``names``, default numbered) whose intervals overlap in
-    time (each on its clock from ``origins_s``, s since the epoch: a bag's start) are the same
-    recording twice: InputError."""
+    time (each on its clock from ``origins_s``, s since the epoch: a bag's start) with the same
+    measurements are one recording given twice
+    (:func:`~odocal.calibration.relative_motions.overlapping_sources`): InputError."""
     overlap = overlapping_sources(motions, origins_s)
     if overlap is not None:
         i, j, lo, hi = overlap
         name = [str(n) for n in names] if names else [f"input {k + 1}" for k in range(len(motions))]
         raise InputError(
-            f"{name[i]} and {name[j]} cover the same time ({hi - lo:.3g} s of it): the "
-            "same recording given twice (a copy under another name?) would count twice; give "
-            "each once"
+            f"{name[i]} and {name[j]} cover the same time ({hi - lo:.3g} s of it) with the "
+            "same measurements: one recording given twice (a copy under another name, or a "
+            "log and a part of it) would count twice; give each once"
         )
     m = stack_motions(motions)
     result = fit_censi(

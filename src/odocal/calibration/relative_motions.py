@@ -131,15 +131,23 @@ def stack_motions(parts: Sequence[RelativeMotions]) -> RelativeMotions:
     )
 
 
+#: Sensor motions (m, rad) equal to this are one measurement: a copy's, or the same SLAM update
+#: read from a log and from its half. Two recordings that merely share a clock (a simulator's
+#: time restarting at zero, a robot without a clock that starts at the same date at every boot)
+#: never share many motions.
+SAME_MOTION = 1e-7
+
+
 def overlapping_sources(
     motions: Sequence[RelativeMotions], origins_s: Sequence[float] | None = None
 ) -> tuple[int, int, float, float] | None:
-    """The first two sources (indices i < j) whose intervals overlap in time, with the overlap
-    (s, from, to, on the common clock), or None. Each source's intervals are on its wheel clock
-    from its own origin, ``origins_s[k]`` (s since the epoch; default 0: one clock); two
-    recordings of one robot whose sample times overlap are the same recording (a bag given
-    twice under two names): its intervals would count twice. Sources without times are not
-    compared."""
+    """The first two sources (indices i < j) that are one recording given twice, with the time
+    they share (s, from, to, on the common clock), or None: their intervals overlap in time and
+    at least half of the moving intervals of that time in the one with fewer have the same
+    sensor motion in the other (to :data:`SAME_MOTION`); counted twice, its intervals would
+    make the standard errors too small. Each source's intervals are on its wheel clock from its
+    own origin, ``origins_s[k]`` (s since the epoch; default 0: one clock). Sources without
+    times are not compared."""
     origin = list(origins_s) if origins_s is not None else [0.0] * len(motions)
     spans = [
         (k, origin[k] + float(np.min(m.start_s)), origin[k] + float(np.max(m.end_s)))
@@ -150,5 +158,19 @@ def overlapping_sources(
         for j, lo_j, hi_j in spans[a + 1 :]:
             lo, hi = max(lo_i, lo_j), min(hi_i, hi_j)
             if lo < hi:
-                return i, j, lo, hi
+                mine = _moving_motions(motions[i], origin[i], lo, hi)
+                theirs = _moving_motions(motions[j], origin[j], lo, hi)
+                fewer = min(len(mine), len(theirs))
+                if fewer and len(mine & theirs) >= 0.5 * fewer:
+                    return i, j, lo, hi
     return None
+
+
+def _moving_motions(m: RelativeMotions, origin_s: float, lo: float, hi: float) -> set[tuple]:
+    """The sensor motions (in steps of :data:`SAME_MOTION`) of ``m``'s intervals within
+    [``lo``, ``hi``] (on the common clock) that move by more than a hundred steps."""
+    assert m.start_s is not None and m.end_s is not None
+    s = np.asarray(m.sensor_motion, dtype=float)
+    inside = (origin_s + m.start_s >= lo) & (origin_s + m.end_s <= hi)
+    moving = inside & (np.abs(s).max(axis=1) > 100 * SAME_MOTION)
+    return {tuple(k) for k in np.round(s[moving] / SAME_MOTION).astype(np.int64).tolist()}
