@@ -168,9 +168,11 @@ def overlapping_sources(
 
 def _moving_motions(m: RelativeMotions, origin_s: float, lo: float, hi: float) -> set[tuple]:
     """The sensor motions (in steps of :data:`SAME_MOTION`) of ``m``'s intervals within
-    [``lo``, ``hi``] (on the common clock) that move by more than a hundred steps."""
+    [``lo``, ``hi``] (on the common clock) that move by more than a hundred steps (finite
+    ones)."""
     assert m.start_s is not None and m.end_s is not None
     s = np.asarray(m.sensor_motion, dtype=float)
     inside = (origin_s + m.start_s >= lo) & (origin_s + m.end_s <= hi)
-    moving = inside & (np.abs(s).max(axis=1) > 100 * SAME_MOTION)
+    with np.errstate(invalid="ignore"):
+        moving = inside & np.isfinite(s).all(axis=1) & (np.abs(s).max(axis=1) > 100 * SAME_MOTION)
     return {tuple(k) for k in np.round(s[moving] / SAME_MOTION).astype(np.int64).tolist()}
