@@ -353,7 +353,7 @@ def test_the_runs_fit_writes_the_true_geometry_to_params_and_ros2(tmp_path):
     assert linear.fit.method == "linear" and linear.recordings == 6
 
 
-def test_fit_robot_out(realdata, tmp_path):
+def test_fit_robot_out(realdata, tmp_path, monkeypatch):
     sq = realdata / "optiodom_diff" / "square"
     out = tmp_path / "robot.yaml"
     res = fit(sq, "heading", robot_out=out)
@@ -364,8 +364,19 @@ def test_fit_robot_out(realdata, tmp_path):
     assert r.nonsystematic.k_r_m == pytest.approx(1.22e-6, rel=0.01)
     assert r.nonsystematic.k_r_m == pytest.approx(res.measured.robot.nonsystematic.k_r_m)
     one = realdata / "optiodom_diff" / "square" / "231220200045"  # one run per direction
-    with pytest.raises(CalibrationError, match="no group of repeated"):
+    from dataclasses import replace
+
+    import odocal.app.fit_runs as fit_runs_module
+    from odocal.io.recordings import load_recordings
+
+    def no_fit(*args, **kwargs):
+        raise AssertionError("refused only after the fit")
+
+    monkeypatch.setattr(fit_runs_module, "fit_recordings", no_fit)  # refused before any fit
+    with pytest.raises(CalibrationError, match="no group of repeated.*a single run"):
         fit(one, robot_out=tmp_path / "r2.yaml")
+    with pytest.raises(InputError, match="--robot-out needs the nominal geometry"):
+        fit_runs([replace(r, ran_with=None) for r in load_recordings(one)], measure=True)
     assert not (tmp_path / "r2.yaml").exists()
 
 

@@ -84,9 +84,8 @@ def test_fit_cli_errors(tmp_path, cli):
     status, _, err = cli("fit", folder, "--method", "linear", "--out", out)
     assert status == 2 and "swapped" in err and err.count("\n") == 1 and not out.exists()
     good = _write_runs(tmp_path / "good", runs)
-    # --robot-out needs repeated runs for k: none here (the measured robot: tests/app). The
-    # refusal follows the fit: three of the runs (straight, spin, arc), not the six with the
-    # squares (0.6 s of fitting)
+    # --robot-out needs repeated runs for k: none here (the measured robot: tests/app); refused
+    # before the fit
     three = _write_runs(tmp_path / "three", runs[:3])
     cli("fit", three, "--robot", "paper-fig5", "--robot-out", tmp_path / "r.yaml").expect_error(
         "no group of repeated"

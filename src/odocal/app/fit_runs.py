@@ -25,6 +25,7 @@ from ..calibration.fit_settings import (
 )
 from ..calibration.heldout import HeldOut, heldout_runs
 from ..calibration.linear import fit_linear
+from ..calibration.noise import refuse_without_repeats
 from ..calibration.result import GeometryFit
 from ..calibration.squares import fit_recorded_squares
 from ..calibration.time_offset import TimeOffset, pooled_offset_s, truth_on_wheel_clock
@@ -232,6 +233,10 @@ def fit_runs(
     InputError."""
     refuse_still_runs(recordings)
     nominal = nominal_geometry(robot, recordings)
+    if measure:  # refused before the fit, not after it
+        if nominal is None:
+            raise InputError("--robot-out needs the nominal geometry: give --robot ROBOT.yaml")
+        refuse_without_repeats(recordings)
     ran_with = None if robot is None else robot.believed_geometry
     offsets: tuple[TimeOffset, ...] = ()
     if method == "trajectory":
@@ -251,8 +256,7 @@ def fit_runs(
     forced = [*blind, *refuse_absurd(fit.geometry, nominal, force)]
     measured = None
     if measure:
-        if nominal is None:
-            raise InputError("--robot-out needs the nominal geometry: give --robot ROBOT.yaml")
+        assert nominal is not None  # checked above
         measured = measure_robot(_used(recordings, fit), nominal, fit=fit, force=force)
     return FitResult(
         fit,

@@ -49,6 +49,7 @@ __all__ = [
     "estimate_k",
     "RecordedNoise",
     "estimate_k_from_recordings",
+    "refuse_without_repeats",
     "tracker_noise",
     "NOISE_TRACKS",
     "MIN_RUNS",
@@ -56,6 +57,10 @@ __all__ = [
 ]
 
 NOISE_TRACKS = ("out-and-back", "straight")
+NO_REPEATS = (
+    "no group of repeated runs (two or more runs of one track in one data set or folder): k "
+    "needs the spread of repeats"
+)
 MIN_RUNS = 3
 RECOMMENDED_RUNS = 10
 # A check whose statistic exceeds this many standard errors is "obvious" (an error unless forced).
@@ -651,12 +656,23 @@ def _repeats(groups: dict[tuple[str, str], list[_RecordedRun]], skipped: list[st
             continue
         used.append((key, rows))
     if not used:
-        raise CalibrationError(
-            "no group of repeated runs (two or more runs of one track in one data set or "
-            "folder): k needs the spread of repeats"
-            + (f" ({'; '.join(skipped[:3])})" if skipped else "")
-        )
+        raise CalibrationError(NO_REPEATS + (f" ({'; '.join(skipped[:3])})" if skipped else ""))
     return used
+
+
+def refuse_without_repeats(recordings: Iterable[Recording]) -> None:
+    """CalibrationError before any work when no two runs with ground truth share a data set and
+    a kind of run: :func:`estimate_k_from_recordings` would find no repeats (it also compares
+    their travel, which needs a geometry; this needs none)."""
+    kinds: dict[tuple[str, str], int] = {}
+    for r in recordings:
+        if r.ground_truth is not None and len(r.ground_truth):
+            gt = np.asarray(r.ground_truth, dtype=float)
+            key = (r.dataset, _kind_of_run(r, float(gt[-1, 2] - gt[0, 2])))
+            kinds[key] = kinds.get(key, 0) + 1
+    if kinds and max(kinds.values()) < 2:
+        shown = "; ".join(f"{d} {k}: a single run" for d, k in list(kinds)[:3])
+        raise CalibrationError(f"{NO_REPEATS} ({shown})")
 
 
 @dataclass(frozen=True)
