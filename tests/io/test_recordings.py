@@ -235,3 +235,29 @@ def test_folders_of_bags_and_of_tuple_files_are_walked(tmp_path):
         tuples / "l90_0.TUPLE", tuples / "l90_1.tuple",
         mixed, bags / "b_ros2",
     ]  # fmt: skip
+
+
+def test_a_bag_twice_is_refused_but_two_runs_on_one_clock_are_not(tmp_path):
+    # a copy, and a part of the log (its second half), count twice: refused naming both; a
+    # second run whose clock starts at the same instant (a simulator restarted at zero) is a
+    # run of its own
+    import shutil
+    from dataclasses import replace
+
+    from odocal.core.tracks import Track, spot_turn, straight
+    from tests.support.bag_files import make_run, write_bag
+
+    run = make_run(Track("out", (straight(0.5), spot_turn(math.pi / 2), straight(0.3))))
+    bag = write_bag(tmp_path / "run.bag", "ros1", run, imu=False)
+    shutil.copy(bag, tmp_path / "copy.bag")
+    with pytest.raises(InputError, match="run.bag and .*copy.bag cover the same time.*twice"):
+        load_recordings([bag, tmp_path / "copy.bag"])
+    k = len(run.time_s) // 2
+    half = replace(run, **{f: getattr(run, f)[k:] for f in ("time_s", "right", "left")},
+                   true_pose=run.true_pose[k:], odo_pose=run.odo_pose[k:])  # fmt: skip
+    write_bag(tmp_path / "half.bag", "ros1", half, imu=False)
+    with pytest.raises(InputError, match="same wheel samples: one recording given twice"):
+        load_recordings([bag, tmp_path / "half.bag"])
+    other = replace(run, right=run.right * 1.01, left=run.left * 0.99)  # its own wheel samples
+    write_bag(tmp_path / "other.bag", "ros1", other, imu=False)
+    assert len(load_recordings([bag, tmp_path / "other.bag"])) == 2

@@ -12,7 +12,7 @@ import numpy as np
 
 from .model import WheelGeometry
 
-__all__ = ["Recording"]
+__all__ = ["Recording", "same_recording"]
 
 
 @dataclass(frozen=True)
@@ -61,3 +61,64 @@ class Recording:
         if given:
             return str(given)
         return str(Path(self.meta.get("bag") or self.name).parent)
+
+
+#: Increments (rad, m) equal to this are one measurement, and stamps equal to a microsecond one
+#: instant.
+SAME_INCREMENT = 1e-9
+
+
+def _channels(r: Recording, other: Recording) -> list[np.ndarray]:
+    """What both runs measured, as cumulative series whose increments are comparable however
+    each run's start frame lies: the wheel angles, the gyro heading and the true heading and
+    distance travelled, where both have them."""
+    out = [np.asarray(r.wheel_angle_right_rad, float), np.asarray(r.wheel_angle_left_rad, float)]
+    if r.gyro_yaw_rad is not None and other.gyro_yaw_rad is not None:
+        out.append(np.asarray(r.gyro_yaw_rad, float))
+    if r.ground_truth is not None and other.ground_truth is not None:
+        gt = np.asarray(r.ground_truth, float)
+        step = np.hypot(np.diff(gt[:, 0]), np.diff(gt[:, 1]))
+        out += [gt[:, 2], np.concatenate([[0.0], np.cumsum(step)])]
+    return out
+
+
+def same_recording(a: Recording, b: Recording) -> tuple[float, float] | None:
+    """The time (from, to; s since the epoch) that runs ``a`` and ``b`` share when they are one
+    recording given twice (a bag and its copy, a log and a part of it), else None. Their
+    instants come from the loaders' ``meta['start_s']`` (bags; None for runs without it). One
+    recording: their times overlap, at least half of the samples of that time in the one with
+    fewer fall on the other's stamps, and between those stamps the wheels move and at least
+    half of the moving increments of every channel both measured (wheels, gyro, truth) are the
+    other's too. Two runs that merely share a clock (a simulator's time restarting at zero, a
+    robot whose clock starts at the same date at every boot) share stamps, not measurements."""
+    if a.meta.get("start_s") is None or b.meta.get("start_s") is None:
+        return None
+    ta = float(a.meta["start_s"]) + np.asarray(a.time_s, dtype=float)
+    tb = float(b.meta["start_s"]) + np.asarray(b.time_s, dtype=float)
+    if not (len(ta) and len(tb)):
+        return None
+    lo, hi = max(ta[0], tb[0]), min(ta[-1], tb[-1])
+    if not lo < hi:
+        return None
+    fewer = min(
+        np.count_nonzero((ta >= lo) & (ta <= hi)), np.count_nonzero((tb >= lo) & (tb <= hi))
+    )
+    _, ia, ib = np.intersect1d(
+        np.round(ta * 1e6).astype(np.int64),
+        np.round(tb * 1e6).astype(np.int64),
+        assume_unique=True,
+        return_indices=True,
+    )
+    if len(ia) < 2 or len(ia) < 0.5 * fewer:
+        return None
+    order = np.argsort(ia)
+    ia, ib = ia[order], ib[order]
+    wheels_move = False
+    for k, (ca, cb) in enumerate(zip(_channels(a, b), _channels(b, a), strict=True)):
+        da, db = np.diff(ca[ia]), np.diff(cb[ib])
+        moves = (np.abs(da) > SAME_INCREMENT) | (np.abs(db) > SAME_INCREMENT)
+        shared = moves & (np.abs(da - db) <= SAME_INCREMENT)
+        if shared.sum() < 0.5 * moves.sum():
+            return None  # a channel measured otherwise: two runs
+        wheels_move |= k < 2 and bool(moves.any())
+    return (float(lo), float(hi)) if wheels_move else None

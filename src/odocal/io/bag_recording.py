@@ -261,6 +261,7 @@ def load_bag_recording(
             (meta["right_joint"], meta["left_joint"]),
         )
     right, left = right - right[0], left - left[0]
+    meta["start_s"] = bag.start_ns * 1e-9 + float(t[0])  # the first sample, s since the epoch
     gyro_yaw = None
     if it:
         imu = imu_series(bag, it)

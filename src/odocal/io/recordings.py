@@ -16,7 +16,9 @@
   raw data, bags: name those on their own) is skipped and listed in one warning.
 
 The same run given twice (the same file twice, a folder and a file inside it, two links to one
-file) is refused: it would count twice. Two files with identical data are warned about.
+file) is refused: it would count twice; so are two bags that are one recording (a copy, a log and
+a part of it: :func:`odocal.core.recording.same_recording`). Two files with identical data are
+warned about.
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core.recording import Recording
+from ..core.recording import Recording, same_recording
 from ..errors import InputError
 from .bag_options import NO_BAG_OPTIONS, BagOptions
 from .bags import BAG_SUFFIXES, is_bag
@@ -271,6 +273,7 @@ def load_recordings(
         out += found
     if not out:
         raise InputError("no runs found in " + ", ".join(str(p) for p in paths))
+    _refuse_one_recording_twice(out)
     prints: dict[str, str] = {}
     for r in out:
         first = prints.setdefault(_fingerprint(r), r.name)
@@ -282,6 +285,23 @@ def load_recordings(
     if warnings is not None:
         warnings += notes
     return out
+
+
+def _refuse_one_recording_twice(runs: Sequence[Recording]) -> None:
+    """InputError when two runs are one recording given twice under two names (a bag and its
+    copy, a log and a part of it: :func:`~odocal.core.recording.same_recording`): its samples
+    would count twice."""
+    timed = [r for r in runs if r.meta.get("start_s") is not None]
+    for k, a in enumerate(timed):
+        for b in timed[k + 1 :]:
+            shared = same_recording(a, b)
+            if shared is not None:
+                lo, hi = shared
+                raise InputError(
+                    f"{_source(a)} and {_source(b)} cover the same time ({hi - lo:.3g} s of it) "
+                    "with the same wheel samples: one recording given twice (a copy under another "
+                    "name, or a log and a part of it) would count twice; give each once"
+                )
 
 
 def refuse_repeated(paths: Sequence[str | Path]) -> list[Path]:
