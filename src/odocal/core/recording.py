@@ -100,25 +100,42 @@ def same_recording(a: Recording, b: Recording) -> tuple[float, float] | None:
     lo, hi = max(ta[0], tb[0]), min(ta[-1], tb[-1])
     if not lo < hi:
         return None
+    ka, kb = np.round(ta * 1e6).astype(np.int64), np.round(tb * 1e6).astype(np.int64)
+    # first the samples from where the wheels start to move in the shared time (two runs on
+    # one clock differ there at once), then all of it
+    start = int(np.searchsorted(ta, lo))
+    turns = np.abs(np.diff(a.wheel_angle_right_rad[start:])) + np.abs(
+        np.diff(a.wheel_angle_left_rad[start:])
+    )
+    start += int(np.argmax(turns > SAME_INCREMENT)) if len(turns) else 0
+    window = ka[start : start + 256]
+    at = np.minimum(np.searchsorted(kb, window), len(kb) - 1)
+    hit = kb[at] == window
+    if _verdict(a, b, start + np.flatnonzero(hit), at[hit]) is False:
+        return None
     fewer = min(
         np.count_nonzero((ta >= lo) & (ta <= hi)), np.count_nonzero((tb >= lo) & (tb <= hi))
     )
-    _, ia, ib = np.intersect1d(
-        np.round(ta * 1e6).astype(np.int64),
-        np.round(tb * 1e6).astype(np.int64),
-        assume_unique=True,
-        return_indices=True,
-    )
-    if len(ia) < 2 or len(ia) < 0.5 * fewer:
+    _, ia, ib = np.intersect1d(ka, kb, assume_unique=True, return_indices=True)
+    if len(ia) < 0.5 * fewer:
         return None
     order = np.argsort(ia)
-    ia, ib = ia[order], ib[order]
+    return (float(lo), float(hi)) if _verdict(a, b, ia[order], ib[order]) else None
+
+
+def _verdict(a: Recording, b: Recording, ia: np.ndarray, ib: np.ndarray) -> bool | None:
+    """Over the common samples ``ia`` of ``a`` and ``ib`` of ``b`` (in time order): True when
+    the wheels move and at least half of the moving increments of every channel both measured
+    are equal, False when a channel's are not, None when the wheels stand still (or fewer than
+    two common samples)."""
+    if len(ia) < 2:
+        return None
     wheels_move = False
     for k, (ca, cb) in enumerate(zip(_channels(a, b), _channels(b, a), strict=True)):
         da, db = np.diff(ca[ia]), np.diff(cb[ib])
         moves = (np.abs(da) > SAME_INCREMENT) | (np.abs(db) > SAME_INCREMENT)
         shared = moves & (np.abs(da - db) <= SAME_INCREMENT)
         if shared.sum() < 0.5 * moves.sum():
-            return None  # a channel measured otherwise: two runs
+            return False  # a channel measured otherwise: two runs
         wheels_move |= k < 2 and bool(moves.any())
-    return (float(lo), float(hi)) if wheels_move else None
+    return True if wheels_move else None
