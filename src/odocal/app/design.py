@@ -65,7 +65,14 @@ class DesignRun(Presented):
         """The text of ``odocal design``."""
         from .design_text import design_text
 
-        return design_text(self)
+        return design_text(
+            self.result,
+            self.robot,
+            seed=self.seed,
+            measured=self.measured,
+            notes=self.notes,
+            written=self.written,
+        )
 
     def as_dict(self) -> dict:
         """The JSON of ``odocal design --json``."""

@@ -4,6 +4,8 @@ the recommendation, its rule and its stability."""
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..design.sweep import DesignResult
@@ -13,7 +15,6 @@ if TYPE_CHECKING:
     from ..design.recommend import Recommendation
     from ..design.result import Candidate
     from ..design.robust import RangeDesign
-    from .design import DesignRun
     from .measured import MeasuredRobot
 
 __all__ = ["design_text", "design_report", "range_design_report"]
@@ -34,19 +35,28 @@ def _f(v: float | None, fmt: str) -> str:
     return "-" if v is None or not math.isfinite(v) else format(v, fmt)
 
 
-def design_text(res: DesignRun) -> str:
-    """The text of ``odocal design``: what was measured and assumed, the report of the design
-    (:func:`design_report` or :func:`range_design_report`) and the files written."""
+def design_text(
+    result: DesignResult | RangeDesign,
+    robot: str,
+    *,
+    seed: int | None = None,
+    measured: MeasuredRobot | None = None,
+    notes: Sequence[str] = (),
+    written: Sequence[Path] = (),
+) -> str:
+    """The text of ``odocal design`` (``DesignRun.text()``): what was measured (``measured``)
+    and assumed (``notes``), the report of the design (:func:`design_report` or
+    :func:`range_design_report`) and the files ``written``."""
     out = Text()
-    if res.measured is not None:
-        _print_measured(out, res.measured)
-    for note in res.notes:
+    if measured is not None:
+        _print_measured(out, measured)
+    for note in notes:
         out(f"Note: {note}")
-    if isinstance(res.result, DesignResult):
-        design_report(out, res.result, res.robot, res.seed)
+    if isinstance(result, DesignResult):
+        design_report(out, result, robot, seed)
     else:
-        range_design_report(out, res.result, res.robot)
-    written_lines(out, res.written)
+        range_design_report(out, result, robot)
+    written_lines(out, written)
     return str(out)
 
 
