@@ -128,8 +128,9 @@ def test_the_fast_setting_has_the_random_walk_of_the_exact_covariance():
     covariance propagated in 1 mm steps (core.covariance), with 40000 runs: each variance within
     5 of its relative standard errors (sqrt(2 / (n - 1)) = 0.7 %). One increment per segment
     misses the heading's random walk within each side (x and y variances about 12 standard
-    errors low, 7 beyond the tolerance): the test fails on it. The heading's variance alone does not depend on how a side is
-    cut, which is why the heading method's test runs may take one exact increment."""
+    errors low, 7 beyond the tolerance): the test fails on it. The heading's variance alone does
+    not depend on how a side is cut, which is why the heading method's test runs may take one
+    exact increment."""
     from odocal.core.covariance import propagate
     from odocal.core.simulate import drive
     from odocal.core.tracks import polygon
