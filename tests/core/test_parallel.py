@@ -52,15 +52,19 @@ def test_the_first_failure_in_task_order_is_raised(monkeypatch, share):
 
     from odocal.errors import InputError
 
-    monkeypatch.setenv("ODOCAL_THREADS", "2")
+    # without share two workers for three tasks, with share this process runs the first task
+    # and two workers the others: in both, quick_bad runs while slow_bad waits for it
+    monkeypatch.setenv("ODOCAL_THREADS", "3" if share else "2")
     quick_failed = shared_zeros((1,))  # seen by every forked worker
+    saw_quick_fail = shared_zeros((1,))
 
     def slow_bad():
-        # fails after quick_bad has (without share its worker runs quick_bad meanwhile; with
-        # share the one worker runs both in turn, and the wait ends at 0.3 s as the sleep did)
-        deadline = time.monotonic() + 0.3
+        # fails after quick_bad has (the wait ends at 5 s if it never does: then the order in
+        # time and in the list agree, and the test cannot tell)
+        deadline = time.monotonic() + 5.0
         while quick_failed[0] == 0 and time.monotonic() < deadline:
             time.sleep(0.001)
+        saw_quick_fail[0] = quick_failed[0]
         raise InputError("bad file", "a.csv", 3)
 
     def quick_bad():
@@ -69,6 +73,7 @@ def test_the_first_failure_in_task_order_is_raised(monkeypatch, share):
 
     with pytest.raises(InputError, match="a.csv, line 3: bad file"):
         run_tasks([lambda: 0, slow_bad, quick_bad], share=share)
+    assert saw_quick_fail[0] == 1  # the later task failed first in time
 
 
 def test_workers_write_into_shared_memory(monkeypatch):
