@@ -80,6 +80,18 @@ def test_initial_covariance_is_transported():
     assert p.covariance[1, 2] == pytest.approx(3e-4, rel=1e-9)
 
 
+def test_initial_covariance_is_transported_to_a_sideways_end():
+    # turn left a quarter, drive 3 m: the end is (0, 3); a start heading error dtheta moves it
+    # by (-3 dtheta, 0), so var(x) = 9 s^2 and cov(x, theta) = -3 s^2 (the sign of y_N matters)
+    p0 = np.diag([0.0, 0.0, 1e-4])
+    track = Track("left then straight", (spot_turn(0.5 * math.pi), straight(3.0)))
+    p = propagate(track, GEOM, GEOM, NonSystematicError(), initial_covariance=p0)
+    np.testing.assert_allclose(p.mean, [0.0, 3.0, 0.5 * math.pi], atol=1e-12)
+    assert p.covariance[0, 0] == pytest.approx(9e-4, rel=1e-9)
+    assert p.covariance[0, 2] == pytest.approx(-3e-4, rel=1e-9)
+    assert p.covariance[1, 1] == pytest.approx(0.0, abs=1e-15)
+
+
 def test_out_and_back_moments_used_by_the_k_estimators():
     # model.md: var(theta) = 2 K+ d / b^2, var(x) = K+ d / 2, var(y) = K+ 2 d^3 / (3 b^2),
     # cov(x, theta) = K- d / b
