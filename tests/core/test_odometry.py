@@ -122,6 +122,39 @@ def test_padded_rows_end_where_the_plain_form_ends():
     assert midpoint_end_padded(np.zeros((0, k)), np.zeros((0, k))).shape == (0, 3)
 
 
+def test_end_derivatives_are_the_derivatives_of_the_end():
+    """midpoint_end_derivatives against central differences of midpoint_end_padded, with the
+    increments depending on two parameters (one scaling ds, one scaling dtheta and ds)."""
+    rng = np.random.default_rng(5)
+    k = 12
+    ds0, dth0 = np.zeros((3, k)), np.zeros((3, k))
+    for row, n in zip(range(3), (k, 5, 9), strict=True):
+        ds0[row, :n] = rng.uniform(-0.02, 0.05, n)
+        dth0[row, :n] = rng.normal(0.0, 0.3, n)
+
+    def increments(p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return p[0] * ds0 + p[1] ** 2 * dth0, p[1] * dth0
+
+    p0 = np.array([1.1, 0.9])
+    d_ds = np.stack([ds0, 2.0 * p0[1] * dth0])  # (q, n, K)
+    d_dth = np.stack([np.zeros_like(dth0), dth0])
+    end, jac = odometry.midpoint_end_derivatives(*increments(p0), d_ds, d_dth)
+    np.testing.assert_allclose(end, midpoint_end_padded(*increments(p0)), atol=TOL)
+    h = 1e-6
+    num = np.stack(
+        [
+            (
+                midpoint_end_padded(*increments(p0 + h * e))
+                - midpoint_end_padded(*increments(p0 - h * e))
+            )
+            / (2 * h)
+            for e in np.eye(2)
+        ],
+        axis=-1,
+    )  # (n, 3, q)
+    np.testing.assert_allclose(jac, num, atol=1e-8)
+
+
 def test_exact_arcs():
     """The chord factor makes each increment an exact arc: one increment of a constant-curvature
     motion ends where arc_step and arc_displacement put it, however long it is."""
