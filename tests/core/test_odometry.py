@@ -122,6 +122,20 @@ def test_padded_rows_end_where_the_plain_form_ends():
     assert midpoint_end_padded(np.zeros((0, k)), np.zeros((0, k))).shape == (0, 3)
 
 
+def test_wheel_heading_speed_is_the_centre_speed():
+    # both wheels at 0.3 m/s and then the right one only: centre speed 0.3, then 0.15 m/s
+    t = np.arange(41) * 0.05
+    s_r = 0.3 * t
+    s_l = np.where(t <= 1.0, 0.3 * t, 0.3)
+    right = s_r / (0.5 * GEOMETRY.diameter_right_m)
+    left = s_l / (0.5 * GEOMETRY.diameter_left_m)
+    heading, speed = odometry.wheel_heading(t, right, left, GEOMETRY)
+    assert speed is not None
+    np.testing.assert_allclose(speed[:20], 0.3, atol=1e-9)
+    np.testing.assert_allclose(speed[22:], 0.15, atol=1e-9)
+    np.testing.assert_allclose(heading, (s_r - s_l) / GEOMETRY.wheelbase_m, atol=1e-12)
+
+
 def test_end_derivatives_are_the_derivatives_of_the_end():
     """midpoint_end_derivatives against central differences of midpoint_end_padded, with the
     increments depending on two parameters (one scaling ds, one scaling dtheta and ds)."""
