@@ -10,12 +10,14 @@ import pytest
 from odocal.core.covariance import (
     correlation,
     mean_final_pose,
+    odometry_covariance,
     predict,
     propagate,
     straight_line_covariance,
 )
 from odocal.core.model import (
     MeasurementNoise,
+    ModelError,
     NonSystematicError,
     Robot,
     SystematicError,
@@ -195,3 +197,12 @@ def test_measurement_noise_is_kept_apart():
     extra = p.measured_covariance - p.covariance
     np.testing.assert_allclose(np.diag(extra), [4e-6, 4e-6, math.radians(0.2) ** 2])
     assert p.std(measured=False)[2] < p.std(measured=True)[2]
+
+
+def test_odometry_covariance_takes_a_noiseless_wheel():
+    # k = 0 (an estimate clipped at zero) is a valid wheel noise: only a negative k is refused
+    c = odometry_covariance(2e-6, 0.0, 0.5, speed_m_s=0.2)
+    assert c.pose_diagonal[0] == pytest.approx(2e-6 / 4)
+    assert c.pose_diagonal[5] == pytest.approx(2e-6 / 0.25)
+    with pytest.raises(ModelError, match="k_l_m"):
+        odometry_covariance(2e-6, -1e-9, 0.5, speed_m_s=0.2)
