@@ -66,3 +66,26 @@ def test_umbmark_table_1_7_pure_E_d_coupling():
     )
     # the heading method has no such coupling: E_b stays exactly 1
     assert calibrate_heading(runs, 4, 4.0, geo).E_b == pytest.approx(1.0, abs=1e-12)
+
+
+def test_umbmark_default_form_is_the_mean_and_headings_do_not_count():
+    # UMBmark reads positions only: its default is the mean form, and neither its factors nor
+    # their standard errors depend on the measured headings
+    rng = np.random.default_rng(3)
+    robot = Robot(WheelGeometry.symmetric(0.15, 0.34), SystematicError(1.0, 1.004))
+    ends = _noise_free_runs(robot, 4, 4.0).errors
+    err = np.repeat(ends, 4, axis=0) + rng.normal(0.0, 0.01, (8, 3))
+    runs = EndPoseRuns(("cw",) * 4 + ("ccw",) * 4, err)
+    geo = WheelGeometry.symmetric(0.15, 0.34)
+    default = calibrate_umbmark(runs, 4.0, geo)
+    mean = calibrate_umbmark(runs, 4.0, geo, "mean")
+    assert (default.E_b, default.E_d) == (mean.E_b, mean.E_d)
+    assert default.E_b != calibrate_umbmark(runs, 4.0, geo, "x").E_b
+    other = err.copy()
+    other[:, 2] = rng.normal(0.0, 0.5, 8)
+    moved = calibrate_umbmark(EndPoseRuns(runs.directions, other), 4.0, geo)
+    assert default.uncertainty is not None and moved.uncertainty is not None
+    assert (moved.E_b, moved.E_d) == (default.E_b, default.E_d)
+    np.testing.assert_allclose(
+        moved.uncertainty.covariance, default.uncertainty.covariance, rtol=1e-9, atol=0
+    )
