@@ -82,3 +82,22 @@ def test_both_directions_required_and_undefined_equations_raise():
         calibrate_heading(bad, 4, 4.0, NOMINAL)
     with pytest.raises(ModelError):
         umbmark_factors((0, 0), (0, 0), 4.0, 0.3, "z")
+
+
+def test_headings_a_full_turn_apart_are_the_same_heading():
+    # a run's heading written a full turn off (0.014 + 2 pi) changes neither the factors nor
+    # their standard errors: the spread is taken about the circular mean, deviations wrapped
+    geo = WheelGeometry.symmetric(0.15, 0.34)
+    err = np.zeros((6, 3))
+    err[:, 2] = [0.010, 0.014, 0.011, -0.030, -0.034, -0.031]
+    directions = ("cw",) * 3 + ("ccw",) * 3
+    plain = calibrate_heading(EndPoseRuns(directions, err), 4, 2.0, geo)
+    err[1, 2] += 2 * np.pi
+    err[4, 2] -= 2 * np.pi
+    turned = calibrate_heading(EndPoseRuns(directions, err), 4, 2.0, geo)
+    assert turned.E_b == pytest.approx(plain.E_b, abs=1e-12)
+    assert turned.E_d == pytest.approx(plain.E_d, abs=1e-12)
+    assert plain.uncertainty is not None and turned.uncertainty is not None
+    np.testing.assert_allclose(
+        turned.uncertainty.covariance, plain.uncertainty.covariance, rtol=1e-6, atol=1e-15
+    )
