@@ -105,6 +105,20 @@ def test_different_commanded_radii_per_direction_are_exact():
     assert float(E_d) == pytest.approx(0.997, abs=1e-9)
 
 
+def test_first_order_away_from_a_one_metre_radius():
+    # radii of a robot with E_b 1.01, E_d 1.002 on R_c = 2 m (the exact relations of the module
+    # docstring solved for R): the first-order forms are within 2e-4 of the truth there too
+    b, e_b, e_d, rc = 0.34, 1.01, 1.002, 2.0
+    h, g = e_b * b / 2, (rc + b / 2) / (rc - b / 2)
+    r_ccw = h * (e_d * g + 1) / (e_d * g - 1)
+    r_cw = h * (g / e_d + 1) / (g / e_d - 1)
+    exact_b, exact_d = bcpt_factors(r_cw, r_ccw, rc, b)
+    assert (float(exact_b), float(exact_d)) == pytest.approx((e_b, e_d), abs=1e-12)
+    lin_b, lin_d = bcpt_first_order(r_cw, r_ccw, rc, b)
+    assert float(lin_b) == pytest.approx(e_b, abs=2e-4)
+    assert float(lin_d) == pytest.approx(e_d, abs=2e-5)
+
+
 def test_calibration_errors():
     with pytest.raises(CalibrationError, match="half the wheelbase"):
         calibrate_bcpt(CircleRuns(("cw", "ccw"), np.array([1.0, 1.0])), 0.17, NOMINAL)
@@ -157,6 +171,20 @@ def test_recordings_radius_fit_is_exact():
     res2 = calibrate_bcpt_recordings(recs, arc_rad=math.pi)
     assert len(res2.inputs["arcs"]) == 2
     assert res2.E_b == pytest.approx(1.012, abs=1e-6)
+
+
+def test_recordings_with_a_given_commanded_radius():
+    # the commanded radius given replaces the one fitted to the dead-reckoned runs
+    robot = Robot(NOMINAL, SystematicError(1.012, 0.998, 1.01))
+    recs = [_circle_recording(robot, 0.8, d) for d in ("cw", "ccw")]
+    fitted = calibrate_bcpt_recordings(recs).inputs["arcs"][0]
+    res = calibrate_bcpt_recordings(recs, commanded_radius_m=0.85)
+    arc = res.inputs["arcs"][0]
+    assert arc["commanded_radius_cw_m"] == arc["commanded_radius_ccw_m"] == 0.85
+    e_b, e_d = bcpt_factors(fitted["radius_cw_m"], fitted["radius_ccw_m"], 0.85, 0.34)
+    assert res.E_b == pytest.approx(float(e_b), abs=1e-12)
+    assert res.E_d == pytest.approx(float(e_d), abs=1e-12)
+    assert abs(res.E_b - 1.012) > 0.05  # a wrong commanded radius gives a wrong E_b
 
 
 def test_optiodom_circle_golden(realdata):
