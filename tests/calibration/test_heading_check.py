@@ -7,7 +7,7 @@ import pytest
 
 from odocal.app.common import make_robot
 from odocal.app.simulate import simulate_runs
-from odocal.calibration.heading_check import check_heading_sign
+from odocal.calibration.heading_check import HeadingCheck, check_heading_sign
 from odocal.core.runs import EndPoseRuns
 from odocal.core.tracks import polygon
 
@@ -54,3 +54,30 @@ def test_an_almost_perfect_robot_is_not_flagged():
     for seed in range(8):
         c = check_heading_sign(_runs(good, seed), 4, 1.0, good.nominal)
         assert c is not None and not c.contradicted
+
+
+def test_the_rule_needs_both_conditions():
+    def check(t: float, separation: float) -> HeadingCheck:
+        return HeadingCheck(t, separation, 5.0, 0.98, 1.0, 1.02, 1.0, 10)
+
+    assert check(6.0, 10.0).contradicted
+    assert not check(6.0, 20.0).contradicted  # beyond T, but nearer the written prediction
+    assert not check(3.0, 4.0).contradicted  # nearer the flipped one, but within the noise
+
+
+def test_two_runs_per_direction_suffice_and_incomplete_runs_are_left_out():
+    runs = _runs(TB3, 1)
+    geo = TB3.believed_geometry
+    two = EndPoseRuns(("cw", "cw", "ccw", "ccw"), runs.errors[[0, 1, 5, 6]])
+    assert check_heading_sign(two, 4, 1.0, geo) is not None
+    # runs with a heading but no position are not part of the check
+    err = runs.errors.copy()
+    err[[2, 7], :2] = np.nan
+    partial = check_heading_sign(EndPoseRuns(runs.directions, err), 4, 1.0, geo)
+    keep = [0, 1, 3, 4, 5, 6, 8, 9]
+    directions = tuple(runs.directions[i] for i in keep)
+    alone = check_heading_sign(EndPoseRuns(directions, runs.errors[keep]), 4, 1.0, geo)
+    assert partial is not None and alone is not None and partial.runs == alone.runs == 8
+    assert (partial.t, partial.separation, partial.threshold) == pytest.approx(
+        (alone.t, alone.separation, alone.threshold), rel=1e-12
+    )
