@@ -7,8 +7,10 @@ import pytest
 
 from odocal.app.common import make_robot
 from odocal.app.simulate import simulate_runs
-from odocal.calibration.heading_check import HeadingCheck, check_heading_sign
+from odocal.calibration.heading import calibrate_heading
+from odocal.calibration.heading_check import HeadingCheck, _mean_ends, check_heading_sign
 from odocal.core.runs import EndPoseRuns
+from odocal.core.stats import student_t_quantile
 from odocal.core.tracks import polygon
 
 # a TurtleBot3-sized robot as the issue's trial: E_b 1.019, tape to 2 mm, protractor to 0.3 deg
@@ -81,3 +83,42 @@ def test_two_runs_per_direction_suffice_and_incomplete_runs_are_left_out():
     assert (partial.t, partial.separation, partial.threshold) == pytest.approx(
         (alone.t, alone.separation, alone.threshold), rel=1e-12
     )
+
+
+def test_the_statistic_is_the_documented_one():
+    """t, D and T recomputed from the module docstring: S = each mean's squared standard error
+    (scatter / n) + what the headings' scatter does to p (central differences here, so D agrees
+    to 1e-4), Welch-Satterthwaite degrees of freedom (n - 1 per mean, the headings' own), T the
+    Student t quantile at 1 - ALPHA = 1 - 1e-5."""
+    runs = _runs(TB3, 2, n=4)
+    geo = TB3.believed_geometry
+    check = check_heading_sign(runs, 4, 1.0, geo)
+    written = calibrate_heading(runs, 4, 1.0, geo)
+    flipped = calibrate_heading(EndPoseRuns(runs.directions, runs.errors * FLIP), 4, 1.0, geo)
+    assert check is not None and written.uncertainty is not None
+    e_b, e_d, h = written.E_b, written.E_d, 1e-5
+    ends = _mean_ends(
+        lambda d: polygon(4, 1.0, d),
+        [
+            written.corrected,
+            flipped.corrected,
+            geo.corrected(e_b + h, e_d),
+            geo.corrected(e_b - h, e_d),
+            geo.corrected(e_b, e_d + h),
+            geo.corrected(e_b, e_d - h),
+        ],
+        geo,
+    )
+    p, q = ends[0], ends[1]
+    jac = np.column_stack([ends[2] - ends[3], ends[4] - ends[5]]) / (2 * h)
+    from_headings = jac @ written.uncertainty.covariance[:2, :2] @ jac.T
+    var = np.concatenate([runs.select(d)[:, :2].var(axis=0, ddof=1) / 4 for d in ("cw", "ccw")])
+    s_inv_d = np.linalg.solve(np.diag(var) + from_headings, q - p)
+    sep = float(np.sqrt((q - p) @ s_inv_d))
+    m = np.concatenate([runs.mean("cw")[:2], runs.mean("ccw")[:2]])
+    parts = np.append(s_inv_d**2 * var, s_inv_d @ from_headings @ s_inv_d)
+    nus = np.append(np.full(4, 3.0), min(written.uncertainty.dof[:2]))
+    dof = sep**4 / float(np.sum(parts**2 / nus))
+    assert check.separation == pytest.approx(sep, rel=1e-4)
+    assert check.t == pytest.approx(float((m - p) @ s_inv_d) / sep, abs=1e-4 * sep)
+    assert check.threshold == pytest.approx(student_t_quantile(1.0 - 1e-5, dof), rel=1e-5)
