@@ -204,3 +204,28 @@ def test_a_sampled_parabola_s_minimum_and_the_offset_s_covariance():
     cov = offset_covariance(lambda d: np.array([2.0 * d, -d + 1.0, 5.0]), est)
     np.testing.assert_allclose(cov, np.outer([2.0, -1.0, 0.0], [2.0, -1.0, 0.0]) * 0.004**2)
     assert offset_covariance(lambda d: np.zeros(3), TimeOffset.given("slam", 0.03)) is None
+
+
+def test_a_late_ground_truth_s_offset_is_estimated_from_its_heading():
+    # two runs of one data set whose truth is stamped 80 ms late; the runs are strung on one
+    # clock, each window within a run, the truth's heading change over each compared
+    from odocal.calibration.time_offset import truth_offset
+
+    runs = []
+    for seed in (0, 1):
+        t, right, left = drive(duration_s=40.0, seed=seed)
+        heading = (0.5 * D_R * right - 0.5 * D_L * left) / B
+        seen = np.interp(t - 0.08, t, heading)
+        gt = np.column_stack([np.zeros_like(t), np.zeros_like(t), seen - seen[0]])
+        runs.append(Recording(f"r{seed}", t, right, left, ground_truth=gt, meta={"dataset": "a"}))
+    est = truth_offset(runs)
+    assert abs(est.offset_s - 0.08) < 0.003 and est.applied
+    moved, (offset,) = truth_on_wheel_clock(runs, None)
+    assert offset.source == "truth (a)" and offset.offset_s == est.offset_s
+    # the moved truth's heading is the wheels' (to the estimate's 3 ms of turning, inside)
+    t, right, left = runs[1].time_s, runs[1].wheel_angle_right_rad, runs[1].wheel_angle_left_rad
+    heading = (0.5 * D_R * right - 0.5 * D_L * left) / B
+    inner = slice(50, -50)
+    np.testing.assert_allclose(
+        moved[1].ground_truth[inner, 2], (heading - heading[0])[inner], atol=0.01
+    )
