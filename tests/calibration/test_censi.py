@@ -156,6 +156,7 @@ def test_outlier_rejection_drops_injected_gross_outliers():
         ("spin", "no forward motion"),
         ("one_radius", "same curvature"),
         ("sensor_blind", "no rotation"),
+        ("sensor_dim", "no rotation"),
         ("swapped", "swapped"),
         ("left_reversed", "left wheel's rotation sign"),
         ("few", "at least 10"),
@@ -174,6 +175,8 @@ def test_degenerate_data_refused(kind, needle):
     sm += rng.normal(0.0, 1.0, sm.shape) * NOISE
     if kind == "sensor_blind":
         sm[:, 2] = rng.normal(0.0, NOISE[2], n)
+    if kind == "sensor_dim":  # 1 % of the turning seen: 4.4 standard errors from 0, not 10
+        sm[:, 2] -= 0.99 * predict_sensor_motion(TRUTH_GEOMETRY, TRUTH_POSE, phi_r, phi_l)[:, 2]
     if kind == "swapped":
         phi_r, phi_l = phi_l, phi_r
     if kind == "left_reversed":
@@ -283,3 +286,54 @@ def test_the_increments_jacobian_is_the_derivative_of_the_residual():
         )
         np.testing.assert_allclose(got[:, col], (fd * weight).ravel(), rtol=1e-6, atol=1e-7)
     assert censi._jacobian(p, [2, 0], inc_r, inc_l, sm, weight).shape == (3 * n, 2)
+
+
+# --------------------------------------------------------------------------------------------
+# (d) the uncertainty's parts
+
+
+def _residuals(fit, phi_r, phi_l, sm):
+    e = predict_sensor_motion(fit.geometry, fit.sensor_pose, phi_r, phi_l) - sm
+    e[:, 2] = (e[:, 2] + np.pi) % (2 * np.pi) - np.pi
+    return e
+
+
+@pytest.mark.parametrize("rounds", [0, 4])
+def test_the_noise_is_the_larger_of_the_kept_rms_and_the_mad_of_all(rounds):
+    # per component: RMS over the tuples used (6 parameters spread over 3 components: n - 2
+    # degrees of freedom), or 1.4826 MAD of every tuple's residual when that is larger
+    phi_r, phi_l, sm = synthetic(np.random.default_rng(31), 60, noise=NOISE)
+    fit = fit_censi(phi_r, phi_l, sm, outlier_iterations=rounds)
+    e = _residuals(fit, phi_r, phi_l, sm)
+    kept = np.setdiff1d(np.arange(60), fit.dropped_indices)
+    rms = np.sqrt((e[kept] ** 2).sum(axis=0) / (len(kept) - 2))
+    mad = 1.4826 * np.median(np.abs(e - np.median(e, axis=0)), axis=0)
+    np.testing.assert_allclose(fit.noise_std, np.maximum(rms, mad), rtol=1e-9)
+    assert (rms > mad).tolist() == [False, True, True]  # both rules at work on this seed
+
+
+def test_the_cluster_robust_covariance_of_white_noise_is_near_the_formal_one():
+    # independent noise: 20 blocks of 15 tuples give about the formal standard errors
+    # (sampling error of a 20-cluster sandwich: some 20 %); the sensor frame's weights apply
+    phi_r, phi_l, sm = synthetic(np.random.default_rng(32), 300, noise=NOISE)
+    fit = fit_censi(phi_r, phi_l, sm, clusters=np.arange(300) // 15)
+    assert fit.uncertainty == "cluster-robust over 20 time blocks" and fit.dof == 19
+    ratio = np.sqrt(np.diag(fit.covariance) / np.diag(fit.covariance_formal))
+    assert np.all((ratio > 0.5) & (ratio < 1.5)), ratio
+
+
+def test_a_refinement_far_from_the_closed_form_is_reported():
+    from odocal.calibration.censi import _far_from_closed_form
+
+    closed = TRUTH.copy()
+    cov = np.diag(np.full(6, 1e-6))  # standard errors of 1 mm (1 mrad)
+    near, far = closed.copy(), closed.copy()
+    near[2] += 2.9e-3
+    far[2] += 3.1e-3
+    assert _far_from_closed_form(near, closed, cov, [0, 1, 2, 3, 4, 5]) == []
+    (w,) = _far_from_closed_form(far, closed, cov, [0, 1, 2, 3, 4, 5])
+    assert "wheelbase_m" in w and "3 standard errors" in w
+    # yaw compared across the wrap: -pi + 1e-4 is 2e-4 from pi - 1e-4
+    a, b = closed.copy(), closed.copy()
+    a[5], b[5] = np.pi - 1e-4, -np.pi + 1e-4
+    assert _far_from_closed_form(a, b, cov, [5]) == []

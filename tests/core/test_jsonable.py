@@ -42,3 +42,12 @@ def test_a_mixed_record_becomes_valid_json():
     }
     assert type(out["n"]) is int and type(out["ok"]) is bool
     json.dumps(out, allow_nan=False)
+
+
+def test_python_integers_and_booleans_keep_their_json_type():
+    # a count written as 3.0, or a flag as 0, is another JSON value to a reader
+    out = jsonable({"n": 3, "big": 2**60 + 1, "flag": False, "ok": [True]})
+    assert out == {"n": 3, "big": 2**60 + 1, "flag": False, "ok": [True]}
+    assert [type(out[k]) for k in ("n", "big", "flag")] == [int, int, bool]
+    assert type(out["ok"][0]) is bool
+    assert json.dumps(out) == '{"n": 3, "big": 1152921504606846977, "flag": false, "ok": [true]}'

@@ -67,3 +67,35 @@ def test_the_same_wheels_with_another_gyro_or_truth_are_two_runs():
     other_truth = truth.copy()
     other_truth[:, 0] *= 1.01
     assert same_recording(a, replace(a, ground_truth=other_truth)) is None
+
+
+def test_runs_sharing_a_minority_of_their_measurements_are_two_runs():
+    # on one clock, b repeats a's wheel increments on 40 % of the steps and stands still on
+    # the rest: fewer than half of the moving increments are shared, so two runs
+    a = _run(1)
+    keep = np.random.default_rng(7).random(len(a.time_s) - 1) < 0.4
+    right = np.concatenate([[0.0], np.cumsum(np.where(keep, np.diff(a.wheel_angle_right_rad), 0))])
+    left = np.concatenate([[0.0], np.cumsum(np.where(keep, np.diff(a.wheel_angle_left_rad), 0))])
+    b = replace(a, name="b.bag", wheel_angle_right_rad=right, wheel_angle_left_rad=left)
+    assert same_recording(a, b) is None and same_recording(b, a) is None
+
+
+def test_another_true_heading_on_the_same_path_is_another_run():
+    a = _run(1)
+    n = len(a.time_s)
+    truth = np.column_stack([np.linspace(0, 2, n), np.zeros(n), np.linspace(0, 1, n)])
+    a = replace(a, ground_truth=truth)
+    turned = truth.copy()
+    turned[:, 2] *= 1.01
+    assert same_recording(a, replace(a, name="copy.bag")) is not None
+    assert same_recording(a, replace(a, name="b.bag", ground_truth=turned)) is None
+
+
+def test_runs_with_a_quarter_of_their_stamps_in_common_are_not_one_recording():
+    # the same values, but three stamps in four of b 1 ms off a's: fewer than half of the
+    # shared time's samples fall on the other's stamps (the rule in the docstring)
+    a = _run(1)
+    shifted = a.time_s + np.where(np.arange(len(a.time_s)) % 4 == 0, 0.0, 0.001)
+    shifted[0] = 0.0
+    assert same_recording(a, replace(a, name="b.bag", time_s=shifted)) is None
+    assert same_recording(a, replace(a, name="b.bag", time_s=a.time_s.copy())) is not None
