@@ -148,3 +148,21 @@ def test_groups_that_agree_are_called_inconsistent_at_most_at_the_stated_rate():
     assert np.all((agree < 0.01).mean(axis=0) <= 0.03)
     apart = np.array([p_values(0.4) for _ in range(50)])
     assert (apart[:, 0] < 0.01).mean() > 0.5
+
+
+def test_time_blocks_of_one_run_keep_each_group_s_own_covariance():
+    # pooled False (subclusters that are time blocks of one run, whose random-walk residuals
+    # would make a pooled dispersion too small): each group's cluster-robust covariance at the
+    # pooled residuals, Q against chi-square
+    from scipy.stats import chi2
+
+    from odocal.calibration.robust_covariance import cluster_covariance, group_consistency
+
+    jac, res, est, groups, subs, *_ = _two_groups(0.05)
+    c = group_consistency(jac, res, est, groups, subs, pooled=False)
+    for k in (0, 1):
+        sel = groups == k
+        own = cluster_covariance(jac[sel], res[sel], subs[sel]).stderr
+        np.testing.assert_allclose(c.stderr[k], own, rtol=1e-12)
+    np.testing.assert_allclose(c.p_value, chi2.sf(c.statistic, 1), rtol=1e-12)
+    assert c.dispersion_dof == 0

@@ -3,6 +3,8 @@ evaluation reported, standard errors and outliers, batched trials, swapped wheel
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -138,3 +140,27 @@ def test_swapped_wheels_are_reported():
     # the trajectory fit lands in a positive but absurd minimum (b 68 % below nominal): warned
     fit = fit_trajectory(swapped, nominal=NOMINAL)
     assert any("absurd" in w and "swapped" in w for w in fit.warnings)
+
+
+def test_the_consistency_pools_the_dispersion_only_over_runs(monkeypatch):
+    # data sets of two runs each: runs are the subclusters, their dispersion pooled; a data set
+    # of one run: its time blocks are, and each group keeps its own covariance
+    import odocal.calibration.trajectory as trajectory
+    from tests.support.recorded_runs import NOMINAL, make_run, square
+
+    seen = []
+    real = trajectory.group_consistency
+
+    def spy(*args, **kwargs):
+        seen.append(kwargs["pooled"])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(trajectory, "group_consistency", spy)
+    runs = [
+        replace(make_run(f"{d}{k}", square("cw" if k else "ccw", 1.0)), meta={"dataset": d})
+        for d in ("a", "b")
+        for k in (0, 1)
+    ]
+    trajectory.fit_trajectory(runs, nominal=NOMINAL)
+    trajectory.fit_trajectory([runs[0], runs[2]], nominal=NOMINAL)
+    assert seen == [True, False]

@@ -306,6 +306,9 @@ def _consistency(
     else:
         group_of_run = []
         labels = {0: "first half of the run", 1: "second half of the run"}
+    # the subclusters are runs, independent of each other: their dispersion is pooled over the
+    # groups; time blocks of one run are not (group_consistency's pooled)
+    runs_apart = bool(group_of_run)
     if group_of_run:
         groups = np.repeat(group_of_run, counts)
         subs = np.repeat(np.arange(len(runs)), counts)
@@ -313,6 +316,7 @@ def _consistency(
         for g in set(group_of_run):
             members = [i for i, x in enumerate(group_of_run) if x == g]
             if len(members) == 1:
+                runs_apart = False
                 sel = groups == g
                 subs[sel] = 10_000 * (g + 1) + (np.arange(sel.sum()) * 8) // max(sel.sum(), 1)
     else:
@@ -322,8 +326,9 @@ def _consistency(
     if 3 * len(groups) != len(sol.fun):
         return None
     return group_consistency(
-        sol.jac, sol.fun, sol.x, np.repeat(groups, 3), np.repeat(subs, 3), labels
-    )
+        sol.jac, sol.fun, sol.x, np.repeat(groups, 3), np.repeat(subs, 3), labels,
+        pooled=runs_apart,
+    )  # fmt: skip
 
 
 def _robust_covariance(
