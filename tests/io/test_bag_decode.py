@@ -31,8 +31,8 @@ from tests.support.bag_files import (
     BagWriter,
     Writer2,
     bag_path,
+    lazy_bags,
     make_run,
-    write_bag,
 )
 from tests.support.synthetic_robot import Gyro, Laser, simulate_robot, write_ros2_bag
 
@@ -97,18 +97,9 @@ def run():
 
 
 @pytest.fixture(scope="module")
-def written(run, tmp_path_factory):
-    """kind -> a bag of ``run`` with odometry (test_bags.write_bag), written on first use and
-    only read by the tests."""
-    paths = {}
-
-    def get(kind):
-        if kind not in paths:
-            folder = tmp_path_factory.mktemp(kind)
-            paths[kind] = write_bag(bag_path(folder, kind), kind, run, odom=True)
-        return paths[kind]
-
-    return get
+def written(tmp_path_factory, run):
+    """kind -> the bag of ``run`` of that kind, with the odometry (written on first use)."""
+    return lazy_bags(tmp_path_factory, run, odom=True)
 
 
 @pytest.mark.parametrize("kind", KINDS)

@@ -29,6 +29,7 @@ from tests.support.bag_files import (
     BagWriter,
     Run,
     bag_path,
+    lazy_bags,
     make_run,
     world,
     write_bag,
@@ -42,17 +43,8 @@ def run() -> Run:
 
 @pytest.fixture(scope="module")
 def written(tmp_path_factory, run):
-    """kind -> the bag of ``run`` of that kind (with the odometry), written on first use and
-    only read by the tests."""
-    paths = {}
-
-    def get(kind):
-        if kind not in paths:
-            folder = tmp_path_factory.mktemp(kind)
-            paths[kind] = write_bag(bag_path(folder, kind), kind, run, odom=True)
-        return paths[kind]
-
-    return get
+    """kind -> the bag of ``run`` of that kind, with the odometry (written on first use)."""
+    return lazy_bags(tmp_path_factory, run, odom=True)
 
 
 @pytest.fixture(params=KINDS)

@@ -316,6 +316,20 @@ def write_bag(
 KINDS = ["ros1", "mcap", "sqlite3"]
 
 
+def lazy_bags(tmp_path_factory, run: Run, **options):
+    """kind -> a bag of ``run`` of that kind (``write_bag``'s ``options``), written on first use
+    into a folder of its own and only read by the tests that ask (a module fixture's value)."""
+    paths = {}
+
+    def get(kind):
+        if kind not in paths:
+            folder = tmp_path_factory.mktemp(kind)
+            paths[kind] = write_bag(bag_path(folder, kind), kind, run, **options)
+        return paths[kind]
+
+    return get
+
+
 def bag_path(tmp_path, kind, name="run"):
     return tmp_path / (f"{name}.bag" if kind == "ros1" else name)
 

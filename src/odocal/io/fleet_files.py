@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import InputError, OdocalError
+from .bags import BAG_SUFFIXES
 
 __all__ = [
     "RobotFolder",
@@ -29,7 +30,6 @@ __all__ = [
 ]
 
 ROBOT_FILE = "robot.yaml"
-_SUFFIXES = (".bag", ".mcap", ".db3")
 _CHUNK = 1 << 20
 
 
@@ -105,7 +105,7 @@ def find_bags(folder: Path) -> list[Path]:
         out += [
             d / n
             for n in sorted(filenames)
-            if n.lower().endswith(_SUFFIXES) and not n.startswith(".")
+            if n.lower().endswith(BAG_SUFFIXES) and not n.startswith(".")
         ]
     return sorted(out)
 
