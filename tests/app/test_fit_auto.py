@@ -67,7 +67,7 @@ def test_the_json_contract(answer):
     used = {r["name"]: r["used"] for r in d["routes"]}
     assert used == {"trajectory": False, "slam": True, "scan": True, "gyro": True}
     for key in ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m"):
-        assert set(d["parameters"][key]) == {"value", "std_error"}
+        assert set(d["parameters"][key]) == {"value", "std_error", "status"}
     assert set(d["heldout"]) >= {"nominal_final_error_m", "calibrated_final_error_m"}
     assert set(d["verdict"]) == {"enough", "reasons"} and d["verdict"]["enough"] is True
 
@@ -118,11 +118,15 @@ def test_an_answer_that_is_no_robot_is_never_written_even_with_force(tmp_path):
 
     from odocal.app.fit_auto import _write
     from odocal.app.fit_auto_result import AutoFitResult, RouteRun
+    from odocal.calibration.route_answer import route_answer
     from odocal.errors import CalibrationError
     from odocal.io.bag_survey import RouteOption
     from odocal.io.outputs import OutputPlan
 
-    odd = RouteRun(RouteOption("slam", True, ""), True, "", WheelGeometry(7e-4, 7e-4, 0.088))
+    g = WheelGeometry(7e-4, 7e-4, 0.088)
+    odd = RouteRun(
+        RouteOption("slam", True, ""), True, "", route_answer("slam", "full", g, (None,) * 3)
+    )
     result = AutoFitResult(Path("x.bag"), (odd,), odd, WheelGeometry(0.042, 0.042, 0.088))
     with pytest.raises(CalibrationError, match="not a plausible robot"):
         _write(OutputPlan([]), result, tmp_path / "report", None, "diff_drive_controller", True)

@@ -136,7 +136,8 @@ def test_each_data_set_s_truth_moves_onto_the_wheels_clock():
         Recording("b2", t, right, left, meta={"dataset": "b"}),  # no truth: as it was
     ]
     moved, offsets = truth_on_wheel_clock(runs, 0.2)
-    assert [o.source for o in offsets] == ["truth (a)", "truth (b)"]
+    assert [o.label for o in offsets] == ["truth (a)", "truth (b)"]
+    assert [(o.source, o.part) for o in offsets] == [("truth", "a"), ("truth", "b")]
     assert all(o.how == "given" and o.applied_s == 0.2 for o in offsets)
     assert moved[2] is runs[2]
     assert moved[0].ground_truth[0, 2] == pytest.approx(0.0)
@@ -223,7 +224,7 @@ def test_a_late_ground_truth_s_offset_is_estimated_from_its_heading():
     est = truth_offset(runs)
     assert abs(est.offset_s - 0.08) < 0.003 and est.applied
     moved, (offset,) = truth_on_wheel_clock(runs, None)
-    assert offset.source == "truth (a)" and offset.offset_s == est.offset_s
+    assert offset.label == "truth (a)" and offset.offset_s == est.offset_s
     # the moved truth's heading is the wheels' (to the estimate's 3 ms of turning, inside)
     t, right, left = runs[1].time_s, runs[1].wheel_angle_right_rad, runs[1].wheel_angle_left_rad
     heading = (0.5 * D_R * right - 0.5 * D_L * left) / B

@@ -91,6 +91,8 @@ def test_list_topics_and_missing_topic(cli, husky, tmp_path):
         "/nope",
         "--ros2",
         tmp_path / "x.yaml",
+        "--robot",
+        "paper-fig5",
     )
     assert status == 2 and out == ""
     assert err.count("\n") == 1 and "/nope" in err and "husky_test1.bag" in err

@@ -9,9 +9,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..calibration.cross_check import KEYS, CrossCheck
+from ..calibration.cross_check import CrossCheck
 from ..calibration.heldout import HeldOut
 from ..calibration.interval_noise import IntervalNoise
+from ..calibration.route_answer import RouteAnswer, RouteName
 from ..calibration.time_offset import TimeOffset
 from ..core.covariance import OdometryCovariance
 from ..core.model import WheelGeometry
@@ -21,20 +22,16 @@ from .fit_relative import RelativeFitResult
 from .fit_runs import FitResult
 from .text import Presented
 
-__all__ = ["RouteRun", "AutoFitResult"]
+__all__ = ["RouteRun", "RouteDetail", "AutoFitResult"]
 
 
-def _parameters(
-    g: WheelGeometry, stderr: tuple[float | None, float | None, float | None]
-) -> dict[str, dict[str, float | None]]:
-    """The JSON contract's parameters: each with its value and standard error."""
-    values = g.as_dict()
-    return {k: {"value": values[k], "std_error": se} for k, se in zip(KEYS, stderr, strict=True)}
+#: A route's own result, as the route's module gives it.
+RouteDetail = FitResult | RelativeFitResult | GyroFitResult
 
 
 @dataclass(frozen=True)
 class RouteRun:
-    """One route of the bag, run or not.
+    """One route of the bag, run or not, in the one type every route gives.
 
     Attributes
     ----------
@@ -44,30 +41,54 @@ class RouteRun:
         It ran and gave an answer.
     reason : str
         Why it was used, or why not (the survey's reason, or the error it ended in).
-    geometry : WheelGeometry or None
-    stderr : tuple of (float or None)
-        Standard errors of (D_R, D_L, b) (m); None where the route does not estimate one.
-    result : object or None
-        The route's own result (FitResult, RelativeFitResult, GyroFitResult).
+    answer : RouteAnswer or None
+        Each parameter with its value, standard error and status (estimated, tied, held).
+    detail : FitResult, RelativeFitResult, GyroFitResult or None
+        The route's own result.
+    time_offsets : tuple of TimeOffset
+        The clock offsets the route used, one per source (and data set).
+    heldout : HeldOut or None
+        Its held-out check.
+    doubts : tuple of str
+        What speaks against its answer (no held-out check, a check no model passed, a timing
+        that is not a constant offset, parts that disagree, a result 25 % from nominal, a
+        ratio with no scale).
+    warnings : tuple of str
+    noise : IntervalNoise or None
+        The route's random error (wheels and truth), from its residuals.
+    speed_m_s : float or None
+        The robot's cruise speed in the route's intervals (SLAM).
     """
 
     option: RouteOption
     used: bool
     reason: str
-    geometry: WheelGeometry | None = None
-    stderr: tuple[float | None, float | None, float | None] = (None, None, None)
-    result: Any = None
+    answer: RouteAnswer | None = None
+    detail: RouteDetail | None = None
+    time_offsets: tuple[TimeOffset, ...] = ()
+    heldout: HeldOut | None = None
+    doubts: tuple[str, ...] = ()
+    warnings: tuple[str, ...] = ()
+    noise: IntervalNoise | None = None
+    speed_m_s: float | None = None
 
     @property
-    def name(self) -> str:
+    def name(self) -> RouteName:
         """The route's name."""
         return self.option.name
 
+    @property
+    def geometry(self) -> WheelGeometry | None:
+        """The calibrated geometry (None when the route did not run)."""
+        return None if self.answer is None else self.answer.geometry
+
     def as_dict(self) -> dict[str, Any]:
-        """The JSON contract's route object, with the route's parameters when it ran."""
+        """The JSON contract's route object, with the route's model and parameters when it
+        ran."""
         out: dict[str, Any] = {"name": self.name, "used": self.used, "reason": self.reason}
-        if self.geometry is not None:
-            out["parameters"] = _parameters(self.geometry, self.stderr)
+        if self.answer is not None:
+            out["model"] = self.answer.model
+            out["parameters"] = self.answer.as_dict()
         return out
 
 
@@ -113,30 +134,25 @@ class AutoFitResult(Presented):
 
     @property
     def time_offsets(self) -> tuple[TimeOffset, ...]:
-        """Every clock offset the routes found (each source once, the first route's)."""
+        """Every clock offset the routes used (each source and part once, the first route's)."""
         seen: dict[str, TimeOffset] = {}
         for r in self.routes:
-            res = r.result
-            offsets: tuple[TimeOffset, ...] = ()
-            if isinstance(res, (FitResult, RelativeFitResult)):
-                offsets = res.time_offsets
-            elif isinstance(res, GyroFitResult) and res.time_offset is not None:
-                offsets = (res.time_offset,)
-            for o in offsets:
-                key = o.source.split(" ")[0]
-                seen.setdefault(key, o)
+            for o in r.time_offsets:
+                seen.setdefault(o.label, o)
         return tuple(seen.values())
 
     @property
     def time_offsets_s(self) -> dict[str, float]:
-        """Source -> the clock offset applied (s)."""
-        return {o.source.split(" ")[0]: o.applied_s for o in self.time_offsets}
+        """Source -> the clock offset applied (s), the first of each source."""
+        out: dict[str, float] = {}
+        for o in self.time_offsets:
+            out.setdefault(o.source, o.applied_s)
+        return out
 
     @property
     def heldout(self) -> HeldOut | None:
         """The answer route's held-out check."""
-        res = None if self.answer is None else self.answer.result
-        return res.heldout if isinstance(res, (FitResult, RelativeFitResult)) else None
+        return None if self.answer is None else self.answer.heldout
 
     def text(self) -> str:
         """The text ``odocal fit`` prints for the one answer for a bag."""
@@ -148,12 +164,13 @@ class AutoFitResult(Presented):
         """The JSON contract of ``odocal fit BAG --method auto --json``."""
         a = self.answer
         h = self.heldout
-        params = None if a is None or a.geometry is None else _parameters(a.geometry, a.stderr)
+        params = None if a is None or a.answer is None else a.answer.as_dict()
         return {
             "method": "auto",
             "bag": str(self.bag),
             "routes": [r.as_dict() for r in self.routes],
             "answer_route": None if a is None else a.name,
+            "answer_model": None if a is None or a.answer is None else a.answer.model,
             "parameters": params,
             "nominal": self.nominal.as_dict(),
             "time_offsets_s": self.time_offsets_s,

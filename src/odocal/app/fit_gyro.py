@@ -16,8 +16,8 @@ import numpy as np
 
 from ..calibration.gyro import GyroResult, gyro_calibration, integrate_rate
 from ..calibration.result import ABSURD_FRACTION
-from ..calibration.time_offset import TimeOffset, estimate_time_offset
-from ..core.model import WheelGeometry
+from ..calibration.time_offset import TimeOffset, estimate_time_offset, resolve_offset
+from ..core.model import Robot, WheelGeometry
 from ..core.odometry import wheel_heading
 from ..errors import CalibrationError, InputError
 from ..io.bag_gyro import GyroBag, read_gyro_bag
@@ -27,7 +27,7 @@ from ..io.robot_file import load_robot
 from .common import NO_EXPORTS, Exports, RobotSpec
 from .text import Presented
 
-__all__ = ["GyroFitResult", "gyro_fit", "fit_gyro_bag", "fit_gyro"]
+__all__ = ["GyroFitResult", "gyro_fit", "gyro_route_fit", "fit_gyro_bag", "fit_gyro"]
 
 
 @dataclass(frozen=True)
@@ -41,14 +41,17 @@ class GyroFitResult(Presented):
     written: tuple[Path, ...] = ()
     time_offset: TimeOffset | None = None
     base: str = ""
+    forced: tuple[str, ...] = ()
 
     method = "gyro"
 
     @property
     def warnings(self) -> tuple[str, ...]:
-        """The calibration's warnings and the clock offset's."""
+        """The calibration's warnings, the clock offset's and the absurd-result message
+        accepted with ``force``."""
         own = tuple(self.gyro.warnings)
-        return own + (() if self.time_offset is None else tuple(self.time_offset.warnings))
+        offset = () if self.time_offset is None else tuple(self.time_offset.warnings)
+        return own + offset + self.forced
 
     @property
     def time_offsets_s(self) -> dict[str, float]:
@@ -131,12 +134,33 @@ def gyro_fit(
 ) -> GyroResult:
     """The gyro route, I/O-free: :func:`~odocal.calibration.gyro.gyro_calibration` of a loaded
     bag (:func:`fit_gyro_bag` says what is read and how)."""
-    meta: dict[str, Any] = {
+    meta = _meta(loaded)
+    heading = _odometry_heading(loaded, wheel_geometry, invert_right, invert_left, meta)
+    return _calibrate(
+        loaded, heading, meta, wheel_geometry, imu_axis, imu_rotation, bias, min_still_s
+    )
+
+
+def _meta(loaded: GyroBag) -> dict[str, Any]:
+    return {
         "bag": str(loaded.path),
         "imu_topic": loaded.imu.topic,
         "odom_topic": loaded.odometry.topic,
     }
-    t_o, yaw, speed = _odometry_heading(loaded, wheel_geometry, invert_right, invert_left, meta)
+
+
+def _calibrate(
+    loaded: GyroBag,
+    heading: tuple[np.ndarray, np.ndarray, np.ndarray | None],
+    meta: dict[str, Any],
+    wheel_geometry: WheelGeometry | None,
+    imu_axis: str | None,
+    imu_rotation: np.ndarray | None,
+    bias: Any = "auto",
+    min_still_s: float = 1.0,
+) -> GyroResult:
+    """:func:`gyro_fit` on the odometry's ``heading`` (time, yaw, speed)."""
+    t_o, yaw, speed = heading
     rotation, source = _mounting(loaded, imu_rotation, meta)
     try:
         result = gyro_calibration(
@@ -167,24 +191,42 @@ def gyro_fit(
     return result
 
 
-def imu_offset(loaded: GyroBag, result: GyroResult, t_o: np.ndarray, yaw: np.ndarray) -> TimeOffset:
-    """The IMU's clock offset against the odometry: the gyro's yaw (its yaw axis, the bias
-    removed, integrated) registered on the odometry's heading
+def imu_offset(
+    loaded: GyroBag,
+    result: GyroResult,
+    t_o: np.ndarray,
+    yaw: np.ndarray,
+    given: float | None = None,
+) -> TimeOffset:
+    """The IMU's clock offset against the odometry (:func:`~odocal.calibration.time_offset.
+    resolve_offset`): ``given`` (s), else the gyro's yaw (its yaw axis, the bias removed,
+    integrated) registered on the odometry's heading
     (:func:`~odocal.calibration.time_offset.estimate_time_offset`, the heading standing in for
     the wheels). The rotation ratio compares whole turns between still periods, which an offset
-    hardly moves: it is reported, not applied."""
-    t_i = loaded.imu.time_s
-    rate = loaded.imu.values["angular_velocity"] @ np.asarray(result.yaw_axis_in_imu)
-    gyro_yaw = integrate_rate(t_i, rate - result.bias_rad_s)
-    window = max(0.25, float(np.median(np.diff(t_i))))
-    a = np.arange(t_i[0], t_i[-1] - window, window)
-    heading = np.interp(a + window, t_i, gyro_yaw) - np.interp(a, t_i, gyro_yaw)
-    try:
+    hardly moves: an estimate is reported, not applied; a given one is applied (the IMU's
+    stamps moved onto the wheels' clock before the calibration)."""
+
+    def estimate() -> TimeOffset:
+        t_i = loaded.imu.time_s
+        rate = loaded.imu.values["angular_velocity"] @ np.asarray(result.yaw_axis_in_imu)
+        gyro_yaw = integrate_rate(t_i, rate - result.bias_rad_s)
+        window = max(0.25, float(np.median(np.diff(t_i))))
+        a = np.arange(t_i[0], t_i[-1] - window, window)
+        heading = np.interp(a + window, t_i, gyro_yaw) - np.interp(a, t_i, gyro_yaw)
         est = estimate_time_offset(t_o, yaw, np.zeros_like(yaw), a, a + window, heading,
                                    source="imu")  # fmt: skip
-    except CalibrationError as exc:
-        return TimeOffset("imu", 0.0, None, "not estimated", warnings=(f"{exc}; taken as 0",))
-    return replace(est, applied=False, how=f"{est.how.split(',')[0]}; reported, not applied")
+        return replace(est, applied=False, how=f"{est.how.split(',')[0]}; reported, not applied")
+
+    return resolve_offset("imu", given, estimate)
+
+
+def _on_wheel_clock(loaded: GyroBag, offset_s: float | None) -> GyroBag:
+    """``loaded`` with the IMU's stamps moved onto the wheels' clock by a given offset (its
+    sample stamped t saw the robot at wheel time t - offset)."""
+    if not offset_s:
+        return loaded
+    imu = replace(loaded.imu, time_s=loaded.imu.time_s - float(offset_s))
+    return replace(loaded, imu=imu)
 
 
 def fit_gyro_bag(
@@ -244,6 +286,33 @@ def fit_gyro_bag(
     )
 
 
+def gyro_route_fit(
+    loaded: GyroBag,
+    robot: Robot | None,
+    options: BagOptions = NO_BAG_OPTIONS,
+    *,
+    force: bool = False,
+) -> GyroFitResult:
+    """The gyro route, I/O-free, with what ``fit --method gyro`` adds: the IMU's clock offset
+    (:func:`imu_offset`; a given one applied), the calibrated geometry when the nominal one is
+    known (``robot``'s; the correction applies to what the odometry was computed with) and the
+    25 % rule: a wheelbase multiplier more than 25 % from 1 is absurd for a calibration:
+    CalibrationError (nothing written) unless ``force``, then its message is kept
+    (``forced``)."""
+    nominal = robot.nominal if robot is not None else None
+    given = options.time_offset("imu")
+    loaded = _on_wheel_clock(loaded, given)
+    meta = _meta(loaded)
+    heading = _odometry_heading(loaded, nominal, options.invert_right, options.invert_left, meta)
+    result = _calibrate(loaded, heading, meta, nominal, options.imu_axis or None, None)
+    offset = imu_offset(loaded, result, heading[0], heading[1], given)
+    forced = _refuse_absurd(float(result.wheelbase_multiplier), force)
+    if nominal is None or robot is None:
+        return GyroFitResult(result, nominal, None, (), offset, "", forced)
+    geometry, base = _corrected(loaded, result, nominal, robot)
+    return GyroFitResult(result, nominal, geometry, (), offset, base, forced)
+
+
 def fit_gyro(
     bag: str | Path,
     *,
@@ -253,36 +322,22 @@ def fit_gyro(
     force: bool = False,
 ) -> GyroFitResult:
     """``odocal fit BAG --method gyro``: the gyro's rotation against the wheel odometry's, with
-    the topics, joints and IMU axis of ``options``; the ``exports`` need the nominal geometry
-    (``robot``).
-
-    A wheelbase multiplier more than 25 % from 1 is absurd for a calibration: CalibrationError
-    (nothing written) unless ``force``."""
+    the topics, joints and IMU axis of ``options`` (:func:`gyro_route_fit`); the ``exports``
+    need the nominal geometry (``robot``)."""
     plan = OutputPlan([Path(bag), *_robot_file(robot)])
     exports.register(plan)
-    nominal = load_robot(robot).nominal if robot else None
-    loaded = read_gyro_bag(
-        bag, _topics(options), have_geometry=nominal is not None, mounting=not options.imu_axis
-    )
-    result = gyro_fit(
-        loaded,
-        wheel_geometry=nominal,
-        imu_axis=options.imu_axis or None,
-        invert_right=options.invert_right,
-        invert_left=options.invert_left,
-    )
-    meta: dict[str, Any] = {}
-    t_o, yaw, _ = _odometry_heading(loaded, nominal, options.invert_right,
-                                    options.invert_left, meta)  # fmt: skip
-    offset = imu_offset(loaded, result, t_o, yaw)
-    if (exports.out or exports.ros2) and nominal is None:
+    loaded_robot = load_robot(robot) if robot else None
+    if (exports.out or exports.ros2) and loaded_robot is None:
         raise InputError("--out/--ros2 with --method gyro need the nominal geometry: --robot")
-    _refuse_absurd(float(result.wheelbase_multiplier), force)
-    if nominal is None:
-        return GyroFitResult(result, nominal, None, (), offset, "")
-    geometry, base = _corrected(loaded, result, nominal, robot)
-    written = exports.write(plan, geometry, nominal, record={"method": "gyro"})
-    return GyroFitResult(result, nominal, geometry, written, offset, base)
+    loaded = read_gyro_bag(
+        bag, _topics(options), have_geometry=loaded_robot is not None,
+        mounting=not options.imu_axis,
+    )  # fmt: skip
+    res = gyro_route_fit(loaded, loaded_robot, options, force=force)
+    if res.geometry is None or res.nominal is None:
+        return res
+    written = exports.write(plan, res.geometry, res.nominal, record={"method": "gyro"})
+    return replace(res, written=written)
 
 
 def _topics(options: BagOptions) -> BagOptions:
@@ -296,25 +351,28 @@ def _topics(options: BagOptions) -> BagOptions:
     )
 
 
-def _refuse_absurd(m: float, force: bool) -> None:
+def _refuse_absurd(m: float, force: bool) -> tuple[str, ...]:
     """A wheelbase multiplier ``m`` more than 25 % from 1 is absurd for a calibration:
-    CalibrationError (nothing written) unless ``force``."""
-    if abs(m - 1) > ABSURD_FRACTION and not force:
-        raise CalibrationError(
-            f"wheelbase_multiplier = {m:.6g} is {100 * (m - 1):+.0f} % from 1: absurd for a "
-            "calibration; check the IMU's mounting (--imu-axis, /tf_static), the gyro's units "
-            "(rad/s, not deg/s) and the wheel joints; nothing written (--force accepts the "
-            "result anyway)"
-        )
+    CalibrationError (nothing written) unless ``force``; then its message."""
+    if abs(m - 1) <= ABSURD_FRACTION:
+        return ()
+    message = (
+        f"wheelbase_multiplier = {m:.6g} is {100 * (m - 1):+.0f} % from 1: absurd for a "
+        "calibration; check the IMU's mounting (--imu-axis, /tf_static), the gyro's units "
+        "(rad/s, not deg/s) and the wheel joints"
+    )
+    if not force:
+        raise CalibrationError(f"{message}; nothing written (--force accepts the result anyway)")
+    return (message,)
 
 
 def _corrected(
-    loaded: GyroBag, result: GyroResult, nominal: WheelGeometry, robot: RobotSpec
+    loaded: GyroBag, result: GyroResult, nominal: WheelGeometry, robot: Robot
 ) -> tuple[WheelGeometry, str]:
     """The calibrated geometry and what it corrects: the odometry's rotation was computed
     through the joints with the nominal geometry, or by the controller with the geometry it ran
     with (multipliers included): the correction applies to that one."""
-    ran_with = load_robot(robot).believed_geometry if robot else nominal
+    ran_with = robot.believed_geometry
     ref = nominal if loaded.from_joints else ran_with
     base = (
         "nominal (joint states)" if loaded.from_joints else "the geometry the controller ran with"

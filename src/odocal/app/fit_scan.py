@@ -10,7 +10,7 @@ scans (:func:`scan_intervals`), calls the relative-motion route
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -28,7 +28,7 @@ from .common import NO_EXPORTS, Exports, RobotSpec
 from .fit_relative import RelativeFitResult, fit_relative, relative_checks, write_bag_route
 from .relative_inputs import ScanSummary
 
-__all__ = ["fit_scan_bags", "scan_intervals"]
+__all__ = ["fit_scan_bags", "scan_fit", "scan_intervals"]
 
 
 def _scan_summary(loaded: ScanBag, intervals: ScanIntervals) -> ScanSummary:
@@ -72,6 +72,43 @@ def scan_intervals(
     return intervals.motions, _scan_summary(loaded, intervals)
 
 
+def scan_fit(
+    loaded: Iterable[ScanBag],
+    nominal: WheelGeometry,
+    *,
+    names: Sequence[str | Path],
+    scan_interval_s: float = 0.5,
+    time_offset_s: float | None = None,
+    force: bool = False,
+) -> RelativeFitResult:
+    """The scan route, I/O-free: the laser's motion between scans ``scan_interval_s`` apart
+    from scan matching of the ``loaded`` bags (named ``names`` in messages), the relative-motion
+    calibration (the laser's mounting too), the held-out check and the noise. ``loaded`` may be
+    a generator: each bag's scans are matched and let go before the next is read."""
+    motions, summaries, origins = [], [], []
+    for one in loaded:
+        m, s = scan_intervals(one, nominal, scan_interval_s, time_offset_s)
+        motions.append(m)
+        summaries.append(s)
+        origins.append(one.start_ns * 1e-9)
+    result, forced = fit_relative(
+        motions, nominal, force=force, source="scan", names=names, origins_s=origins
+    )
+    stacked = stack_motions(motions)
+    usable = np.ones(len(stacked.phi_right_rad), dtype=bool)
+    usable[list(result.dropped_indices)] = False
+    mount = np.array([result.sensor_x_m, result.sensor_y_m, result.sensor_yaw_rad])
+    checks = relative_checks(
+        stacked, usable, mount, result, nominal, source="laser", force=force,
+        where=names[0] if len(names) == 1 else None,
+    )  # fmt: skip
+    return RelativeFitResult(
+        result, nominal, len(summaries), "scan", scans=tuple(summaries), forced=forced,
+        time_offsets=tuple(s.intervals.time_offset for s in summaries),
+        heldout=checks.heldout, noise=checks.noise, timing=checks.timing, notes=checks.notes,
+    )  # fmt: skip
+
+
 def fit_scan_bags(
     paths: Sequence[str | Path],
     plan: OutputPlan,
@@ -84,9 +121,8 @@ def fit_scan_bags(
     force: bool = False,
     plot: str | Path | None = None,
 ) -> RelativeFitResult:
-    """``fit BAG --method scan``: the laser's motion between scans ``scan_interval_s`` apart
-    from scan matching, then the relative-motion calibration (the laser's mounting too). Needs
-    the nominal geometry (``robot``) for the matcher's start."""
+    """``fit BAG --method scan``: the bags loaded and fitted (:func:`scan_fit`). Needs the
+    nominal geometry (``robot``) for the matcher's start."""
     if not robot:
         raise InputError(
             "--method scan needs the nominal geometry (--robot ROBOT.yaml): the scan matcher "
@@ -94,29 +130,12 @@ def fit_scan_bags(
         )
     loaded_robot = load_robot(robot)
     nominal, ran_with = loaded_robot.nominal, loaded_robot.believed_geometry
-    motions, summaries, origins = [], [], []
     for p in paths:
         if not is_bag(p):
             raise InputError("--method scan needs ROS bags with laser scans", p)
-        loaded = read_scan_bag(p, bag, ticks_per_rev, ran_with)
-        m, s = scan_intervals(loaded, nominal, scan_interval_s, bag.time_offset("laser"))
-        motions.append(m)
-        summaries.append(s)
-        origins.append(loaded.start_ns * 1e-9)
-    result, forced = fit_relative(
-        motions, nominal, force=force, source="scan", names=paths, origins_s=origins
-    )
-    stacked = stack_motions(motions)
-    usable = np.ones(len(stacked.phi_right_rad), dtype=bool)
-    usable[list(result.dropped_indices)] = False
-    mount = np.array([result.sensor_x_m, result.sensor_y_m, result.sensor_yaw_rad])
-    checks = relative_checks(
-        stacked, usable, mount, result, nominal, source="laser", force=force,
-        where=paths[0] if len(paths) == 1 else None,
-    )  # fmt: skip
-    res = RelativeFitResult(
-        result, nominal, len(paths), "scan", scans=tuple(summaries), forced=forced,
-        time_offsets=tuple(s.intervals.time_offset for s in summaries),
-        heldout=checks.heldout, noise=checks.noise, timing=checks.timing, notes=checks.notes,
+    loaded = (read_scan_bag(p, bag, ticks_per_rev, ran_with) for p in paths)
+    res = scan_fit(
+        loaded, nominal, names=paths, scan_interval_s=scan_interval_s,
+        time_offset_s=bag.time_offset("laser"), force=force,
     )  # fmt: skip
     return write_bag_route(res, plan, exports, plot)

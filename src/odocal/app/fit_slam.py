@@ -15,6 +15,7 @@ import numpy as np
 
 from ..calibration.censi import SensorOdometryFit
 from ..calibration.relative_checks import slam_chains, with_offset_error
+from ..core.model import WheelGeometry
 from ..errors import InputError
 from ..io.bag_options import BagOptions
 from ..io.bag_slam import SlamBag, load_slam_bags
@@ -28,7 +29,43 @@ from .fit_relative import (
     write_bag_route,
 )
 
-__all__ = ["fit_slam_bags"]
+__all__ = ["fit_slam_bags", "slam_fit"]
+
+
+def slam_fit(
+    bags: Sequence[SlamBag],
+    nominal: WheelGeometry | None,
+    *,
+    names: Sequence[str | Path],
+    force: bool = False,
+) -> RelativeFitResult:
+    """The SLAM route, I/O-free: the relative-motion calibration of loaded ``bags`` (named
+    ``names`` in messages), its offset's own uncertainty, the held-out check and the noise (the
+    truth frame is the base itself: no mounting)."""
+    result, forced = fit_relative(
+        [b.relative_motions for b in bags],
+        nominal,
+        sensor_pose=(0.0, 0.0, 0.0),
+        force=force,
+        source="slam",
+        names=names,
+        origins_s=[b.meta.get("start_ns", 0) * 1e-9 for b in bags],
+    )
+    result = _with_offset_error(bags, result)
+    every, usable = slam_chains(
+        [(b.every_motions, b.every_used) for b in bags],
+        result.dropped_indices,
+    )
+    checks = relative_checks(
+        every, usable, np.zeros(3), result, nominal, source="SLAM", force=force,
+        where=names[0] if len(names) == 1 else None,
+    )  # fmt: skip
+    return RelativeFitResult(
+        result, nominal, len(bags), "slam", slam_bags=tuple(bags), forced=forced,
+        time_offsets=tuple(b.time_offset for b in bags),
+        load_warnings=tuple(w for b in bags for w in b.wheel_warnings),
+        heldout=checks.heldout, noise=checks.noise, timing=checks.timing, notes=checks.notes,
+    )  # fmt: skip
 
 
 def fit_slam_bags(
@@ -45,7 +82,7 @@ def fit_slam_bags(
     plot: str | Path | None = None,
 ) -> RelativeFitResult:
     """``fit BAG ... --truth-frames PARENT:CHILD``: the relative motions between the SLAM's
-    updates (docs/slam-truth.md); the truth frame is the base itself (no mounting)."""
+    updates (docs/slam-truth.md), loaded and fitted (:func:`slam_fit`)."""
     nominal = robot_nominal(robot)
     for p in paths:
         if not is_bag(p):
@@ -59,30 +96,7 @@ def fit_slam_bags(
         ran_with=robot_ran_with(robot),
         time_offset_s=bag.time_offset("slam"),
     )
-    result, forced = fit_relative(
-        [b.relative_motions for b in bags],
-        nominal,
-        sensor_pose=(0.0, 0.0, 0.0),
-        force=force,
-        source="slam",
-        names=paths,
-        origins_s=[b.meta.get("start_ns", 0) * 1e-9 for b in bags],
-    )
-    result = _with_offset_error(bags, result)
-    every, usable = slam_chains(
-        [(b.every_motions, b.every_used) for b in bags],
-        result.dropped_indices,
-    )
-    checks = relative_checks(
-        every, usable, np.zeros(3), result, nominal, source="SLAM", force=force,
-        where=paths[0] if len(paths) == 1 else None,
-    )  # fmt: skip
-    res = RelativeFitResult(
-        result, nominal, len(paths), "slam", slam_bags=tuple(bags), forced=forced,
-        time_offsets=tuple(b.time_offset for b in bags),
-        load_warnings=tuple(w for b in bags for w in b.wheel_warnings),
-        heldout=checks.heldout, noise=checks.noise, timing=checks.timing, notes=checks.notes,
-    )  # fmt: skip
+    res = slam_fit(bags, nominal, names=paths, force=force)
     return write_bag_route(res, plan, exports, plot)
 
 

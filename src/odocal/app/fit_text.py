@@ -12,6 +12,7 @@ from .text import Text, check_text, written_lines
 
 if TYPE_CHECKING:
     from ..calibration.result import GeometryFit
+    from ..calibration.route_answer import RouteAnswer
     from ..calibration.time_offset import TimeOffset
     from ..calibration.turning import EffectiveWheelbase
     from .fit_auto_result import AutoFitResult
@@ -249,23 +250,35 @@ def _print_checks(out: Text, res: RelativeFitResult) -> None:
         out(f"  {note}")
 
 
+def _model_words(answer: RouteAnswer) -> str:
+    """The model a route settled on, and what it held."""
+    if answer.model == "heading-ratio":
+        return "heading ratio: the diameters held"
+    if answer.model == "full":
+        return "full model"
+    held = ", ".join(answer.held)
+    tied = "the diameters tied to one scale" if answer.model != "full" else ""
+    what = "; ".join(x for x in (tied, f"{held} held" if held else "") if x)
+    return f"'{answer.model}' model: {what}"
+
+
 def auto_text(res: AutoFitResult) -> str:
     """The text of the one-command answer: the routes, the parameters, the checks, the
     verdict."""
     out = Text()
     out(f"one answer for {res.bag} (every route it allows, cross-checked)")
     for r in res.routes:
-        out(f"  {r.name:10s} {'used' if r.used else 'not used'}: {r.reason}")
+        model = "" if r.answer is None else f" ({_model_words(r.answer)})"
+        out(f"  {r.name:10s} {'used' if r.used else 'not used'}{model}: {r.reason}")
     a = res.answer
-    if a is not None and a.geometry is not None:
-        out(f"parameters (the {a.name} route's):")
-        nom, g = res.nominal.as_dict(), a.geometry.as_dict()
+    if a is not None and a.answer is not None:
+        out(f"parameters (the {a.name} route's, {_model_words(a.answer)}):")
+        nom = res.nominal.as_dict()
         rows = [("", "nominal", "calibrated", "std. error")]
-        for key, se in zip(("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m"),
-                           a.stderr, strict=True):  # fmt: skip
-            rows.append(
-                (key, f"{nom[key]:.6f}", f"{g[key]:.6f}", "-" if se is None else f"{se:.2e}")
-            )
+        for p in a.answer.parameters:
+            se = p.std_error
+            err = "held" if p.status == "held" else ("-" if se is None else f"{se:.2e}")
+            rows.append((p.name, f"{nom[p.name]:.6f}", f"{p.value:.6f}", err))
         out.table(rows)
     for o in res.time_offsets:
         pm = "" if o.stderr_s is None else f" +- {o.stderr_s:.4f}"

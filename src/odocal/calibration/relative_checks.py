@@ -67,11 +67,12 @@ class RelativeChecks:
 class PreferredAnswer:
     """The answer of a relative-motion fit checked on held-out data: its model ('full', or the
     restricted model the held-out check preferred), its geometry and the standard errors of its
-    (D_R, D_L, b) (m; None where not estimated)."""
+    (D_R, D_L, b) (m; None where not estimated), and their covariance (m^2) when known."""
 
     model: str
     geometry: WheelGeometry
     stderr: tuple[float | None, float | None, float | None]
+    covariance: np.ndarray | None = None
 
 
 def preferred_answer(fit: SensorOdometryFit, heldout: HeldOut | None) -> PreferredAnswer:
@@ -80,11 +81,13 @@ def preferred_answer(fit: SensorOdometryFit, heldout: HeldOut | None) -> Preferr
     if heldout is None or heldout.preferred in (None, "full"):
         se = fit.stderr
         return PreferredAnswer("full", fit.geometry, (se.get("wheel_diameter_right_m"),
-                               se.get("wheel_diameter_left_m"), se.get("wheelbase_m")))  # fmt: skip
+                               se.get("wheel_diameter_left_m"), se.get("wheelbase_m")),
+                               np.asarray(fit.covariance)[:3, :3])  # fmt: skip
     score = next(m for m in heldout.models if m.model == heldout.preferred)
     err = None if score.fit is None else score.fit.stderr
     stderr = (None, None, None) if err is None else (float(err[0]), float(err[1]), float(err[2]))
-    return PreferredAnswer(heldout.preferred, score.geometry, stderr)
+    cov = None if score.fit is None else score.fit.covariance
+    return PreferredAnswer(heldout.preferred, score.geometry, stderr, cov)
 
 
 def interval_blocks(m: RelativeMotions) -> np.ndarray:

@@ -36,7 +36,7 @@ from ..core.model import WheelGeometry
 from ..core.parallel import can_fork, run_tasks, workers
 from ..errors import CalibrationError, ModelError
 from .relative_motions import RelativeMotions, wheel_increments
-from .time_offset import TimeOffset, estimate_time_offset
+from .time_offset import TimeOffset, estimate_time_offset, resolve_offset
 
 if TYPE_CHECKING:
     from scipy.spatial import cKDTree
@@ -802,9 +802,10 @@ def _laser_offset(
 ) -> TimeOffset:
     """The laser's clock offset: given, else registered on the matched rotations (the laser's
     rotation is the base's whatever its mounting)."""
-    if given is not None:
-        return TimeOffset.given("laser", given)
-    try:
-        return estimate_time_offset(t_j, right, left, start_s, end_s, motion[:, 2], source="laser")
-    except CalibrationError as exc:
-        return TimeOffset("laser", 0.0, None, "not estimated", warnings=(f"{exc}; taken as 0",))
+    return resolve_offset(
+        "laser",
+        given,
+        lambda: estimate_time_offset(
+            t_j, right, left, start_s, end_s, motion[:, 2], source="laser"
+        ),
+    )

@@ -29,6 +29,11 @@ with replacement and the minimum found again on the resampled loss profile (each
 loss at each candidate is kept, so a replicate costs one sum). Blocks keep the correlation of
 neighbouring intervals (a slow heading drift, a wheel slipping over a second) that an
 interval-by-interval resampling would hide.
+
+**One rule for every route** (:func:`resolve_offset`): each source (:data:`TIME_SOURCES`: the
+wheels are the reference clock; a truth track, a SLAM pose, a laser, an IMU are aligned to them)
+takes the offset the user fixed (``--time-offset SOURCE=SECONDS``), else the estimate, else,
+when it cannot be estimated, 0 with a warning that says why.
 """
 
 from __future__ import annotations
@@ -36,6 +41,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -45,6 +51,9 @@ from ..core.recording import Recording
 from ..errors import CalibrationError
 
 __all__ = [
+    "TimeSource",
+    "TIME_SOURCES",
+    "resolve_offset",
     "TimeOffset",
     "TimingCheck",
     "timing_consistency",
@@ -58,6 +67,11 @@ __all__ = [
     "time_blocks",
     "MAX_OFFSET_S",
 ]
+
+#: The clocks a route aligns: the wheels (the reference: their offset is 0 by definition) and
+#: the sources compared with them.
+TimeSource = Literal["wheels", "truth", "slam", "laser", "imu"]
+TIME_SOURCES: tuple[TimeSource, ...] = ("wheels", "truth", "slam", "laser", "imu")
 
 #: An estimated offset is applied when it is more than this many standard errors from 0.
 APPLY_Z = 2.0
@@ -85,7 +99,7 @@ class TimeOffset:
     Attributes
     ----------
     source : str
-        What was aligned ('slam', 'laser', 'mocap', 'imu', ...).
+        What was aligned: one of :data:`TIME_SOURCES` (the wheels excepted).
     offset_s : float
         Seconds by which the source's stamps are late (> 0: it lags the wheels; its sample
         stamped t saw the robot at wheel time t - offset_s).
@@ -101,9 +115,11 @@ class TimeOffset:
     applied : bool
         Whether the routes use it (given, or estimated beyond :data:`APPLY_Z` standard errors
         from 0).
+    part : str
+        Which part of the log it belongs to, when each has its own (a data set's name), else ''.
     """
 
-    source: str
+    source: TimeSource
     offset_s: float
     stderr_s: float | None
     how: str
@@ -112,11 +128,22 @@ class TimeOffset:
     loss: np.ndarray = field(default_factory=lambda: np.zeros(0))
     warnings: tuple[str, ...] = ()
     applied: bool = True
+    part: str = ""
 
     @classmethod
-    def given(cls, source: str, offset_s: float) -> TimeOffset:
+    def given(cls, source: TimeSource, offset_s: float) -> TimeOffset:
         """An offset the user fixed (``--time-offset SOURCE=SECONDS``)."""
         return cls(source, float(offset_s), None, "given")
+
+    @classmethod
+    def not_estimated(cls, source: TimeSource, why: str) -> TimeOffset:
+        """No estimate (``why``): taken as 0, with a warning that says why."""
+        return cls(source, 0.0, None, "not estimated", warnings=(f"{why}; taken as 0",))
+
+    @property
+    def label(self) -> str:
+        """The source, and the part of the log it belongs to: 'truth (DATASET)'."""
+        return f"{self.source} ({self.part})" if self.part else self.source
 
     @property
     def applied_s(self) -> float:
@@ -126,7 +153,7 @@ class TimeOffset:
     def as_dict(self) -> dict:
         """JSON-ready: the offset, its standard error, how it was found."""
         return {
-            "source": self.source,
+            "source": self.label,
             "offset_s": self.offset_s,
             "stderr_s": self.stderr_s,
             "how": self.how,
@@ -277,7 +304,7 @@ def estimate_time_offset(
     end_s: ArrayLike,
     heading_change_rad: ArrayLike,
     *,
-    source: str,
+    source: TimeSource,
     max_offset_s: float = MAX_OFFSET_S,
     step_s: float | None = None,
     rng: np.random.Generator | None = None,
@@ -364,6 +391,20 @@ def estimate_time_offset(
     return TimeOffset(
         source, best, stderr, how, int(len(dth)), coarse, loss, tuple(warnings), applied
     )
+
+
+def resolve_offset(
+    source: TimeSource, given: float | None, estimate: Callable[[], TimeOffset]
+) -> TimeOffset:
+    """The one rule of every route (module docstring): ``given`` (s) when the user fixed it,
+    else ``estimate()``, else (a CalibrationError: too little turning, no overlap) 0 with a
+    warning naming why."""
+    if given is not None:
+        return TimeOffset.given(source, given)
+    try:
+        return estimate()
+    except CalibrationError as exc:
+        return TimeOffset.not_estimated(source, str(exc))
 
 
 @dataclass(frozen=True)
@@ -495,7 +536,7 @@ def timing_consistency(
 def truth_offset(
     recordings: Sequence[Recording],
     *,
-    source: str = "truth",
+    source: TimeSource = "truth",
     window_s: float = 0.25,
     max_offset_s: float = 0.3,
 ) -> TimeOffset:
@@ -563,16 +604,11 @@ def truth_on_wheel_clock(
             by_set.setdefault(r.dataset, []).append(r)
     offsets: dict[str, TimeOffset] = {}
     for name, runs in by_set.items():
-        if given is not None:
-            offsets[name] = TimeOffset.given(f"truth ({name})", given)
-            continue
-        try:
-            est = truth_offset(runs)
-            offsets[name] = replace(est, source=f"truth ({name})")
-        except CalibrationError as exc:
-            offsets[name] = TimeOffset(
-                f"truth ({name})", 0.0, None, "not estimated", warnings=(f"{exc}; taken as 0",)
-            )
+
+        def estimate(runs: Sequence[Recording] = runs) -> TimeOffset:
+            return truth_offset(runs)
+
+        offsets[name] = replace(resolve_offset("truth", given, estimate), part=name)
     moved = [
         shift_truth(r, offsets[r.dataset].applied_s) if r.dataset in offsets else r
         for r in recordings

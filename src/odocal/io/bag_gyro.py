@@ -15,6 +15,7 @@ from .bags import (
     BASE_FRAMES,
     IMU,
     JOINT_STATE,
+    BagContents,
     ODOMETRY,
     TopicInfo,
     TopicSeries,
@@ -83,7 +84,11 @@ def _odometry_topic(
 
 
 def read_gyro_bag(
-    path: str | Path, options: BagOptions, *, have_geometry: bool, mounting: bool = True
+    path: str | Path | BagContents,
+    options: BagOptions,
+    *,
+    have_geometry: bool,
+    mounting: bool = True,
 ) -> GyroBag:
     """The IMU and wheel-odometry series of the bag ``path`` (topics from ``options``, else the
     only candidates; JointState only with ``have_geometry``), and with ``mounting`` the IMU's
@@ -95,7 +100,7 @@ def read_gyro_bag(
         src = _odometry_topic(info, options, have_geometry, p)
         return {"imu": it, "odometry": src, "tf_static": present(info, "/tf_static")}
 
-    bag = read_bag(p, choose)
+    bag = read_bag(path, choose)
     it, src = bag.picked["imu"], bag.picked["odometry"]
     from_joints = bag.msgtype(src) == JOINT_STATE
     imu = imu_series(bag, it)

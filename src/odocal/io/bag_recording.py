@@ -205,7 +205,7 @@ def load_bag_recording(
                     f"no ground truth named: the Odometry topic(s) {', '.join(odom)} may be the "
                     "wheel odometry itself, which cannot be its own reference; name an external "
                     "one with --truth-topic (motion capture, GPS). This bag allows: "
-                    f"{survey(p).allowed()}"
+                    f"{survey(path).allowed()}"
                 )
         else:
             pick_topic(info, gt, (*POSE_TYPES, ODOMETRY), "ground truth", p, "--truth-topic")
@@ -215,7 +215,7 @@ def load_bag_recording(
         tf_static = present(info, "/tf_static") if it else None  # the IMU's mounting only
         return {"joints": jt, "truth": gt, "imu": it, "tf_static": tf_static}
 
-    bag = read_bag(p, choose)
+    bag = read_bag(path, choose)
     jt: str = bag.picked["joints"]  # required: chosen or an error
     gt_topic, it = bag.picked.get("truth"), bag.picked.get("imu")
     joints = joint_series(bag, jt, right_joint, left_joint, ticks_per_rev)

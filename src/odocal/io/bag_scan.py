@@ -66,7 +66,7 @@ class ScanBag:
 
 
 def read_scan_bag(
-    path: str | Path,
+    path: str | Path | BagContents,
     options: BagOptions,
     ticks_per_rev: float | None,
     ran_with: WheelGeometry | None = None,
@@ -92,7 +92,7 @@ def read_scan_bag(
             return {}
         return {"tf": None if _static_mount(bag) else present(bag.topics, "/tf")}
 
-    bag = read_bag(p, choose, then=tf_if_needed)
+    bag = read_bag(path, choose, then=tf_if_needed)
     st = bag.picked["scan"]
     w = wheel_series(bag, options, ticks_per_rev, ran_with)
     joints = TopicSeries(w.topic, w.time_s, {"right": w.right, "left": w.left},

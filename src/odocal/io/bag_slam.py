@@ -19,11 +19,11 @@ import numpy as np
 
 from ..calibration.relative_motions import RelativeMotions, wheel_increments
 from ..calibration.slam import SlamLimits, SlamMotions, slam_relative_motions
-from ..calibration.time_offset import TimeOffset, estimate_time_offset
+from ..calibration.time_offset import TimeOffset, estimate_time_offset, resolve_offset
 from ..core.model import WheelGeometry
 from ..core.recording import Recording
 from ..core.transforms import RigidTransforms, planar_pose
-from ..errors import CalibrationError, InputError
+from ..errors import InputError
 from .bag_options import BagOptions
 from .bag_wheels import choose_wheels, wheel_series
 from .bags import (
@@ -230,7 +230,7 @@ def load_slam_bag(
         return {**choose_wheels(info, opts, p), "tf": "/tf",
                 "tf_static": present(info, "/tf_static")}  # fmt: skip
 
-    bag = read_bag(p, choose)
+    bag = read_bag(path, choose)
     wheels = wheel_series(bag, opts, ticks_per_rev, ran_with)
     buf = transform_buffer(bag)
     dynamic, chain_text = _truth_chain(buf, parent, child, p)
@@ -335,16 +335,15 @@ def _slam_offset(
     pair of consecutive update instants (dropped intervals included: the estimator's robust
     loss deals with real jumps, and a clock offset is what makes ordinary turns look like
     jumps)."""
-    if given is not None:
-        return TimeOffset.given("slam", given)
-    try:
+
+    def estimate() -> TimeOffset:
         first = motions_at(0.0, replace(lim, min_intervals=1))
         return estimate_time_offset(
             t_j, right, left, first.every_start_s, first.every_end_s,
             first.every_motion[:, 2], source="slam",
         )  # fmt: skip
-    except CalibrationError as exc:
-        return TimeOffset("slam", 0.0, None, "not estimated", warnings=(f"{exc}; taken as 0",))
+
+    return resolve_offset("slam", given, estimate)
 
 
 def _recording(

@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from ..calibration.route_answer import ROUTE_NAMES, RouteName
 from .bag_options import BagOptions
 from .bags import (
     IMU,
@@ -20,6 +21,7 @@ from .bags import (
     LASER_SCAN,
     ODOMETRY,
     POSE_TYPES,
+    BagContents,
     TopicInfo,
     check_bag_path,
     list_topics,
@@ -30,14 +32,14 @@ from .bags import (
 __all__ = ["RouteOption", "BagSurvey", "survey", "ROUTES"]
 
 #: The bag routes, in the order the one-command fit prefers them.
-ROUTES = ("trajectory", "slam", "scan", "gyro")
+ROUTES = ROUTE_NAMES
 
 
 @dataclass(frozen=True)
 class RouteOption:
     """One route: its name, whether the bag allows it, and why (or why not)."""
 
-    name: str
+    name: RouteName
     usable: bool
     reason: str
 
@@ -69,7 +71,7 @@ class BagSurvey:
     slam_edge: tuple[str, str] | None
     routes: tuple[RouteOption, ...]
 
-    def route(self, name: str) -> RouteOption:
+    def route(self, name: RouteName) -> RouteOption:
         """The option of route ``name``."""
         return next(r for r in self.routes if r.name == name)
 
@@ -83,7 +85,7 @@ def _of(topics: list[TopicInfo], types: tuple[str, ...]) -> list[str]:
     return [t.name for t in topics if t.msgtype in types]
 
 
-def _slam_frames(path: Path) -> tuple[str, str] | None:
+def _slam_frames(path: Path | BagContents) -> tuple[str, str] | None:
     """The truth frames of a SLAM pose on /tf: (the parent of the odometry frame ``odom``, the
     odometry's child, the base), if /tf has both edges."""
     bag = read_bag(path, ["/tf"])
@@ -93,11 +95,12 @@ def _slam_frames(path: Path) -> tuple[str, str] | None:
     return (parent, base) if parent and base else None
 
 
-def survey(path: str | Path, options: BagOptions | None = None) -> BagSurvey:
-    """The routes ``path`` allows (module docstring); ``options`` name topics explicitly."""
+def survey(path: str | Path | BagContents, options: BagOptions | None = None) -> BagSurvey:
+    """The routes ``path`` allows (module docstring); ``options`` name topics explicitly. A bag
+    already read (:class:`~odocal.io.bags.BagContents`) is surveyed without opening it."""
     opts = options if options is not None else BagOptions()
     p = check_bag_path(path)
-    topics = list_topics(p)
+    topics = path.topics if isinstance(path, BagContents) else list_topics(p)
     names = {t.name for t in topics}
     joints = _of(topics, (JOINT_STATE,))
     odoms = _of(topics, (ODOMETRY,))
@@ -110,7 +113,7 @@ def survey(path: str | Path, options: BagOptions | None = None) -> BagSurvey:
         wheels = None
     elif "/tf" in names:
         wheels = "odom -> base_link on /tf (inverted: needs --robot)"
-    edge = _slam_frames(p) if "/tf" in names else None
+    edge = _slam_frames(path if isinstance(path, BagContents) else p) if "/tf" in names else None
     no_wheels = (
         f"no wheel data (several Odometry topics: {', '.join(odoms)}; name the wheel odometry "
         "with --odom-topic)"

@@ -60,6 +60,8 @@ __all__ = [
     "is_bag",
     "list_topics",
     "read_bag",
+    "read_bag_once",
+    "ROUTE_TYPES",
     "TopicChoice",
     "present",
     "check_bag_path",
@@ -173,7 +175,9 @@ def _why(exc: BaseException) -> str:
 
 def check_bag_path(path) -> Path:
     """``path`` as a Path when it is a bag (a .bag, .mcap or .db3 file or a rosbag2 folder);
-    InputError otherwise."""
+    InputError otherwise. A bag already read (:class:`BagContents`) gives its path."""
+    if isinstance(path, BagContents):
+        return path.path
     p = Path(path)
     if not p.exists():
         raise InputError("no such file or folder", p)
@@ -442,6 +446,8 @@ def read_bag(
     read in a second pass over the open bag (a topic only some bags need: ``/tf`` when
     ``/tf_static`` lacks a transform).
     """
+    if isinstance(path, BagContents):
+        return _from_contents(path, topics, fast, then)
     with _Bag(path) as bag:
         info = bag.topics()
         picked: dict[str, str] = {}
@@ -462,6 +468,59 @@ def read_bag(
                 messages.update(bag.read(extra, fast))
             picked.update(more)
     return contents
+
+
+def _from_contents(
+    bag: BagContents,
+    topics: Iterable[str] | TopicChoice,
+    fast: bool,
+    then: Callable[[BagContents], Mapping[str, str | None]] | None,
+) -> BagContents:
+    """:func:`read_bag` of a bag already read (every topic a command needs, in one pass): the
+    topics picked from what was read, without opening the bag again (a topic that was not read
+    is read from the file)."""
+    picked: dict[str, str] = {}
+    if callable(topics):
+        picked = {role: t for role, t in topics(bag.topics).items() if t is not None}
+        wanted = list(dict.fromkeys(picked.values()))
+    else:
+        wanted = list(topics)
+    _check_present(wanted, bag.topics, bag.path)
+    messages = {t: bag.messages[t] for t in wanted if t in bag.messages}
+    missing = [t for t in wanted if t not in messages]
+    if missing:
+        messages.update(read_bag(bag.path, missing, fast=fast).messages)
+    contents = BagContents(bag.path, bag.topics, messages, bag.start_ns, picked)
+    if then is not None:
+        more = {role: t for role, t in then(contents).items() if t is not None}
+        extra = [t for t in dict.fromkeys(more.values()) if t not in messages]
+        _check_present(extra, bag.topics, bag.path)
+        messages.update({t: bag.messages[t] for t in extra if t in bag.messages})
+        rest = [t for t in extra if t not in messages]
+        if rest:
+            messages.update(read_bag(bag.path, rest, fast=fast).messages)
+        picked.update(more)
+    return contents
+
+
+#: The message types a bag route may read: what :func:`read_bag_once` reads.
+ROUTE_TYPES = (JOINT_STATE, IMU, ODOMETRY, "sensor_msgs/msg/LaserScan", *POSE_TYPES)
+
+
+def read_bag_once(path, named: Iterable[str | None] = ()) -> BagContents:
+    """Every topic of ``path`` any bag route may read (the types of :data:`ROUTE_TYPES`,
+    ``/tf``, ``/tf_static`` and the topics ``named`` by the user), in one pass: the routes then
+    pick their topics from it (:func:`read_bag` of a :class:`BagContents`) without opening the
+    bag again."""
+
+    def choose(info: list[TopicInfo]) -> dict[str, str | None]:
+        names = {t.name for t in info}
+        keep = [t.name for t in info if t.msgtype in ROUTE_TYPES or t.name in ("/tf", "/tf_static")]
+        keep += [t for t in named if t and t in names]
+        return {t: t for t in dict.fromkeys(keep)}
+
+    bag = read_bag(path, choose)
+    return BagContents(bag.path, bag.topics, bag.messages, bag.start_ns)
 
 
 def _check_present(wanted: Iterable[str], info: Sequence[TopicInfo], path: Path) -> None:

@@ -129,7 +129,10 @@ def robot_from_doc(doc: YamlDoc) -> Robot:
 
 
 def load_robot(spec) -> Robot:
-    """A Robot from a ROBOT.yaml path, or a built-in preset name (see ``odocal.presets``)."""
+    """A Robot from a ROBOT.yaml path, or a built-in preset name (see ``odocal.presets``); a
+    Robot already loaded is itself (a file is read once per command: it may be a pipe)."""
+    if isinstance(spec, Robot):
+        return spec
     if spec is None:
         spec = DEFAULT_ROBOT
     if str(spec) in PRESETS:

@@ -1,0 +1,235 @@
+"""The routes of ``odocal fit BAG --method auto``, each a function from a bag already read (every
+topic, once: :func:`odocal.io.bags.read_bag_once`) and a robot already loaded to one typed
+:class:`~odocal.app.fit_auto_result.RouteRun`: the answer parameter by parameter (estimated,
+tied or held), the clock offsets, the held-out check, what speaks against the answer.
+
+No route opens a file: each picks its topics from the bag's contents (the readers of
+:mod:`odocal.io`), then calls its I/O-free fit (:func:`~odocal.app.fit_runs.fit_runs`,
+:func:`~odocal.app.fit_slam.slam_fit`, :func:`~odocal.app.fit_scan.scan_fit`,
+:func:`~odocal.app.fit_gyro.gyro_route_fit`) with ``force``: a route's own refusals become its
+doubts here, which the one answer's verdict weighs (:mod:`odocal.app.fit_auto`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from ..calibration.heldout import intervals_of_runs
+from ..calibration.interval_noise import IntervalNoise, estimate_interval_noise
+from ..calibration.route_answer import RouteName, route_answer
+from ..core.model import Robot
+from ..core.recording import Recording
+from ..errors import CalibrationError, OdocalError
+from ..io.bag_gyro import read_gyro_bag
+from ..io.bag_options import BagOptions
+from ..io.bag_recording import load_bag_recording
+from ..io.bag_scan import read_scan_bag
+from ..io.bag_slam import load_slam_bag
+from ..io.bag_survey import BagSurvey, RouteOption
+from ..io.bags import BagContents
+from .fit_auto_result import RouteRun
+from .fit_gyro import GyroFitResult, gyro_route_fit
+from .fit_relative import RelativeFitResult
+from .fit_runs import FitResult, fit_runs
+from .fit_scan import scan_fit
+from .fit_slam import slam_fit
+
+__all__ = ["run_route", "ROUTE_FUNCTIONS"]
+
+
+def _heldout_doubts(res: FitResult | RelativeFitResult) -> list[str]:
+    """No held-out check, or one that no model passed."""
+    h = res.heldout
+    if h is None:
+        return [f"no held-out check ({'; '.join(res.notes) or 'none made'})"]
+    if h.preferred is None:
+        return [h.verdict()]
+    return []
+
+
+def _own_warnings(warnings: tuple[str, ...], doubts: list[str]) -> tuple[str, ...]:
+    """A route's warnings, without those that became its doubts."""
+    return tuple(w for w in warnings if w not in doubts)
+
+
+def trajectory_run(option: RouteOption, res: FitResult, noise: IntervalNoise | None) -> RouteRun:
+    """A trajectory fit (a truth topic) as a route run."""
+    fit = res.fit
+    e = fit.stderr
+    se = (e.get("wheel_diameter_right_m"), e.get("wheel_diameter_left_m"), e.get("wheelbase_m"))
+    answer = route_answer("trajectory", "full", fit.geometry, se, fit.covariance)
+    doubts = _heldout_doubts(res)
+    c = fit.consistency
+    if c is not None and not c.consistent:
+        doubts.append("the log's parts disagree beyond their uncertainty")
+    if res.log_check is not None and not res.log_check.check.ok:
+        doubts.append("the log check says NOT enough")
+    doubts += list(res.forced)
+    return RouteRun(
+        option, True, option.reason, answer, res, res.time_offsets, res.heldout,
+        tuple(doubts), _own_warnings(res.warnings, doubts), noise,
+    )  # fmt: skip
+
+
+def relative_run(option: RouteOption, res: RelativeFitResult) -> RouteRun:
+    """A relative-motion fit (SLAM, scan) as a route run."""
+    a = res.answer
+    name: RouteName = "slam" if res.source == "slam" else "scan"
+    answer = route_answer(name, a.model, a.geometry, a.stderr, a.covariance)
+    doubts = _heldout_doubts(res)
+    if res.timing is not None and res.timing.warning:
+        doubts.append(res.timing.warning)
+    doubts += list(res.forced)
+    return RouteRun(
+        option, True, option.reason, answer, res, res.time_offsets, res.heldout,
+        tuple(doubts), _own_warnings(res.warnings, doubts), res.noise, _speed(res),
+    )  # fmt: skip
+
+
+def gyro_run(option: RouteOption, res: GyroFitResult) -> RouteRun:
+    """A gyro calibration as a route run: the heading ratio, the wheelbase as the file's times
+    it (the diameters held)."""
+    g = res.geometry
+    if g is None:
+        raise CalibrationError("the gyro route needs the nominal geometry (--robot)")
+    ratio, se = res.gyro.rotation_ratio, res.gyro.rotation_ratio_stderr
+    se_b = None if se is None else float(g.wheelbase_m * se / ratio)
+    answer = route_answer("gyro", "heading-ratio", g, (None, None, se_b))
+    doubts = list(res.forced)
+    offsets = () if res.time_offset is None else (res.time_offset,)
+    return RouteRun(
+        option, True, option.reason, answer, res, offsets, None, tuple(doubts),
+        _own_warnings(res.warnings, doubts),
+    )  # fmt: skip
+
+
+def _speed(res: RelativeFitResult) -> float | None:
+    """The robot's cruise speed (m/s) in a SLAM route's intervals: the median of distance over
+    time among the intervals that move."""
+    if not res.slam_bags:
+        return None
+    m = res.slam_bags[0].motions
+    d = np.hypot(m.sensor_motion[:, 0], m.sensor_motion[:, 1])
+    dt = np.asarray(m.end_s) - np.asarray(m.start_s)
+    moving = (d > 0.05) & (dt > 0)
+    return float(np.median(d[moving] / dt[moving])) if moving.any() else None
+
+
+def _bag_recordings(bag: BagContents, options: BagOptions) -> list[Recording]:
+    """The bag's run with its truth topic (:func:`~odocal.io.bag_recording.load_bag_recording`)."""
+    return [
+        load_bag_recording(
+            bag,
+            joint_topic=options.joint_topic,
+            truth_topic=options.truth_topic,
+            imu_topic=options.imu_topic,
+            right_joint=options.right_joint,
+            left_joint=options.left_joint,
+            invert_right=options.invert_right,
+            invert_left=options.invert_left,
+            imu_axis=options.imu_axis,
+        )
+    ]
+
+
+def _trajectory_noise(recordings: list[Recording], res: FitResult) -> IntervalNoise | None:
+    """The random error of a trajectory route: its runs cut into 1 s intervals against the
+    truth (:func:`~odocal.calibration.heldout.intervals_of_runs`)."""
+    try:
+        a, b, r, lft, m = intervals_of_runs(recordings, 1.0)
+        return estimate_interval_noise(r, lft, m, res.fit.geometry, a, end_s=b)
+    except (OdocalError, CalibrationError):
+        return None
+
+
+def _trajectory(
+    option: RouteOption,
+    bag: BagContents,
+    found: BagSurvey,
+    robot: Robot,
+    opts: BagOptions,
+    _: float,
+) -> RouteRun:
+    recordings = _bag_recordings(bag, opts)
+    res = fit_runs(
+        recordings, "trajectory", robot=robot, force=True, truth_offset_s=opts.time_offset("truth")
+    )
+    return trajectory_run(option, res, _trajectory_noise(recordings, res))
+
+
+def _slam(
+    option: RouteOption,
+    bag: BagContents,
+    found: BagSurvey,
+    robot: Robot,
+    opts: BagOptions,
+    _: float,
+) -> RouteRun:
+    assert found.slam_edge is not None  # the survey allows the route only with it
+    loaded = load_slam_bag(
+        bag, found.slam_edge, opts, ran_with=robot.believed_geometry,
+        time_offset_s=opts.time_offset("slam"),
+    )  # fmt: skip
+    return relative_run(option, slam_fit([loaded], robot.nominal, names=[bag.path], force=True))
+
+
+def _scan(
+    option: RouteOption,
+    bag: BagContents,
+    found: BagSurvey,
+    robot: Robot,
+    opts: BagOptions,
+    interval_s: float,
+) -> RouteRun:
+    loaded = read_scan_bag(bag, opts, None, robot.believed_geometry)
+    res = scan_fit(
+        [loaded], robot.nominal, names=[bag.path], scan_interval_s=interval_s,
+        time_offset_s=opts.time_offset("laser"), force=True,
+    )  # fmt: skip
+    return relative_run(option, res)
+
+
+def _gyro(
+    option: RouteOption,
+    bag: BagContents,
+    found: BagSurvey,
+    robot: Robot,
+    opts: BagOptions,
+    _: float,
+) -> RouteRun:
+    topics = BagOptions(
+        joint_topic=opts.joint_topic or None,
+        imu_topic=opts.imu_topic or None,
+        odom_topic=opts.odom_topic or None,
+        right_joint=opts.right_joint or None,
+        left_joint=opts.left_joint or None,
+    )
+    loaded = read_gyro_bag(bag, topics, have_geometry=True, mounting=not opts.imu_axis)
+    return gyro_run(option, gyro_route_fit(loaded, robot, opts, force=True))
+
+
+#: Route name -> the route (option, bag read, its survey, the robot, the options, the scan
+#: interval (s)) -> its run.
+ROUTE_FUNCTIONS: dict[
+    RouteName, Callable[[RouteOption, BagContents, BagSurvey, Robot, BagOptions, float], RouteRun]
+] = {"trajectory": _trajectory, "slam": _slam, "scan": _scan, "gyro": _gyro}
+
+
+def run_route(
+    option: RouteOption,
+    bag: BagContents,
+    found: BagSurvey,
+    robot: Robot,
+    options: BagOptions,
+    scan_interval_s: float,
+) -> RouteRun:
+    """One route of the survey: run where usable (its own checks become doubts, an error its
+    reason), else not used with the survey's reason."""
+    if not option.usable:
+        return RouteRun(option, False, option.reason)
+    try:
+        return ROUTE_FUNCTIONS[option.name](option, bag, found, robot, options, scan_interval_s)
+    except OdocalError as exc:
+        return RouteRun(option, False, f"it ran into: {exc}")
