@@ -131,3 +131,52 @@ def test_an_answer_that_is_no_robot_is_never_written_even_with_force(tmp_path):
     with pytest.raises(CalibrationError, match="not a plausible robot"):
         _write(OutputPlan([]), result, tmp_path / "report", None, "diff_drive_controller", True)
     assert not (tmp_path / "report").exists()
+
+
+def test_the_25_percent_rule_holds_on_every_route_and_names_the_units(bag, tmp_path):
+    # a robot file in inches passes the reader (a 2 in wheel, a 9.8 in wheelbase); before,
+    # each route's '-97 % from nominal: absurd' was a warning and the verdict 'trustworthy'
+    from odocal.app.fit_auto import fit_auto
+
+    inches = tmp_path / "inches.yaml"
+    inches.write_text(
+        f"wheel_diameter_m: {0.050 / 0.0254:.4f}\nwheelbase_m: {0.250 / 0.0254:.4f}\n"
+    )
+    out = tmp_path / "report"
+    res = fit_auto(bag, robot=inches, out=out)
+    assert not res.enough and not out.exists()
+    absurd = [r for r in res.reasons if "absurd for a calibration" in r]
+    assert absurd and all("inches" in r for r in absurd)
+    assert {r.split(":")[0] for r in absurd} == {res.answer.name}
+    assert "absurd" not in " ".join(res.warnings)
+
+
+def test_a_gyro_answer_is_a_ratio_not_a_calibration(realdata):
+    # the Husky bag (controller odometry + IMU): a TurtleBot3 file gave a 'trustworthy'
+    # 0.154 m; the gyro measures the heading ratio only, so any scale passed
+    from odocal.app.fit_auto import fit_auto
+
+    res = fit_auto(realdata / "husky" / "husky_test1.bag", robot="paper-fig5")
+    assert res.answer is not None and res.answer.name == "gyro"
+    a = res.answer.answer
+    assert a.model == "heading-ratio" and a.held == ("wheel_diameter_right_m",
+                                                     "wheel_diameter_left_m")  # fmt: skip
+    assert a.ratio is not None and a.parameters[2].value * a.ratio == pytest.approx(
+        res.nominal.wheelbase_m
+    )
+    assert not res.enough
+    assert any("heading ratio only" in r and "scale" in r for r in res.reasons)
+    d = res.as_dict()
+    gyro = next(r for r in d["routes"] if r["name"] == "gyro")
+    assert gyro["heading_ratio"]["value"] == pytest.approx(a.ratio)
+    assert d["verdict"]["enough"] is False
+
+
+def test_a_robot_file_in_millimetres_is_refused_before_the_bag_is_read(tmp_path):
+    from odocal.app.fit_auto import fit_auto
+    from odocal.errors import InputError
+
+    mm = tmp_path / "mm.yaml"
+    mm.write_text("wheel_diameter_m: 330\nwheelbase_m: 555\n")
+    with pytest.raises(InputError, match="millimetres"):
+        fit_auto(tmp_path / "no-such.bag", robot=mm)

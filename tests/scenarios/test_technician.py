@@ -145,7 +145,7 @@ def test_a_heading_that_is_not_a_deviation_is_refused(cli, tb3, tmp_path):
 def test_a_robot_file_in_millimetres_cannot_calibrate(cli, sheet, tmp_path):
     mm = tmp_path / "mm.yaml"
     mm.write_text("wheel_diameter_m: 66\nwheelbase_m: 160\n")
-    cli("calibrate", sheet, "--robot", mm).expect_error("wheelbase 160 m", "millimetres")
+    cli("calibrate", sheet, "--robot", mm).expect_error("wheel_diameter_m: 66 m", "millimetres")
     cli("calibrate", sheet, "--robot", mm, "--side-length", 1).expect_error("millimetres")
     mixed = tmp_path / "mixed.yaml"
     mixed.write_text("wheel_diameter_m: 0.066\nwheelbase_m: 160\n")

@@ -96,7 +96,7 @@ def gyro_run(option: RouteOption, res: GyroFitResult) -> RouteRun:
         raise CalibrationError("the gyro route needs the nominal geometry (--robot)")
     ratio, se = res.gyro.rotation_ratio, res.gyro.rotation_ratio_stderr
     se_b = None if se is None else float(g.wheelbase_m * se / ratio)
-    answer = route_answer("gyro", "heading-ratio", g, (None, None, se_b))
+    answer = route_answer("gyro", "heading-ratio", g, (None, None, se_b), ratio=(ratio, se))
     doubts = list(res.forced)
     offsets = () if res.time_offset is None else (res.time_offset,)
     return RouteRun(

@@ -104,6 +104,7 @@ def make_robot(
         ROBOT_LENGTH_M,
         SIGMA_THETA_MAX_DEG,
         SIGMA_XY_MAX_M,
+        robot_scale_problem,
     )
 
     lo, hi = ROBOT_LENGTH_M
@@ -111,7 +112,7 @@ def make_robot(
         "wheel_diameter_m", wheel_diameter_m, at_least=lo, at_most=hi, hint=" m"
     )
     b = check_number("wheelbase_m", wheelbase_m, at_least=lo, at_most=hi, hint=" m")
-    problem = proportions_problem(diameter, diameter, b)
+    problem = proportions_problem(diameter, diameter, b) or robot_scale_problem(diameter, b)
     if problem:
         raise InputError(problem, field="wheelbase_m")
     lo, hi = ERROR_FACTOR

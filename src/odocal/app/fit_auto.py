@@ -66,12 +66,37 @@ def _reasons(
         return [
             "no route could calibrate this bag: " + "; ".join(f"{r.name}: {r.reason}" for r in runs)
         ]
-    return [f"{answer.name}: {d}" for d in answer.doubts] + [
-        f"the {x.routes[0]} and {x.routes[1]} routes disagree on {x.quantity} by "
-        f"{x.z:+.1f} combined standard errors"
-        for x in checks
-        if not x.agree
+    return (
+        [f"{answer.name}: {d}" for d in answer.doubts]
+        + _ratio_only(answer)
+        + [
+            f"the {x.routes[0]} and {x.routes[1]} routes disagree on {x.quantity} by "
+            f"{x.z:+.1f} combined standard errors"
+            for x in checks
+            if not x.agree
+        ]
+    )
+
+
+def _ratio_only(answer: RouteRun) -> list[str]:
+    """A ratio is no calibration on its own: what the gyro measured, what it cannot see, and
+    whether it has an uncertainty at all."""
+    a = answer.answer
+    if a is None or a.ratio is None:
+        return []
+    b = a.parameters[2]
+    base = b.value * a.ratio
+    se = "" if a.ratio_std_error is None else f" +- {a.ratio_std_error:.4f}"
+    out = [
+        f"{answer.name}: it measured a heading ratio only ({a.ratio:.4f}{se}, gyro over "
+        f"odometry): the wheelbase {b.value:.6g} m is the robot file's {base:.6g} m divided by "
+        "it, so "
+        "nothing in this bag checks the file's scale or the wheel diameters (record a truth "
+        "topic, a SLAM pose or a laser to measure them)"
     ]
+    if a.ratio_std_error is None:
+        out.append(f"{answer.name}: the heading ratio has no uncertainty")
+    return out
 
 
 def _warnings(runs: Sequence[RouteRun], answer: RouteRun | None) -> tuple[str, ...]:

@@ -86,9 +86,12 @@ class RouteRun:
         """The JSON contract's route object, with the route's model and parameters when it
         ran."""
         out: dict[str, Any] = {"name": self.name, "used": self.used, "reason": self.reason}
-        if self.answer is not None:
-            out["model"] = self.answer.model
-            out["parameters"] = self.answer.as_dict()
+        a = self.answer
+        if a is not None:
+            out["model"] = a.model
+            out["parameters"] = a.as_dict()
+            if a.ratio is not None:
+                out["heading_ratio"] = {"value": a.ratio, "std_error": a.ratio_std_error}
         return out
 
 

@@ -442,6 +442,22 @@ def far_from_nominal(
         if abs(v / n - 1) > ABSURD_FRACTION:
             out.append(
                 f"{name} = {v:.6g} m is {100 * (v / n - 1):+.0f} % from nominal {n:.6g} m: "
-                f"absurd for a calibration; {hint}"
+                f"absurd for a calibration; {unit_slip(n / v) or hint}"
             )
     return out
+
+
+#: Unit factors a robot file may slip by: (file value / metres, the file's unit).
+_UNIT_SLIPS = ((1000.0, "millimetres"), (100.0, "centimetres"), (1 / 0.0254, "inches"))
+
+
+def unit_slip(ratio: float) -> str | None:
+    """What a nominal value ``ratio`` times the measured one suggests (within 15 % of 1000,
+    100 or 39.37: the robot file in millimetres, centimetres or inches), or None."""
+    for factor, unit in _UNIT_SLIPS:
+        if abs(ratio / factor - 1) < 0.15:
+            return (
+                f"the data say {ratio:.4g} times less than the robot file: is the file in "
+                f"{unit}? (its lengths must be in metres)"
+            )
+    return None

@@ -101,12 +101,17 @@ class RouteAnswer:
         (D_R, D_L, b), in :data:`KEYS` order.
     covariance : ndarray, shape (3, 3), or None
         Of (D_R, D_L, b) (m^2) where the route gives one (zero rows for held parameters).
+    ratio, ratio_std_error : float or None
+        What a ratio-only route measured (the gyro: the heading ratio, gyro / odometry), and
+        its standard error; None for the others.
     """
 
     route: RouteName
     model: str
     parameters: tuple[ParameterEstimate, ParameterEstimate, ParameterEstimate]
     covariance: np.ndarray | None = None
+    ratio: float | None = None
+    ratio_std_error: float | None = None
 
     @property
     def geometry(self) -> WheelGeometry:
@@ -158,10 +163,12 @@ def route_answer(
     geometry: WheelGeometry,
     stderr: tuple[float | None, float | None, float | None],
     covariance: np.ndarray | None = None,
+    ratio: tuple[float, float | None] | None = None,
 ) -> RouteAnswer:
     """The answer of ``route`` for ``model``: each parameter's status from the model, held
     parameters without a standard error (a restricted model reports them with an error of 0;
-    that is no measurement)."""
+    that is no measurement); ``ratio``: what a ratio-only route measured, with its standard
+    error."""
     status = _MODEL_STATUS[model]
     values = (geometry.diameter_right_m, geometry.diameter_left_m, geometry.wheelbase_m)
     params = tuple(
@@ -170,4 +177,5 @@ def route_answer(
     )
     assert len(params) == 3
     cov = None if covariance is None else np.asarray(covariance, dtype=float)
-    return RouteAnswer(route, model, (params[0], params[1], params[2]), cov)
+    r, r_se = (None, None) if ratio is None else ratio
+    return RouteAnswer(route, model, (params[0], params[1], params[2]), cov, r, r_se)

@@ -28,7 +28,14 @@ from ..core.model import MeasurementNoise, NonSystematicError, Robot, Systematic
 from ..core.plausibility import proportions_problem
 from ..errors import InputError, ModelError
 from ..presets import DEFAULT_ROBOT, PRESETS
-from .limits import ERROR_FACTOR, K_MAX_M, ROBOT_LENGTH_M, SIGMA_THETA_MAX_DEG, SIGMA_XY_MAX_M
+from .limits import (
+    ERROR_FACTOR,
+    K_MAX_M,
+    ROBOT_LENGTH_M,
+    SIGMA_THETA_MAX_DEG,
+    SIGMA_XY_MAX_M,
+    robot_scale_problem,
+)
 
 if TYPE_CHECKING:
     from .yamlfile import YamlDoc
@@ -66,10 +73,14 @@ def _geometry(doc: YamlDoc, mapping: dict, prefix: str) -> WheelGeometry:
 
 
 def _check_proportions(doc: YamlDoc, g: WheelGeometry, prefix: str = "") -> None:
-    """Diameter against wheelbase (a unit slip in one of them cannot pass)."""
+    """Diameter against wheelbase (a unit slip in one of them cannot pass), and both against
+    the size of any wheeled robot (a slip in both: a file in millimetres)."""
     problem = proportions_problem(g.diameter_right_m, g.diameter_left_m, g.wheelbase_m)
     if problem:
         raise InputError(problem, doc.path, None, f"{prefix}wheelbase_m")
+    scale = robot_scale_problem(max(g.diameter_right_m, g.diameter_left_m), g.wheelbase_m)
+    if scale:
+        raise InputError(prefix + scale, doc.path)
 
 
 def robot_from_doc(doc: YamlDoc) -> Robot:
