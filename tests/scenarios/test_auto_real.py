@@ -41,3 +41,39 @@ def test_a_held_parameter_is_never_cross_checked_and_the_mit_halves_agree(mit_ha
     a, b = (res.answer.answer for res in mit_halves)
     ma, mb = a.mean_diameter(), b.mean_diameter()
     assert abs(ma[0] - mb[0]) < 3 * (ma[1] ** 2 + mb[1] ** 2) ** 0.5
+
+
+def test_the_joint_states_are_the_wheels_and_a_map_frame_odometry_is_a_truth(realdata):
+    # the Warthog bag holds /joint_states and the lidar-ICP pose /icp_odom (nav_msgs/Odometry
+    # in 'map'); before, the gyro route inverted the ICP as the wheel odometry (its net turn
+    # equals the gyro's) and called the nominal 1.08 m wheelbase 'trustworthy' (1.0779 m)
+    from odocal.io.bag_survey import survey
+    from odocal.io.bags import read_bag_once
+
+    skid = realdata / "norlab_skid"
+    bag = next((skid / "warthog_wheels_grass_2024_8_8_16h19s23").glob("*_bag"))
+    contents = read_bag_once(bag)
+    icp = next(t for t in contents.topics if t.name == "/icp_odom")
+    assert icp.world_pose and not icp.wheel_odometry_frame
+    found = survey(contents)
+    assert found.route("trajectory").usable and "/icp_odom" in found.route("trajectory").reason
+    assert "joint states on /joint_states" in found.route("gyro").reason
+    res = fit_auto(bag, robot=skid / "robots" / "warthog.yaml")
+    gyro = next(r for r in res.routes if r.name == "gyro")
+    assert gyro.used and gyro.detail.gyro.meta["odometry_source"] == "joint_states"
+    # the wheels turn 1.9 times as far as the gyro: the skid-steer track, not the file's
+    assert gyro.answer.ratio == pytest.approx(0.52, abs=0.03)
+    assert not res.enough
+
+
+def test_the_wheel_odometry_named_as_the_truth_is_refused(realdata):
+    from odocal.app.fit import fit
+    from odocal.errors import InputError
+    from odocal.io.bag_options import BagOptions
+
+    half = realdata / "mit_csail" / "csail_half1"
+    robot = realdata / "mit_csail" / "robot_virtual.yaml"
+    with pytest.raises(InputError, match="wheel odometry.*own reference"):
+        fit([half], robot=robot, bag=BagOptions(truth_topic="/odom"))
+    with pytest.raises(InputError, match="wheel odometry.*own reference"):
+        fit_auto(half, robot=robot, options=BagOptions(truth_topic="/odom"))

@@ -65,13 +65,14 @@ class GyroBag:
 def _odometry_topic(
     info: list[TopicInfo], options: BagOptions, have_geometry: bool, p: Path
 ) -> str | None:
-    """The wheel odometry's topic: the options' topics win; else the only Odometry topic, else
-    the JointState topic (which needs the nominal geometry)."""
+    """The wheel odometry's topic: the options' topics win; else the JointState topic (the
+    wheels themselves; it needs the nominal geometry), else the only Odometry topic that is not
+    a pose in a world frame (a ground truth such as a lidar ICP odometry in 'map')."""
     use_joints = options.joint_topic is not None
     if options.odom_topic is None and options.joint_topic is None:
-        has_odom = any(t.msgtype == ODOMETRY for t in info)
         has_joints = any(t.msgtype == JOINT_STATE for t in info)
-        use_joints = not has_odom and has_joints
+        use_joints = has_joints and have_geometry
+        info = [t for t in info if not t.world_pose]
     if use_joints:
         if not have_geometry:
             raise InputError(

@@ -195,7 +195,11 @@ def load_bag_recording(
         gt = truth_topic
         if gt is None:
             gt = pick_topic(info, None, POSE_TYPES, "ground truth", p, "--truth-topic", False)
-            odom = [t.name for t in info if t.msgtype == ODOMETRY]
+            world = [t.name for t in info if t.world_pose]
+            if gt is None and len(world) == 1:
+                # an Odometry in a world frame ('map': lidar ICP, SLAM) is not the wheels
+                gt = world[0]
+            odom = [t.name for t in info if t.msgtype == ODOMETRY and not t.world_pose]
             if gt is None and odom:
                 # an Odometry topic is the robot's own odometry unless the user says otherwise:
                 # never a reference for itself (the run has no truth; a fit says why)
@@ -234,6 +238,15 @@ def load_bag_recording(
     gt = None
     if gt_topic:
         ps = pose_series(bag, gt_topic)
+        if bag.msgtype(gt_topic) == ODOMETRY and "odom" in ps.frame_id.lower():
+            raise InputError(
+                f"the ground truth {gt_topic} is the wheel odometry (frame '{ps.frame_id}'): "
+                "the odometry cannot be its own reference; name an external pose (motion "
+                "capture, GPS, lidar ICP in the 'map' frame) with --truth-topic",
+                p,
+                None,
+                gt_topic,
+            )
         keep = (t >= ps.time_s[0]) & (t <= ps.time_s[-1])
         if keep.sum() < 2:
             raise InputError(

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..calibration.route_answer import ROUTE_NAMES, RouteName
+from ..errors import InputError
 from .bag_options import BagOptions
 from .bags import (
     IMU,
@@ -95,6 +96,27 @@ def _slam_frames(path: Path | BagContents) -> tuple[str, str] | None:
     return (parent, base) if parent and base else None
 
 
+def _refuse_wheels_as_truth(topics: list[TopicInfo], opts: BagOptions, p: Path) -> None:
+    """A truth topic named that is the wheel odometry itself (an Odometry in the odometry
+    frame, or the topic named as the wheels) would calibrate the odometry against itself:
+    InputError."""
+    named = opts.truth_topic
+    if named is None:
+        return
+    info = next((t for t in topics if t.name == named), None)
+    if info is None:
+        return
+    if named == opts.odom_topic or (info.wheel_odometry_frame and info.frames is not None):
+        frame = "" if info.frames is None else f" (frame '{info.frames[0]}')"
+        raise InputError(
+            f"--truth-topic {named} is the wheel odometry{frame}: the odometry cannot be its "
+            "own reference (an exit-0 calibration of it against itself); name an external "
+            "pose (motion capture, GPS, lidar ICP in the 'map' frame), or use the SLAM pose "
+            "on /tf, the laser or the gyro (--method auto)",
+            p,
+        )
+
+
 def survey(path: str | Path | BagContents, options: BagOptions | None = None) -> BagSurvey:
     """The routes ``path`` allows (module docstring); ``options`` name topics explicitly. A bag
     already read (:class:`~odocal.io.bags.BagContents`) is surveyed without opening it."""
@@ -103,7 +125,11 @@ def survey(path: str | Path | BagContents, options: BagOptions | None = None) ->
     topics = path.topics if isinstance(path, BagContents) else list_topics(p)
     names = {t.name for t in topics}
     joints = _of(topics, (JOINT_STATE,))
-    odoms = _of(topics, (ODOMETRY,))
+    # an Odometry in a world frame ('map': lidar ICP, SLAM, motion capture) is a truth, never
+    # the wheels (its frames are known when the bag was read: read_bag_once)
+    world = [t.name for t in topics if t.world_pose and t.name != opts.odom_topic]
+    odoms = [n for n in _of(topics, (ODOMETRY,)) if n not in world]
+    _refuse_wheels_as_truth(topics, opts, p)
     wheels: str | None = None
     if opts.joint_topic or joints:
         wheels = f"joint states on {opts.joint_topic or joints[0]}"
@@ -120,7 +146,9 @@ def survey(path: str | Path | BagContents, options: BagOptions | None = None) ->
         if len(odoms) > 1 and not joints
         else "no wheel data (no JointState, no Odometry)"
     )
-    truth = opts.truth_topic or next(iter(_of(topics, POSE_TYPES)), None)
+    truth = opts.truth_topic or next(iter(_of(topics, POSE_TYPES)), None) or next(
+        iter(world), None
+    )
     routes = []
     if truth and wheels:
         routes.append(RouteOption("trajectory", True, f"truth {truth}, wheels from {wheels}"))
@@ -147,9 +175,14 @@ def survey(path: str | Path | BagContents, options: BagOptions | None = None) ->
                                   "no sensor_msgs/LaserScan"))  # fmt: skip
     imus = [opts.imu_topic] if opts.imu_topic else _of(topics, (IMU,))
     if imus and (wheels or odoms):
+        against = wheels or f"the odometry on {odoms[0]}"
         routes.append(
-            RouteOption("gyro", True, f"IMU on {imus[0]} (the wheelbase only: no diameters)")
-        )
+            RouteOption(
+                "gyro", True,
+                f"IMU on {imus[0]} against {against.split(' (')[0]} (the wheelbase only: no "
+                "diameters)",
+            )
+        )  # fmt: skip
     else:
         routes.append(RouteOption("gyro", False, no_wheels if not (wheels or odoms) else
                                   "no sensor_msgs/Imu"))  # fmt: skip

@@ -100,9 +100,10 @@ def choose_wheels(info: list[TopicInfo], options: BagOptions, path: Path) -> dic
     if jt is not None:
         return {"joints": jt, "wheel_odom": None}
     if options.joint_topic is None:
+        candidates = info if options.odom_topic else [t for t in info if not t.world_pose]
         odom = pick_topic(
-            info, options.odom_topic, (ODOMETRY,), "wheel odometry", path, "--odom-topic",
-            required=False,
+            candidates, options.odom_topic, (ODOMETRY,), "wheel odometry", path,
+            "--odom-topic", required=False,
         )  # fmt: skip
         if odom is not None:
             return {"joints": None, "wheel_odom": odom}
@@ -154,6 +155,13 @@ def wheel_series(
         )
     if topic:
         s = pose_series(bag, topic)
+        if s.frame_id and "odom" not in s.frame_id.lower() and options.odom_topic != topic:
+            raise InputError(
+                f"the Odometry on {topic} is a pose in the '{s.frame_id}' frame, not the wheel "
+                "odometry (whose frame is 'odom'): it cannot be inverted into wheel rotations; "
+                "record the joint states or name the wheel odometry with --odom-topic",
+                bag.path,
+            )
         t, poses = s.time_s, np.column_stack([s.values["x"], s.values["y"], s.values["yaw"]])
         source: WheelSource = "odometry"
     else:

@@ -25,7 +25,7 @@ import gc
 import math
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence, Sized
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -109,11 +109,31 @@ _RECORDS = (ImuRecord, OdometryRecord)
 
 @dataclass(frozen=True)
 class TopicInfo:
-    """One topic of a bag: name, message type ('sensor_msgs/msg/Imu') and message count."""
+    """One topic of a bag: name, message type ('sensor_msgs/msg/Imu') and message count;
+    ``frames``: the (frame_id, child_frame_id) of its first message, when the bag was read
+    (:func:`read_bag_once`), else None."""
 
     name: str
     msgtype: str
     count: int
+    frames: tuple[str, str] | None = None
+
+    @property
+    def world_pose(self) -> bool:
+        """An Odometry in a world frame ('map', 'world', ...: no 'odom' in its frame name): a
+        localisation or ground truth (lidar ICP, SLAM, motion capture), not the wheel
+        odometry, whose frame is the odometry frame ('odom')."""
+        if self.msgtype != ODOMETRY or self.frames is None or not self.frames[0]:
+            return False
+        return "odom" not in self.frames[0].lstrip("/").lower()
+
+    @property
+    def wheel_odometry_frame(self) -> bool:
+        """An Odometry whose frame is the odometry frame ('odom'): the wheels' own odometry (or
+        a filter of it), never a reference for the wheels."""
+        if self.msgtype != ODOMETRY or self.frames is None:
+            return False
+        return "odom" in self.frames[0].lstrip("/").lower()
 
 
 @dataclass(frozen=True)
@@ -520,7 +540,19 @@ def read_bag_once(path, named: Iterable[str | None] = ()) -> BagContents:
         return {t: t for t in dict.fromkeys(keep)}
 
     bag = read_bag(path, choose)
-    return BagContents(bag.path, bag.topics, bag.messages, bag.start_ns)
+    info = [replace(t, frames=_first_frames(bag.messages.get(t.name))) for t in bag.topics]
+    return BagContents(bag.path, info, bag.messages, bag.start_ns)
+
+
+def _first_frames(messages: Any) -> tuple[str, str] | None:
+    """(frame_id, child_frame_id) of the first Odometry or pose message of a topic read, else
+    None."""
+    if not isinstance(messages, list) or not messages:
+        return None
+    first = messages[0][1]
+    if not isinstance(first, OdometryRecord) and not hasattr(first, "header"):
+        return None
+    return _frame_id(first).lstrip("/"), str(getattr(first, "child_frame_id", "")).lstrip("/")
 
 
 def _check_present(wanted: Iterable[str], info: Sequence[TopicInfo], path: Path) -> None:
