@@ -50,7 +50,7 @@ def main(path: Path) -> None:
         print(
             f"gyro, bias {bias:5s}: rotation_ratio {r.rotation_ratio:.4f} "
             f"(bias removed {r.bias_rad_s:+.2e} rad/s, {r.bias_source}; "
-            f"ratio stderr from the bias {r.rotation_ratio_stderr:.3f})"
+            f"ratio stderr (bias, noise, drift) {r.rotation_ratio_stderr:.3f})"
         )
     bag = read_bag(path, [ODOM, FIX])
     od = pose_series(bag, ODOM)

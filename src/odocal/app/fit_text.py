@@ -32,8 +32,8 @@ def gyro_text(res: GyroFitResult) -> str:
         [
             ("rotation_ratio (gyro / odometry)", f"{g.rotation_ratio:.5f}"),
             (
-                "  its standard error from the bias",
-                "- (no still period: bias unknown)"
+                "  its standard error (bias, noise, drift)",
+                "- (too short to estimate)"
                 if g.rotation_ratio_stderr is None
                 else f"{g.rotation_ratio_stderr:.5f}",
             ),

@@ -58,6 +58,7 @@ __all__ = [
     "still_bias",
     "choose_bias",
     "gyro_calibration",
+    "ratio_stderr",
     "yaw_axis",
     "GyroHeading",
     "gyro_heading",
@@ -505,6 +506,75 @@ def _check_series(name: str, t: np.ndarray, values: np.ndarray) -> None:
         raise CalibrationError(f"{name}: times must be strictly increasing")
 
 
+#: Interval length (s) of the ratio's uncertainty model.
+_RATIO_INTERVAL_S = 1.0
+
+
+def ratio_stderr(
+    imu_time_s: np.ndarray,
+    gyro_yaw_rad: np.ndarray,
+    odom_time_s: np.ndarray,
+    odom_yaw_rad: np.ndarray,
+    lo: float,
+    hi: float,
+    odom_net_rad: float,
+    bias_applied: float,
+    still_estimate: float | None,
+    still_stderr: float | None,
+    still_applied: bool,
+) -> float | None:
+    """Standard error of the net rotation ratio ``R = (G - b T) / O`` over ``[lo, hi]`` (the
+    gyro's raw rotation G with the bias b applied, the odometry's O, the span T), from a model
+    of the run cut into intervals of about 1 s:
+
+        g_k = rho o_k + beta dt_k + e_k
+
+    fitted by least squares (the gyro's rotation g_k over each interval against the
+    odometry's o_k and the interval's duration). Two terms:
+
+    - the bias error ``(T / O)^2 V_b``: the still periods' standard error when their bias was
+      removed; their estimate and its error when it was not (``est^2 + se^2``); without a still
+      period, the bias the intervals say (``beta - b``) and its cluster-robust error, which is
+      large when the run turns at one steady rate (the bias and the ratio cannot be told apart)
+      and small when it turns both ways or stops;
+    - the noise and drift ``V_E / O^2``: the residuals summed over contiguous time blocks
+      (:func:`~odocal.calibration.time_offset.time_blocks`), then squared and added, so that a
+      bias that wanders (a random walk) or turns the model cannot follow count as what they are.
+
+    None when the run is too short for two blocks."""
+    from .robust_covariance import cluster_covariance
+    from .time_offset import time_blocks
+
+    n = int((hi - lo) // _RATIO_INTERVAL_S)
+    if n < 4:
+        return None
+    edges = np.linspace(lo, hi, n + 1)
+    g = np.diff(np.interp(edges, imu_time_s, gyro_yaw_rad))
+    o = np.diff(np.interp(edges, odom_time_s, odom_yaw_rad))
+    dt = np.diff(edges)
+    x = np.column_stack([o, dt])
+    coef, *_ = np.linalg.lstsq(x, g, rcond=None)
+    resid = g - x @ coef
+    blocks = time_blocks(edges[:-1])
+    m = int(blocks.max()) + 1
+    if m < 2:
+        return None
+    sums = np.bincount(blocks, weights=resid, minlength=m)
+    v_noise = float(np.sum(sums**2)) * m / (m - 1)
+    span = hi - lo
+    if still_estimate is not None and still_stderr is not None and math.isfinite(still_stderr):
+        v_bias = still_stderr**2 if still_applied else still_estimate**2 + still_stderr**2
+    else:
+        try:
+            cov = cluster_covariance(x, resid, blocks).covariance
+            beta_se = math.sqrt(max(float(cov[1, 1]), 0.0))
+        except CalibrationError:  # no turning to tell the bias from the ratio
+            return None
+        v_bias = (float(coef[1]) - bias_applied) ** 2 + beta_se**2
+    var = (span / odom_net_rad) ** 2 * v_bias + v_noise / odom_net_rad**2
+    return math.sqrt(var) if math.isfinite(var) else None
+
+
 def gyro_calibration(
     imu_time_s: ArrayLike,
     angular_velocity_rad_s: ArrayLike,
@@ -622,8 +692,9 @@ def gyro_calibration(
     ratio = g_net / o_net
     ratio_raw = g_raw / o_net
     ratio_corr = (g_raw - est * span) / o_net if est is not None else None
-    # uncertainty of the ratio from the bias uncertainty (applied or not): se T / |theta_odo|
-    ratio_se = se * span / abs(o_net) if se is not None and math.isfinite(se) else None
+    ratio_se = ratio_stderr(
+        t_i, g_cum, t_o, th_o, lo, hi, o_net, applied, est, se, bias_source.startswith("still")
+    )
     if bias_source.startswith("none (") and ratio_corr is not None:
         warnings.append(
             f"still-period gyro bias {est:+.3g} +- {se:.2g} rad/s ({still_s:.1f} s still) is not "
