@@ -16,6 +16,7 @@ import pytest
 
 from odocal.app.fit import fit_gyro_bag
 from odocal.core.odometry import dead_reckon
+from odocal.core.model import WheelGeometry
 from odocal.errors import InputError
 from odocal.io import bags
 from odocal.io.bag_recording import load_bag_recording
@@ -195,9 +196,17 @@ def test_ticks_per_rev(tmp_path, run):
 
 
 def test_husky_has_no_joint_states(realdata):
-    with pytest.raises(InputError, match="no sensor_msgs/JointState topic") as exc:
-        load_bag_recording(realdata / "husky" / "husky_test1.bag")
-    assert "husky_test1.bag" in str(exc.value) and "/imu/data" in str(exc.value)
+    # its wheels are the controller's odometry, inverted through the geometry it ran with
+    bag = realdata / "husky" / "husky_test1.bag"
+    with pytest.raises(InputError, match="no wheel joint states.*--robot") as exc:
+        load_bag_recording(bag)
+    assert "husky_test1.bag" in str(exc.value) and "/husky_velocity_controller/odom" in str(
+        exc.value
+    )
+    run = load_bag_recording(bag, ran_with=WheelGeometry.symmetric(0.33, 0.555))
+    assert run.ground_truth is None and run.meta["joint_topic"] == "/husky_velocity_controller/odom"
+    assert "inverted through the geometry the controller ran with" in run.meta["wheels"]
+    assert np.ptp(run.wheel_angle_right_rad) > 100  # 359 m on 0.33 m wheels: ~2000 rad
 
 
 # --------------------------------------------------------------------------- bad input

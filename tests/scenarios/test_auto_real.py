@@ -77,3 +77,16 @@ def test_the_wheel_odometry_named_as_the_truth_is_refused(realdata):
         fit([half], robot=robot, bag=BagOptions(truth_topic="/odom"))
     with pytest.raises(InputError, match="wheel odometry.*own reference"):
         fit_auto(half, robot=robot, options=BagOptions(truth_topic="/odom"))
+
+
+def test_check_answers_for_every_bag_fit_reads_and_fit_prints_its_section(realdata, cli):
+    # the Husky bag (the controller's Odometry + IMU) was refused with "no JointState"
+    bag = realdata / "husky" / "husky_test1.bag"
+    status, out, err = cli("check", bag, "--robot", "paper-fig5")
+    assert status in (0, 3) and "Is this log enough?" in out, err
+    assert "information, not whether a calibration of it is right" in out
+    assert "/husky_velocity_controller/odom" not in err  # its wheels, not a missing truth
+    # and the one command prints the section the README promises ("fit prints the same")
+    res = fit_auto(bag, robot="paper-fig5")
+    assert res.log_check is not None and "Is this log enough? (odocal check)" in res.text()
+    assert res.as_dict()["log_check"]["parameters"] == list(res.log_check.check.parameters)

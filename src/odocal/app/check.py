@@ -23,8 +23,9 @@ from ..core.model import Robot, WheelGeometry
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
-from ..io.bag_recording import without_gyro
+from ..io.bag_recording import load_bag_recording, without_gyro
 from ..io.bag_slam import SlamBag, load_slam_bags
+from ..io.bags import BagContents
 from ..io.recordings import load_recordings
 from .common import (
     RobotSpec,
@@ -39,6 +40,8 @@ __all__ = [
     "CheckResult",
     "check",
     "check_loaded",
+    "check_bag",
+    "JUDGES",
     "noise_model",
     "refuse_blind",
     "slam_noise",
@@ -67,8 +70,16 @@ class CheckResult(Presented):
         motion, its degeneracies and what to drive."""
         out = Text()
         out(f"Is this log enough? {self.recordings} run(s)")
+        out(f"  ({JUDGES})")
         check_text(out, self)
         return str(out)
+
+
+#: What the check judges, in words: the information in the motion, not a result.
+JUDGES = (
+    "this judges what the recorded motion lets a calibration see, its information, not "
+    "whether a calibration of it is right: that is fit's held-out check and cross-checks"
+)
 
 
 def noise_model(r: Robot | None) -> tuple[NoiseModel, str]:
@@ -152,8 +163,9 @@ def check(
     else:
         with without_gyro():  # the check does not use the gyro heading
             recordings = load_recordings(
-                paths, ticks_per_rev=ticks_per_rev, warnings=notes, bag=bag
-            )
+                paths, ticks_per_rev=ticks_per_rev, warnings=notes, bag=bag,
+                ran_with=None if r is None else r.believed_geometry,
+            )  # fmt: skip
     geometry = nominal_geometry(r, recordings)
     if geometry is None:
         raise InputError(
@@ -170,6 +182,45 @@ def check(
         res = replace(res, check=with_prediction(res.check, prediction, what))
     no_truth = tuple(str(x.meta["no_truth"]) for x in recordings if x.meta.get("no_truth"))
     return replace(res, load_warnings=tuple(notes) + no_truth + load_warnings(recordings))
+
+
+def check_bag(
+    bag: BagContents,
+    robot: Robot,
+    options: BagOptions = NO_BAG_OPTIONS,
+    slam: Sequence[SlamBag] = (),
+) -> CheckResult:
+    """The check of a bag already read (:func:`~odocal.io.bags.read_bag_once`): its wheel
+    motion (joint states, else the controller's odometry inverted through the geometry it ran
+    with) at the nominal geometry; with ``slam`` (the SLAM route's loaded bags) the SLAM
+    truth's recording, the log's own noise and the SLAM route's predicted errors, as
+    ``check --truth-frames`` gives them. ``fit --method auto`` prints it."""
+    prediction = None
+    noise = None
+    if slam:
+        recordings = [b.recording for b in slam]
+        model, source, prediction = slam_noise(slam, robot, robot.nominal)
+        noise = (model, source)
+    else:
+        with without_gyro():
+            recordings = [
+                load_bag_recording(
+                    bag,
+                    joint_topic=options.joint_topic,
+                    truth_topic=options.truth_topic,
+                    imu_topic=options.imu_topic,
+                    right_joint=options.right_joint,
+                    left_joint=options.left_joint,
+                    invert_right=options.invert_right,
+                    invert_left=options.invert_left,
+                    ran_with=robot.believed_geometry,
+                )
+            ]
+    res = check_loaded(recordings, robot.nominal, robot, noise=noise)
+    if prediction is not None and np.all(np.isfinite(prediction)):
+        what = "the SLAM route's relative-motion fit (intervals between updates)"
+        res = replace(res, check=with_prediction(res.check, prediction, what))
+    return replace(res, load_warnings=load_warnings(recordings))
 
 
 def slam_noise(

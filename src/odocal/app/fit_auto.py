@@ -34,16 +34,19 @@ from typing import Any
 from ..calibration.cross_check import KEYS, MAX_Z, CrossCheck, cross_checks
 from ..core.covariance import OdometryCovariance, odometry_covariance
 from ..core.model import Robot
-from ..errors import InputError
+from ..errors import InputError, OdocalError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
 from ..io.bag_survey import survey
-from ..io.bags import read_bag_once
+from ..io.bags import BagContents, read_bag_once
 from ..io.outputs import OutputPlan
 from ..io.robot_file import load_robot
 from ..io.ros2_export import DEFAULT_CONTROLLER
 from .bag_routes import run_route
+from .check import CheckResult, check_bag
 from .common import RobotSpec, input_paths, write_exports
 from .fit_auto_result import AutoFitResult, RouteRun
+from .fit_relative import RelativeFitResult
+from .fit_runs import FitResult
 
 __all__ = ["AutoFitResult", "CrossCheck", "RouteRun", "fit_auto", "KEYS", "MAX_Z"]
 
@@ -183,8 +186,33 @@ def fit_auto(
     ]
     answer = next((r for r in runs if r.used), None)
     checks = cross_checks([r.answer for r in runs if r.used and r.answer is not None])
-    reasons = tuple(_reasons(answer, runs, checks))
+    log_check = _log_check(contents, loaded_robot, options, answer)
+    reasons = tuple(_reasons(answer, runs, checks) + _check_reasons(answer, log_check))
     noise = None if answer is None else answer.noise
     result = AutoFitResult(found.path, tuple(runs), answer, loaded_robot.nominal, checks, noise,
-                           _covariance(answer), reasons, (), _warnings(runs, answer))  # fmt: skip
+                           _covariance(answer), reasons, (), _warnings(runs, answer),
+                           log_check)  # fmt: skip
     return _write(plan, result, out, ros2, controller_name, force)
+
+
+def _log_check(
+    bag: BagContents, robot: Robot, options: BagOptions, answer: RouteRun | None
+) -> CheckResult | None:
+    """Is this log enough? The trajectory route's own check; else the check of the bag's wheel
+    motion (with the SLAM truth's noise and predicted errors when the answer is the SLAM
+    route's); None when the wheels cannot be read."""
+    detail = None if answer is None else answer.detail
+    if isinstance(detail, FitResult):
+        return detail.log_check
+    slam = detail.slam_bags if isinstance(detail, RelativeFitResult) else ()
+    try:
+        return check_bag(bag, robot, options, slam)
+    except OdocalError:
+        return None
+
+
+def _check_reasons(answer: RouteRun | None, log_check: CheckResult | None) -> list[str]:
+    """A log the check calls NOT enough (the trajectory route says so among its doubts)."""
+    if answer is None or log_check is None or log_check.check.ok or answer.name == "trajectory":
+        return []
+    return [f"the log check says NOT enough ({log_check.check.weakest_direction} weakest)"]

@@ -17,6 +17,7 @@ from ..calibration.time_offset import TimeOffset
 from ..core.covariance import OdometryCovariance
 from ..core.model import WheelGeometry
 from ..io.bag_survey import RouteOption
+from .check import CheckResult
 from .fit_gyro import GyroFitResult
 from .fit_relative import RelativeFitResult
 from .fit_runs import FitResult
@@ -115,6 +116,9 @@ class AutoFitResult(Presented):
         Why the answer is not to be trusted (empty: it is).
     written : tuple of Path
     warnings : tuple of str
+    log_check : CheckResult or None
+        Is this log enough? (:func:`~odocal.app.check.check_bag`: what its motion lets a
+        calibration see, not whether the answer is right.)
     """
 
     bag: Path
@@ -127,6 +131,7 @@ class AutoFitResult(Presented):
     reasons: tuple[str, ...] = ()
     written: tuple[Path, ...] = ()
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    log_check: CheckResult | None = None
 
     method = "auto"
 
@@ -182,6 +187,7 @@ class AutoFitResult(Presented):
             "cross_checks": [c.as_dict() for c in self.cross_checks],
             "noise": None if self.noise is None else self.noise.as_dict(),
             "covariance": None if self.covariance is None else self.covariance.as_dict(),
+            "log_check": None if self.log_check is None else self.log_check.as_dict(),
             "verdict": {"enough": self.enough, "reasons": list(self.reasons)},
             "warnings": list(self.warnings),
             "written": [str(p) for p in self.written],

@@ -288,6 +288,9 @@ def auto_text(res: AutoFitResult) -> str:
     for c in res.cross_checks:
         word = "agree" if c.agree else "DISAGREE"
         out(f"{c.routes[0]} vs {c.routes[1]} on {c.quantity}: {c.z:+.2f} standard errors ({word})")
+    if res.log_check is not None:
+        out("Is this log enough? (odocal check)")
+        check_text(out, res.log_check, indent="  ")
     if res.covariance is not None:
         cov = res.covariance
         out(f"covariances for diff_drive_controller: pose {list(cov.pose_diagonal)}, twist "

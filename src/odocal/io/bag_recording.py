@@ -19,16 +19,16 @@ from ..core.model import WheelGeometry
 from ..core.pose import start_frame
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
+from .bag_options import BagOptions
+from .bag_wheels import choose_wheels, wheel_series
 from .bags import (
     BASE_FRAMES,
     IMU,
-    JOINT_STATE,
     ODOMETRY,
     POSE_TYPES,
     TopicSeries,
     check_bag_path,
     imu_series,
-    joint_series,
     pick_topic,
     pose_series,
     present,
@@ -189,9 +189,10 @@ def load_bag_recording(
     """
     p = check_bag_path(path)
     unnamed: list[str] = []
+    opts = BagOptions(joint_topic=joint_topic, right_joint=right_joint, left_joint=left_joint)
 
     def choose(info):
-        jt = pick_topic(info, joint_topic, (JOINT_STATE,), "wheel joints", p, "--joint-topic")
+        wheels = choose_wheels(info, opts, p)
         gt = truth_topic
         if gt is None:
             gt = pick_topic(info, None, POSE_TYPES, "ground truth", p, "--truth-topic", False)
@@ -199,7 +200,11 @@ def load_bag_recording(
             if gt is None and len(world) == 1:
                 # an Odometry in a world frame ('map': lidar ICP, SLAM) is not the wheels
                 gt = world[0]
-            odom = [t.name for t in info if t.msgtype == ODOMETRY and not t.world_pose]
+            odom = [
+                t.name
+                for t in info
+                if t.msgtype == ODOMETRY and not t.world_pose and t.name != wheels.get("wheel_odom")
+            ]
             if gt is None and odom:
                 # an Odometry topic is the robot's own odometry unless the user says otherwise:
                 # never a reference for itself (the run has no truth; a fit says why)
@@ -217,21 +222,23 @@ def load_bag_recording(
         if not _READ_GYRO.get():
             it = None
         tf_static = present(info, "/tf_static") if it else None  # the IMU's mounting only
-        return {"joints": jt, "truth": gt, "imu": it, "tf_static": tf_static}
+        return {**wheels, "truth": gt, "imu": it, "tf_static": tf_static}
 
     bag = read_bag(path, choose)
-    jt: str = bag.picked["joints"]  # required: chosen or an error
     gt_topic, it = bag.picked.get("truth"), bag.picked.get("imu")
-    joints = joint_series(bag, jt, right_joint, left_joint, ticks_per_rev)
-    t = joints.time_s
-    right = joints.values["right"] * (-1.0 if invert_right else 1.0)
-    left = joints.values["left"] * (-1.0 if invert_left else 1.0)
+    wheels = wheel_series(bag, opts, ticks_per_rev, ran_with)
+    jt = wheels.topic
+    t = wheels.time_s
+    right = wheels.right * (-1.0 if invert_right else 1.0)
+    left = wheels.left * (-1.0 if invert_left else 1.0)
     meta = {
         "bag": str(p),
         "joint_topic": jt,
-        **joints.meta,
+        **wheels.meta,
         "start_time_ns": bag.start_ns,
     }
+    if wheels.source != "joint_states":
+        meta["wheels"] = wheels.describe()
     if unnamed:
         meta["no_truth"] = unnamed[0]
     warnings: list[str] = []
@@ -271,7 +278,7 @@ def load_bag_recording(
             gt,
             p,
             jt,
-            (meta["right_joint"], meta["left_joint"]),
+            (meta.get("right_joint", "right wheel"), meta.get("left_joint", "left wheel")),
         )
     right, left = right - right[0], left - left[0]
     meta["start_s"] = bag.start_ns * 1e-9 + float(t[0])  # the first sample, s since the epoch

@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.model import WheelGeometry
 from ..core.recording import Recording, same_recording
 from ..errors import InputError
 from .bag_options import NO_BAG_OPTIONS, BagOptions
@@ -51,12 +52,15 @@ _OPTI_RUN = re.compile(r"^(?P<id>.+)_run-(?P<n>\d+)\.csv$")
 MAX_WALK_DEPTH = 4
 
 
-def _load_bag(path: Path, bag: BagOptions, ticks_per_rev: float | None) -> list[Recording]:
+def _load_bag(
+    path: Path, bag: BagOptions, ticks_per_rev: float | None, ran_with: WheelGeometry | None
+) -> list[Recording]:
     from .bag_recording import load_bag_recording
 
     return [
         load_bag_recording(
             path,
+            ran_with=ran_with,
             joint_topic=bag.joint_topic,
             truth_topic=bag.truth_topic,
             imu_topic=bag.imu_topic,
@@ -229,12 +233,15 @@ def load_recordings(
     ticks_per_rev: float | None = None,
     warnings: list[str] | None = None,
     bag: BagOptions = NO_BAG_OPTIONS,
+    ran_with: WheelGeometry | None = None,
 ) -> list[Recording]:
     """Every run found in ``paths`` (files, bags, folders; see module docstring), in order.
 
     ``ticks_per_rev`` applies to generic CSVs with tick columns whose header does not give it,
     and to the joint positions of bags. ``bag``: the topics, joints and IMU axis of the bags
-    (:func:`odocal.io.bag_recording.load_bag_recording`). ``warnings``: a list that receives
+    (:func:`odocal.io.bag_recording.load_bag_recording`); ``ran_with``: the geometry the
+    controller ran with, through which a bag without joint states has its odometry inverted
+    into wheel rotations. ``warnings``: a list that receives
     what the reader has to say (folder entries skipped, runs with identical data).
 
     Raises InputError when a run is given twice (see module docstring) or none is found.
@@ -250,7 +257,7 @@ def load_recordings(
         if not path.exists():
             raise InputError("no such file or folder", path)
         if is_bag(path):
-            found = _load_bag(path, bag, ticks_per_rev)
+            found = _load_bag(path, bag, ticks_per_rev, ran_with)
         elif path.is_dir():
             skipped: list[str] = []
             found = _load_folder(path, ticks_per_rev, skipped)
