@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from odocal.app.fit import fit_gyro_bag
-from odocal.core.odometry import dead_reckon
 from odocal.core.model import WheelGeometry
+from odocal.core.odometry import dead_reckon
 from odocal.errors import InputError
 from odocal.io import bags
 from odocal.io.bag_recording import load_bag_recording

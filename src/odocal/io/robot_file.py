@@ -78,7 +78,9 @@ def _check_proportions(doc: YamlDoc, g: WheelGeometry, prefix: str = "") -> None
     problem = proportions_problem(g.diameter_right_m, g.diameter_left_m, g.wheelbase_m)
     if problem:
         raise InputError(problem, doc.path, None, f"{prefix}wheelbase_m")
-    scale = robot_scale_problem(max(g.diameter_right_m, g.diameter_left_m), g.wheelbase_m)
+    scale = robot_scale_problem(
+        float(max(g.diameter_right_m, g.diameter_left_m)), float(g.wheelbase_m)
+    )
     if scale:
         raise InputError(prefix + scale, doc.path)
 
