@@ -89,3 +89,27 @@ def test_a_calibration_that_is_no_robot_is_refused_without_a_nominal_and_never_w
     with pytest.raises(CalibrationError, match="nothing written"):
         write_exports(plan, geometry, None, out)
     assert not out.exists()
+
+
+def test_exports_written_despite_doubts_say_so(tmp_path):
+    # every route passes what --force accepted (its absurd-result or blind-log messages)
+    from odocal.app.common import register_exports
+    from odocal.io.robot_file import load_params
+
+    g, nom = WheelGeometry(0.051, 0.050, 0.33), WheelGeometry.symmetric(0.050, 0.25)
+    doubts = ("wheelbase_m = 0.33 m is +32 % from nominal 0.25 m: absurd for a calibration",)
+    out, ros2 = tmp_path / "p.yaml", tmp_path / "dd.yaml"
+    plan = OutputPlan([])
+    register_exports(plan, out, ros2)
+    write_exports(plan, g, nom, out, ros2, doubts=doubts)
+    for path in (out, ros2):
+        text = path.read_text()
+        assert "# NOT TO BE TRUSTED: written with --force despite:" in text
+        assert "#   - wheelbase_m = 0.33 m is +32 %" in text
+    assert "trusted: false" in out.read_text()
+    assert load_params(out).wheelbase_m == pytest.approx(0.33)
+    # and a trusted one carries neither
+    plan = OutputPlan([])
+    register_exports(plan, tmp_path / "q.yaml")
+    write_exports(plan, g, nom, tmp_path / "q.yaml")
+    assert "TRUSTED" not in (tmp_path / "q.yaml").read_text()

@@ -69,7 +69,10 @@ def test_the_json_contract(answer):
     for key in ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m"):
         assert set(d["parameters"][key]) == {"value", "std_error", "status"}
     assert set(d["heldout"]) >= {"nominal_final_error_m", "calibrated_final_error_m"}
-    assert set(d["verdict"]) == {"enough", "reasons"} and d["verdict"]["enough"] is True
+    assert (
+        set(d["verdict"]) == {"enough", "reasons", "written_despite_reasons"}
+        and d["verdict"]["enough"] is True
+    )
 
 
 def test_the_clock_offsets_are_found(answer):
@@ -180,3 +183,23 @@ def test_a_robot_file_in_millimetres_is_refused_before_the_bag_is_read(tmp_path)
     mm.write_text("wheel_diameter_m: 330\nwheelbase_m: 555\n")
     with pytest.raises(InputError, match="millimetres"):
         fit_auto(tmp_path / "no-such.bag", robot=mm)
+
+
+def test_files_written_with_force_carry_the_verdict(realdata, tmp_path):
+    # a week later a forced file must not look like a trustworthy one
+    from odocal.app.fit_auto import fit_auto
+    from odocal.io.robot_file import load_params
+
+    out, ros2 = tmp_path / "report", tmp_path / "dd.yaml"
+    res = fit_auto(realdata / "husky" / "husky_test1.bag", robot="paper-fig5", out=out,
+                   ros2=ros2, force=True)  # fmt: skip
+    assert not res.enough and res.written
+    assert res.as_dict()["verdict"]["written_despite_reasons"] is True
+    assert "written anyway (--force)" in res.text()
+    params = (out / "params.yaml").read_text()
+    for text in (params, ros2.read_text()):
+        assert "# NOT TO BE TRUSTED: written with --force despite:" in text
+        assert "heading ratio only" in text
+    assert "trusted: false" in params
+    load_params(out / "params.yaml")  # still a parameter file odocal reads back
+    assert "NOT to be trusted" in (out / "report.md").read_text()

@@ -327,7 +327,8 @@ def calibrate(
         )
     c = result.corrected
     check_physical((c.diameter_right_m, c.diameter_left_m, c.wheelbase_m), None, result.method)
-    notes += refuse_absurd(c, result.ran_with, force)
+    forced = refuse_absurd(c, result.ran_with, force)
+    notes += forced
     written = write_exports(
         plan,
         result.corrected,
@@ -336,5 +337,6 @@ def calibrate(
         ros2,
         controller_name,
         record={"method": result.method, "E_b": result.E_b, "E_d": result.E_d},
+        doubts=forced,
     )
     return CalibrateResult(result, track, tuple(notes), written, source, r.nominal, label)

@@ -274,12 +274,15 @@ def write_exports(
     files: Mapping[Path, Any] | None = None,
     record: Mapping[str, str | float] | None = None,
     covariance: OdometryCovariance | None = None,
+    doubts: Sequence[str] = (),
 ) -> tuple[Path, ...]:
     """The one export path of every calibration: PARAMS.yaml (``out``) and the ros2_control
     ``diff_drive_controller`` file (``ros2``; nominal base values, the calibration in the
     multipliers, the pose/twist ``covariance`` when known), written all or none with the
     command's other ``files`` (path -> content, e.g. figures). ``record`` (method, E_b, ...)
-    goes beside the values. A geometry the robot-file reader would refuse
+    goes beside the values; ``doubts`` (a calibration written with ``--force`` despite them)
+    into both files' headers, and ``trusted: false`` into PARAMS.yaml: a week later a forced
+    file does not look like a trustworthy one. A geometry the robot-file reader would refuse
     (:func:`implausible_geometry`) is never written: CalibrationError."""
     record = dict(record or {})
     implausible = implausible_geometry(geometry) if (out or ros2) else None
@@ -294,10 +297,10 @@ def write_exports(
             raise InputError("--ros2 needs the nominal geometry: give --robot ROBOT.yaml")
         text = {k: v for k, v in record.items() if isinstance(v, str)}
         contents[Path(ros2)] = ros2_params_yaml(
-            geometry, nominal, controller_name, covariance, **text
+            geometry, nominal, controller_name, covariance, doubts, **text
         )
     if out is not None:
-        contents[Path(out)] = params_yaml(geometry, **record)
+        contents[Path(out)] = params_yaml(geometry, doubts, **record)
     return tuple(plan.commit(contents)) if contents else ()
 
 
@@ -322,8 +325,10 @@ class Exports:
         *,
         files: Mapping[Path, Any] | None = None,
         record: Mapping[str, str | float] | None = None,
+        doubts: Sequence[str] = (),
     ) -> tuple[Path, ...]:
-        """Write them, with the command's other ``files``, all or none (:func:`write_exports`)."""
+        """Write them, with the command's other ``files``, all or none (:func:`write_exports`;
+        ``doubts``: accepted with ``--force``)."""
         return write_exports(
             plan,
             geometry,
@@ -333,6 +338,7 @@ class Exports:
             self.controller_name,
             files=files,
             record=record,
+            doubts=doubts,
         )
 
 

@@ -147,6 +147,7 @@ def _write(
         files=files,
         record={"method": f"auto ({a.name})"},
         covariance=result.covariance,
+        doubts=result.reasons,
     )
     return replace(result, written=written)
 

@@ -188,7 +188,11 @@ class AutoFitResult(Presented):
             "noise": None if self.noise is None else self.noise.as_dict(),
             "covariance": None if self.covariance is None else self.covariance.as_dict(),
             "log_check": None if self.log_check is None else self.log_check.as_dict(),
-            "verdict": {"enough": self.enough, "reasons": list(self.reasons)},
+            "verdict": {
+                "enough": self.enough,
+                "reasons": list(self.reasons),
+                "written_despite_reasons": bool(self.written and self.reasons),
+            },
             "warnings": list(self.warnings),
             "written": [str(p) for p in self.written],
         }

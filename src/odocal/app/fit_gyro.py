@@ -336,7 +336,9 @@ def fit_gyro(
     res = gyro_route_fit(loaded, loaded_robot, options, force=force)
     if res.geometry is None or res.nominal is None:
         return res
-    written = exports.write(plan, res.geometry, res.nominal, record={"method": "gyro"})
+    written = exports.write(
+        plan, res.geometry, res.nominal, record={"method": "gyro"}, doubts=res.forced
+    )
     return replace(res, written=written)
 
 

@@ -247,6 +247,7 @@ def export_relative(
     geometry: WheelGeometry | None = None,
     model: str = "full",
     files: dict[Path, Any] | None = None,
+    doubts: Sequence[str] = (),
 ) -> tuple[Path, ...]:
     """PARAMS.yaml and the ros2_control file of a relative-motion fit (the sensor's mounting
     beside the values): ``geometry`` (default the fit's) of ``model``."""
@@ -259,7 +260,7 @@ def export_relative(
     if model != "full":
         record["model"] = f"{model} (preferred by the held-out check)"
     chosen = result.geometry if geometry is None else geometry
-    return exports.write(plan, chosen, nominal, files=files, record=record)
+    return exports.write(plan, chosen, nominal, files=files, record=record, doubts=doubts)
 
 
 def route_figures(res: RelativeFitResult, plot: str | Path | None) -> dict[Path, Any] | None:
@@ -309,8 +310,9 @@ def write_bag_route(
     preferred) and its figures into ``plot``; ``res`` with the files written."""
     files = route_figures(res, plot)
     written = export_relative(
-        plan, res.fit, res.nominal, res.method, exports, res.geometry, res.model, files
-    )
+        plan, res.fit, res.nominal, res.method, exports, res.geometry, res.model, files,
+        res.forced,
+    )  # fmt: skip
     return replace(res, written=written)
 
 
@@ -329,7 +331,7 @@ def fit_tuple_files(
     refuse_repeated_tuples(data)
     motions = [RelativeMotions(d.phi_right_rad, d.phi_left_rad, d.sensor_motion) for d in data]
     result, forced = fit_relative(motions, nominal, force=force)
-    written = export_relative(plan, result, nominal, "relative", exports)
+    written = export_relative(plan, result, nominal, "relative", exports, doubts=forced)
     inputs = tuple(TupleInput(str(d.path), len(d.phi_right_rad)) for d in data)
     return RelativeFitResult(
         result, nominal, len(paths), "tuples", tuple_files=inputs, written=written, forced=forced

@@ -338,6 +338,7 @@ def fit_run_files(
         measured = result.measured
         files[Path(robot_out)] = robot_yaml(measured.robot, measured.describe())
     written = exports.write(
-        plan, result.fit.geometry, result.nominal, files=files, record={"method": result.fit.method}
-    )
+        plan, result.fit.geometry, result.nominal, files=files,
+        record={"method": result.fit.method}, doubts=result.forced,
+    )  # fmt: skip
     return replace(result, load_warnings=tuple(notes) + result.load_warnings, written=written)

@@ -303,5 +303,7 @@ def auto_text(res: AutoFitResult) -> str:
             out(f"  - {reason}")
         if not res.written:
             out("nothing written (--force writes the files anyway)")
+        else:
+            out("written anyway (--force): the files say NOT TO BE TRUSTED, with these reasons")
     written_lines(out, res.written)
     return str(out)

@@ -22,6 +22,7 @@ the record and ignored).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 from ..core.model import MeasurementNoise, NonSystematicError, Robot, SystematicError, WheelGeometry
@@ -167,9 +168,24 @@ def load_params(path) -> WheelGeometry:
     return _geometry(doc, doc.data, "")
 
 
-def params_yaml(geometry: WheelGeometry, **record) -> str:
-    """PARAMS.yaml text for ``geometry``, with ``record`` (method, E_b, ...) kept beside it."""
+def untrusted_lines(doubts: Sequence[str]) -> list[str]:
+    """Comment lines that say a file was written although its calibration is not to be trusted
+    (``--force``), with the reasons; none without ``doubts``."""
+    if not doubts:
+        return []
+    return ["# NOT TO BE TRUSTED: written with --force despite:"] + [
+        "#   - " + " ".join(d.split()) for d in doubts
+    ]
+
+
+def params_yaml(geometry: WheelGeometry, doubts: Sequence[str] = (), **record) -> str:
+    """PARAMS.yaml text for ``geometry``, with ``record`` (method, E_b, ...) kept beside it;
+    with ``doubts`` (a calibration written with ``--force`` despite them) a header that lists
+    them and ``trusted: false``."""
     lines = ["# odocal calibrated parameters (metres); read by --params and ROBOT.yaml 'believed'"]
+    lines += untrusted_lines(doubts)
+    if doubts:
+        lines.append("trusted: false")
     for k, v in geometry.as_dict().items():
         lines.append(f"{k}: {v:.9g}")
     for k, v in record.items():

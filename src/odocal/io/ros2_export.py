@@ -20,10 +20,12 @@ A calibration can thus be undone by setting the multipliers to 1.
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 
 from ..core.covariance import UNMEASURED_VARIANCE, OdometryCovariance
 from ..core.model import WheelGeometry
 from ..errors import InputError
+from .robot_file import untrusted_lines
 
 __all__ = ["ros2_params_yaml", "read_ros2_params", "DEFAULT_CONTROLLER"]
 
@@ -45,12 +47,14 @@ def ros2_params_yaml(
     nominal: WheelGeometry,
     controller: str = DEFAULT_CONTROLLER,
     covariance: OdometryCovariance | None = None,
+    doubts: Sequence[str] = (),
     **record,
 ) -> str:
     """The YAML text (module docstring); ``record`` (method, ...) goes into header comments.
     With ``covariance`` (from the measured wheel noise) the file also sets
     ``pose_covariance_diagonal`` and ``twist_covariance_diagonal`` and ends with a commented
-    process-noise suggestion for robot_localization (docs/ros.md)."""
+    process-noise suggestion for robot_localization (docs/ros.md). ``doubts``: why the
+    calibration is not to be trusted (written with ``--force``), as header comments."""
     _check_name(controller)
     d_n = float(nominal.mean_diameter_m)
     b_n = float(nominal.wheelbase_m)
@@ -69,6 +73,7 @@ def ros2_params_yaml(
         f"{float(calibrated.wheelbase_m):.9g} m",
     ]
     lines += [f"# {k}: {v}" for k, v in record.items()]
+    lines += untrusted_lines(doubts)
     if covariance is not None:
         c = covariance
         lines += [
