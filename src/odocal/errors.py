@@ -49,6 +49,12 @@ class InputError(OdocalError):
         self.path, self.line, self.field = path, line, field
 
 
+class BagDataError(InputError):
+    """A bag whose data are broken (time running backwards or repeating, every message twice, a
+    clock reset, two joints named the same, a value that is not finite, a truncated file): an
+    error naming the bag and the topic, never one route's reason among others."""
+
+
 class OdocalWarning(UserWarning):
     """What a command called from Python warns about (the same words as the command line's
     ``odocal: warning: ...`` lines, also kept in the result's ``warnings``): filter it with

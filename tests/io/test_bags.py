@@ -503,3 +503,42 @@ def test_a_mirrored_laser_whose_header_says_so_gives_the_same_points(tmp_path, l
         bag = bags.read_bag(tmp_path / name, lambda info: {"scan": "/scan"})
         points.append(bags.scan_series(bag, "/scan").points_m[7])
     np.testing.assert_allclose(points[1][::-1], points[0], atol=1e-6)
+
+
+@pytest.mark.parametrize(
+    "broken, said",
+    [
+        ("twice", "every message appears twice"),
+        ("reset", "a clock reset?"),
+        ("backwards", "time goes backwards at message"),
+        ("names", "two joints named the same"),
+    ],
+)
+def test_a_broken_bag_is_an_error_not_a_verdict(tmp_path, run, cli, broken, said):
+    # before: exit 3 with the reason inside a verdict ('no route could calibrate this bag')
+    t = run.time_s.copy()
+    names = ("left_wheel_joint", "right_wheel_joint")
+    if broken == "twice":
+        t = np.repeat(t[::2], 2)[: len(t)]
+    elif broken == "reset":
+        t[len(t) // 2 :] -= 100.0
+    elif broken == "backwards":
+        t[10], t[11] = t[11], t[10]
+    else:
+        names = ("left_wheel_joint", "left_wheel_joint")
+    path = write_bag(tmp_path / "broken.bag", "ros1", run, times=t, names=names)
+    robot = tmp_path / "robot.yaml"
+    robot.write_text("wheel_diameter_m: 0.2\nwheelbase_m: 0.5\n")
+    status, out, err = cli("fit", path, "--robot", robot, "--method", "auto")
+    assert status == 2 and out == "", (status, out, err)
+    assert err.count("\n") == 1 and said in err
+    assert "broken.bag" in err and "/joint_states" in err
+
+
+def test_a_bag_no_route_can_read_is_an_error(tmp_path, run, cli):
+    path = write_bag(tmp_path / "nothing.bag", "ros1", run, joints=False, truth=False, imu=False)
+    robot = tmp_path / "robot.yaml"
+    robot.write_text("wheel_diameter_m: 0.2\nwheelbase_m: 0.5\n")
+    status, out, err = cli("fit", path, "--robot", robot)
+    assert status == 2 and err.count("\n") == 1
+    assert "no route can read this bag" in err and "nothing.bag" in err

@@ -21,7 +21,7 @@ from ..calibration.interval_noise import IntervalNoise, estimate_interval_noise
 from ..calibration.route_answer import RouteName, route_answer
 from ..core.model import Robot
 from ..core.recording import Recording
-from ..errors import CalibrationError, OdocalError
+from ..errors import BagDataError, CalibrationError, OdocalError
 from ..io.bag_gyro import read_gyro_bag
 from ..io.bag_options import BagOptions
 from ..io.bag_recording import load_bag_recording
@@ -226,10 +226,14 @@ def run_route(
     scan_interval_s: float,
 ) -> RouteRun:
     """One route of the survey: run where usable (its own checks become doubts, an error its
-    reason), else not used with the survey's reason."""
+    reason), else not used with the survey's reason. Broken data in the bag (time running
+    backwards, every message twice, two joints named the same: :class:`BagDataError`) are the
+    bag's error, not one route's reason: raised."""
     if not option.usable:
         return RouteRun(option, False, option.reason)
     try:
         return ROUTE_FUNCTIONS[option.name](option, bag, found, robot, options, scan_interval_s)
+    except BagDataError:
+        raise
     except OdocalError as exc:
         return RouteRun(option, False, f"it ran into: {exc}")

@@ -182,6 +182,9 @@ def fit_auto(
              options.scan_topic)  # fmt: skip
     contents = read_bag_once(bag, named)
     found = survey(contents, options)
+    if not any(o.usable for o in found.routes):
+        why = "; ".join(f"{o.name}: {o.reason}" for o in found.routes)
+        raise InputError(f"no route can read this bag: {why}", found.path)
     runs = [
         run_route(o, contents, found, loaded_robot, options, scan_interval_s) for o in found.routes
     ]

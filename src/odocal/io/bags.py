@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from ..calibration.gyro import rotation_from_quaternion
-from ..errors import InputError, OdocalError
+from ..errors import BagDataError, InputError, OdocalError
 from .bag_columns import (
     CHUNK,
     COLUMN_TYPES,
@@ -248,7 +248,7 @@ class _Bag:
         except OdocalError:
             raise
         except Exception as exc:  # corrupt or truncated data can raise anything
-            raise InputError(
+            raise BagDataError(
                 f"cannot read the bag; is it truncated or corrupt? ({_why(exc)})", self.path
             ) from None
 
@@ -323,7 +323,7 @@ class _Bag:
         except Exception as exc:
             self._first_failure(builders)
             last = f", the last on '{topic}'" if topic else ""
-            raise InputError(
+            raise BagDataError(
                 f"cannot read the bag after {count} good messages{last} ({_why(exc)}); is it "
                 "truncated or corrupt?",
                 self.path,
@@ -380,7 +380,7 @@ class _Bag:
             ) from None
         if isinstance(exc, OdocalError):
             raise exc
-        raise InputError(
+        raise BagDataError(
             f"cannot read the bag after {first.index} good messages, the last on "
             f"'{first.topic}' ({_why(exc)}); is it truncated or corrupt?",
             self.path,
@@ -657,13 +657,22 @@ def _seconds(
     bad = np.nonzero(d <= 0)[0]
     if len(bad):
         i = int(bad[0]) + 1
-        what = "repeats" if d[bad[0]] == 0 else "goes backwards"
-        raise InputError(
-            f"time {what} at message {i} ({t[i]:.6f} s after {t[i - 1]:.6f} s); the header "
-            "stamps must be strictly increasing",
-            path,
-            None,
-            topic,
+        if np.count_nonzero(d == 0) >= 0.4 * len(d):
+            what = (
+                f"every message appears twice ({np.count_nonzero(d == 0)} of {len(t)} stamps "
+                "repeat the one before: recorded twice, or two publishers of one topic?)"
+            )
+        elif d[bad[0]] == 0:
+            what = f"time repeats at message {i} ({t[i]:.6f} s after {t[i - 1]:.6f} s)"
+        elif d[bad[0]] < -1.0:
+            what = (
+                f"time jumps back {-d[bad[0]]:.3g} s at message {i} ({t[i]:.6f} s after "
+                f"{t[i - 1]:.6f} s): a clock reset?"
+            )
+        else:
+            what = f"time goes backwards at message {i} ({t[i]:.6f} s after {t[i - 1]:.6f} s)"
+        raise BagDataError(
+            f"{what}; the header stamps must be strictly increasing", path, None, topic
         )
     return t
 
@@ -675,13 +684,13 @@ def _finite(arr: np.ndarray, path: Path, topic: str, what: str, limit: float | N
     ok = np.all(np.isfinite(flat), axis=1)
     if not np.all(ok):
         i = int(np.nonzero(~ok)[0][0])
-        raise InputError(f"message {i}: {what} is not finite (NaN or inf)", path, None, topic)
+        raise BagDataError(f"message {i}: {what} is not finite (NaN or inf)", path, None, topic)
     if limit is not None and len(flat):
         big = np.nonzero(np.any(np.abs(flat) > limit, axis=1))[0]
         if len(big):
             i = int(big[0])
             v = flat[i][np.argmax(np.abs(flat[i]))]
-            raise InputError(
+            raise BagDataError(
                 f"message {i}: {what} is implausibly large ({v:.6g}; at most {limit:g})",
                 path,
                 None,
@@ -784,7 +793,7 @@ def _unwrap_wheel(phi: np.ndarray, period: float, path: Path, topic: str, joint:
     if span <= period * (1 + 1e-6):
         return np.unwrap(phi, period=period), int(jumps.sum())
     i = int(np.nonzero(jumps)[0][0]) + 1
-    raise InputError(
+    raise BagDataError(
         f"joint '{joint}' jumps by {d[i - 1]:+.3f} rad at message {i}, more than half a "
         "revolution between samples: an encoder reset or glitch, or a too-low sampling rate",
         path,
@@ -809,6 +818,15 @@ def joint_series(
     path = bag.path
     names: set[str] = set()
     for _, nm in js.layouts:
+        twice = sorted({n for n in nm if nm.count(n) > 1})
+        if twice:
+            raise BagDataError(
+                f"two joints named the same in one message: '{twice[0]}' ({', '.join(nm)}): "
+                "which is the wheel?",
+                path,
+                None,
+                topic,
+            )
         names.update(nm)
     right = right_joint or _side_joint(names, "right", path, topic)
     left = left_joint or _side_joint(names, "left", path, topic)
