@@ -247,7 +247,11 @@ def fit_auto(
     if ros2 is not None:
         plan.file(ros2, "--ros2")
     if out is not None:
-        plan.folder(out, "--out")
+        from ..plot.bag import HELDOUT_FIGURE, OFFSET_FIGURE
+
+        # the files of _write's report: no other output may name one of them
+        names = ("report.md", "params.yaml", OFFSET_FIGURE, HELDOUT_FIGURE)
+        plan.folder(out, "--out", files=names)
     found = survey(bag, options)
     runs = _run_routes(found, plan, robot, options, scan_interval_s)
     answer = next((r for r in runs if r.used), None)
