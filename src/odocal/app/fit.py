@@ -133,8 +133,14 @@ def _refuse_for_auto(
             "takes one bag; name the method or the truth for several",
             field="paths",
         )
-    if plot is not None or robot_out is not None:
-        raise InputError("--method auto writes its figures into --out DIR (a report)")
+    if robot_out is not None:
+        raise InputError(
+            "--robot-out needs runs with ground truth: --method auto (the default for one bag) "
+            "writes no measured robot, only its report into --out DIR; name the bag's truth "
+            "topic (--truth-topic) for a trajectory fit"
+        )
+    if plot is not None:
+        raise InputError("--plot: --method auto writes its figures into --out DIR (a report)")
 
 
 def _refuse_other_routes_outputs(
