@@ -151,6 +151,40 @@ def test_absurd_lengths_are_rejected(cli, tmp_path, argv, needle):
     assert_error(cli(*argv), needle)
 
 
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        # issue 27 item 19: Python's float() reads '0_1' as 1 (and int() '1_0' as 10), ' 1' as 1
+        (["fit", "BAG", "--time-offset", "slam=0_1"], "'0_1'"),
+        (["simulate", "--side-length", "1_0"], "--side-length"),
+        (["simulate", "--side-length", " 1"], "--side-length"),
+        (["simulate", "--runs", "1_0"], "--runs"),
+        (["simulate", "--seed", "1_0"], "--seed"),
+        (["design", "--side-lengths", "1:2_0:1", "--analytic"], "--side-lengths"),
+        (["design", "--validate", "4:4_0:ccw", "--analytic"], "--validate"),
+        (["design", "--validate", "1_0:4:ccw", "--analytic"], "--validate"),
+        (["noise", "RUNS", "--track", "straight:1_0"], "--track"),
+        (["fit", "RUNS", "--motion-mix", "spot=0_2,wide=0.8"], "'0_2'"),
+        (["fit", "RUNS", "--heading-weight", "\u0661"], "--heading-weight"),
+    ],
+)
+def test_numbers_python_reads_but_people_do_not_write_are_refused(cli, tmp_path, argv, needle):
+    runs = write(tmp_path / "runs.csv", "direction,x_m,y_m,theta_deg\nfwd,0,0,0\n")
+    bag = write(tmp_path / "x.bag", "")
+    argv = [str(runs) if a == "RUNS" else str(bag) if a == "BAG" else a for a in argv]
+    assert_error(cli(*argv), needle)
+
+
+@pytest.mark.parametrize("value", ["1_0", "\u0661"])
+def test_numbers_python_reads_but_people_do_not_write_in_files(cli, tmp_path, value):
+    a = write(tmp_path / "a.csv", f"e\n1\n{value}\n2\n")
+    b = write(tmp_path / "b.csv", "e\n1\n2\n3\n")
+    assert_error(cli("ttest", a, b), a, "no numeric column")
+    assert_error(cli("ttest", a, b, "--column", "e"), a, "line 3", "not a number")
+    robot = write(tmp_path / "r.yaml", f"wheel_diameter_m: !!float {value}\nwheelbase_m: 0.385\n")
+    assert_error(cli("simulate", "--robot", robot, "--runs", 2), robot, "line 1")
+
+
 def test_undefined_equations_fail_cleanly(cli, realdata):
     # straight runs of 1 nm cannot tell the wheel diameters apart (a singular system)
     assert_error(cli("compare", "--ivanjko-straight", "1e-9", "--trials", 2), "ivanjko")

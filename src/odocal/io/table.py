@@ -36,6 +36,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.checks import parse_float
 from ..errors import InputError
 from .textfile import read_text
 
@@ -70,7 +71,9 @@ def parse_number(
     at_most: float | None = None,
     unit_hint: str = "check the units",
 ) -> float:
-    """``raw`` as a finite float, or an InputError naming file, line and field.
+    """``raw`` (trimmed) as a finite float written as a plain decimal number
+    (:func:`~odocal.core.checks.parse_float`: ``1_0`` is no number here, though Python's float()
+    reads it as 10), or an InputError naming file, line and field.
 
     ``at_most`` bounds the magnitude (a larger value is implausible: a unit slip or a broken
     file); numbers that overflow a float (1e400, a 400-digit integer) are refused the same way.
@@ -81,7 +84,7 @@ def parse_number(
     if len(text) > MAX_FIELD_CHARS:
         raise InputError(f"over-long value ({len(text)} characters)", path, line, name)
     try:
-        v = float(text)
+        v = parse_float(text)
     except ValueError:
         raise InputError(f"not a number: {text!r}", path, line, name) from None
     if math.isnan(v):
@@ -600,7 +603,7 @@ class ColumnSample:
 
 def _is_number(text: str) -> bool:
     try:
-        return math.isfinite(float(text))
+        return math.isfinite(parse_float(text))
     except ValueError:
         return False
 
