@@ -439,5 +439,38 @@ def test_tuples_whose_wheels_barely_turn_are_one_line(cli, tmp_path):
     text = "".join(json.dumps({**row, "T": 1e-300}) + "\n" for row in rows)
     tuples = write(tmp_path / "tiny.tuple", text)
     out = tmp_path / "p.yaml"
-    assert_error(cli("fit", tuples, "--out", out), "wheels do not turn in any tuple")
+    # issue 27 item 19: the message named no file
+    good = write(tmp_path / "good.tuple", tuples_text(seed=4))
+    for argv in ([tuples], [good, tuples]):
+        assert_error(cli("fit", *argv, "--out", out), tuples, "wheels do not turn in any tuple")
+    assert not out.exists()
+
+
+def test_tuples_whose_sensor_never_moves_say_so(cli, tmp_path):
+    """Issue 27 item 19: all-zero sensor motions were 'the same tuple as line N' (a duplicate)
+    wherever two intervals had the same durations and wheel speeds, else 'no rotation'."""
+    from tests.support.boundary_files import tuples_text
+
+    rows = [json.loads(line) for line in tuples_text().splitlines()]
+    rows.append({**rows[0], "sm": [0.0, 0.0, 0.0]})
+    text = "".join(json.dumps({**row, "sm": [0, 0, 0]}) + "\n" for row in rows)
+    tuples = write(tmp_path / "still.tuple", text)
+    assert_error(cli("fit", tuples), tuples, "the sensor never moves")
+
+
+def test_tuples_in_millimetres_are_refused_with_their_units(cli, tmp_path):
+    """Issue 27 item 19: sm in millimetres made a 200 m wheel (exit 0 without a robot file)."""
+    from tests.support.boundary_files import tuples_text
+
+    rows = [json.loads(line) for line in tuples_text().splitlines()]
+    text = "".join(
+        json.dumps({**r, "sm": [1000 * r["sm"][0], 1000 * r["sm"][1], r["sm"][2]]}) + "\n"
+        for r in rows
+    )
+    tuples = write(tmp_path / "mm.tuple", text)
+    robot = write(tmp_path / "r.yaml", "wheel_diameter_m: 0.2\nwheelbase_m: 0.4\n")
+    out = tmp_path / "p.yaml"
+    for extra in ([], ["--robot", robot]):  # the plausibility rule; the 25 % rule
+        assert_error(cli("fit", tuples, "--out", out, *extra), "units", "sm in metres")
+    assert_error(cli("fit", tuples), "not a plausible robot", "wheels larger than 5 m")
     assert not out.exists()
