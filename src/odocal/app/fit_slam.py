@@ -15,7 +15,7 @@ import numpy as np
 
 from ..calibration.censi import SensorOdometryFit
 from ..calibration.relative_checks import slam_chains, with_offset_error
-from ..errors import InputError
+from ..errors import CalibrationError, InputError
 from ..io.bag_options import BagOptions
 from ..io.bag_slam import SlamBag, load_slam_bags
 from ..io.bags import is_bag
@@ -59,15 +59,18 @@ def fit_slam_bags(
         ran_with=robot_ran_with(robot),
         time_offset_s=bag.time_offset("slam"),
     )
-    result, forced = fit_relative(
-        [b.relative_motions for b in bags],
-        nominal,
-        sensor_pose=(0.0, 0.0, 0.0),
-        force=force,
-        source="slam",
-        names=paths,
-        origins_s=[b.meta.get("start_ns", 0) * 1e-9 for b in bags],
-    )
+    try:
+        result, forced = fit_relative(
+            [b.relative_motions for b in bags],
+            nominal,
+            sensor_pose=(0.0, 0.0, 0.0),
+            force=force,
+            source="slam",
+            names=paths,
+            origins_s=[b.meta.get("start_ns", 0) * 1e-9 for b in bags],
+        )
+    except CalibrationError as exc:
+        raise _with_cause(bags, exc) from None
     result = _with_offset_error(bags, result)
     every, usable = slam_chains(
         [(b.every_motions, b.every_used) for b in bags],
@@ -84,6 +87,18 @@ def fit_slam_bags(
         heldout=checks.heldout, noise=checks.noise, timing=checks.timing, notes=checks.notes,
     )  # fmt: skip
     return write_bag_route(res, plan, exports, plot)
+
+
+def _with_cause(bags: Sequence[SlamBag], exc: CalibrationError) -> CalibrationError:
+    """The fit's failure ``exc`` with its real cause first when a bag's SLAM value changes
+    faster than a SLAM updates (:meth:`~odocal.calibration.slam.SlamMotions.
+    fast_changes_problem`: the intervals that pass the gates are then only the fastest turns,
+    and the fit says 'only turns on the spot'); else ``exc``."""
+    for b in bags:
+        cause = b.motions.fast_changes_problem()
+        if cause is not None:
+            return CalibrationError(f"{b.path}: {cause} (what is left: {exc})")
+    return exc
 
 
 def _with_offset_error(bags: Sequence[SlamBag], result: SensorOdometryFit) -> SensorOdometryFit:
