@@ -36,6 +36,7 @@ from ..core.recording import Recording
 from ..core.runs import EndPoseRuns
 from ..errors import CalibrationError
 from .fit_methods import HEADING_SOURCES, HeadingSource, UmbmarkForm
+from .gyro import rotation_ratio_problem
 from .heading import calibrate_heading
 from .result import DataSetCalibration, GeometryFit, SquaresDetails
 from .umbmark import calibrate_umbmark
@@ -80,6 +81,7 @@ def recorded_end_errors(
                     f"{r.name}: no gyro heading (an IMU topic, or a gyro_yaw_rad column)"
                 )
             total = float(r.gyro_yaw_rad[-1] - r.gyro_yaw_rad[0])
+            _refuse_gyro_units(r, total, geo)
         else:
             if r.ground_truth is None:
                 raise CalibrationError(f"{r.name}: no ground truth (use --heading-source gyro)")
@@ -106,6 +108,20 @@ def recorded_end_errors(
             errs.append(r.ground_truth[-1] - odo[-1])
         dirs.append(d)
     return EndPoseRuns(tuple(dirs), np.array(errs)), warnings
+
+
+def _refuse_gyro_units(r: Recording, gyro_rad: float, ran_with: WheelGeometry) -> None:
+    """CalibrationError naming the run and its gyro (the IMU topic, or the gyro_yaw_rad column)
+    when the gyro's rotation over a run that turns cannot be the odometry's
+    (:func:`~odocal.calibration.gyro.rotation_ratio_problem`: mounted upside down, deg/s)."""
+    odometry = float(dead_reckon(r.wheel_angle_right_rad, r.wheel_angle_left_rad, ran_with)[-1, 2])
+    if abs(odometry) < math.pi / 2:  # not a closed polygon: said below
+        return
+    problem = rotation_ratio_problem(gyro_rad, odometry)
+    if problem is not None:
+        topic = (r.meta or {}).get("imu_topic")
+        source = f"IMU '{topic}'" if topic else "its gyro_yaw_rad column"
+        raise CalibrationError(f"{r.name}: {problem} ({source})")
 
 
 #: A run's odometric travel within this fraction of the polygon's perimeter (sides x side).
