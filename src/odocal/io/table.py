@@ -562,12 +562,14 @@ def _commas_below(text: str, start: int) -> bool:
 def _comma_text(path: Any, text: str) -> str:
     """``text`` as a comma-separated table: as it is, or converted from the semicolon dialect
     (:func:`_semicolon_text`) when its header row is separated by ';' and holds no ','."""
+    offset = 0  # characters up to the end of the current line
     for no, line in enumerate(_head_lines(text), start=1):
+        offset += len(line)
         stripped = line.strip()
         if not stripped or stripped.startswith("#"):
             continue
         if ";" not in stripped:
-            if "," not in stripped and _commas_below(text, len(line)):
+            if "," not in stripped and _commas_below(text, offset):
                 # one column: a spreadsheet writes no separator, so a comma below is decimal
                 return _semicolon_text(path, text, no, declared=False)
             return text
