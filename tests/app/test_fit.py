@@ -157,6 +157,13 @@ def test_outputs_of_another_route_are_refused_before_any_work(tmp_path):
         fit([tmp_path / "x.bag"], "gyro", robot_out=tmp_path / "r.yaml")
     with pytest.raises(InputError, match="takes exactly one bag"):
         fit([tmp_path / "x.bag", tmp_path / "y.bag"], "gyro")
+    # issue 27 item 19: the auto route's refusal named --plot and --out, never --robot-out
+    for method in ("auto", None):  # None: the default for one bag
+        with pytest.raises(InputError, match="^--robot-out needs runs with ground truth") as exc:
+            fit([tmp_path / "x.bag"], method, robot_out=tmp_path / "r.yaml")
+        assert "--plot" not in str(exc.value)
+        with pytest.raises(InputError, match="^--plot: "):
+            fit([tmp_path / "x.bag"], method, plot=tmp_path / "fig")
 
 
 # --- the route of runs with ground truth, I/O-free -----------------------------------------

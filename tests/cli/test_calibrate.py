@@ -67,6 +67,31 @@ def test_simulate_then_calibrate_composes(cli, robot, tmp_path, returned):
         assert data == as_printed(results[-1].as_dict())
 
 
+def test_a_sheet_saved_in_the_european_dialect_with_padded_lines(cli, robot, tmp_path):
+    """Issue 27 item 19: a spreadsheet with a note in a wider column ends every line in ';;';
+    the README promises the European dialect, the sheet was refused (an empty column name)."""
+    runs, eu = tmp_path / "runs.csv", tmp_path / "runs-eu.csv"
+    assert cli("simulate", "--robot", robot, "--runs", 5, "--seed", 1, "--out", runs)[0] == 0
+    lines = runs.read_text().splitlines()
+    eu.write_text(
+        "".join(
+            (
+                line.replace(".", ",")
+                if line.startswith("#")
+                else line.replace(",", ";").replace(".", ",")
+            )
+            + ";;\n"
+            for line in lines
+        )  # fmt: skip
+    )
+    status, out, err = cli("calibrate", eu, "--robot", robot, "--json")
+    assert status == 0, err
+    assert (
+        json.loads(out)["E_b"]
+        == json.loads(cli("calibrate", runs, "--robot", robot, "--json")[1])["E_b"]
+    )
+
+
 def test_calibrate_writes_params_that_simulate_accepts(cli, robot, tmp_path, returned):
     simulated = returned(app_simulate, "simulate")
     runs, params = tmp_path / "runs.csv", tmp_path / "params.yaml"

@@ -70,3 +70,13 @@ def test_cli_ttest_bad_inputs(cli, tmp_path, samples):
     ragged = tmp_path / "ragged.csv"
     ragged.write_text("a,b\n1,2\n3\n")
     cli("ttest", ragged, a).expect_error("ragged.csv", "line 3")
+
+
+def test_cli_ttest_of_one_column_saved_with_decimal_commas(cli, tmp_path, samples):
+    # issue 27 item 19: the README promises the European dialect; one column has no separator
+    a, b = samples
+    eu = tmp_path / "b_eu.csv"
+    eu.write_text("error_mm\n" + "".join(f"{v}\n".replace(".", ",") for v in B))
+    status, out, err = cli("ttest", a, eu, "--column", "error_mm")
+    assert status == 0, err
+    assert out == cli("ttest", a, b, "--column", "error_mm")[1].replace(str(b), str(eu))

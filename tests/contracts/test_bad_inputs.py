@@ -151,6 +151,40 @@ def test_absurd_lengths_are_rejected(cli, tmp_path, argv, needle):
     assert_error(cli(*argv), needle)
 
 
+@pytest.mark.parametrize(
+    "argv, needle",
+    [
+        # issue 27 item 19: Python's float() reads '0_1' as 1 (and int() '1_0' as 10), ' 1' as 1
+        (["fit", "BAG", "--time-offset", "slam=0_1"], "'0_1'"),
+        (["simulate", "--side-length", "1_0"], "--side-length"),
+        (["simulate", "--side-length", " 1"], "--side-length"),
+        (["simulate", "--runs", "1_0"], "--runs"),
+        (["simulate", "--seed", "1_0"], "--seed"),
+        (["design", "--side-lengths", "1:2_0:1", "--analytic"], "--side-lengths"),
+        (["design", "--validate", "4:4_0:ccw", "--analytic"], "--validate"),
+        (["design", "--validate", "1_0:4:ccw", "--analytic"], "--validate"),
+        (["noise", "RUNS", "--track", "straight:1_0"], "--track"),
+        (["fit", "RUNS", "--motion-mix", "spot=0_2,wide=0.8"], "'0_2'"),
+        (["fit", "RUNS", "--heading-weight", "\u0661"], "--heading-weight"),
+    ],
+)
+def test_numbers_python_reads_but_people_do_not_write_are_refused(cli, tmp_path, argv, needle):
+    runs = write(tmp_path / "runs.csv", "direction,x_m,y_m,theta_deg\nfwd,0,0,0\n")
+    bag = write(tmp_path / "x.bag", "")
+    argv = [str(runs) if a == "RUNS" else str(bag) if a == "BAG" else a for a in argv]
+    assert_error(cli(*argv), needle)
+
+
+@pytest.mark.parametrize("value", ["1_0", "\u0661"])
+def test_numbers_python_reads_but_people_do_not_write_in_files(cli, tmp_path, value):
+    a = write(tmp_path / "a.csv", f"e\n1\n{value}\n2\n")
+    b = write(tmp_path / "b.csv", "e\n1\n2\n3\n")
+    assert_error(cli("ttest", a, b), a, "no numeric column")
+    assert_error(cli("ttest", a, b, "--column", "e"), a, "line 3", "not a number")
+    robot = write(tmp_path / "r.yaml", f"wheel_diameter_m: !!float {value}\nwheelbase_m: 0.385\n")
+    assert_error(cli("simulate", "--robot", robot, "--runs", 2), robot, "line 1")
+
+
 def test_undefined_equations_fail_cleanly(cli, realdata):
     # straight runs of 1 nm cannot tell the wheel diameters apart (a singular system)
     assert_error(cli("compare", "--ivanjko-straight", "1e-9", "--trials", 2), "ivanjko")
@@ -405,5 +439,38 @@ def test_tuples_whose_wheels_barely_turn_are_one_line(cli, tmp_path):
     text = "".join(json.dumps({**row, "T": 1e-300}) + "\n" for row in rows)
     tuples = write(tmp_path / "tiny.tuple", text)
     out = tmp_path / "p.yaml"
-    assert_error(cli("fit", tuples, "--out", out), "wheels do not turn in any tuple")
+    # issue 27 item 19: the message named no file
+    good = write(tmp_path / "good.tuple", tuples_text(seed=4))
+    for argv in ([tuples], [good, tuples]):
+        assert_error(cli("fit", *argv, "--out", out), tuples, "wheels do not turn in any tuple")
+    assert not out.exists()
+
+
+def test_tuples_whose_sensor_never_moves_say_so(cli, tmp_path):
+    """Issue 27 item 19: all-zero sensor motions were 'the same tuple as line N' (a duplicate)
+    wherever two intervals had the same durations and wheel speeds, else 'no rotation'."""
+    from tests.support.boundary_files import tuples_text
+
+    rows = [json.loads(line) for line in tuples_text().splitlines()]
+    rows.append({**rows[0], "sm": [0.0, 0.0, 0.0]})
+    text = "".join(json.dumps({**row, "sm": [0, 0, 0]}) + "\n" for row in rows)
+    tuples = write(tmp_path / "still.tuple", text)
+    assert_error(cli("fit", tuples), tuples, "the sensor never moves")
+
+
+def test_tuples_in_millimetres_are_refused_with_their_units(cli, tmp_path):
+    """Issue 27 item 19: sm in millimetres made a 200 m wheel (exit 0 without a robot file)."""
+    from tests.support.boundary_files import tuples_text
+
+    rows = [json.loads(line) for line in tuples_text().splitlines()]
+    text = "".join(
+        json.dumps({**r, "sm": [1000 * r["sm"][0], 1000 * r["sm"][1], r["sm"][2]]}) + "\n"
+        for r in rows
+    )
+    tuples = write(tmp_path / "mm.tuple", text)
+    robot = write(tmp_path / "r.yaml", "wheel_diameter_m: 0.2\nwheelbase_m: 0.4\n")
+    out = tmp_path / "p.yaml"
+    for extra in ([], ["--robot", robot]):  # the plausibility rule; the 25 % rule
+        assert_error(cli("fit", tuples, "--out", out, *extra), "units", "sm in metres")
+    assert_error(cli("fit", tuples), "not a plausible robot", "wheels larger than 5 m")
     assert not out.exists()

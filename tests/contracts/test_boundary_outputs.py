@@ -100,6 +100,24 @@ def test_two_outputs_naming_one_file(cli, tmp_path, runs_dir):
     assert not out.exists()
 
 
+def test_a_file_of_an_output_folder_named_by_another_output(cli, tmp_path, runs_dir):
+    """Issue 27 item 19: `fit BAG --out D --ros2 D/params.yaml` replaced the ros2 file by the
+    report's params.yaml (and `fit RUNS --plot D --out D/effective_wheelbase.png` the
+    parameters by the figure): refused before any work (the bag here is not even a bag)."""
+    robot = write(tmp_path / "robot.yaml", ROBOT_YAML)
+    bag = write(tmp_path / "run.bag", "not read\n")
+    report = tmp_path / "report"
+    report.mkdir()
+    cli(
+        "fit", bag, "--robot", robot, "--out", report, "--ros2", report / "params.yaml"
+    ).expect_error("the params.yaml of --out names the same file as --ros2")
+    figure = report / "effective_wheelbase.png"
+    cli("fit", runs_dir, "--robot", robot, "--plot", report, "--out", figure).expect_error(
+        "the effective_wheelbase.png of --plot names the same file as --out"
+    )
+    assert list(report.iterdir()) == []
+
+
 @pytest.mark.parametrize("where", ["same", "inside"])
 def test_plot_folder_equal_to_or_inside_an_input_folder(cli, tmp_path, runs_dir, where):
     params = write(tmp_path / "p.yaml", PARAMS_YAML)

@@ -11,6 +11,8 @@ from odocal.core.checks import (
     check_number,
     check_positive_float,
     check_seed,
+    parse_float,
+    parse_int,
 )
 from odocal.errors import ModelError
 
@@ -56,3 +58,37 @@ def test_bounds_and_hints():
         check_number("side_m", 1000, above=0, at_most=100, hint=" m")
     with pytest.raises(ModelError, match="runs must be <= 10, got 11"):
         check_int("runs", 11, at_most=10)
+
+
+# --- numbers written as text (flags, CSV fields, YAML tags): one parser ----------------------
+
+
+@pytest.mark.parametrize(
+    "text, value",
+    [("1", 1.0), ("-0.5", -0.5), ("+.5", 0.5), ("1.", 1.0), ("1e-6", 1e-6), ("2E+3", 2000.0)],
+)
+def test_plain_decimal_numbers_are_read(text, value):
+    assert parse_float(text) == value and type(parse_float(text)) is float
+
+
+@pytest.mark.parametrize(
+    "text",
+    # Python's float() reads all of these (issue 27 item 19: '0_1' was 1.0 s of clock offset)
+    ["0_1", "1_000.5", " 1", "1 ", "1\n", "\u0661", "\uff11", "0x10", "1e", "", "-", "."],
+)
+def test_what_float_reads_but_is_no_plain_number_is_refused(text):
+    with pytest.raises(ValueError, match="not a decimal number"):
+        parse_float(text)
+
+
+def test_non_finite_words_are_left_to_the_caller():
+    # read as float() reads them: each caller refuses them with its own words (the flag, the field)
+    assert parse_float("inf") == float("inf") and parse_float("-Infinity") == -float("inf")
+    assert parse_float("nan") != parse_float("nan")
+
+
+def test_integers_are_plain_ascii_digits():
+    assert parse_int("12") == 12 and parse_int("-3") == -3 and parse_int("+0") == 0
+    for text in ("1_0", " 1", "1.0", "1e3", "\u0661", ""):
+        with pytest.raises(ValueError, match="not an integer"):
+            parse_int(text)

@@ -67,3 +67,41 @@ def test_renames_that_succeed_leave_no_backup(tmp_path):
     plan.commit(dict.fromkeys(files, "new\n"))
     assert _names(tmp_path) == ["a.txt", "b.txt"]
     assert (tmp_path / "a.txt").read_text() == "new\n"
+
+
+def test_a_file_an_output_folder_will_hold_cannot_be_another_output(tmp_path):
+    """Issue 27 item 19: `fit BAG --out D --ros2 D/params.yaml` wrote the report's params.yaml
+    over the ros2 file without a word. The names a folder will hold are known before the work:
+    another output naming one of them is refused then, whichever is registered first."""
+    report = tmp_path / "report"
+    report.mkdir()
+    plan = OutputPlan()
+    plan.file(report / ".." / "report" / "params.yaml", "--ros2")  # another spelling
+    with pytest.raises(InputError, match="the params.yaml of --out names the same file as --ros2"):
+        plan.folder(report, "--out", files=("report.md", "params.yaml"))
+    plan = OutputPlan()
+    plan.folder(report, "--out", files=("report.md", "params.yaml"))
+    with pytest.raises(InputError, match="--ros2 names the same file as the params.yaml of --out"):
+        plan.file(report / "params.yaml", "--ros2")
+    plan.file(report / "diff_drive.yaml", "--ros2")  # another name in the folder is fine
+    written = plan.commit(
+        {
+            report / "diff_drive.yaml": "ros2\n",
+            report / "params.yaml": "p\n",
+            report / "report.md": "r\n",
+        }
+    )
+    assert sorted(p.name for p in written) == ["diff_drive.yaml", "params.yaml", "report.md"]
+    assert _names(report) == ["diff_drive.yaml", "params.yaml", "report.md"]
+
+
+def test_a_file_an_output_folder_will_hold_is_checked_before_the_work(tmp_path):
+    # an input there, or a folder standing where it goes, is refused when the folder is planned
+    robot = tmp_path / "report" / "params.yaml"
+    robot.parent.mkdir()
+    robot.write_text("wheel_diameter_m: 0.1\nwheelbase_m: 0.3\n")
+    with pytest.raises(InputError, match="input file"):
+        OutputPlan([robot]).folder(robot.parent, "--out", files=("params.yaml",))
+    with pytest.raises(InputError, match="report.md: --out: is a directory"):
+        (robot.parent / "report.md").mkdir()
+        OutputPlan().folder(robot.parent, "--out", files=("report.md",))

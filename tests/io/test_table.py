@@ -80,3 +80,56 @@ def test_one_column_tables_split_in_the_vectorised_pass(tmp_path):
     p.write_text("a\n1\n\n2\n")
     (chunk,) = read_table(p).row_chunks(["a"])
     assert chunk.columns[0].tolist() == [b"1", b"2"] and chunk.lines.tolist() == [2, 4]
+
+
+def test_a_one_column_sheet_with_decimal_commas_reads_as_its_comma_twin(tmp_path):
+    # issue 27 item 19: a spreadsheet saves one column without any separator; its decimal commas
+    # were 'expected 1 fields as in the header, got 2'
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    a.write_text("# note, with a comma\nerror_mm\n12.5\n-0.25\n\n3\n")
+    b.write_text("# note, with a comma\nerror_mm\n12,5\n-0,25\n\n3\n")
+    ta, tb = read_table(a), read_table(b)
+    assert tb.header == ta.header == ("error_mm",) and tb.rows == ta.rows
+    assert tb.numbers(["error_mm"]).tolist() == [[12.5], [-0.25], [3.0]]
+
+
+@pytest.mark.parametrize(
+    "text, line, needles",
+    [
+        ("e\n1,5\n2.5\n", 3, ["decimal commas (line 2)", "decimal points (line 3)"]),
+        # a comma before three digits in every value: a decimal comma or a thousands separator
+        ("e\n1,500\n12,250\n", 2, ["'1,500'", "thousands"]),
+        ("e\n1,5,2\n", 2, ["not a number: '1,5,2'"]),
+    ],
+)
+def test_an_ambiguous_one_column_sheet_says_what_to_change(tmp_path, text, line, needles):
+    p = tmp_path / "t.csv"
+    p.write_text(text)
+    with pytest.raises(InputError, match=f"line {line}") as info:
+        read_table(p).numbers(["e"])
+    for n in needles:
+        assert n in str(info.value)
+
+
+def test_a_semicolon_sheet_padded_with_empty_columns_reads_as_its_comma_twin(tmp_path):
+    # issue 27 item 19: a spreadsheet pads every line to the widest one ('cw;...;1;;'): the
+    # header's empty names were refused
+    a, b = tmp_path / "a.csv", tmp_path / "b.csv"
+    a.write_text(COMMA_SHEET)
+    padded = "".join(
+        line + ";;\n" if line and not line.startswith("#") else line + "\n"
+        for line in SEMICOLON_SHEET.splitlines()
+    )
+    b.write_text(
+        padded.replace("direction;x_m;y_m;theta_deg;run;;", "direction;x_m;y_m;theta_deg;run;;;")
+    )
+    ta, tb = (read_table(p, settings=("sides", "side_m")) for p in (a, b))
+    assert tb.header == ta.header and tb.rows == ta.rows and tb.settings == ta.settings
+    # an empty field under a named column is still a field; text beyond the header is refused
+    c = tmp_path / "c.csv"
+    c.write_text("a;b;;\n1;;;\n")
+    table = read_table(c)
+    assert table.header == ("a", "b") and table.rows == [(2, ["1", ""])]
+    c.write_text("a;b;;\n1;;;\n2;3;4;\n")
+    with pytest.raises(InputError, match="line 3: expected 2 fields as in the header, got 3"):
+        read_table(c).numbers(["a"])

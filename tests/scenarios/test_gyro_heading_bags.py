@@ -125,3 +125,49 @@ def test_a_folder_of_bags_is_one_data_set_and_its_track_is_checked(cli, bags):
     assert status == 2 and "not the track given" in err and err.count("\n") == 1, err
     # the same folder with the right track is one data set of 3 CW and 3 CCW runs, and its fit
     # recovers the geometry: test_heading_method_from_the_gyro_recovers_the_geometry
+
+
+@pytest.fixture(scope="module")
+def hostile_gyros(tmp_path_factory):
+    """One CW and one CCW square whose gyro is mounted upside down (its yaw rate negated, the
+    identity mount on /tf_static) or reports deg/s, each kind in a folder of its own."""
+    from dataclasses import replace
+
+    folder = tmp_path_factory.mktemp("hostile_gyro")
+    rng = np.random.default_rng(8)
+    gyro = Gyro(bias_rad_s=0.002, sigma_rad_s=0.003)
+    runs = [
+        simulate_robot(polygon(4, SIDE, d), TRUE, BELIEVED, gyro=gyro, rng=rng, still_s=4.0,
+                       laser=Laser(n_rays=8))
+        for d in ("cw", "ccw")
+    ]  # fmt: skip
+    out = {}
+    for kind, factor in (("flipped", -1.0), ("deg_s", 180.0 / math.pi)):
+        out[kind] = folder / kind
+        for d, run in zip(("cw", "ccw"), runs, strict=True):
+            write_ros2_bag(out[kind] / d, replace(run, gyro_z_rad_s=run.gyro_z_rad_s * factor))
+    robot = folder / "robot.yaml"
+    robot.write_text("wheel_diameter_m: 0.066\nwheelbase_m: 0.160\n")
+    return out, robot
+
+
+@pytest.mark.parametrize("kind", ["flipped", "deg_s"])
+def test_a_flipped_or_deg_s_gyro_is_named_by_its_topic(cli, hostile_gyros, kind):
+    """Issue 27 item 19: the heading method said 'wheelbase_m ... -66 % from nominal ... check
+    that the wheels are not swapped' (flipped) and 'not a closed square run (total rotation
+    +19349 deg)' (deg/s); --method gyro (deg/s) 'wheelbase_multiplier = 0.018 is -98 % from 1',
+    none of them naming the IMU; and the one-bag route called the deg/s gyro's 0.009 m
+    wheelbase trustworthy."""
+    folders, robot = hostile_gyros
+    words = {"flipped": "opposite directions", "deg_s": "deg/s"}[kind]
+    cli(
+        "fit", folders[kind], "--method", "heading", "--heading-source", "gyro", "--robot", robot,
+        "--side-length", SIDE,
+    ).expect_error("IMU '/imu'", words)  # fmt: skip
+    bag = folders[kind] / "ccw"
+    cli("fit", bag, "--method", "gyro", "--robot", robot).expect_error("IMU '/imu'", words)
+    if kind == "deg_s":
+        assert "57.3" in cli("fit", bag, "--method", "gyro", "--robot", robot)[2]
+        status, out, err = cli("fit", bag, "--robot", robot)  # the one-bag route
+        assert status == 3, (out, err)
+        assert "gyro       not used" in out and "deg/s" in out

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from odocal.core.model import WheelGeometry
+from tests.conftest import CliResult
 from tests.support.synthetic_robot import Laser, default_track, simulate_robot, write_ros2_bag
 
 TRUE = WheelGeometry(0.0655, 0.0662, 0.163)  # TurtleBot3-sized, 0.8 % / 0.3 % / 1.9 % off
@@ -191,3 +192,22 @@ def test_robot_out_is_refused_before_the_slam_route_works(cli, slam_bag, tmp_pat
         "fit", slam_bag, "--truth-frames", "map:base_link", "--out", out, "--robot-out", measured
     ).expect_error("--robot-out needs runs with ground truth")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_wheel_odometry_cannot_be_its_own_truth(cli, slam_bag):
+    """Issue 27 item 19: `--truth-frames odom:base_link` (the odometry's own edge, every 20 ms)
+    was 'the robot only turns on the spot'."""
+    for frames in ("odom:base_link", "odom:laser"):
+        cli("fit", slam_bag, "--truth-frames", frames).expect_error(
+            "--truth-frames", "the wheel odometry", "cannot be its own reference", "map:"
+        )
+
+
+def test_a_slam_pose_that_changes_every_20_ms_says_its_intervals_are_too_short(cli, run, tmp_path):
+    """Issue 27 item 19: a correction changed at every wheel step (0.02 s intervals, of which
+    only the fastest spot turns pass the gates) was 'the robot only turns on the spot'."""
+    path = tmp_path / "fast"
+    write_ros2_bag(path, run, map_odom_every=1, imu=False)
+    status, out, err = cli("fit", path, "--truth-frames", "map:base_link")
+    CliResult((status, out, err)).expect_error("every 20 ms", "too short")
+    assert "only turns on the spot" not in err.split("(")[0]

@@ -14,7 +14,7 @@ from ..calibration.heldout import HeldOut
 from ..calibration.result import WHEELS_HINT, far_from_nominal
 from ..core.covariance import OdometryCovariance
 from ..core.model import Robot, WheelGeometry
-from ..core.plausibility import calibrated_geometry_problem
+from ..core.plausibility import calibrated_geometry_problem, wheel_size_problem
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
 from ..io.limits import ROBOT_LENGTH_M
@@ -214,13 +214,16 @@ def refuse_absurd(
     geometry: WheelGeometry, nominal: WheelGeometry | None, force: bool, hint: str = WHEELS_HINT
 ) -> list[str]:
     """A calibration far (> 25 %) from ``nominal``, or not a plausible robot at all
-    (:func:`implausible_geometry`, checked with or without a nominal), is refused
+    (:func:`implausible_geometry`, checked with or without a nominal; without one, wheels larger
+    than any robot's too: :func:`~odocal.core.plausibility.wheel_size_problem`), is refused
     (CalibrationError, nothing written) unless ``force``; then its messages are returned as
     warnings (an implausible geometry is still never written: :func:`write_exports`). ``hint``:
     what the route's inputs can get wrong."""
     values = (geometry.diameter_right_m, geometry.diameter_left_m, geometry.wheelbase_m)
     problems = far_from_nominal(values, nominal, hint)
     implausible = implausible_geometry(geometry)
+    if not implausible and nominal is None:
+        implausible = wheel_size_problem(geometry)
     if implausible:
         problems.insert(0, f"not a plausible robot: {implausible}; {hint}")
     if problems and not force:

@@ -133,8 +133,14 @@ def _refuse_for_auto(
             "takes one bag; name the method or the truth for several",
             field="paths",
         )
-    if plot is not None or robot_out is not None:
-        raise InputError("--method auto writes its figures into --out DIR (a report)")
+    if robot_out is not None:
+        raise InputError(
+            "--robot-out needs runs with ground truth: --method auto (the default for one bag) "
+            "writes no measured robot, only its report into --out DIR; name the bag's truth "
+            "topic (--truth-topic) for a trajectory fit"
+        )
+    if plot is not None:
+        raise InputError("--plot: --method auto writes its figures into --out DIR (a report)")
 
 
 def _refuse_other_routes_outputs(
@@ -151,14 +157,29 @@ def _refuse_other_routes_outputs(
         raise InputError("--robot-out needs runs with ground truth (not --method gyro)")
 
 
+def _figure_names(route: Route) -> tuple[str, ...]:
+    """The files a route may write into ``--plot DIR``."""
+    if route == "runs":
+        from ..plot.fit import FIT_FIGURE
+
+        return (FIT_FIGURE,)
+    if route in ("slam", "scan"):
+        from ..plot.bag import HELDOUT_FIGURE, OFFSET_FIGURE
+
+        return (OFFSET_FIGURE, HELDOUT_FIGURE)
+    return ()
+
+
 def _output_plan(
     paths: Sequence[str | Path],
     robot: RobotSpec,
     exports: Exports,
     plot: str | Path | None,
     robot_out: str | Path | None,
+    route: Route,
 ) -> OutputPlan:
-    """Every file the fit may write, registered against its inputs before the work."""
+    """Every file the fit may write, registered against its inputs before the work (the
+    figures of ``route`` too: no other output may name one of them)."""
     plan = OutputPlan(input_paths(list(paths), robot))
     exports.register(plan)
     if robot_out is not None:
@@ -167,7 +188,7 @@ def _output_plan(
         from ..plot._figure import require_matplotlib
 
         require_matplotlib()
-        plan.folder(plot, "--plot")
+        plan.folder(plot, "--plot", files=_figure_names(route))
     return plan
 
 
@@ -239,7 +260,7 @@ def fit(
             "--robot-out needs runs with ground truth (not .tuple files, a SLAM pose or laser "
             "scans: their relative motions measure no repeated runs)"
         )
-    plan = _output_plan(paths, robot, exports, plot, robot_out)
+    plan = _output_plan(paths, robot, exports, plot, robot_out, route)
     if route == "scan":
         return fit_scan_bags(
             paths,

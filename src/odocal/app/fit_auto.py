@@ -176,7 +176,11 @@ def fit_auto(
     if ros2 is not None:
         plan.file(ros2, "--ros2")
     if out is not None:
-        plan.folder(out, "--out")
+        from ..plot.bag import HELDOUT_FIGURE, OFFSET_FIGURE
+
+        # the files of _write's report: no other output may name one of them
+        names = ("report.md", "params.yaml", OFFSET_FIGURE, HELDOUT_FIGURE)
+        plan.folder(out, "--out", files=names)
     loaded_robot: Robot = load_robot(robot)  # once: it may be a pipe
     named = (options.joint_topic, options.truth_topic, options.imu_topic, options.odom_topic,
              options.scan_topic)  # fmt: skip

@@ -35,7 +35,7 @@ from ..core.model import WheelGeometry
 from ..errors import InputError
 from ..io.bag_slam import SlamBag
 from ..io.outputs import OutputPlan
-from ..io.tuples import read_tuples, refuse_repeated_tuples
+from ..io.tuples import read_tuples, refuse_repeated_tuples, refuse_still_tuples
 from .common import NO_EXPORTS, Exports, RobotSpec, refuse_absurd, refuse_untrusted, robot_nominal
 from .relative_inputs import ScanSummary, TupleInput
 from .text import Presented
@@ -328,6 +328,7 @@ def fit_tuple_files(
     estimated too)."""
     nominal = robot_nominal(robot)
     data = [read_tuples(p) for p in paths]
+    refuse_still_tuples(data)
     refuse_repeated_tuples(data)
     motions = [RelativeMotions(d.phi_right_rad, d.phi_left_rad, d.sensor_motion) for d in data]
     result, forced = fit_relative(motions, nominal, force=force)

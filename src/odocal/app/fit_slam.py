@@ -16,7 +16,7 @@ import numpy as np
 from ..calibration.censi import SensorOdometryFit
 from ..calibration.relative_checks import slam_chains, with_offset_error
 from ..core.model import WheelGeometry
-from ..errors import InputError
+from ..errors import CalibrationError, InputError
 from ..io.bag_options import BagOptions
 from ..io.bag_slam import SlamBag, load_slam_bags
 from ..io.bags import is_bag
@@ -42,15 +42,18 @@ def slam_fit(
     """The SLAM route, I/O-free: the relative-motion calibration of loaded ``bags`` (named
     ``names`` in messages), its offset's own uncertainty, the held-out check and the noise (the
     truth frame is the base itself: no mounting)."""
-    result, forced = fit_relative(
-        [b.relative_motions for b in bags],
-        nominal,
-        sensor_pose=(0.0, 0.0, 0.0),
-        force=force,
-        source="slam",
-        names=names,
-        origins_s=[b.meta.get("start_ns", 0) * 1e-9 for b in bags],
-    )
+    try:
+        result, forced = fit_relative(
+            [b.relative_motions for b in bags],
+            nominal,
+            sensor_pose=(0.0, 0.0, 0.0),
+            force=force,
+            source="slam",
+            names=names,
+            origins_s=[b.meta.get("start_ns", 0) * 1e-9 for b in bags],
+        )
+    except CalibrationError as exc:
+        raise _with_cause(bags, exc) from None
     result = _with_offset_error(bags, result)
     every, usable = slam_chains(
         [(b.every_motions, b.every_used) for b in bags],
@@ -98,6 +101,18 @@ def fit_slam_bags(
     )
     res = slam_fit(bags, nominal, names=paths, force=force)
     return write_bag_route(res, plan, exports, plot)
+
+
+def _with_cause(bags: Sequence[SlamBag], exc: CalibrationError) -> CalibrationError:
+    """The fit's failure ``exc`` with its real cause first when a bag's SLAM value changes
+    faster than a SLAM updates (:meth:`~odocal.calibration.slam.SlamMotions.
+    fast_changes_problem`: the intervals that pass the gates are then only the fastest turns,
+    and the fit says 'only turns on the spot'); else ``exc``."""
+    for b in bags:
+        cause = b.motions.fast_changes_problem()
+        if cause is not None:
+            return CalibrationError(f"{b.path}: {cause} (what is left: {exc})")
+    return exc
 
 
 def _with_offset_error(bags: Sequence[SlamBag], result: SensorOdometryFit) -> SensorOdometryFit:

@@ -75,6 +75,7 @@ from .robust_covariance import cluster_covariance
 __all__ = [
     "PARAMETERS",
     "MIN_TUPLES",
+    "MIN_WHEEL_ROTATION_RAD",
     "SensorOdometryFit",
     "fit_censi",
     "closed_form_censi",
@@ -96,9 +97,9 @@ MIN_TUPLES = 10
 # Wheel-rotation excitation: the two singular values of the (n, 2) matrix of rotations must not
 # differ by more than this factor (cond(Phi^T Phi) <= 1e6), else J21, J22 are not separable.
 _MAX_WHEEL_COND = 1e3
-# Below this rotation (rad) in every tuple the wheels do not turn: finer than any encoder's tick
-# (and squares of such values underflow the least squares' normal equations).
-_MIN_WHEEL_ROTATION_RAD = 1e-6
+#: Below this rotation (rad) in every tuple the wheels do not turn: finer than any encoder's tick
+#: (and squares of such values underflow the least squares' normal equations).
+MIN_WHEEL_ROTATION_RAD = 1e-6
 # The turning coefficient J22 - J21 (= (r_R + r_L)/b) must be this many standard errors from 0.
 _MIN_TURN_T = 10.0
 # Floor of the residual noise estimate (m or rad): exact synthetic data have zero residuals.
@@ -381,7 +382,7 @@ def _check_excitation(phi_r: np.ndarray, phi_l: np.ndarray) -> None:
     """CalibrationError naming the missing motion if J21, J22 cannot be separated."""
     phi = np.column_stack([phi_l, phi_r])
     largest = float(np.max(np.abs(phi))) if phi.size else 0.0
-    if not largest >= _MIN_WHEEL_ROTATION_RAD:
+    if not largest >= MIN_WHEEL_ROTATION_RAD:
         raise CalibrationError(
             f"censi: the wheels do not turn in any tuple (largest rotation {largest:.3g} rad; a "
             "duration T in the wrong unit?)"

@@ -45,9 +45,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..errors import CalibrationError
+from .result import ABSURD_FRACTION
 
 __all__ = [
     "AXES",
+    "DEG_PER_RAD",
+    "rotation_ratio_problem",
     "GyroResult",
     "axis_vector",
     "rotation_from_quaternion",
@@ -68,6 +71,33 @@ AXES = ("x", "y", "z", "-x", "-y", "-z")
 
 # A detected axis must correlate at least this well with the odometry heading rate.
 _MIN_DETECT_CORRELATION = 0.5
+
+
+#: A gyro that reports deg/s turns this many times as much as the odometry.
+DEG_PER_RAD = 180.0 / math.pi
+
+
+def rotation_ratio_problem(gyro_rad: float, odometry_rad: float) -> str | None:
+    """The gyro's rotation against the odometry's over the same stretch (rad, both non-zero):
+    None when their ratio can be a robot's; else what is wrong: they turn in opposite
+    directions (the IMU mounted upside down, or its yaw axis reversed), or the ratio is within
+    :data:`~odocal.calibration.result.ABSURD_FRACTION` of :data:`DEG_PER_RAD` (the gyro in
+    degrees, where sensor_msgs/Imu's unit is rad/s)."""
+    ratio = gyro_rad / odometry_rad
+    g, o = math.degrees(gyro_rad), math.degrees(odometry_rad)
+    if ratio <= 0:
+        return (
+            f"the gyro ({g:+.1f} deg) and the odometry ({o:+.1f} deg) turn in opposite "
+            "directions: the IMU is mounted upside down or its yaw axis is reversed; correct "
+            "/tf_static or give --imu-axis"
+        )
+    if abs(ratio / DEG_PER_RAD - 1) <= ABSURD_FRACTION:
+        return (
+            f"the gyro turns {ratio:.4g} times as much as the odometry ({g:+.0f} deg against "
+            f"{o:+.0f} deg), about 180/pi = {DEG_PER_RAD:.1f}: it is in degrees (deg/s), where "
+            "sensor_msgs/Imu and odocal use radians (rad/s)"
+        )
+    return None
 
 
 def axis_vector(axis: str) -> np.ndarray:
@@ -706,6 +736,9 @@ def gyro_calibration(
             f"({math.degrees(o_net):+.1f} deg) turn in opposite directions: the IMU mounting is "
             f"wrong (yaw taken on the IMU's {axis} axis; the data suggest {detected})"
         )
+    units = rotation_ratio_problem(g_net, o_net)
+    if units is not None:
+        raise CalibrationError(units)
     if not 0.5 < ratio < 2.0:
         warnings.append(
             f"rotation ratio {ratio:.3f} is far from 1: check the IMU axis and the odometry topic"

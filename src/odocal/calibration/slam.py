@@ -69,9 +69,13 @@ __all__ = [
     "SlamMotions",
     "slam_relative_motions",
     "REASONS",
+    "FAST_CHANGES_S",
 ]
 
 REASONS = ("jump", "too_long", "too_short")
+#: A SLAM value that changes more often than this (s, the median interval) is not updated once
+#: per matched scan (1-5 Hz) but between scans too (extrapolated from odometry or an IMU).
+FAST_CHANGES_S = 0.1
 
 
 @dataclass(frozen=True)
@@ -236,6 +240,13 @@ class SlamMotions:
     def segments(self) -> int:
         """Number of map segments (jumps + 1)."""
         return self.counts.jump + 1
+
+    def fast_changes_problem(self) -> str | None:
+        """Why these intervals cannot calibrate when the SLAM value changes faster than a SLAM
+        updates (the median interval below :data:`FAST_CHANGES_S`) and most intervals are
+        therefore too short to use; None otherwise."""
+        dt = np.asarray(self.every_end_s) - np.asarray(self.every_start_s)
+        return _fast_changes(self.counts, dt, self.limits)
 
     def summary(self) -> str:
         """One line: updates, intervals used and dropped by reason."""
@@ -579,6 +590,23 @@ def _gate(iv: _Intervals, lim: SlamLimits) -> np.ndarray:
     return reason
 
 
+def _fast_changes(counts: IntervalCounts, dt: np.ndarray, lim: SlamLimits) -> str | None:
+    """The real cause of too few usable intervals when the SLAM value changes faster than a SLAM
+    updates and most intervals between its changes are too short (see
+    :meth:`SlamMotions.fast_changes_problem`); None otherwise."""
+    if not len(dt) or float(np.median(dt)) >= FAST_CHANGES_S or 2 * counts.too_short <= len(dt):
+        return None
+    return (
+        f"the SLAM value changes every {float(np.median(dt)) * 1e3:.0f} ms (median), faster "
+        "than a SLAM updates its pose (once per matched scan, about 1-5 Hz): "
+        f"{counts.too_short} of {counts.intervals} intervals between its changes are too short "
+        f"to measure the wheels (< {lim.min_travel_m:g} m and < "
+        f"{math.degrees(lim.min_rotation_rad):g} deg), so the intervals are too short for the "
+        "SLAM's updates; is the pose extrapolated between scans (predicted from odometry or an "
+        "IMU)? Record the SLAM's own updates, stamped at scan time"
+    )
+
+
 def _interval_warnings(
     counts: IntervalCounts,
     dropped: tuple[DroppedInterval, ...],
@@ -594,7 +622,7 @@ def _interval_warnings(
             f"those intervals are dropped, the run is split into {counts.jump + 1} segments"
         )
     period = float(np.median(dt))
-    if period < 0.1:
+    if period < FAST_CHANGES_S:
         warnings.append(
             f"the SLAM value changes every {period * 1e3:.0f} ms (median): if it is extrapolated "
             "between scans (e.g. a pose predicted from odometry or IMU), it carries the "
@@ -607,7 +635,7 @@ def _interval_warnings(
             f"intervals, {counts.jump} jumps, {counts.too_long} too long "
             f"(> {lim.max_interval_s:g} s), {counts.too_short} too short "
             f"(< {lim.min_travel_m:g} m and < {math.degrees(lim.min_rotation_rad):g} deg); "
-            "record a longer drive"
+            + (_fast_changes(counts, dt, lim) or "record a longer drive")
         )
     if counts.used < 0.5 * counts.intervals:
         warnings.append(

@@ -36,6 +36,7 @@ from ..core.recording import Recording
 from ..core.runs import EndPoseRuns
 from ..errors import CalibrationError
 from .fit_methods import HEADING_SOURCES, HeadingSource, UmbmarkForm
+from .gyro import rotation_ratio_problem
 from .heading import calibrate_heading
 from .result import DataSetCalibration, GeometryFit, SquaresDetails
 from .umbmark import calibrate_umbmark
@@ -74,12 +75,14 @@ def recorded_end_errors(
                 f"{r.name}: the parameters the robot ran with are unknown (no metadata): "
                 "give --robot ROBOT.yaml"
             )
+        odo = dead_reckon(r.wheel_angle_right_rad, r.wheel_angle_left_rad, geo)
         if heading_source == "gyro":
             if r.gyro_yaw_rad is None:
                 raise CalibrationError(
                     f"{r.name}: no gyro heading (an IMU topic, or a gyro_yaw_rad column)"
                 )
             total = float(r.gyro_yaw_rad[-1] - r.gyro_yaw_rad[0])
+            _refuse_gyro_units(r, total, float(odo[-1, 2]))
         else:
             if r.ground_truth is None:
                 raise CalibrationError(f"{r.name}: no ground truth (use --heading-source gyro)")
@@ -96,7 +99,6 @@ def recorded_end_errors(
                 f"{Path(r.name).name}: labelled {r.label.upper()} but the data turn "
                 f"{d.upper()} ({math.degrees(total):+.0f} deg); using {d.upper()}"
             )
-        odo = dead_reckon(r.wheel_angle_right_rad, r.wheel_angle_left_rad, geo)
         if heading_source == "gyro":
             gyro = r.gyro_yaw_rad
             assert gyro is not None  # checked above
@@ -106,6 +108,19 @@ def recorded_end_errors(
             errs.append(r.ground_truth[-1] - odo[-1])
         dirs.append(d)
     return EndPoseRuns(tuple(dirs), np.array(errs)), warnings
+
+
+def _refuse_gyro_units(r: Recording, gyro_rad: float, odometry_rad: float) -> None:
+    """CalibrationError naming the run and its gyro (the IMU topic, or the gyro_yaw_rad column)
+    when the gyro's rotation over a run (rad) cannot be the odometry's (rad), the run turning
+    (:func:`~odocal.calibration.gyro.rotation_ratio_problem`: mounted upside down, deg/s)."""
+    if abs(odometry_rad) < math.pi / 2:  # not a closed polygon: said below
+        return
+    problem = rotation_ratio_problem(gyro_rad, odometry_rad)
+    if problem is not None:
+        topic = (r.meta or {}).get("imu_topic")
+        source = f"IMU '{topic}'" if topic else "its gyro_yaw_rad column"
+        raise CalibrationError(f"{r.name}: {problem} ({source})")
 
 
 #: A run's odometric travel within this fraction of the polygon's perimeter (sides x side).

@@ -59,6 +59,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..core.checks import parse_float
 from ..core.model import WheelGeometry
 from ..core.recording import Recording
 from ..core.stats import student_t_quantile
@@ -418,7 +419,7 @@ def parse_motion_mix(text: str) -> dict[str, float]:
         if name in out:
             raise CalibrationError(f"motion mix: band {name!r} given twice")
         try:
-            v = float(value)
+            v = parse_float(value.strip())
         except ValueError:
             raise CalibrationError(f"motion mix: not a number: {value.strip()!r}") from None
         if not (math.isfinite(v) and v >= 0):

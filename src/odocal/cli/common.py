@@ -11,6 +11,7 @@ import time
 from collections.abc import Callable, Iterable
 from typing import Any
 
+from ..core.checks import parse_float, parse_int
 from ..errors import one_line
 from ..io.bag_options import BagOptions
 from ..io.limits import (
@@ -72,11 +73,12 @@ def number(
     at_most: float | None = None,
     hint: str = "",
 ) -> Callable[[str], Any]:
-    """An argparse type: ``kind`` (float or int) within the given bounds, finite."""
+    """An argparse type: ``kind`` (float or int) within the given bounds, finite, written as a
+    plain number (:func:`~odocal.core.checks.parse_float`: not ``0_1``, not `` 1``)."""
 
     def parse(text: str):
         try:
-            v = kind(text)
+            v = parse_int(text) if kind is int else parse_float(text)
         except ValueError:
             what = "an integer" if kind is int else "a number"
             raise argparse.ArgumentTypeError(f"not {what}: {text!r}") from None
@@ -183,7 +185,7 @@ def noise_track(text: str) -> tuple[str, float]:
             f"expected out-and-back:D or straight:D (D in m), got {text!r}"
         )
     try:
-        d = float(dist)
+        d = parse_float(dist.strip())
     except ValueError:
         raise argparse.ArgumentTypeError(f"not a distance in m: {dist!r} in {text!r}") from None
     if not math.isfinite(d) or d < LENGTH_MIN_M:

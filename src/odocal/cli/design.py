@@ -6,6 +6,7 @@ import argparse
 import math
 from typing import TYPE_CHECKING
 
+from ..core.checks import parse_float, parse_int
 from .common import (
     MAX_LENGTH_M,
     ProgressBar,
@@ -32,7 +33,7 @@ def parse_side_lengths(text: str) -> np.ndarray:
     """'START:STOP:STEP' (m, STOP inclusive within float tolerance) or one length 'L'."""
     parts = text.split(":")
     try:
-        nums = [float(p) for p in parts]
+        nums = [parse_float(p.strip()) for p in parts]
     except ValueError:
         raise argparse.ArgumentTypeError(
             f"expected START:STOP:STEP in metres (e.g. 0.5:10:0.5), got {text!r}"
@@ -75,8 +76,8 @@ def parse_validation(text: str) -> ValidationTrack:
     if len(parts) != 3:
         raise argparse.ArgumentTypeError(hint)
     try:
-        sides = int(parts[0])
-        length = float(parts[1])
+        sides = parse_int(parts[0].strip())
+        length = parse_float(parts[1].strip())
     except ValueError:
         raise argparse.ArgumentTypeError(hint) from None
     direction = parts[2].strip().lower()

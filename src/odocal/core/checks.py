@@ -5,12 +5,18 @@ array, a bool, a fraction where a count belongs or a negative seed never reaches
 
 The command line parses its flags with the same bounds (:mod:`odocal.cli.common`); these are the
 checks of a value passed from Python.
+
+Numbers written as text (flags, CSV fields, tagged YAML values) are read by :func:`parse_float`
+and :func:`parse_int`, the one parser: Python's ``float`` and ``int`` also read ``1_0`` as 10,
+surround a number with any white space, and take the digits of every script, which nobody types
+into a flag or a sheet on purpose.
 """
 
 from __future__ import annotations
 
 import math
 import numbers
+import re
 from typing import Any
 
 from ..errors import ModelError
@@ -21,7 +27,33 @@ __all__ = [
     "check_nonnegative_float",
     "check_int",
     "check_seed",
+    "parse_float",
+    "parse_int",
 ]
+
+# A plain decimal number: sign, ASCII digits with a decimal point, exponent; and the words
+# float() reads as infinity or NaN (the callers refuse them with their own words).
+_DECIMAL = re.compile(r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
+_NON_FINITE = re.compile(r"[+-]?(?:inf|infinity|nan)", re.IGNORECASE)
+_INTEGER = re.compile(r"[+-]?[0-9]+")
+
+
+def parse_float(text: str) -> float:
+    """``text`` as a float when it is written as a plain decimal number (``1``, ``-0.5``,
+    ``.5``, ``1e-6``; ``inf`` and ``nan`` as float() reads them); ValueError otherwise: digit
+    separators (``0_1``, which float() reads as 1), white space around it, other scripts'
+    digits. Callers that trim their fields (CSV) trim before."""
+    if _DECIMAL.fullmatch(text) or _NON_FINITE.fullmatch(text):
+        return float(text)
+    raise ValueError(f"not a decimal number: {text!r}")
+
+
+def parse_int(text: str) -> int:
+    """``text`` as an int when it is a sign and ASCII digits; ValueError otherwise (int() also
+    reads ``1_0`` as 10 and white space around it)."""
+    if _INTEGER.fullmatch(text):
+        return int(text)
+    raise ValueError(f"not an integer: {text!r}")
 
 
 def _what(value: Any) -> str:

@@ -35,6 +35,8 @@ __all__ = [
     "end_error_bounds",
     "proportions_problem",
     "calibrated_geometry_problem",
+    "WHEEL_DIAMETER_MAX_M",
+    "wheel_size_problem",
     "track_size_problem",
     "wrap_heading_error",
     "heading_error_problem",
@@ -148,6 +150,29 @@ def calibrated_geometry_problem(
                 f"has {r_lo:g} .. {r_hi:g}"
             )
     return None
+
+
+#: The largest wheel diameter (m) of a calibration judged without a nominal geometry: the
+#: largest wheels of any robot are below it (a wheelchair's 0.6 m, an agricultural robot's
+#: 1.5 m, an autonomous haul truck's 4 m tyres), and the small ones far below: a robot's lengths
+#: in millimetres read as metres give a 0.066 m wheel 66 m.
+WHEEL_DIAMETER_MAX_M = 5.0
+
+
+def wheel_size_problem(geometry: WheelGeometry) -> str | None:
+    """A CALIBRATED geometry (m) judged without a nominal one (when a nominal is known, a
+    calibration more than 25 % from it is absurd: :data:`~odocal.calibration.result.
+    ABSURD_FRACTION`): None if its wheels are no larger than :data:`WHEEL_DIAMETER_MAX_M`, else
+    what is wrong and the likely slip (lengths in millimetres or centimetres)."""
+    largest = max(float(geometry.diameter_right_m), float(geometry.diameter_left_m))
+    if largest <= WHEEL_DIAMETER_MAX_M:
+        return None
+    return (
+        f"D_R = {float(geometry.diameter_right_m):.4g} m, D_L = "
+        f"{float(geometry.diameter_left_m):.4g} m, b = {float(geometry.wheelbase_m):.4g} m: wheels "
+        f"larger than {WHEEL_DIAMETER_MAX_M:g} m are no robot's; lengths in millimetres or "
+        "centimetres where the units are metres?"
+    )
 
 
 def track_size_problem(wheelbase_m: float, side_m: float, what: str = "track") -> str | None:

@@ -25,7 +25,7 @@ from ..core.recording import Recording
 from ..core.transforms import RigidTransforms, planar_pose
 from ..errors import InputError
 from .bag_options import BagOptions
-from .bag_wheels import choose_wheels, wheel_series
+from .bag_wheels import ODOM_FRAMES, choose_wheels, wheel_series
 from .bags import (
     EdgeMessages,
     check_bag_path,
@@ -150,6 +150,17 @@ def _truth_chain(buf: Any, parent: str, child: str, p: Path) -> tuple[list[Any],
     if not dynamic:
         raise InputError(
             f"the chain {chain_text} is static: it holds no SLAM pose", p, None, "--truth-frames"
+        )
+    odom = ODOM_FRAMES[0]
+    if all(_edge_key(s)[0] == odom for s in dynamic):
+        moving = ", ".join(" -> ".join(_edge_key(s)) for s in dynamic)
+        raise InputError(
+            f"{parent}:{child} moves only by {moving}, the wheel odometry itself ('{odom}' is the "
+            "odometry frame, REP 105): the odometry cannot be its own reference; give the "
+            f"frames of the SLAM's pose, its map above '{odom}' (e.g. map:{child})",
+            p,
+            None,
+            "--truth-frames",
         )
     return dynamic, chain_text
 

@@ -3,10 +3,13 @@
 Every command that writes files goes through an :class:`OutputPlan`:
 
 1. ``plan = OutputPlan(inputs)`` with every file or folder the command reads;
-2. ``plan.file(path, "--out")`` / ``plan.folder(path, "--plot")`` for every output, BEFORE the
-   work: an output that is one of the inputs (the same file, also through a link), lies inside an
-   input folder as an existing file, or names the same file as another output is refused with one
-   line; so is an output whose folder cannot exist;
+2. ``plan.file(path, "--out")`` / ``plan.folder(path, "--plot", files=NAMES)`` for every
+   output, BEFORE the work: an output that is one of the inputs (the same file, also through a
+   link), lies inside an input folder as an existing file, or names the same file as another
+   output is refused with one line; so is an output whose folder cannot exist. The ``files`` a
+   folder may hold whose names are known before the work (a report's ``params.yaml``, a
+   figure) are checked then as files of their own: another output naming one of them
+   (``--out D --ros2 D/params.yaml``) is two outputs in one file;
 3. ``plan.commit({path: content})`` AFTER the work: every file is first staged as a temporary file
    beside its target, then all are renamed into place with SIGINT and SIGTERM held back, so that
    an interruption or a failure leaves either every output or none (and no temporary file, and
@@ -136,6 +139,9 @@ class OutputPlan:
     def __init__(self, inputs: Iterable[Any] = ()):
         self._inputs = [Path(p) for p in inputs if p is not None]
         self._outputs: list[_Output] = []
+        # the files output folders may hold (folder(files=...)): each with its folder's flag,
+        # and its name there
+        self._announced: list[tuple[_Output, str]] = []
         self._files_in_inputs: dict[tuple[int, int], Path] | None = None
 
     # ------------------------------------------------------------------ planning
@@ -191,12 +197,18 @@ class OutputPlan:
                     path,
                 )
 
-    def _check_against_outputs(self, path: Path, flag: str) -> None:
+    def _check_against_outputs(self, path: Path, flag: str, name: str | None = None) -> None:
+        """Refuse ``path`` (of the output ``flag``; a file ``name`` its folder will hold) when
+        another output, or a file another output folder will hold, is the same file."""
         resolved = path.resolve() if self._outputs else path
-        for o in self._outputs:
+        who = flag if name is None else f"the {name} of {flag}"
+        others = [(o, o.flag) for o in self._outputs] + [
+            (o, f"the {n} of {o.flag}") for o, n in self._announced if o.flag != flag
+        ]
+        for o, what in others:
             if resolved == o.resolved or _same(path, o.path):
                 raise InputError(
-                    f"{flag} names the same file as {o.flag}; give each output its own name", path
+                    f"{who} names the same file as {what}; give each output its own name", path
                 )
 
     def _planned_folder(self, folder: Path) -> _Output | None:
@@ -214,9 +226,10 @@ class OutputPlan:
         self._outputs.append(_Output(path, flag, False))
         return path
 
-    def _check_file(self, path: Path, flag: str) -> None:
+    def _check_file(self, path: Path, flag: str, name: str | None = None) -> None:
         """Refuse an output file that cannot be written or would replace an input or another
-        output (one line, before anything is written)."""
+        output (one line, before anything is written); ``name``: a file the output folder
+        ``flag`` will hold."""
         if str(path) in ("", "."):
             raise InputError(f"{flag}: an empty output name", path)
         if path.is_dir():
@@ -233,10 +246,13 @@ class OutputPlan:
         if parent.is_dir() and not os.access(parent, os.W_OK | os.X_OK):
             raise InputError(f"{flag}: cannot write into this folder (permission denied)", parent)
         self._check_against_inputs(path, flag, is_folder=False)
-        self._check_against_outputs(path, flag)
+        self._check_against_outputs(path, flag, name)
 
-    def folder(self, path: Any, flag: str) -> Path:
-        """Register an output folder (created at commit if missing, removed again on failure)."""
+    def folder(self, path: Any, flag: str, files: Iterable[str] = ()) -> Path:
+        """Register an output folder (created at commit if missing, removed again on failure).
+
+        ``files``: the names of the files it may hold that are known before the work; each is
+        checked now as :meth:`file` checks (no other output may name it, before or after)."""
         path = Path(path)
         if path.exists() and not path.is_dir():
             raise InputError(f"{flag}: exists and is not a folder", path)
@@ -255,6 +271,9 @@ class OutputPlan:
             raise InputError(f"{flag}: cannot write into this folder (permission denied)", path)
         self._check_against_inputs(path, flag, is_folder=True)
         self._outputs.append(_Output(path, flag, True))
+        for name in files:
+            self._check_file(path / name, flag, name)
+            self._announced.append((_Output(path / name, flag, False), name))
         return path
 
     @property

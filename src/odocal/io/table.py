@@ -8,9 +8,12 @@ Fields are trimmed; CSV quoting is honoured.
 
 A sheet saved by a spreadsheet in the European dialect (a header separated by ``;``, decimal
 commas: the default of Excel and LibreOffice where the comma is the decimal separator) is read as
-the comma-separated table it stands for, line for line; separators padding a comment line are
-dropped. What cannot be read unambiguously is refused with what to change: a header that mixes
-``;`` and ``,``, a sheet with both decimal commas and decimal points, a thousands separator.
+the comma-separated table it stands for, line for line; separators padding a comment line, and
+empty fields padding a line beyond the header's columns (``cw;0,5;1;;``), are dropped. A sheet
+of one column has no separator at all: its commas are decimal commas. What cannot be read
+unambiguously is refused with what to change: a header that mixes ``;`` and ``,``, a sheet with
+both decimal commas and decimal points, a thousands separator, one column whose every value has
+a comma before three digits (``1,500``: 1.5 or 1500).
 
 Every problem is an :class:`~odocal.errors.InputError` naming the file, the line and the field:
 over-long lines or fields, duplicated column names or settings, a row of the wrong width, a value
@@ -36,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.checks import parse_float
 from ..errors import InputError
 from .textfile import read_text
 
@@ -70,7 +74,9 @@ def parse_number(
     at_most: float | None = None,
     unit_hint: str = "check the units",
 ) -> float:
-    """``raw`` as a finite float, or an InputError naming file, line and field.
+    """``raw`` (trimmed) as a finite float written as a plain decimal number
+    (:func:`~odocal.core.checks.parse_float`: ``1_0`` is no number here, though Python's float()
+    reads it as 10), or an InputError naming file, line and field.
 
     ``at_most`` bounds the magnitude (a larger value is implausible: a unit slip or a broken
     file); numbers that overflow a float (1e400, a 400-digit integer) are refused the same way.
@@ -81,7 +87,7 @@ def parse_number(
     if len(text) > MAX_FIELD_CHARS:
         raise InputError(f"over-long value ({len(text)} characters)", path, line, name)
     try:
-        v = float(text)
+        v = parse_float(text)
     except ValueError:
         raise InputError(f"not a number: {text!r}", path, line, name) from None
     if math.isnan(v):
@@ -426,6 +432,8 @@ def _head_lines(text: str) -> Iterator[str]:
 
 _DECIMAL_COMMA = re.compile(r"^[+-]?(\d+,\d*|,\d+)([eE][+-]?\d+)?$")
 _DECIMAL_POINT = re.compile(r"^[+-]?(\d+\.\d*|\.\d+)([eE][+-]?\d+)?$")
+# a comma before three digits after one to three digits: 1,500 is 1.5 or 1500
+_THOUSANDS_LIKE = re.compile(r"^[+-]?[1-9][0-9]{0,2},[0-9]{3}$")
 _GROUPED = re.compile(r"^[+-]?\d{1,3}([.\s\u00a0\u202f']\d{3})+(,\d*)?$")
 _SETTING_COMMA = re.compile(r"^(#[^:]*:\s*[+-]?\d*),(\d+)$")
 _SEMICOLON_ADVICE = (
@@ -438,14 +446,41 @@ def _csv_field(text: str) -> str:
     return f'"{text.replace(chr(34), chr(34) * 2)}"' if ("," in text or '"' in text) else text
 
 
-def _semicolon_text(path: Any, text: str, header_no: int) -> str:
+def _semicolon_fields(path: Any, no: int, line: str) -> list[str]:
+    """The fields of one line separated by ';' (CSV quoting honoured)."""
+    if '"' not in line:
+        return line.split(";")
+    try:
+        return next(csv.reader([line], delimiter=";"))
+    except csv.Error as exc:
+        raise InputError(f"not valid CSV: {exc}", path, no) from None
+
+
+def _unpadded(fields: list[str], width: int) -> list[str]:
+    """``fields`` without the empty fields beyond the first ``width``: a spreadsheet pads every
+    line with separators to its widest one (``cw;0,5;1;;``)."""
+    end = len(fields)
+    while end > width and not fields[end - 1].strip():
+        end -= 1
+    return fields[:end]
+
+
+def _semicolon_text(path: Any, text: str, header_no: int, declared: bool = True) -> str:
     """A sheet saved by a spreadsheet in the European dialect (fields separated by ';', decimal
     commas: Excel's and LibreOffice's default where the comma is the decimal separator) as the
-    comma-separated text it stands for, line for line. Decimal points are read too, but not both
-    in one sheet (then a point may group thousands); a number with a thousands separator, or a
-    row separated by ',' under a ';' header, is refused with what to change."""
+    comma-separated text it stands for, line for line; empty fields padding a line beyond the
+    header's columns (and the header's own) are dropped. Decimal points are read too, but not
+    both in one sheet (then a point may group thousands); a number with a thousands separator,
+    or a row separated by ',' under a ';' header, is refused with what to change.
+
+    ``declared``: the header is separated by ';' (the dialect is declared); else the sheet is
+    one column without a separator, whose commas are decimal commas only when they cannot be
+    thousands separators (not every value a comma before three digits)."""
     out = []
     comma_line = point_line = 0
+    width = 0
+    thousands_like: tuple[int, str] | None = None  # the first '1,500': 1.5 or 1500?
+    decimal_only = False  # a decimal comma that groups no thousands ('0,5', '12,25')
     for no, line in enumerate(text.split("\n"), start=1):
         stripped = line.strip()
         if not stripped:
@@ -457,14 +492,11 @@ def _semicolon_text(path: Any, text: str, header_no: int) -> str:
             continue
         if len(line) > MAX_LINE_CHARS:
             raise InputError(f"over-long line ({len(line)} characters)", path, no)
-        if '"' in line:
-            try:
-                fields = next(csv.reader([line], delimiter=";"))
-            except csv.Error as exc:
-                raise InputError(f"not valid CSV: {exc}", path, no) from None
-        else:
-            fields = line.split(";")
-        if len(fields) == 1 and "," in line and no > header_no:
+        fields = _semicolon_fields(path, no, line)
+        if no == header_no:
+            width = len(_unpadded(fields, 0))
+        fields = _unpadded(fields, width)
+        if width > 1 and len(fields) == 1 and "," in line and no > header_no:
             raise InputError(
                 "fields separated by ',' under a header separated by ';': use one separator in "
                 f"the whole sheet; {_SEMICOLON_ADVICE}",
@@ -482,6 +514,10 @@ def _semicolon_text(path: Any, text: str, header_no: int) -> str:
                     no,
                 )
             if _DECIMAL_COMMA.match(f):
+                if _THOUSANDS_LIKE.match(f):
+                    thousands_like = thousands_like or (no, f)
+                else:
+                    decimal_only = True
                 f = f.replace(",", ".")
                 comma_line = comma_line or no
             elif _DECIMAL_POINT.match(f):
@@ -496,17 +532,46 @@ def _semicolon_text(path: Any, text: str, header_no: int) -> str:
             path,
             point_line,
         )
+    if not declared and thousands_like is not None and not decimal_only:
+        no, value = thousands_like
+        raise InputError(
+            f"{value!r} may be a decimal comma or a thousands separator (every value of this "
+            "column has a comma before three digits): write the numbers with a decimal point, "
+            "or without a thousands separator",
+            path,
+            no,
+        )
     return "\n".join(out)
+
+
+def _commas_below(text: str, start: int) -> bool:
+    """Whether a line of ``text`` after the offset ``start`` that is not a comment holds a
+    comma."""
+    at = text.find(",", start)
+    while at >= 0:
+        line_start = text.rfind("\n", 0, at) + 1
+        if not text[line_start:at].lstrip().startswith("#"):
+            return True
+        line_end = text.find("\n", at)
+        if line_end < 0:
+            return False
+        at = text.find(",", line_end)
+    return False
 
 
 def _comma_text(path: Any, text: str) -> str:
     """``text`` as a comma-separated table: as it is, or converted from the semicolon dialect
     (:func:`_semicolon_text`) when its header row is separated by ';' and holds no ','."""
+    offset = 0  # characters up to the end of the current line
     for no, line in enumerate(_head_lines(text), start=1):
+        offset += len(line)
         stripped = line.strip()
         if not stripped or stripped.startswith("#"):
             continue
         if ";" not in stripped:
+            if "," not in stripped and _commas_below(text, offset):
+                # one column: a spreadsheet writes no separator, so a comma below is decimal
+                return _semicolon_text(path, text, no, declared=False)
             return text
         if "," in stripped:
             raise InputError(
@@ -600,7 +665,7 @@ class ColumnSample:
 
 def _is_number(text: str) -> bool:
     try:
-        return math.isfinite(float(text))
+        return math.isfinite(parse_float(text))
     except ValueError:
         return False
 

@@ -35,9 +35,18 @@ from pathlib import Path
 
 import numpy as np
 
+from ..calibration.censi import MIN_WHEEL_ROTATION_RAD
 from ..errors import InputError
 
-__all__ = ["TupleData", "read_tuples", "refuse_repeated_tuples", "MAX_LINE_BYTES", "LIMITS"]
+__all__ = [
+    "TupleData",
+    "read_tuples",
+    "refuse_still_tuples",
+    "refuse_repeated_tuples",
+    "MAX_LINE_BYTES",
+    "LIMITS",
+    "MIN_SENSOR_MOTION",
+]
 
 #: Longest accepted line (bytes); the authors' lines are about 120 bytes.
 MAX_LINE_BYTES = 4096
@@ -51,6 +60,9 @@ LIMITS = {
     "sm.theta": 1e3,  # rad
 }
 _KEYS = ("T", "phi_l", "phi_r", "sm")
+#: Below this motion (m and rad) in every tuple the sensor does not move: finer than any scan
+#: matcher resolves.
+MIN_SENSOR_MOTION = 1e-6
 
 
 @dataclass(frozen=True)
@@ -261,6 +273,30 @@ def read_tuples(path) -> TupleData:
         line=np.array(lines, dtype=int),
         path=str(path),
     )
+
+
+def refuse_still_tuples(data: Sequence[TupleData]) -> None:
+    """InputError naming the file whose wheels turn in no tuple (every rotation below
+    :data:`~odocal.calibration.censi.MIN_WHEEL_ROTATION_RAD`: a duration T in the wrong unit?)
+    or whose sensor moves in none (every ``sm`` within :data:`MIN_SENSOR_MOTION`: no sensor
+    motion to calibrate against). Checked before anything else: such a file's tuples may repeat
+    each other, and its fit fails for a reason that hides the cause."""
+    for d in data:
+        turned = float(np.max(np.abs(np.r_[d.phi_right_rad, d.phi_left_rad])))
+        if not turned >= MIN_WHEEL_ROTATION_RAD:
+            raise InputError(
+                f"the wheels do not turn in any tuple (largest rotation {turned:.3g} rad; a "
+                "duration T in the wrong unit?)",
+                d.path,
+            )
+        moved = float(np.max(np.abs(d.sensor_motion)))
+        if not moved >= MIN_SENSOR_MOTION:
+            raise InputError(
+                f"the sensor never moves: every tuple's sm is within {MIN_SENSOR_MOTION:g} m and "
+                f"rad of 0 (largest {moved:.3g}) while the wheels turn up to {turned:.3g} rad; "
+                "no sensor motion to calibrate against (was the scan matcher running?)",
+                d.path,
+            )
 
 
 def refuse_repeated_tuples(data: Sequence[TupleData]) -> None:

@@ -29,6 +29,7 @@ from yaml.composer import Composer
 from yaml.constructor import SafeConstructor
 from yaml.resolver import Resolver
 
+from ..core.checks import parse_float
 from ..errors import InputError
 from .limits import MAX_YAML_BYTES
 from .table import MAX_FIELD_CHARS
@@ -333,7 +334,7 @@ class _Converter:
                     return -math.inf if low.startswith("-") else math.inf
                 if low == ".nan":
                     return math.nan
-                v = float(text)
+                v = parse_float(text)
             except ValueError:
                 raise InputError(f"not a number: {text!r}", self.path, line, field) from None
             if math.isinf(v):
