@@ -97,14 +97,13 @@ def make_robot(
     (diameter against wheelbase: a unit slip cannot pass)."""
     from ..core.checks import check_nonnegative_float, check_number
     from ..core.model import MeasurementNoise, NonSystematicError, SystematicError
-    from ..core.plausibility import proportions_problem
+    from ..core.plausibility import proportions_problem, robot_scale_problem
     from ..io.limits import (
         ERROR_FACTOR,
         K_MAX_M,
         ROBOT_LENGTH_M,
         SIGMA_THETA_MAX_DEG,
         SIGMA_XY_MAX_M,
-        robot_scale_problem,
     )
 
     lo, hi = ROBOT_LENGTH_M

@@ -175,6 +175,32 @@ def wheel_size_problem(geometry: WheelGeometry) -> str | None:
     )
 
 
+#: The largest wheelbase (m) of a wheeled robot: a haul truck's track is about 8 m.
+WHEELBASE_MAX_M = 20.0
+
+
+def robot_scale_problem(diameter_m: float, wheelbase_m: float) -> str | None:
+    """A robot file's nominal wheel diameter and wheelbase (m) against the size of any wheeled
+    robot (:data:`WHEEL_DIAMETER_MAX_M`, :data:`WHEELBASE_MAX_M`): None when plausible, else
+    what is wrong and the unit slip it suggests. A file in millimetres or centimetres would
+    pass every route that measures a ratio (the gyro): refused where the file is read."""
+    for name, v, hi in (
+        ("wheel_diameter_m", diameter_m, WHEEL_DIAMETER_MAX_M),
+        ("wheelbase_m", wheelbase_m, WHEELBASE_MAX_M),
+    ):
+        if v > hi:
+            guess = next(
+                (f"{v * f:g} m if it is in {unit}" for f, unit in ((1e-3, "millimetres"),
+                 (1e-2, "centimetres")) if v * f <= hi),
+                "a length in other units",
+            )  # fmt: skip
+            return (
+                f"{name}: {v:g} m is no wheeled robot's (at most {hi:g} m); the file's lengths "
+                f"must be in metres: is it in millimetres? ({guess})"
+            )
+    return None
+
+
 def track_size_problem(wheelbase_m: float, side_m: float, what: str = "track") -> str | None:
     """A polygon of side ``side_m`` (m) for a robot of wheelbase ``wheelbase_m`` (m): the side
     must be longer than the robot is wide."""

@@ -15,34 +15,6 @@ from __future__ import annotations
 
 #: Wheel diameters and wheelbases (m): 0.1 mm .. 1 km.
 ROBOT_LENGTH_M = (1e-4, 1e3)
-#: The largest wheel diameter and wheelbase of a wheeled robot (m): a mining truck's tyre is
-#: 4 m, its track 8 m. A robot file beyond them is in other units (millimetres, centimetres),
-#: which no route can see when it measures a ratio (the gyro): refused where the file is read.
-WHEEL_DIAMETER_MAX_M = 5.0
-WHEELBASE_MAX_M = 20.0
-
-
-def robot_scale_problem(diameter_m: float, wheelbase_m: float) -> str | None:
-    """Why a robot's nominal wheel diameter and wheelbase (m) are no wheeled robot's (larger
-    than :data:`WHEEL_DIAMETER_MAX_M`, :data:`WHEELBASE_MAX_M`), with the unit slip it
-    suggests; None when plausible."""
-    for name, v, hi in (
-        ("wheel_diameter_m", diameter_m, WHEEL_DIAMETER_MAX_M),
-        ("wheelbase_m", wheelbase_m, WHEELBASE_MAX_M),
-    ):
-        if v > hi:
-            guess = next(
-                (f"{v * f:g} m if it is in {unit}" for f, unit in ((1e-3, "millimetres"),
-                 (1e-2, "centimetres")) if v * f <= hi),
-                "a length in other units",
-            )  # fmt: skip
-            return (
-                f"{name}: {v:g} m is no wheeled robot's (at most {hi:g} m); the file's lengths "
-                f"must be in metres: is it in millimetres? ({guess})"
-            )
-    return None
-
-
 #: Systematic error factors E_b, E_d, E_s: any real robot is near 1.
 ERROR_FACTOR = (0.5, 2.0)
 #: Wheel noise k_r, k_l (m): at most 1 m.

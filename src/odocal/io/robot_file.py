@@ -26,7 +26,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 from ..core.model import MeasurementNoise, NonSystematicError, Robot, SystematicError, WheelGeometry
-from ..core.plausibility import proportions_problem
+from ..core.plausibility import proportions_problem, robot_scale_problem
 from ..errors import InputError, ModelError
 from ..presets import DEFAULT_ROBOT, PRESETS
 from .limits import (
@@ -35,7 +35,6 @@ from .limits import (
     ROBOT_LENGTH_M,
     SIGMA_THETA_MAX_DEG,
     SIGMA_XY_MAX_M,
-    robot_scale_problem,
 )
 
 if TYPE_CHECKING:
