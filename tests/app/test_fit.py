@@ -431,3 +431,18 @@ def test_runs_that_cannot_see_the_wheelbase_give_no_calibration():
         fit_runs(runs, robot=robot, heldout_check=False)
     res = fit_runs(runs, robot=robot, heldout_check=False, force=True)
     assert any("cannot determine the calibration" in w for w in res.warnings)
+
+
+def test_a_given_clock_offset_no_route_uses_is_a_warning(realdata):
+    # --time-offset imu=S was accepted, documented, then ignored by the gyro route; a given
+    # offset of a source no route aligns is now said, not ignored in silence
+    from odocal.app.fit import fit
+    from odocal.io.bag_options import BagOptions
+
+    bag = realdata / "husky" / "husky_test1.bag"
+    options = BagOptions(imu_axis="y", time_offsets=(("imu", 0.05), ("laser", 0.1)))
+    res = fit([bag], "gyro", robot="paper-fig5", bag=options)
+    assert res.time_offset is not None and res.time_offset.how == "given"
+    assert res.time_offset.offset_s == 0.05 and res.time_offset.applied
+    said = [w for w in res.load_warnings if "--time-offset" in w]
+    assert len(said) == 1 and "laser=0.1" in said[0] and "not used" in said[0]

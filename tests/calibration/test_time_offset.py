@@ -232,3 +232,19 @@ def test_a_late_ground_truth_s_offset_is_estimated_from_its_heading():
     np.testing.assert_allclose(
         moved[1].ground_truth[inner, 2], (heading - heading[0])[inner], atol=0.01
     )
+
+
+def test_one_closed_set_of_clock_sources():
+    # the flag's sources are the closed type's (the wheels are the reference clock, not a flag)
+    from odocal.calibration.time_offset import TIME_SOURCES, resolve_offset
+    from odocal.io.bag_options import TIME_OFFSET_SOURCES
+
+    assert TIME_SOURCES[0] == "wheels" and TIME_OFFSET_SOURCES == TIME_SOURCES[1:]
+    # the one rule: given wins, else the estimate, else 0 with the reason
+    assert resolve_offset("imu", 0.02, lambda: 1 / 0).how == "given"
+
+    def fails():
+        raise CalibrationError("too little turning")
+
+    o = resolve_offset("laser", None, fails)
+    assert o.offset_s == 0.0 and o.how == "not estimated" and "too little turning" in o.warnings[0]

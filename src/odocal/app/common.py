@@ -40,6 +40,7 @@ __all__ = [
     "robot_nominal",
     "robot_ran_with",
     "load_warnings",
+    "unused_offsets",
     "Exports",
     "NO_EXPORTS",
 ]
@@ -179,6 +180,18 @@ def load_warnings(recordings: Sequence[Recording]) -> tuple[str, ...]:
     """What the readers said about each run (its ``meta['warnings']``), named by run."""
     return tuple(
         f"{r.name}: {w}" for r in recordings for w in (r.meta.get("warnings", ()) if r.meta else ())
+    )
+
+
+def unused_offsets(given: Sequence[tuple[str, float]], used: Sequence[str]) -> tuple[str, ...]:
+    """A warning for each clock offset fixed with ``--time-offset SOURCE=SECONDS`` (``given``)
+    whose source no route that ran aligns (``used``): a given offset is never ignored in
+    silence."""
+    return tuple(
+        f"--time-offset {source}={value:g} was given, but no route that ran aligns the "
+        f"{source}'s clock: it was not used"
+        for source, value in given
+        if source not in used
     )
 
 

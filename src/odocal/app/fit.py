@@ -22,6 +22,7 @@ TrajectorySettings`, :class:`~odocal.calibration.fit_settings.SquareSettings`,
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Literal
 
@@ -39,7 +40,7 @@ from ..io.bags import is_bag
 from ..io.outputs import OutputPlan
 from ..io.recordings import expand_folders, refuse_repeated
 from ..io.ros2_export import DEFAULT_CONTROLLER
-from .common import Exports, RobotSpec, input_paths
+from .common import Exports, RobotSpec, input_paths, unused_offsets
 from .fit_auto import AutoFitResult, fit_auto
 from .fit_gyro import GyroFitResult, fit_gyro, fit_gyro_bag, gyro_fit
 from .fit_relative import RelativeFitResult, fit_tuple_files, is_tuple_file
@@ -252,7 +253,40 @@ def fit(
     if method == "gyro":
         if len(paths) != 1:
             raise InputError("--method gyro takes exactly one bag", field="paths")
-        return fit_gyro(paths[0], robot=robot, exports=exports, options=bag, force=force)
+        res = fit_gyro(paths[0], robot=robot, exports=exports, options=bag, force=force)
+        return replace(res, load_warnings=unused_offsets(bag.time_offsets, ["imu"]))
+    res = _fit_route(
+        paths, method, robot, settings, squares, bag, ticks_per_rev, truth_frames,
+        slam_stamp_offset_s, scan_interval_s, exports, plot, robot_out, force,
+    )  # fmt: skip
+    unused = unused_offsets(bag.time_offsets, _offset_sources(res))
+    return replace(res, load_warnings=unused + res.load_warnings)
+
+
+def _offset_sources(res: FitResult | RelativeFitResult) -> list[str]:
+    """The clocks a route aligns: the truth's (a trajectory fit), the SLAM's, the laser's."""
+    if isinstance(res, RelativeFitResult):
+        return {"slam": ["slam"], "scan": ["laser"]}.get(res.source, [])
+    return ["truth"] if res.fit.method == "trajectory" else []
+
+
+def _fit_route(
+    paths: list[str | Path],
+    method: FitMethod | None,
+    robot: RobotSpec,
+    settings: TrajectorySettings | None,
+    squares: SquareSettings | None,
+    bag: BagOptions,
+    ticks_per_rev: float | None,
+    truth_frames: tuple[str, str] | None,
+    slam_stamp_offset_s: float,
+    scan_interval_s: float,
+    exports: Exports,
+    plot: str | Path | None,
+    robot_out: str | Path | None,
+    force: bool,
+) -> FitResult | RelativeFitResult:
+    """:func:`fit` of every route but the gyro and the one-command route."""
     refuse_repeated(paths)  # the same file twice would count twice, whatever it holds
     route = choose_route(paths, method, truth_frames)
     if robot_out is not None and route != "runs":

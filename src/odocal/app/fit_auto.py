@@ -43,7 +43,7 @@ from ..io.robot_file import load_robot
 from ..io.ros2_export import DEFAULT_CONTROLLER
 from .bag_routes import run_route
 from .check import CheckResult, check_bag
-from .common import RobotSpec, input_paths, write_exports
+from .common import RobotSpec, input_paths, unused_offsets, write_exports
 from .fit_auto_result import AutoFitResult, RouteRun
 from .fit_relative import RelativeFitResult
 from .fit_runs import FitResult
@@ -102,9 +102,14 @@ def _ratio_only(answer: RouteRun) -> list[str]:
     return out
 
 
-def _warnings(runs: Sequence[RouteRun], answer: RouteRun | None) -> tuple[str, ...]:
-    """The warnings of every route that ran, and what a gyro answer leaves out."""
+def _warnings(
+    runs: Sequence[RouteRun], answer: RouteRun | None, options: BagOptions
+) -> tuple[str, ...]:
+    """The warnings of every route that ran, a given clock offset no route used, and what a
+    gyro answer leaves out."""
+    used = [o.source for r in runs if r.used for o in r.time_offsets]
     warnings = tuple(w for r in runs if r.used for w in r.warnings)
+    warnings += unused_offsets(options.time_offsets, used)
     if answer is not None and answer.name == "gyro":
         warnings += (
             "the gyro route calibrates the wheelbase only: the wheel diameters stay nominal "
@@ -198,7 +203,7 @@ def fit_auto(
     reasons = tuple(_reasons(answer, runs, checks) + _check_reasons(answer, log_check))
     noise = None if answer is None else answer.noise
     result = AutoFitResult(found.path, tuple(runs), answer, loaded_robot.nominal, checks, noise,
-                           _covariance(answer), reasons, (), _warnings(runs, answer),
+                           _covariance(answer), reasons, (), _warnings(runs, answer, options),
                            log_check)  # fmt: skip
     return _write(plan, result, out, ros2, controller_name, force)
 

@@ -42,6 +42,7 @@ class GyroFitResult(Presented):
     time_offset: TimeOffset | None = None
     base: str = ""
     forced: tuple[str, ...] = ()
+    load_warnings: tuple[str, ...] = ()
 
     method = "gyro"
 
