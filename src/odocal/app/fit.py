@@ -253,8 +253,8 @@ def fit(
     if method == "gyro":
         if len(paths) != 1:
             raise InputError("--method gyro takes exactly one bag", field="paths")
-        res = fit_gyro(paths[0], robot=robot, exports=exports, options=bag, force=force)
-        return replace(res, load_warnings=unused_offsets(bag.time_offsets, ["imu"]))
+        gyro = fit_gyro(paths[0], robot=robot, exports=exports, options=bag, force=force)
+        return replace(gyro, load_warnings=unused_offsets(bag.time_offsets, ["imu"]))
     res = _fit_route(
         paths, method, robot, settings, squares, bag, ticks_per_rev, truth_frames,
         slam_stamp_offset_s, scan_interval_s, exports, plot, robot_out, force,
