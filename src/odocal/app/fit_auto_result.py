@@ -21,7 +21,7 @@ from .check import CheckResult
 from .fit_gyro import GyroFitResult
 from .fit_relative import RelativeFitResult
 from .fit_runs import FitResult
-from .text import Presented
+from .text import Presented, Text, check_text, written_lines
 
 __all__ = ["RouteRun", "RouteDetail", "AutoFitResult"]
 
@@ -164,8 +164,6 @@ class AutoFitResult(Presented):
 
     def text(self) -> str:
         """The text ``odocal fit`` prints for the one answer for a bag."""
-        from .fit_text import auto_text
-
         return auto_text(self)
 
     def as_dict(self) -> dict[str, Any]:
@@ -196,3 +194,62 @@ class AutoFitResult(Presented):
             "warnings": list(self.warnings),
             "written": [str(p) for p in self.written],
         }
+
+
+def _model_words(answer: RouteAnswer) -> str:
+    """The model a route settled on, and what it held."""
+    if answer.model == "heading-ratio":
+        return "heading ratio: the diameters held"
+    if answer.model == "full":
+        return "full model"
+    held = ", ".join(answer.held)
+    tied = "the diameters tied to one scale" if answer.model != "full" else ""
+    what = "; ".join(x for x in (tied, f"{held} held" if held else "") if x)
+    return f"'{answer.model}' model: {what}"
+
+
+def auto_text(res: AutoFitResult) -> str:
+    """The text of the one-command answer: the routes, the parameters, the checks, the
+    verdict."""
+    out = Text()
+    out(f"one answer for {res.bag} (every route it allows, cross-checked)")
+    for r in res.routes:
+        model = "" if r.answer is None else f" ({_model_words(r.answer)})"
+        out(f"  {r.name:10s} {'used' if r.used else 'not used'}{model}: {r.reason}")
+    a = res.answer
+    if a is not None and a.answer is not None:
+        out(f"parameters (the {a.name} route's, {_model_words(a.answer)}):")
+        nom = res.nominal.as_dict()
+        rows = [("", "nominal", "calibrated", "std. error")]
+        for p in a.answer.parameters:
+            se = p.std_error
+            err = "held" if p.status == "held" else ("-" if se is None else f"{se:.2e}")
+            rows.append((p.name, f"{nom[p.name]:.6f}", f"{p.value:.6f}", err))
+        out.table(rows)
+    for o in res.time_offsets:
+        pm = "" if o.stderr_s is None else f" +- {o.stderr_s:.4f}"
+        out(f"clock offset of the {o.source}: {o.offset_s:+.4f}{pm} s ({o.how})")
+    if res.heldout is not None:
+        out(res.heldout.verdict())
+    for c in res.cross_checks:
+        word = "agree" if c.agree else "DISAGREE"
+        out(f"{c.routes[0]} vs {c.routes[1]} on {c.quantity}: {c.z:+.2f} standard errors ({word})")
+    if res.log_check is not None:
+        out("Is this log enough? (odocal check)")
+        check_text(out, res.log_check, indent="  ")
+    if res.covariance is not None:
+        cov = res.covariance
+        out(f"covariances for diff_drive_controller: pose {list(cov.pose_diagonal)}, twist "
+              f"{list(cov.twist_diagonal)} (k_r = k_l = {cov.k_r_m:.3g} m)")  # fmt: skip
+    if res.enough:
+        out("verdict: trustworthy")
+    else:
+        out("verdict: NOT to be trusted:")
+        for reason in res.reasons:
+            out(f"  - {reason}")
+        if not res.written:
+            out("nothing written (--force writes the files anyway)")
+        else:
+            out("written anyway (--force): the files say NOT TO BE TRUSTED, with these reasons")
+    written_lines(out, res.written)
+    return str(out)

@@ -8,6 +8,7 @@ absurd-result check and the exports. The router :func:`odocal.app.fit.fit` choos
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -25,7 +26,7 @@ from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
 from ..io.outputs import OutputPlan
 from ..io.robot_file import load_robot
 from .common import NO_EXPORTS, Exports, RobotSpec
-from .text import Presented
+from .text import Presented, Text, written_lines
 
 __all__ = ["GyroFitResult", "gyro_fit", "gyro_route_fit", "fit_gyro_bag", "fit_gyro"]
 
@@ -61,8 +62,6 @@ class GyroFitResult(Presented):
 
     def text(self) -> str:
         """The text ``odocal fit`` prints for a gyro calibration."""
-        from .fit_text import gyro_text
-
         return gyro_text(self)
 
     def as_dict(self) -> dict[str, Any]:
@@ -391,3 +390,37 @@ def _robot_file(robot: RobotSpec) -> list[Path]:
     if isinstance(robot, (str, Path)) and robot and Path(robot).exists():
         return [Path(robot)]
     return []
+
+
+def gyro_text(res: GyroFitResult) -> str:
+    """The text of ``odocal fit --method gyro``."""
+    out = Text()
+    g, meta = res.gyro, res.gyro.meta
+    out(f"gyro calibration of {meta['bag']} ({meta['imu_topic']} vs {meta['odom_topic']})")
+    out.table(
+        [
+            ("rotation_ratio (gyro / odometry)", f"{g.rotation_ratio:.5f}"),
+            (
+                "  its standard error (bias, noise, drift)",
+                "- (too short to estimate)"
+                if g.rotation_ratio_stderr is None
+                else f"{g.rotation_ratio_stderr:.5f}",
+            ),
+            ("wheelbase_multiplier", f"{g.wheelbase_multiplier:.5f}"),
+            ("gyro rotation (deg)", f"{math.degrees(g.gyro_rotation_rad):+.2f}"),
+            ("odometry rotation (deg)", f"{math.degrees(g.odometry_rotation_rad):+.2f}"),
+            ("IMU yaw axis", f"{g.axis} ({g.mounting_source})"),
+            ("gyro bias removed (rad/s)", f"{g.bias_rad_s:.3g} ({g.bias_source})"),
+        ]
+    )
+    if res.geometry is not None:
+        out(
+            f"  calibrated wheelbase_m: {float(res.geometry.wheelbase_m):.6f} (the correction "
+            f"applied to {res.base})"
+        )
+    o = res.time_offset
+    if o is not None:
+        se = "" if o.stderr_s is None else f" +- {o.stderr_s:.4f}"
+        out(f"  clock offset of the imu: {o.offset_s:+.4f}{se} s ({o.how})")
+    written_lines(out, res.written)
+    return str(out)

@@ -12,6 +12,7 @@ asked for (with the result, the checks and the exports shared here). The router
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -19,7 +20,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from ..calibration.censi import SensorOdometryFit, fit_censi
+from ..calibration.censi import PARAMETERS, SensorOdometryFit, fit_censi
 from ..calibration.heldout import HeldOut
 from ..calibration.interval_noise import IntervalNoise
 from ..calibration.relative_checks import (
@@ -38,7 +39,7 @@ from ..io.outputs import OutputPlan
 from ..io.tuples import read_tuples, refuse_repeated_tuples, refuse_still_tuples
 from .common import NO_EXPORTS, Exports, RobotSpec, refuse_absurd, refuse_untrusted, robot_nominal
 from .relative_inputs import ScanSummary, TupleInput
-from .text import Presented
+from .text import Presented, Text, written_lines
 
 __all__ = [
     "RelativeSource",
@@ -160,8 +161,6 @@ class RelativeFitResult(Presented):
 
     def text(self) -> str:
         """The text ``odocal fit`` prints for a relative-motion fit."""
-        from .fit_text import relative_text
-
         return relative_text(self)
 
     def as_dict(self) -> dict[str, Any]:
@@ -337,3 +336,72 @@ def fit_tuple_files(
     return RelativeFitResult(
         result, nominal, len(paths), "tuples", tuple_files=inputs, written=written, forced=forced
     )
+
+
+def relative_text(res: RelativeFitResult) -> str:
+    """The text of a relative-motion fit (``.tuple`` files, SLAM bags, laser scans)."""
+    out = Text()
+    r, nominal = res.fit, res.nominal
+    out(
+        f"relative-motion fit (Censi et al. 2013) from {r.tuples_used} of {r.tuples_total} "
+        f"intervals ({r.tuples_dropped} dropped as outliers)"
+    )
+    d = r.as_dict()
+    rows = [("", "nominal", "calibrated", "std. error")]
+    nom = {} if nominal is None else nominal.as_dict()
+    for key in PARAMETERS:
+        if key.startswith("sensor") and r.sensor_pose_fixed:
+            continue
+        v, se = d[key], d["stderr"].get(key)
+        rows.append(
+            (
+                key,
+                f"{nom[key]:.6f}" if key in nom else "-",
+                "-" if v is None else f"{v:.6f}",
+                "-" if se is None else f"{se:.2e}",
+            )
+        )
+    out.table(rows)
+    if r.covariance_formal is not None:
+        out(f"  std. errors: {r.uncertainty} (formal ones in the JSON)")
+    for b in res.slam_bags:
+        out(f"  {b.path}: {b.chain}: {b.motions.summary()}")
+        out(f"    wheels: {b.wheels}")
+    for s in res.scans:
+        x, y, yaw = s.mount_guess
+        out(
+            f"  {s.bag}: {s.intervals.matched} of {s.intervals.intervals} scan intervals matched "
+            f"({s.scans} scans on {s.scan_topic}, {s.intervals.interval_scans} apart); laser "
+            f"mounting from {s.mount_source}: x {x:.4f} m, y {y:.4f} m, yaw {yaw:.4f} rad"
+        )
+    _print_checks(out, res)
+    written_lines(out, res.written)
+    return str(out)
+
+
+def _print_checks(out: Text, res: RelativeFitResult) -> None:
+    """Clock offsets, the held-out check, the answer's model and the one-log noise."""
+    for o in res.time_offsets:
+        se = "" if o.stderr_s is None else f" +- {o.stderr_s:.4f}"
+        out(f"  clock offset of the {o.source}: {o.offset_s:+.4f}{se} s ({o.how}; > 0: its "
+              "stamps run late)")  # fmt: skip
+    if res.heldout is not None:
+        out(f"  {res.heldout.verdict()}")
+    if res.model != "full":
+        g, errs = res.geometry, res.geometry_stderr
+        cells = [
+            f"{name} {v:.6f}" + (" (nominal)" if not e else f" +- {e:.2e}")
+            for name, v, e in zip(("D_R", "D_L", "b"), (g.diameter_right_m, g.diameter_left_m,
+                                                        g.wheelbase_m), errs, strict=True)
+        ]  # fmt: skip
+        out(f"  the answer is the '{res.model}' model: {', '.join(cells)} m")
+    if res.noise is not None:
+        n = res.noise
+        lo, hi = n.k_ci95_m
+        out(
+            f"  random error: wheels k_r + k_l {n.k_sum_m:.3g} m (95 %: {lo:.3g} to {hi:.3g}); "
+            f"truth {1e3 * n.truth_sigma_xy_m:.3g} mm, {math.degrees(n.truth_sigma_theta_rad):.3g}"
+            f" deg per interval ({n.intervals} intervals)"
+        )
+    for note in res.notes:
+        out(f"  {note}")

@@ -30,6 +30,7 @@ from ..calibration.result import GeometryFit
 from ..calibration.squares import fit_recorded_squares
 from ..calibration.time_offset import TimeOffset, pooled_offset_s, truth_on_wheel_clock
 from ..calibration.trajectory import fit_trajectory_model
+from ..calibration.turning import EffectiveWheelbase
 from ..core.model import Robot, WheelGeometry
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
@@ -49,7 +50,7 @@ from .common import (
     refuse_untrusted,
 )
 from .measured import MeasuredRobot, measure_robot
-from .text import Presented
+from .text import Presented, Text, check_text, written_lines
 
 __all__ = [
     "FitResult",
@@ -120,8 +121,6 @@ class FitResult(Presented):
 
     def text(self) -> str:
         """The text ``odocal fit`` prints for a fit of runs with ground truth."""
-        from .fit_text import runs_text
-
         return runs_text(self)
 
     def as_dict(self) -> dict[str, Any]:
@@ -342,3 +341,127 @@ def fit_run_files(
         record={"method": result.fit.method}, doubts=result.forced,
     )  # fmt: skip
     return replace(result, load_warnings=tuple(notes) + result.load_warnings, written=written)
+
+
+def runs_text(res: FitResult) -> str:
+    """The text of a fit of runs with ground truth: the geometry against nominal, then what the
+    method adds and the log check."""
+    out = Text()
+    result, nominal = res.fit, res.nominal
+    out(f"{result.method} fit from {len(result.runs)} run(s)")
+    g, se = result.geometry.as_dict(), result.stderr
+    nom = None if nominal is None else nominal.as_dict()
+    rows = [("", "nominal", "calibrated", "std. error")]
+    for key in ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m"):
+        err = se.get(key)
+        rows.append(
+            (
+                key,
+                "-" if nom is None else f"{nom[key]:.6f}",
+                f"{g[key]:.6f}",
+                "-" if err is None else f"{err:.2e}",
+            )
+        )
+    out.table(rows)
+    if result.covariance_formal is not None:
+        out(f"std. errors: {result.uncertainty} (formal ones in the JSON)")
+    if result.squares is not None:
+        out(
+            f"pooled from {len(result.squares.data_sets)} data set(s): per data set, "
+            "composed with its ran-with parameters; scale = nominal mean diameter"
+        )
+    if result.excluded:
+        out("excluded: " + ", ".join(Path(n).name for n in result.excluded))
+    rms = _residual_rms(result)
+    if rms is not None:
+        out(f"residual RMS {rms:.3g} ({_residual_kind(result)})")
+    _print_bands(out, result)
+    if res.log_check is not None:
+        out("Is this log enough? (odocal check)")
+        check_text(out, res.log_check, indent="  ")
+    _print_offsets(out, res.time_offsets)
+    if res.heldout is not None:
+        out(res.heldout.verdict())
+    for note in res.notes:
+        out(note)
+    written_lines(out, res.written)
+    return str(out)
+
+
+def _print_offsets(out: Text, offsets: tuple[TimeOffset, ...]) -> None:
+    """The clock offsets: every applied one, and how many were found within their noise."""
+    quiet = [o for o in offsets if not o.applied]
+    for o in offsets:
+        if o.applied:
+            se = "" if o.stderr_s is None else f" +- {o.stderr_s:.4f}"
+            out(f"clock offset of the {o.source}: {o.offset_s:+.4f}{se} s ({o.how}; applied)")
+    if quiet:
+        worst = max(abs(o.offset_s) for o in quiet)
+        out(
+            f"clock offsets within their noise (not applied): {len(quiet)} of {len(offsets)} "
+            f"source(s), at most {1e3 * worst:.1f} ms"
+        )
+
+
+def _residual_rms(fit: GeometryFit) -> float | None:
+    if fit.trajectory is not None:
+        return fit.trajectory.residual_rms
+    return None if fit.banded is None else fit.banded.residual_rms
+
+
+def _residual_kind(fit: GeometryFit) -> str:
+    return "pose" if fit.trajectory is None else fit.trajectory.settings.residual
+
+
+def _radius(lo: float, hi: float | None) -> str:
+    if lo == 0:
+        return f"< {hi:.3g}"
+    return f"> {lo:.3g}" if hi is None else f"{lo:.3g}-{hi:.3g}"
+
+
+def _print_band_table(out: Text, table: EffectiveWheelbase) -> None:
+    rows = [
+        (
+            "band",
+            "turn radius (m)",
+            "eff. wheelbase (m)",
+            "95 % interval",
+            "segments",
+            "share of rotation",
+        )
+    ]
+    for b in table.bands:
+        est, ci = "not excited", ""
+        if b.excited and b.wheelbase_m is not None and b.ci95_m is not None:
+            est = f"{b.wheelbase_m:.6f}"
+            ci = f"{b.ci95_m[0]:.6f}-{b.ci95_m[1]:.6f}"
+        rows.append(
+            (
+                b.band,
+                _radius(*b.radius_range_m),
+                est,
+                ci,
+                f"{b.segments} ({b.runs} runs)",
+                f"{100 * b.rotation_share:.0f} %",
+            )
+        )
+    out.table(rows, "effective wheelbase per band of motion (at the fitted diameters):")
+
+
+def _print_bands(out: Text, fit: GeometryFit) -> None:
+    """The effective wheelbase per band of motion, the banded fit and the motion mix."""
+    if fit.effective_wheelbase is not None:
+        _print_band_table(out, fit.effective_wheelbase)
+    if fit.banded is not None:
+        fitted = ", ".join(f"{k} {v:.6f} m" for k, v in fit.banded.band_wheelbase_m.items())
+        out(f"banded model: {fitted}")
+    mix = fit.motion_mix
+    if mix is not None:
+        shares = ", ".join(f"{k} {100 * v:.0f} %" for k, v in mix.mix.items())
+        errs = ", ".join(f"{k} {v:+.2f}" for k, v in mix.heading_error_deg_per_turn.items())
+        se = "" if mix.wheelbase_stderr_m is None else f" +- {mix.wheelbase_stderr_m:.2e}"
+        out(
+            f"single wheelbase for the motion mix ({shares}): {mix.wheelbase_m:.6f}{se} m; "
+            f"heading error per full turn (deg): {errs}; RMS "
+            f"{mix.rms_heading_error_deg_per_turn:.2f} deg per turn"
+        )
