@@ -77,3 +77,16 @@ def test_bad_inputs_are_one_line(cli, tmp_path):
     _one_line(*cli("fleet", "ingest", root, "--db", tmp_path / "f.db", "--workers", "0"))
     _one_line(*cli("fleet", "export", "r1", "--db", db, "--ros2", db), "overwrite an input")
     _one_line(*cli("fleet", "status"), "--db")
+
+
+def test_ingest_names_a_robot_it_could_not_ingest_and_goes_on(cli, tmp_path):
+    robot_yaml(tmp_path / "root" / "r1")
+    (tmp_path / "root" / "r1" / "x.bag").write_bytes(b"junk")
+    (tmp_path / "root" / "r2").mkdir()
+    status, out, err = cli("fleet", "ingest", tmp_path / "root", "--db", tmp_path / "f.db")
+    assert status == 0, err
+    lines = out.splitlines()
+    assert lines[0].startswith("1 bags under") and "(1 robots)" in lines[0]
+    assert lines[-1] == (f"  robot not ingested: {tmp_path / 'root' / 'r2'}: robot folder without "
+                         "robot.yaml (each robot's folder holds its nominal geometry: "
+                         "wheel_diameter_m, wheelbase_m; docs/fleet.md)")  # fmt: skip

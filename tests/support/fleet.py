@@ -77,3 +77,31 @@ def fill_db(db, robots: dict, *, now: str = "2026-01-01T00:00:00+00:00") -> None
                 status="done", reason=None, version="test", now=now,
                 result=fake_result(path, values, ses),
             )  # fmt: skip
+
+
+def run_within(seconds: float, fn, *, fifo: Path | None = None):
+    """``fn()`` in a thread; an AssertionError (not a wait for ever) when it takes longer than
+    ``seconds``. A reader of the FIFO ``fifo`` waits for a writer for ever: its writing end is
+    then opened and closed (the reader reads nothing) to free the thread."""
+    import os
+    import threading
+
+    out: dict = {}
+
+    def run():
+        try:
+            out["result"] = fn()
+        except BaseException as exc:  # noqa: BLE001 - raised again in the caller's thread
+            out["error"] = exc
+
+    t = threading.Thread(target=run, daemon=True)
+    t.start()
+    t.join(seconds)
+    if t.is_alive():
+        if fifo is not None:
+            os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+        t.join(30)
+        raise AssertionError(f"still running after {seconds} s (waiting on a FIFO?)")
+    if "error" in out:
+        raise out["error"]
+    return out["result"]

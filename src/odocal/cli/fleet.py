@@ -92,6 +92,8 @@ def run(args: argparse.Namespace) -> int:
         )
         for bag, why in res.failures:
             print(f"  failed: {why if why.startswith(bag) else f'{bag}: {why}'}")
+        for _, why in res.robot_failures:
+            print(f"  robot not ingested: {why}")
         return 0
     if cmd == "status":
         from ..app.fleet_status import fleet_status
