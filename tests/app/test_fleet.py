@@ -374,3 +374,25 @@ def test_the_database_inside_root_is_not_a_bag(tmp_path):
             assert res.bags_total == 1 and res.robot_failures == ()
         with sqlite3.connect(db) as con:
             assert con.execute("SELECT path FROM bags").fetchall() == [(str(root / "r1/a.bag"),)]
+
+
+def test_a_link_back_up_the_tree_is_no_claim_on_another_robot_s_bags(tmp_path):
+    """r1/up -> ROOT made r2's bag 'claimed by two robots' (r1 reached it through r2's folder),
+    recorded as retry at every ingest, for ever; so did a link into r2's folder and a linked
+    file. A path through another robot's folder is no claim: the bag is r2's."""
+    root = tmp_path / "root"
+    for r in ("r1", "r2"):
+        robot_yaml(root / r)
+    (root / "r2" / "day0").mkdir()
+    (root / "r2" / "day0" / "x.bag").write_bytes(b"r2's bag (not one the route can read)")
+    (root / "r1" / "up").symlink_to(root)
+    (root / "r1" / "borrowed").symlink_to(root / "r2" / "day0")
+    (root / "r1" / "linked.bag").symlink_to(root / "r2" / "day0" / "x.bag")
+    for run in range(2):
+        res = _ingest_within(20, root, tmp_path / "f.db")
+        assert (res.bags_total, res.bags_retry, res.warnings) == (1, 0, ()), res
+        assert res.bags_failed == (1 if run == 0 else 0)  # stored as failed (not a bag), once
+    with sqlite3.connect(tmp_path / "f.db") as con:
+        assert con.execute("SELECT robot_id, path, status FROM bags").fetchall() == [
+            ("r2", str(root / "r2" / "day0" / "x.bag"), "failed")
+        ]

@@ -130,3 +130,24 @@ def test_the_hash_never_waits_on_a_fifo(tmp_path):
     os.mkfifo(fifo)
     with pytest.raises(InputError, match=r"late.bag: cannot read the bag \(a FIFO, not a regular"):
         run_within(10, lambda: content_hash(fifo), fifo=fifo)
+
+
+def test_no_path_through_another_robot_s_folder(tmp_path):
+    """Links back up to the root, into another robot's folder or to one of its files: none
+    finds that robot's bags. Bag storage linked into two robots' folders is found by both."""
+    for r in ("r1", "r2"):
+        (tmp_path / r).mkdir()
+    (tmp_path / "r2" / "own.bag").write_bytes(b"r2")
+    _ros2(tmp_path / "r2" / "run1")
+    _ros2(tmp_path / "storage" / "shared")
+    (tmp_path / "r1" / "up").symlink_to(tmp_path)
+    (tmp_path / "r1" / "into-r2").symlink_to(tmp_path / "r2" / "run1")
+    (tmp_path / "r1" / "file.bag").symlink_to(tmp_path / "r2" / "own.bag")
+    for r in ("r1", "r2"):
+        (tmp_path / r / "storage").symlink_to(tmp_path / "storage")
+    folders = [tmp_path / "r1", tmp_path / "r2"]
+    r1 = find_bags(folders[0], others=folders)
+    assert [b.relative_to(tmp_path).as_posix() for b in r1.bags] == ["r1/storage/shared"]
+    r2 = find_bags(folders[1], others=folders)
+    assert [b.relative_to(tmp_path).as_posix() for b in r2.bags] == [
+        "r2/own.bag", "r2/run1", "r2/storage/shared"]  # fmt: skip

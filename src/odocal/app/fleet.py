@@ -219,8 +219,10 @@ def _choose(db: FleetDb, robots: Sequence[RobotFolder], skip: Sequence[Path]) ->
     unsteady: list[tuple[RobotFolder, Path, Snapshot, str]] = []
     unread: list[tuple[str, str]] = []
     warnings: list[str] = []
+    folders = [r.folder for r in robots]
     for r in robots:
-        scan = find_bags(r.folder, skip=skip)
+        # a path through another robot's folder (a link back up the tree) is no claim
+        scan = find_bags(r.folder, others=folders, skip=skip)
         warnings += scan.warnings
         unread += [(str(p), why) for p, why in scan.failures]
         for bag in scan.bags:

@@ -160,18 +160,25 @@ def _dead_link(p: Path) -> str:
         return "a link to nothing"
 
 
-def find_bags(folder: Path, *, skip: Collection[str | Path] = ()) -> BagScan:
+def find_bags(
+    folder: Path, *, others: Collection[str | Path] = (), skip: Collection[str | Path] = ()
+) -> BagScan:
     """Every bag below ``folder`` (sorted): ROS 2 folders whole, ``.bag``/``.mcap``/``.db3``
     files that are not inside one; what cannot be a bag, said.
 
     Hidden files and folders are skipped. Linked folders are followed (bag storage linked into a
-    robot's folder), each real folder once (no loop). A file of ``skip`` (the fleet database and
-    its companions) is no bag.
+    robot's folder), each real folder once (no loop), but never into ``others`` (the other
+    robots' folders: a path through another robot's folder is no claim on its bags) nor back up
+    to a folder holding ``folder`` (the fleet's root, say). A file of ``skip`` (the fleet
+    database and its companions) is no bag.
 
     With a bag's name: a FIFO, a device or a socket (reading it would wait for ever) is skipped
     with a warning, and so is a ROS 2 bag folder holding one; a link to nothing or a file that
     cannot be examined is a failure (path, one-line reason). A link to nothing without a bag's
     name is a warning (bag storage gone?); so is a folder that cannot be listed."""
+    top = os.path.realpath(folder)
+    fences = [os.path.realpath(o) for o in others]
+    fences = [f for f in fences if not _within(top, f)]  # (one holding this one: an alias)
     skip_real = {os.path.realpath(s) for s in skip}
     bags: list[Path] = []
     failures: list[tuple[Path, str]] = []
@@ -184,10 +191,15 @@ def find_bags(folder: Path, *, skip: Collection[str | Path] = ()) -> BagScan:
             "it are not seen"
         )
 
+    def fenced(real: str) -> bool:
+        if any(_within(real, f) for f in fences):
+            return True  # another robot's
+        return real != top and _within(top, real)  # a link back up the tree
+
     for dirpath, dirnames, filenames in os.walk(folder, onerror=unlisted, followlinks=True):
         d = Path(dirpath)
         real = os.path.realpath(d)
-        if real in seen:
+        if real in seen or fenced(real):
             dirnames[:] = []
             continue
         seen.add(real)
@@ -233,7 +245,7 @@ def find_bags(folder: Path, *, skip: Collection[str | Path] = ()) -> BagScan:
                 )
                 continue
             real_file = os.path.realpath(p)
-            if real_file in skip_real:
+            if real_file in skip_real or fenced(real_file):
                 continue
             bags.append(p)
     return BagScan(tuple(sorted(bags)), tuple(failures), tuple(warnings))
