@@ -23,6 +23,7 @@ one-command bag route (:func:`odocal.app.fit_auto.fit_auto`, unchanged) and stor
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable, Generator, Sequence
 from contextlib import closing
@@ -32,7 +33,14 @@ from pathlib import Path
 from typing import Any
 
 from .._version import __version__
-from ..errors import InputError, OdocalError, one_line, quote_path
+from ..core.parallel import (
+    callers_signals_blocked,
+    end_with_parent,
+    end_workers,
+    signals_held,
+    worker_endings,
+)
+from ..errors import InputError, OdocalError, WorkerLost, one_line, quote_path
 from ..io.fleet_db import FleetDb, open_db
 from ..io.fleet_files import RobotFolder, Snapshot, content_hash, find_bags, find_robots, snapshot
 from ..io.robot_file import load_robot
@@ -144,20 +152,59 @@ def _engine(workers: int, dask: str | None) -> str:
     return "this process" if workers == 1 else f"{workers} processes"
 
 
+#: Why a bag whose worker process ended without its result is stored as retry.
+LOST = "a worker process ended before returning its result ({how}): tried again at the next ingest"
+
+
 def _run_local(tasks: Sequence[BagTask], workers: int) -> Generator[BagOutcome, None, None]:
-    """The tasks in this process, or in a process pool (results as they finish)."""
+    """The tasks in this process, or in a process pool (results as they finish).
+
+    The pool's workers end with this process however it ends (:func:`~odocal.core.parallel.
+    end_with_parent`: a ``kill -9`` left them alive for ever, holding its pipes), and an
+    interruption here ends them at once (not after their bags). A worker that ends without its
+    result (killed; out of memory) breaks the pool: every bag in flight comes back as
+    ``retry``, then :class:`~odocal.errors.WorkerLost` (one line)."""
     if workers == 1 or len(tasks) <= 1:
         yield from map(calibrate_bag, tasks)
         return
+    import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures.process import BrokenProcessPool
 
-    pool = ProcessPoolExecutor(max_workers=min(workers, len(tasks)))
+    others = set(mp.active_children())
+    pool = ProcessPoolExecutor(
+        max_workers=min(workers, len(tasks)), initializer=end_with_parent, initargs=(os.getpid(),)
+    )
+    forked: list[Any] = []
+    finished = False
     try:
-        futures = [pool.submit(calibrate_bag, t) for t in tasks]
+        # the workers are forked at the submits, with SIGINT and SIGTERM blocked until their
+        # initializer has set their own handling (not this process's handlers)
+        with signals_held(), callers_signals_blocked():
+            futures = {pool.submit(calibrate_bag, t): t for t in tasks}
+            forked = [p for p in mp.active_children() if p not in others]
+        lost: list[BagTask] = []
         for f in as_completed(futures):
+            if isinstance(f.exception(), BrokenProcessPool):
+                lost.append(futures[f])
+                continue
             yield f.result()
+        if lost:
+            how = worker_endings(forked) or "killed"
+            for t in sorted(lost, key=lambda t: t.bag):
+                yield BagOutcome(t, "retry", LOST.format(how=how), None, None)
+            n = f"the {len(lost)} bags" if len(lost) > 1 else "the bag"
+            raise WorkerLost(
+                f"a worker process ended before returning its result ({how}): {n} in flight "
+                "are stored as retry (tried again at the next ingest); every bag stored so far "
+                "is kept"
+            )
+        finished = True
     finally:
-        pool.shutdown(wait=False, cancel_futures=True)
+        with signals_held():  # (a second Ctrl-C does not stop the workers being ended)
+            if not finished:
+                end_workers(forked or [p for p in mp.active_children() if p not in others])
+            pool.shutdown(wait=True, cancel_futures=True)
 
 
 #: How long to try to reach the Dask scheduler (s): Dask retries a refused connection until then.
