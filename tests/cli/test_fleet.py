@@ -237,3 +237,13 @@ def test_an_interrupted_ingest_ends_its_workers_at_once(tmp_path, how):
         assert _until(lambda: not any(map(_alive, workers)), 10)
     finally:
         _end(proc, workers)
+
+
+def test_status_shows_a_robot_id_with_a_line_break_on_one_row(cli, tmp_path):
+    rng = np.random.default_rng(3)
+    with open_db(tmp_path / "f.db", write=True) as db:
+        fill_db(db, {"a\nb": [((0.05, 0.05, 0.25) + np.array(SE) * rng.standard_normal(3), SE)]})
+    status, out, _ = cli("fleet", "status", "--db", tmp_path / "f.db")
+    assert status == 0
+    _, row = out.splitlines()
+    assert row.split()[0] == "'a\\nb'"

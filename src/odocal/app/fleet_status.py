@@ -22,7 +22,7 @@ from ..calibration.cross_check import KEYS
 from ..calibration.drift import DriftTrack, track_parameter
 from ..core.covariance import odometry_covariance
 from ..core.model import WheelGeometry
-from ..errors import InputError
+from ..errors import InputError, quote_path
 from ..io.fleet_db import BagRow, open_db
 from ..io.outputs import OutputPlan
 from ..io.ros2_export import DEFAULT_CONTROLLER, ros2_params_yaml
@@ -205,6 +205,12 @@ def fleet_status(db_path: str | Path) -> FleetStatus:
     return FleetStatus(Path(db_path), tuple(sorted(rows, key=lambda r: (-r.drift_z, r.robot_id))))
 
 
+def _quoted(robot_id: str) -> str:
+    """A robot id in a message: in quotes, with escapes when it holds an odd character."""
+    shown = quote_path(robot_id)
+    return shown if shown != robot_id else f"'{robot_id}'"
+
+
 @dataclass(frozen=True)
 class ExportResult:
     """``odocal fleet export``: the robot's current geometry, written for diff_drive_controller."""
@@ -240,14 +246,15 @@ def fleet_export(
         if robot_id not in robots:
             known = ", ".join(robots) or "none"
             raise InputError(
-                f"no robot '{robot_id}' in the fleet database (robots: {known})", db_path
+                f"no robot {_quoted(robot_id)} in the fleet database (robots: {known})", db_path
             )
         history = db.history(robot_id)
     drift = robot_drift(history)
     current = drift.current()
     if current is None:
         raise InputError(
-            f"robot '{robot_id}' has no trustworthy calibration yet (bags: {len(history)})", db_path
+            f"robot {_quoted(robot_id)} has no trustworthy calibration yet (bags: {len(history)})",
+            db_path,
         )
     nominal = WheelGeometry(*(robots[robot_id][k] for k in KEYS))
     # a parameter no bag estimated stays at its nominal value (said in the file)
@@ -268,7 +275,8 @@ def fleet_export(
             window_s=c["window_s"],
         )
     n = max(len(p.bags) for p in drift.parameters)
-    method = f"odocal fleet: robot {robot_id}, filtered level of {n} bags" + (
+    # the id quoted with escapes when it holds a line break (a YAML key of its own otherwise)
+    method = f"odocal fleet: robot {quote_path(robot_id)}, filtered level of {n} bags" + (
         f"; nominal (never estimated): {', '.join(kept)}" if kept else ""
     )
     text = ros2_params_yaml(g, nominal, controller_name, cov, method=method)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..errors import one_line, quote_path
 from .common import ProgressBar, positive_int, print_json, print_table, print_warnings
 
 
@@ -91,9 +92,9 @@ def run(args: argparse.Namespace) -> int:
             f"already stored; {res.seconds:.1f} s on {res.engine}"
         )
         for bag, why in res.failures:
-            print(f"  failed: {why if why.startswith(bag) else f'{bag}: {why}'}")
+            print(one_line(f"  failed: {why if why.startswith(bag) else f'{bag}: {why}'}"))
         for _, why in res.robot_failures:
-            print(f"  robot not ingested: {why}")
+            print(one_line(f"  robot not ingested: {why}"))
         return 0
     if cmd == "status":
         from ..app.fleet_status import fleet_status
@@ -108,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
             drift = "-" if d is None else f"{d['parameter']} {d['size_percent']:+.2f}%"
             rows.append(
                 (
-                    r.robot_id,
+                    quote_path(r.robot_id),
                     r.bags,
                     r.bags_failed,
                     *(
@@ -127,7 +128,10 @@ def run(args: argparse.Namespace) -> int:
         if args.json:
             print_json(ex.as_dict())
             return 0
-        print(f"{ex.robot_id}: filtered level of {ex.bags} bags written to {args.ros2}")
+        print(
+            f"{quote_path(ex.robot_id)}: filtered level of {ex.bags} bags written to "
+            f"{quote_path(args.ros2)}"
+        )
         return 0
     from ..app.fleet_report import fleet_report
 

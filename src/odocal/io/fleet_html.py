@@ -10,6 +10,7 @@
 
 from __future__ import annotations
 
+import hashlib
 import html
 from collections.abc import Mapping, Sequence
 from datetime import UTC, datetime
@@ -17,9 +18,10 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import quote
 
+from ..errors import quote_path
 from .auto_report import auto_report_markdown
 
-__all__ = ["fleet_pages", "bag_page_name", "robot_page_name"]
+__all__ = ["fleet_pages", "bag_page_name", "robot_page_name", "shown_id"]
 
 _CSS = """
 body{font-family:system-ui,sans-serif;margin:1.5em;color:#222;max-width:72em}
@@ -42,9 +44,28 @@ def bag_page_name(content_hash: str) -> str:
     return f"bags/{content_hash[:16]}.html"
 
 
+#: The longest file name most file systems take (bytes).
+MAX_NAME_BYTES = 255
+
+
 def robot_page_name(robot_id: str) -> str:
-    """The file of a robot's page, relative to the dashboard's folder."""
-    return f"robots/{robot_id}.html"
+    """The file of a robot's page, relative to the dashboard's folder: ``robots/<id>.html``
+    when the id makes a printable file name that fits (:data:`MAX_NAME_BYTES` with ``.html``);
+    otherwise its printable part, cut to 200 bytes, and 12 hex digits of its sha256 (distinct
+    ids, distinct pages: a 251-character id stopped the whole dashboard)."""
+    name = f"{robot_id}.html"
+    if robot_id.isprintable() and len(name.encode()) <= MAX_NAME_BYTES:
+        return f"robots/{name}"
+    printable = "".join(c if c.isprintable() else "_" for c in robot_id)
+    cut = printable.encode()[:200].decode(errors="ignore")
+    digest = hashlib.sha256(robot_id.encode("utf-8", "surrogateescape")).hexdigest()[:12]
+    return f"robots/{cut}-{digest}.html"
+
+
+def shown_id(robot_id: str) -> str:
+    """A robot id as a page shows it: as it is, or quoted with escapes when it holds a line break
+    or another character that is not printable (:func:`~odocal.errors.quote_path`)."""
+    return quote_path(robot_id)
 
 
 def _e(v: Any) -> str:
@@ -92,7 +113,8 @@ def _index(status: Mapping[str, Any], generated: str) -> str:
     for r in status["robots"]:
         cls = ' class="alarm"' if r["drift_alarm"] else ""
         cells = [
-            f'<a href="{_e(quote(robot_page_name(r["robot_id"])))}">{_e(r["robot_id"])}</a>',
+            f'<a href="{_e(quote(robot_page_name(r["robot_id"])))}">{_e(shown_id(r["robot_id"]))}'
+            "</a>",
             _e(r["bags"]),
             _e(r["bags_failed"]),
             _e((r["last_calibrated"] or "never")[:16].replace("T", " ")),
@@ -140,18 +162,18 @@ def _robot(robot: Mapping[str, Any], bags: Sequence[Mapping[str, Any]], svg: str
             f"<td>{link}</td></tr>"
         )
     body = (
-        f'<p><a href="../index.html">fleet</a></p><h1>{_e(robot["robot_id"])}</h1>'
+        f'<p><a href="../index.html">fleet</a></p><h1>{_e(shown_id(robot["robot_id"]))}</h1>'
         f"<h2>Drift alarms</h2>{alarm_html}<h2>Parameter history</h2>{svg}"
         "<h2>Bags</h2><table><tr><th>#</th><th>bag</th><th>start (UTC)</th><th>status</th>"
         "<th>verdict or reason</th><th></th></tr>" + "".join(bag_rows) + "</table>"
     )
-    return _page(f"robot {robot['robot_id']}", body)
+    return _page(f"robot {shown_id(robot['robot_id'])}", body)
 
 
 def _bag(robot_id: str, b: Mapping[str, Any]) -> str:
     md = auto_report_markdown(b["result"])
     body = (
-        f'<p><a href="../{_e(quote(robot_page_name(robot_id)))}">{_e(robot_id)}</a></p>'
+        f'<p><a href="../{_e(quote(robot_page_name(robot_id)))}">{_e(shown_id(robot_id))}</a></p>'
         f"<h1>{_e(b['path'])}</h1><p>sha256 {_e(b['content_hash'])}</p><pre>{_e(md)}</pre>"
     )
     return _page(f"bag {b['path']}", body)
