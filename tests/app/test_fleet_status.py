@@ -156,3 +156,36 @@ def test_odd_robot_ids_get_a_dashboard_with_page_names_that_fit(tmp_path):
     assert sorted((tmp_path / "html" / unquote(a)) for a in links) == pages
     assert "&lt;b&gt;&amp;amp;" in index and "<b>" not in index
     assert "r1\\nwheel_separation: 99.0" in index  # shown escaped, on its own row
+
+
+# ---- a robot without a trusted calibration is a problem, not a healthy row (item 18)
+
+
+def test_a_robot_whose_bags_are_all_untrusted_is_no_healthy_robot(tmp_path):
+    """Its row said: no drift (green 'no' on the dashboard), '-' parameters, failed 0, sorted
+    among the healthy robots. It now says 'no trusted calibration', counts its untrusted bags
+    and sorts with the problems: after the drift alarms, before the healthy robots."""
+    from odocal.app.fleet_report import fleet_report
+    from odocal.app.fleet_status import fleet_status
+
+    rng = np.random.default_rng(2)
+    path = tmp_path / "f.db"
+    with open_db(path, write=True) as fdb:
+        fill_db(fdb, {
+            "a-steady": _history(rng, 40),
+            "b-doubtful": _history(rng, 5),
+            "c-worn": _history(rng, 40, step_at=25, step=(0.006, 0, 0)),
+        }, untrusted=("b-doubtful",))  # fmt: skip
+    rows = fleet_status(path).as_dict()["robots"]
+    assert [r["robot_id"] for r in rows] == ["c-worn", "b-doubtful", "a-steady"]
+    doubtful = rows[1]
+    assert doubtful["trusted_calibration"] is False and doubtful["parameters"] is None
+    assert (doubtful["bags"], doubtful["bags_untrusted"], doubtful["bags_failed"]) == (5, 5, 0)
+    assert rows[0]["trusted_calibration"] and rows[2]["bags_untrusted"] == 0
+    fleet_report(path, tmp_path / "html")
+    index = (tmp_path / "html" / "index.html").read_text()
+    body = index[index.index("<tbody>") :]
+    order = [body.index(f">{r}</a>") for r in ("c-worn", "b-doubtful", "a-steady")]
+    assert order == sorted(order)
+    row = body[order[1] : order[2]]
+    assert "no trusted calibration" in row and '<span class="ok">' not in row

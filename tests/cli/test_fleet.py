@@ -34,9 +34,9 @@ def test_status_text_and_json(cli, tmp_path):
     status, out, err = cli("fleet", "status", "--db", db)
     assert status == 0 and err == ""
     header, row = out.splitlines()
-    assert header.split() == ["robot", "bags", "failed", "D_R", "mm", "D_L", "mm", "b", "mm",
-                              "drift"]  # fmt: skip
-    assert row.split()[:3] == ["r1", "6", "0"] and row.split()[-1] == "-"
+    assert header.split() == ["robot", "bags", "failed", "untrusted", "D_R", "mm", "D_L", "mm",
+                              "b", "mm", "drift"]  # fmt: skip
+    assert row.split()[:4] == ["r1", "6", "0", "0"] and row.split()[-1] == "-"
     status, out, _ = cli("fleet", "status", "--db", db, "--json")
     (r,) = json.loads(out)["robots"]
     assert r["drift_alarm"] is False and set(r["parameters"]) == {
@@ -247,3 +247,14 @@ def test_status_shows_a_robot_id_with_a_line_break_on_one_row(cli, tmp_path):
     assert status == 0
     _, row = out.splitlines()
     assert row.split()[0] == "'a\\nb'"
+
+
+def test_status_says_when_a_robot_has_no_trusted_calibration(cli, tmp_path):
+    with open_db(tmp_path / "f.db", write=True) as db:
+        fill_db(db, {"r1": [((0.05, 0.05, 0.25), SE)] * 3}, untrusted=("r1",))
+    status, out, _ = cli("fleet", "status", "--db", tmp_path / "f.db")
+    assert status == 0
+    header, row = out.splitlines()
+    assert header.split()[:4] == ["robot", "bags", "failed", "untrusted"]
+    assert row.split()[:4] == ["r1", "3", "0", "3"]
+    assert row.endswith("no trusted calibration")

@@ -103,15 +103,20 @@ def run(args: argparse.Namespace) -> int:
         if args.json:
             print_json(st.as_dict())
             return 0
-        rows: list[tuple] = [("robot", "bags", "failed", "D_R mm", "D_L mm", "b mm", "drift")]
+        rows: list[tuple] = [
+            ("robot", "bags", "failed", "untrusted", "D_R mm", "D_L mm", "b mm", "drift")
+        ]
         for r in st.robots:
             d = r.as_dict()["drift"]
             drift = "-" if d is None else f"{d['parameter']} {d['size_percent']:+.2f}%"
+            if not r.trusted:
+                drift = "no trusted calibration"
             rows.append(
                 (
                     quote_path(r.robot_id),
                     r.bags,
                     r.bags_failed,
+                    r.bags_untrusted,
                     *(
                         _mm(r.parameters, k)
                         for k in ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")

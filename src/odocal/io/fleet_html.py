@@ -28,7 +28,8 @@ body{font-family:system-ui,sans-serif;margin:1.5em;color:#222;max-width:72em}
 table{border-collapse:collapse;font-size:0.9em}
 th,td{border:1px solid #ccc;padding:0.3em 0.6em;text-align:right;white-space:nowrap}
 th{background:#f0f0f0} td:first-child,th:first-child{text-align:left}
-tr.alarm td{background:#fde8e8} .ok{color:#2a7d2a} .bad{color:#b22}
+tr.alarm td{background:#fde8e8} tr.problem td{background:#fdf1dc}
+.ok{color:#2a7d2a} .bad{color:#b22}
 pre{background:#f7f7f7;padding:1em;overflow-x:auto} a{color:#1a5fb4}
 """
 
@@ -89,6 +90,8 @@ def _mm(p: Mapping[str, Any] | None, key: str) -> str:
 
 def _drift_cell(r: Mapping[str, Any]) -> str:
     d = r.get("drift")
+    if not r.get("trusted_calibration", True):  # (no drift to see without one: not 'no')
+        return '<span class="bad">no trusted calibration</span>'
     if not d:
         return '<span class="ok">no</span>'
     return (
@@ -104,6 +107,7 @@ def _index(status: Mapping[str, Any], generated: str) -> str:
             "robot",
             "bags",
             "failed",
+            "untrusted",
             "last calibrated",
             *(t for _, t in _KEYS),
             "drift alarm",
@@ -112,20 +116,25 @@ def _index(status: Mapping[str, Any], generated: str) -> str:
     rows = []
     for r in status["robots"]:
         cls = ' class="alarm"' if r["drift_alarm"] else ""
+        if not r["trusted_calibration"]:
+            cls = ' class="problem"'
         cells = [
             f'<a href="{_e(quote(robot_page_name(r["robot_id"])))}">{_e(shown_id(r["robot_id"]))}'
             "</a>",
             _e(r["bags"]),
             _e(r["bags_failed"]),
+            _e(r["bags_untrusted"]),
             _e((r["last_calibrated"] or "never")[:16].replace("T", " ")),
             *(_mm(r["parameters"], k) for k, _ in _KEYS),
             _drift_cell(r),
         ]
         rows.append(f"<tr{cls}>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
     n_alarm = sum(1 for r in status["robots"] if r["drift_alarm"])
+    n_untrusted = sum(1 for r in status["robots"] if not r["trusted_calibration"])
     body = (
         f"<h1>Fleet odometry</h1><p>{len(status['robots'])} robots, {n_alarm} with a drift "
-        f"alarm; generated {_e(generated)} from {_e(status['db'])}. Parameters: the "
+        f"alarm, {n_untrusted} without a trusted calibration; generated {_e(generated)} from "
+        f"{_e(status['db'])}. Parameters: the "
         "filtered level ± its standard error (docs/fleet.md).</p>\n"
         f'<table id="fleet"><thead><tr>{head}</tr></thead><tbody>\n'
         + "\n".join(rows)
