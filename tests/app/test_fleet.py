@@ -229,6 +229,25 @@ def test_report_pages(fleet, tmp_path):
     assert "http://" not in index and "https://" not in index
 
 
+def test_a_bag_page_is_its_report_as_html_with_its_figure(fleet, tmp_path):
+    """A bag's page was its Markdown report as raw text in a <pre>, its figures only named."""
+    from odocal.app.fleet_report import fleet_report
+
+    _, db, _ = fleet
+    fleet_report(db, tmp_path / "html")
+    pages = sorted((tmp_path / "html" / "bags").iterdir())
+    assert len(pages) == 3
+    for page in pages:
+        text = page.read_text()
+        assert "<pre>" not in text and "**" not in text and "| --- |" not in text
+        assert "<h1>Odometry calibration of <code>" in text
+        assert "<strong>Verdict: trustworthy</strong>" in text
+        assert text.count("<table>") >= 3 and "<th>route</th>" in text
+        assert "<h2>Held-out check</h2>" in text and "<h2>Figures</h2>" in text
+        assert text.count("<svg") == 1 and 'aria-label="held-out check"' in text
+        assert "time_offset.png" in text and "Figures: time_offset.png" not in text
+
+
 @pytest.fixture(scope="module")
 def cluster():
     import dask
