@@ -18,11 +18,17 @@ def _slow_fit_auto(*args, **kwargs):
 
 
 def main(argv: list[str]) -> int:
-    import odocal.app.fit_auto as fit_auto
+    import types
+
+    # the bag route's module replaced before anything imports it (its own imports are most of
+    # a second of CPU): calibrate_bag imports fit_auto from it when it runs
+    stand_in = types.ModuleType("odocal.app.fit_auto")
+    stand_in.fit_auto = _slow_fit_auto  # type: ignore[attr-defined]
+    sys.modules["odocal.app.fit_auto"] = stand_in
+
     import odocal.core.parallel as parallel
     from odocal.cli.main import main as odocal
 
-    fit_auto.fit_auto = _slow_fit_auto
     if "--watchdog" in argv:
         parallel._die_with_parent = lambda: False
     root, db, workers = argv[:3]

@@ -34,6 +34,7 @@ import json
 import os
 import sqlite3
 import stat
+import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -377,11 +378,14 @@ def _create(p: Path) -> None:
     name (WAL mode, every migration), closed, then linked into place. Two ingests creating it at
     once: the second link fails and that ingest opens the first one's. Nothing is left beside
     it: SQLite removes the temporary's -wal and -shm when it closes it; the temporary goes."""
-    tmp = p.with_name(f".{p.name}.{os.getpid()}.new")
+    try:
+        fd, name = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".new", dir=p.parent)
+    except OSError as exc:
+        raise InputError(f"cannot create the fleet database ({exc.strerror})", p) from None
+    os.close(fd)  # (an empty file: SQLite makes it a database)
+    tmp = Path(name)
     companions = [tmp.with_name(tmp.name + s) for s in ("-wal", "-shm", "-journal")]
     try:
-        for f in (tmp, *companions):
-            f.unlink(missing_ok=True)
         with db_errors(p):
             con = sqlite3.connect(tmp, timeout=LOCK_TIMEOUT_S, isolation_level=None)
             try:
