@@ -166,10 +166,19 @@ def _start_slow_ingest(tmp_path, *flags, session=False, bags=2):
     return proc, workers
 
 
+def _ours(pid: int) -> bool:
+    """Is ``pid`` still one of the driver's processes (forked from it: its command line)?"""
+    try:
+        with open(f"/proc/{pid}/cmdline", "rb") as f:
+            return b"tests.support.fleet_driver" in f.read()
+    except OSError:
+        return False
+
+
 def _end(proc, workers):
     """End what the test started that is still running (never waits for ever)."""
     for pid in workers:
-        if _alive(pid):
+        if _alive(pid) and _ours(pid):
             os.kill(pid, signal.SIGKILL)
     if proc.poll() is None:
         proc.kill()

@@ -199,6 +199,7 @@ def test_a_read_only_database_leaves_nothing_beside_it(tmp_path):
     import os
     import select
     import shutil
+    import signal
     import tempfile
 
     folder = Path(tempfile.mkdtemp(prefix="odocal-ro-"))  # (tmp_path's parents: root's alone)
@@ -228,6 +229,8 @@ def test_a_read_only_database_leaves_nothing_beside_it(tmp_path):
         os.close(w)
         try:
             ready, _, _ = select.select([r], [], [], 60)
+            if not ready:  # (never waited for: ended, then reaped)
+                os.kill(pid, signal.SIGKILL)
             assert ready, "the child did not answer within 60 s"
             text = b""
             while chunk := os.read(r, 65536):
