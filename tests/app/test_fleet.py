@@ -13,7 +13,7 @@ import pytest
 
 from odocal.core.model import WheelGeometry
 from odocal.errors import InputError
-from tests.support.fleet import robot_yaml, write_bag
+from tests.support.fleet import robot_yaml, run_within, write_bag
 
 TRUE = {"r1": WheelGeometry(0.0505, 0.0495, 0.262), "r2": WheelGeometry(0.0500, 0.0502, 0.255)}
 KEYS = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
@@ -229,6 +229,25 @@ def test_report_pages(fleet, tmp_path):
     assert "http://" not in index and "https://" not in index
 
 
+def test_a_bag_page_is_its_report_as_html_with_its_figure(fleet, tmp_path):
+    """A bag's page was its Markdown report as raw text in a <pre>, its figures only named."""
+    from odocal.app.fleet_report import fleet_report
+
+    _, db, _ = fleet
+    fleet_report(db, tmp_path / "html")
+    pages = sorted((tmp_path / "html" / "bags").iterdir())
+    assert len(pages) == 3
+    for page in pages:
+        text = page.read_text()
+        assert "<pre>" not in text and "**" not in text and "| --- |" not in text
+        assert "<h1>Odometry calibration of <code>" in text
+        assert "<strong>Verdict: trustworthy</strong>" in text
+        assert text.count("<table>") >= 3 and "<th>route</th>" in text
+        assert "<h2>Held-out check</h2>" in text and "<h2>Figures</h2>" in text
+        assert text.count("<svg") == 1 and 'aria-label="held-out check"' in text
+        assert "time_offset.png" in text and "Figures: time_offset.png" not in text
+
+
 @pytest.fixture(scope="module")
 def cluster():
     import dask
@@ -271,3 +290,128 @@ def test_the_same_numbers_on_a_process_pool_and_on_dask(fleet, tmp_path, cluster
         assert [r[-1].replace(str(one), str(root)) for r in rows] == [r[-1] for r in ref]
     with pytest.raises(InputError, match="cannot reach the Dask scheduler"):
         fleet_ingest(one, tmp_path / "x.db", dask="tcp://127.0.0.1:1")
+
+
+# ---- the fleet's edges (issue 27): what is not a bag never hangs, stops or lies
+
+
+def _ingest_within(seconds, root, db, *, fifo=None, **kw):
+    """fleet_ingest, failed (not waited for) when it takes longer than ``seconds``."""
+    from odocal.app.fleet import fleet_ingest
+
+    return run_within(seconds, lambda: fleet_ingest(root, db, **kw), fifo=fifo)
+
+
+def test_a_fifo_with_a_bag_s_name_is_skipped_not_waited_on(tmp_path):
+    """A FIFO named like a bag hung the ingest for ever (every bag is hashed before any is
+    calibrated: nothing was stored); it is skipped with a warning, never opened."""
+    import os
+
+    root = tmp_path / "root"
+    robot_yaml(root / "r1")
+    (root / "r1" / "a.bag").write_bytes(b"not a bag")
+    os.mkfifo(root / "r1" / "pipe.bag")
+    db = tmp_path / "f.db"
+    res = _ingest_within(20, root, db, fifo=root / "r1" / "pipe.bag")
+    assert (res.bags_total, res.bags_failed) == (1, 1)  # a.bag, stored as failed
+    (w,) = res.warnings
+    assert "pipe.bag: a FIFO with a bag's name, not a bag: skipped" in w
+    with sqlite3.connect(db) as con:
+        assert con.execute("SELECT path, status FROM bags").fetchall() == [
+            (str(root / "r1" / "a.bag"), "failed")
+        ]
+
+
+def test_a_dead_link_an_unreadable_bag_and_a_robot_without_robot_yaml_do_not_stop_the_run(
+    tmp_path, monkeypatch
+):
+    """Each was the end of the whole run (one error, nothing ingested), where docs/fleet.md
+    promises a failure of that bag or robot and the run going on."""
+    import odocal.app.fleet as app_fleet
+    from odocal.io.fleet_files import content_hash
+
+    root = tmp_path / "root"
+    for r in ("r1", "r2"):
+        robot_yaml(root / r)
+        (root / r / "ok.bag").write_bytes(f"junk of {r}".encode())
+    (root / "r1" / "dead.bag").symlink_to(tmp_path / "nowhere.bag")
+    (root / "r1" / "locked.bag").write_bytes(b"no permission")
+    (root / "r3").mkdir()  # no robot.yaml
+    (root / "r4").mkdir()
+    (root / "r4" / "robot.yaml").write_text("wheelbase_m: [\n")  # not YAML
+
+    def permission_denied(bag):  # (the tests may run as root, who reads every file)
+        if bag.name == "locked.bag":
+            raise InputError("cannot read the bag (Permission denied)", bag)
+        return content_hash(bag)
+
+    monkeypatch.setattr(app_fleet, "content_hash", permission_denied)
+    res = _ingest_within(20, root, tmp_path / "f.db")
+    assert res.robots == 2 and (res.bags_total, res.bags_failed) == (4, 4)
+    why = dict(res.failures)
+    assert "a link to nothing" in why[str(root / "r1" / "dead.bag")]
+    assert "cannot read the bag (Permission denied)" in why[str(root / "r1" / "locked.bag")]
+    assert "cannot read the bag;" in why[str(root / "r2" / "ok.bag")]  # calibrated: failed
+    (r3, r3_why), (r4, r4_why) = res.robot_failures
+    assert r3 == str(root / "r3") and "robot folder without robot.yaml" in r3_why
+    assert r4 == str(root / "r4") and "invalid YAML" in r4_why
+    d = res.as_dict()
+    assert [f["robot"] for f in d["robots_failed"]] == [r3, r4]
+    with sqlite3.connect(tmp_path / "f.db") as con:  # the bags that were read are stored
+        assert con.execute("SELECT COUNT(*) FROM bags WHERE status = 'failed'").fetchone() == (2,)
+
+
+def test_empty_files_are_each_their_own_failure(tmp_path):
+    """Every empty file has the same sha256: three empty 'bags' under two robots were one bag,
+    'claimed by two robots', retried for ever. Each is now its own failure, and none stored."""
+    root = tmp_path / "root"
+    for r in ("r1", "r2"):
+        robot_yaml(root / r)
+    for p in ("r1/a.bag", "r1/b.mcap", "r2/c.bag"):
+        (root / p).touch()
+    for _ in range(2):  # and again at the next ingest (nothing was stored)
+        res = _ingest_within(20, root, tmp_path / "f.db")
+        assert (res.bags_total, res.bags_failed, res.bags_retry) == (3, 3, 0)
+        assert sorted(b for b, _ in res.failures) == [str(root / p) for p in (
+            "r1/a.bag", "r1/b.mcap", "r2/c.bag")]  # fmt: skip
+        assert all("an empty file (0 bytes)" in why for _, why in res.failures)
+    with sqlite3.connect(tmp_path / "f.db") as con:
+        assert con.execute("SELECT COUNT(*) FROM bags").fetchone() == (0,)
+
+
+def test_the_database_inside_root_is_not_a_bag(tmp_path):
+    """--db ROOT/r1/fleet.db3 was hashed as a bag: each run stored the database, changed since,
+    as one more failed bag. A folder of ROOT without robot.yaml holding it is no robot either."""
+    for where in ("r1/fleet.db3", "db/fleet.db"):
+        root = tmp_path / where.replace("/", "-") / "root"
+        robot_yaml(root / "r1")
+        (root / "r1" / "a.bag").write_bytes(b"not a bag")
+        db = root / where
+        db.parent.mkdir(exist_ok=True)
+        for _ in range(2):
+            res = _ingest_within(20, root, db)
+            assert res.bags_total == 1 and res.robot_failures == ()
+        with sqlite3.connect(db) as con:
+            assert con.execute("SELECT path FROM bags").fetchall() == [(str(root / "r1/a.bag"),)]
+
+
+def test_a_link_back_up_the_tree_is_no_claim_on_another_robot_s_bags(tmp_path):
+    """r1/up -> ROOT made r2's bag 'claimed by two robots' (r1 reached it through r2's folder),
+    recorded as retry at every ingest, for ever; so did a link into r2's folder and a linked
+    file. A path through another robot's folder is no claim: the bag is r2's."""
+    root = tmp_path / "root"
+    for r in ("r1", "r2"):
+        robot_yaml(root / r)
+    (root / "r2" / "day0").mkdir()
+    (root / "r2" / "day0" / "x.bag").write_bytes(b"r2's bag (not one the route can read)")
+    (root / "r1" / "up").symlink_to(root)
+    (root / "r1" / "borrowed").symlink_to(root / "r2" / "day0")
+    (root / "r1" / "linked.bag").symlink_to(root / "r2" / "day0" / "x.bag")
+    for run in range(2):
+        res = _ingest_within(20, root, tmp_path / "f.db")
+        assert (res.bags_total, res.bags_retry, res.warnings) == (1, 0, ()), res
+        assert res.bags_failed == (1 if run == 0 else 0)  # stored as failed (not a bag), once
+    with sqlite3.connect(tmp_path / "f.db") as con:
+        assert con.execute("SELECT robot_id, path, status FROM bags").fetchall() == [
+            ("r2", str(root / "r2" / "day0" / "x.bag"), "failed")
+        ]

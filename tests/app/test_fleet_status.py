@@ -101,3 +101,91 @@ def test_a_route_that_holds_the_diameters_still_shows_and_exports_its_wheelbase(
         "nominal (never estimated): wheel_diameter_right_m, wheel_diameter_left_m"
         in (tmp_path / "g.yaml").read_text()
     )
+
+
+# ---- robot ids as folder names allow them (issue 27, item 16)
+
+ODD_IDS = {
+    "break": "r1\nwheel_separation: 99.0",  # a line break: a YAML key of its own, unescaped
+    "long": "x" * 251,  # robots/<id>.html: 256 bytes, a file name too long
+    "wide": "ü" * 126,  # 252 bytes in UTF-8
+    "math": "odd $\\frac$ id",  # mathtext to matplotlib, which cannot parse it
+    "html": "<b>&amp;",
+}
+
+
+def _odd_fleet(tmp_path):
+    rng = np.random.default_rng(5)
+    path = tmp_path / "f.db"
+    with open_db(path, write=True) as fdb:
+        fill_db(fdb, {rid: _history(rng, 6) for rid in ODD_IDS.values()})
+    return path
+
+
+def test_a_line_break_in_a_robot_id_stays_in_its_comment(tmp_path):
+    """The id went into the exported file's comment as it is: a line break made the rest of
+    it a top-level YAML key (here a second wheel_separation for the controller's reader)."""
+    import yaml
+
+    from odocal.app.fleet_status import fleet_export
+    from odocal.io.ros2_export import read_ros2_params
+
+    db = _odd_fleet(tmp_path)
+    out = tmp_path / "r1.yaml"
+    res = fleet_export(db, ODD_IDS["break"], out)
+    text = out.read_text()
+    assert list(yaml.safe_load(text)) == ["diff_drive_controller"]
+    assert "# method: odocal fleet: robot 'r1\\nwheel_separation: 99.0', filtered level" in text
+    assert read_ros2_params(out).wheelbase_m == pytest.approx(res.geometry.wheelbase_m)
+
+
+def test_odd_robot_ids_get_a_dashboard_with_page_names_that_fit(tmp_path):
+    """A 251-character id stopped the whole dashboard (its page's name was 256 bytes long)."""
+    from odocal.app.fleet_report import fleet_report
+
+    res = fleet_report(_odd_fleet(tmp_path), tmp_path / "html")
+    assert res.robots == len(ODD_IDS)
+    pages = sorted((tmp_path / "html" / "robots").iterdir())
+    assert len(pages) == len(ODD_IDS)
+    assert all(len(p.name.encode()) <= 255 and p.name.isprintable() for p in pages)
+    index = (tmp_path / "html" / "index.html").read_text()
+    import re
+    from urllib.parse import unquote
+
+    links = re.findall(r'<a href="(robots/[^"]+)">', index)
+    assert sorted((tmp_path / "html" / unquote(a)) for a in links) == pages
+    assert "&lt;b&gt;&amp;amp;" in index and "<b>" not in index
+    assert "r1\\nwheel_separation: 99.0" in index  # shown escaped, on its own row
+
+
+# ---- a robot without a trusted calibration is a problem, not a healthy row (item 18)
+
+
+def test_a_robot_whose_bags_are_all_untrusted_is_no_healthy_robot(tmp_path):
+    """Its row said: no drift (green 'no' on the dashboard), '-' parameters, failed 0, sorted
+    among the healthy robots. It now says 'no trusted calibration', counts its untrusted bags
+    and sorts with the problems: after the drift alarms, before the healthy robots."""
+    from odocal.app.fleet_report import fleet_report
+    from odocal.app.fleet_status import fleet_status
+
+    rng = np.random.default_rng(2)
+    path = tmp_path / "f.db"
+    with open_db(path, write=True) as fdb:
+        fill_db(fdb, {
+            "a-steady": _history(rng, 40),
+            "b-doubtful": _history(rng, 5),
+            "c-worn": _history(rng, 40, step_at=25, step=(0.006, 0, 0)),
+        }, untrusted=("b-doubtful",))  # fmt: skip
+    rows = fleet_status(path).as_dict()["robots"]
+    assert [r["robot_id"] for r in rows] == ["c-worn", "b-doubtful", "a-steady"]
+    doubtful = rows[1]
+    assert doubtful["trusted_calibration"] is False and doubtful["parameters"] is None
+    assert (doubtful["bags"], doubtful["bags_untrusted"], doubtful["bags_failed"]) == (5, 5, 0)
+    assert rows[0]["trusted_calibration"] and rows[2]["bags_untrusted"] == 0
+    fleet_report(path, tmp_path / "html")
+    index = (tmp_path / "html" / "index.html").read_text()
+    body = index[index.index("<tbody>") :]
+    order = [body.index(f">{r}</a>") for r in ("c-worn", "b-doubtful", "a-steady")]
+    assert order == sorted(order)
+    row = body[order[1] : order[2]]
+    assert "no trusted calibration" in row and '<span class="ok">' not in row

@@ -5,6 +5,7 @@ disk full)."""
 from __future__ import annotations
 
 import sqlite3
+from pathlib import Path
 
 import pytest
 
@@ -110,3 +111,135 @@ def test_a_full_disk_loses_nothing_stored(tmp_path):
                          result=big)  # fmt: skip
     with open_db(path, write=False) as db:
         assert db.count() == 2 and db.bag_status("z" * 64) is None
+
+
+# ---- the fleet's edges (issue 27, item 15): two creators, an empty file, nothing left behind
+
+
+def _create_and_count(path, barrier, results):
+    """In a child process: wait for the other, then open (create) the database for writing."""
+    try:
+        barrier.wait(10)
+        with open_db(path, write=True) as db:
+            results.put(("ok", db.count()))
+    except InputError as exc:
+        results.put(("error", str(exc)))
+
+
+def test_two_ingests_creating_one_new_database_both_succeed(tmp_path):
+    """Both saw no database and made the schema: one failed ('table schema_version already
+    exists', 'database is locked') in 2 of 3 tries. The database now appears whole or not at
+    all (made beside it, then linked into place): the second uses the first's."""
+    import multiprocessing as mp
+
+    ctx = mp.get_context("fork")
+    for i in range(8):
+        path = tmp_path / f"f{i}.db"
+        barrier, results = ctx.Barrier(2), ctx.Queue()
+        procs = [ctx.Process(target=_create_and_count, args=(path, barrier, results))
+                 for _ in range(2)]  # fmt: skip
+        for p in procs:
+            p.start()
+        try:
+            got = [results.get(timeout=60) for _ in procs]
+        finally:
+            for p in procs:
+                p.join(10)
+                if p.exitcode is None:
+                    p.kill()
+        assert got == [("ok", 0), ("ok", 0)], got
+        with open_db(path, write=True) as db:
+            assert db.con.execute("SELECT version FROM schema_version").fetchall() == [
+                (SCHEMA_VERSION,)]  # fmt: skip
+        # (two connections closing at the same instant may each leave the -wal and -shm files
+        # to the other, as SQLite does: the next one to close alone removes them)
+        assert [f.name for f in tmp_path.iterdir() if f.name.startswith(f"f{i}")] == [path.name]
+    assert not [f for f in tmp_path.iterdir() if f.name.startswith(".")]  # no temporary left
+
+
+def test_an_empty_file_is_not_a_fleet_database(tmp_path):
+    """An empty file was 'an older fleet database (schema 0)' to a reader, and an ingest made it
+    one (a database truncated to nothing would start again, its history gone unsaid)."""
+    path = tmp_path / "f.db"
+    path.touch()
+    for write in (False, True):
+        with pytest.raises(InputError, match=r"f.db: an empty file, not an odocal fleet database"):
+            open_db(path, write=write)
+    assert path.stat().st_size == 0 and [f.name for f in tmp_path.iterdir()] == ["f.db"]
+    empty = tmp_path / "empty-sqlite.db"  # an SQLite database without a table
+    sqlite3.connect(empty).execute("PRAGMA user_version = 1").connection.close()
+    for write in (False, True):
+        with pytest.raises(InputError, match="not an odocal fleet database"):
+            open_db(empty, write=write)
+
+
+def test_another_ingest_holding_the_database_is_one_line(tmp_path, monkeypatch):
+    """Locked for longer than the wait: one line saying why."""
+    import odocal.io.fleet_db as fleet_db
+
+    path = tmp_path / "f.db"
+    open_db(path, write=True).close()
+    other = sqlite3.connect(path, isolation_level=None)
+    other.execute("BEGIN IMMEDIATE")  # another ingest, storing a bag
+    monkeypatch.setattr(fleet_db, "LOCK_TIMEOUT_S", 0.2)
+    try:
+        with open_db(path, write=True) as db:
+            with pytest.raises(InputError, match="locked.*another odocal fleet ingest"):
+                db.upsert_robot("r1", {}, "/r1", NOW)
+    finally:
+        other.execute("ROLLBACK")
+        other.close()
+
+
+def test_a_read_only_database_leaves_nothing_beside_it(tmp_path):
+    """A read-only database in a folder one may write: SQLite opened it read-only without a word,
+    the ingest failed at its first write, and -wal and -shm files stayed beside it. It is refused
+    at once, one line, nothing created. (Opened in a forked child that becomes an unprivileged
+    user when the tests run as root, who may write any file.)"""
+    import os
+    import select
+    import shutil
+    import signal
+    import tempfile
+
+    folder = Path(tempfile.mkdtemp(prefix="odocal-ro-"))  # (tmp_path's parents: root's alone)
+    try:
+        folder.chmod(0o777)
+        path = folder / "f.db"
+        with open_db(path, write=True) as db:
+            fill_db(db, {"r1": _history(1)})
+        path.chmod(0o444)
+        r, w = os.pipe()
+        pid = os.fork()
+        if pid == 0:  # the child: report, then leave at once (no test machinery runs here)
+            try:
+                os.close(r)
+                if os.geteuid() == 0:
+                    os.setgroups([])
+                    os.setgid(65534)
+                    os.setuid(65534)
+                try:
+                    open_db(path, write=True).close()
+                    msg = "opened"
+                except InputError as exc:
+                    msg = str(exc)
+                os.write(w, f"{msg}\n{sorted(os.listdir(folder))}".encode())
+            finally:
+                os._exit(0)
+        os.close(w)
+        try:
+            ready, _, _ = select.select([r], [], [], 60)
+            if not ready:  # (never waited for: ended, then reaped)
+                os.kill(pid, signal.SIGKILL)
+            assert ready, "the child did not answer within 60 s"
+            text = b""
+            while chunk := os.read(r, 65536):
+                text += chunk
+        finally:
+            os.close(r)
+            os.waitpid(pid, 0)
+        line, listing = text.decode().splitlines()
+        assert "f.db: fleet database: read-only" in line and "ingest needs to write it" in line
+        assert listing == "['f.db']"
+    finally:
+        shutil.rmtree(folder)

@@ -35,7 +35,8 @@ needs_chromium = pytest.mark.skipif(
 
 
 def dashboard(folder: Path) -> Path:
-    """A fleet of four robots (one with a 0.6 % step of its right wheel) and its dashboard."""
+    """A fleet of five robots (one with a 0.6 % step of its right wheel, one whose bags are all
+    calibrated but not to be trusted) and its dashboard."""
     from odocal.app.fleet_report import fleet_report
 
     rng = np.random.default_rng(8)
@@ -49,8 +50,9 @@ def dashboard(folder: Path) -> Path:
             v = true * (1 + np.array([step if i >= 22 else 0.0, 0, 0]))
             bags.append((tuple(v + se * rng.standard_normal(3)), tuple(se)))
         robots[r] = bags
+    robots["tb3-004"] = robots["tb3-003"][:5]
     with open_db(folder / "fleet.db", write=True) as db:
-        fill_db(db, robots)
+        fill_db(db, robots, untrusted=("tb3-004",))
     return fleet_report(folder / "fleet.db", folder / "html").index
 
 
@@ -69,14 +71,18 @@ def test_the_dashboard_in_chromium(tmp_path):
         page.on("requestfailed", lambda r: errors.append(f"failed: {r.url}"))
         page.goto(index.as_uri())
         rows = page.locator("#fleet tbody tr")
-        assert rows.count() == 4
+        assert rows.count() == 5
         assert rows.nth(0).locator("td").first.inner_text() == "tb3-002"  # the drift first
         assert re.search(r"wheel_diameter_right_m \+0\.[4-8]\d %", rows.nth(0).inner_text())
+        # then the robot without a trusted calibration, not among the healthy ones
+        assert rows.nth(1).locator("td").first.inner_text() == "tb3-004"
+        assert "no trusted calibration" in rows.nth(1).inner_text()
         page.screenshot(path=str(tmp_path / "index.png"))
         page.click("text=tb3-002")
         assert page.locator("svg").count() == 1 and "Drift alarms" in page.content()
         page.locator("a:text('report')").first.click()
-        assert "Odometry calibration of" in page.content()
+        assert "Odometry calibration of" in page.locator("h1").inner_text()
+        assert page.locator("table").count() >= 3 and page.locator("pre").count() == 0
         browser.close()
     assert errors == []
     assert (tmp_path / "index.png").stat().st_size > 10_000

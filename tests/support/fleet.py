@@ -64,9 +64,12 @@ def fake_result(bag: str, values, std_errors, *, enough: bool = True) -> dict:
     }  # fmt: skip
 
 
-def fill_db(db, robots: dict, *, now: str = "2026-01-01T00:00:00+00:00") -> None:
+def fill_db(
+    db, robots: dict, *, now: str = "2026-01-01T00:00:00+00:00", untrusted: tuple = ()
+) -> None:
     """Store simulated histories in an open FleetDb without bags: ``robots`` maps each robot id
-    to a list of ((D_R, D_L, b), (se, se, se)) per bag, one bag a day."""
+    to a list of ((D_R, D_L, b), (se, se, se)) per bag, one bag a day; the bags of the robots in
+    ``untrusted`` have the verdict 'not to be trusted'."""
     for robot_id, bags in robots.items():
         db.upsert_robot(robot_id, NOMINAL.as_dict(), f"/fleet/{robot_id}", now)
         for i, (values, ses) in enumerate(bags):
@@ -75,5 +78,33 @@ def fill_db(db, robots: dict, *, now: str = "2026-01-01T00:00:00+00:00") -> None
                 content_hash=f"{robot_id}-{i:04d}".ljust(64, "0"), robot_id=robot_id, path=path,
                 size_bytes=1000, span_s=(1.7e9 + 86400.0 * i, 1.7e9 + 86400.0 * i + 60),
                 status="done", reason=None, version="test", now=now,
-                result=fake_result(path, values, ses),
+                result=fake_result(path, values, ses, enough=robot_id not in untrusted),
             )  # fmt: skip
+
+
+def run_within(seconds: float, fn, *, fifo: Path | None = None):
+    """``fn()`` in a thread; an AssertionError (not a wait for ever) when it takes longer than
+    ``seconds``. A reader of the FIFO ``fifo`` waits for a writer for ever: its writing end is
+    then opened and closed (the reader reads nothing) to free the thread."""
+    import os
+    import threading
+
+    out: dict = {}
+
+    def run():
+        try:
+            out["result"] = fn()
+        except BaseException as exc:  # noqa: BLE001 - raised again in the caller's thread
+            out["error"] = exc
+
+    t = threading.Thread(target=run, daemon=True)
+    t.start()
+    t.join(seconds)
+    if t.is_alive():
+        if fifo is not None:
+            os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+        t.join(30)
+        raise AssertionError(f"still running after {seconds} s (waiting on a FIFO?)")
+    if "error" in out:
+        raise out["error"]
+    return out["result"]

@@ -4,7 +4,11 @@ one-command bag route (:func:`odocal.app.fit_auto.fit_auto`, unchanged) and stor
 
 1. **Find** the robots (``ROOT/<robot_id>/robot.yaml``) and their bags
    (:mod:`odocal.io.fleet_files`); hash each bag (sha256 of its bytes; a path whose size and
-   modification time are those of the last run keeps its hash).
+   modification time are those of the last run keeps its hash). A robot folder that cannot be
+   used (no ``robot.yaml``, one that cannot be read) and a bag that cannot be read (a link to
+   nothing, an empty file) are failures of this run, named, and the run goes on; what is not a
+   regular file or folder (a FIFO) is skipped with a warning, never opened; the database's own
+   files are not bags.
 2. **Choose**: a bag whose hash is stored as done or failed is skipped (a copy or a renamed bag
    too); a bag claimed by two robots is recorded as ``retry`` with both names; a bag that
    changes while it is hashed is ``retry``.
@@ -19,6 +23,7 @@ one-command bag route (:func:`odocal.app.fit_auto.fit_auto`, unchanged) and stor
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable, Generator, Sequence
 from contextlib import closing
@@ -28,7 +33,14 @@ from pathlib import Path
 from typing import Any
 
 from .._version import __version__
-from ..errors import InputError
+from ..core.parallel import (
+    callers_signals_blocked,
+    end_with_parent,
+    end_workers,
+    signals_held,
+    worker_endings,
+)
+from ..errors import InputError, OdocalError, WorkerLost, one_line, quote_path
 from ..io.fleet_db import FleetDb, open_db
 from ..io.fleet_files import RobotFolder, Snapshot, content_hash, find_bags, find_robots, snapshot
 from ..io.robot_file import load_robot
@@ -65,8 +77,13 @@ class IngestResult:
     engine : str
         Where the bags ran: 'this process', 'N processes' or 'dask ADDRESS'.
     failures : tuple of (str, str)
-        (bag path, one-line reason) of each bag of this run that failed or waits for a retry.
+        (bag path, one-line reason) of each bag of this run that failed or waits for a retry;
+        also of each bag that could not be read (a link to nothing, an empty file: not stored,
+        there is no content to know it by; tried again at the next ingest).
     warnings : tuple of str
+    robot_failures : tuple of (str, str)
+        (robot folder, one-line reason) of each folder of ROOT that is not a usable robot (no
+        robot.yaml, one that cannot be read): its bags were not looked at.
     """
 
     bags_total: int
@@ -79,6 +96,7 @@ class IngestResult:
     engine: str
     failures: tuple[tuple[str, str], ...] = ()
     warnings: tuple[str, ...] = field(default_factory=tuple)
+    robot_failures: tuple[tuple[str, str], ...] = ()
 
     def as_dict(self) -> dict[str, Any]:
         """The JSON of ``odocal fleet ingest --json``."""
@@ -93,6 +111,7 @@ class IngestResult:
             "engine": self.engine,
             "failures": [{"bag": b, "reason": r} for b, r in self.failures],
             "warnings": list(self.warnings),
+            "robots_failed": [{"robot": f, "reason": r} for f, r in self.robot_failures],
         }
 
 
@@ -103,18 +122,28 @@ class _Found:
     claims: list[tuple[RobotFolder, Path, Snapshot]] = field(default_factory=list)
 
 
-def _hash(db: FleetDb, bag: Path) -> tuple[str, Snapshot, bool]:
-    """(content hash, snapshot, steady): the cached hash when the bag is unchanged since it was
-    hashed; ``steady`` False when it changed while being hashed."""
-    before = snapshot(bag)
+#: Why an empty bag is not stored (every empty file has the same hash: it is no bag's identity).
+EMPTY = "an empty file (0 bytes): nothing to calibrate; tried again at the next ingest"
+
+
+class _Unreadable(Exception):
+    """A bag that cannot be read (its one-line reason)."""
+
+
+def _hash(db: FleetDb, bag: Path, before: Snapshot) -> tuple[str, bool]:
+    """(content hash, steady): the cached hash when the bag is unchanged since it was hashed
+    (``before``: its snapshot now); ``steady`` False when it changed while being hashed."""
     cached = db.known_file(str(bag), before.size_bytes, before.mtime_ns)
     if cached is not None:
-        return cached, before, True
-    h = content_hash(bag)
-    steady = snapshot(bag) == before
+        return cached, True
+    try:
+        h = content_hash(bag)
+        steady = snapshot(bag) == before
+    except InputError as exc:  # the bag (not the database): gone or unreadable since found
+        raise _Unreadable(one_line(str(exc))) from None
     if steady:
         db.remember_file(str(bag), before.size_bytes, before.mtime_ns, h)
-    return h, before, steady
+    return h, steady
 
 
 def _engine(workers: int, dask: str | None) -> str:
@@ -123,20 +152,59 @@ def _engine(workers: int, dask: str | None) -> str:
     return "this process" if workers == 1 else f"{workers} processes"
 
 
+#: Why a bag whose worker process ended without its result is stored as retry.
+LOST = "a worker process ended before returning its result ({how}): tried again at the next ingest"
+
+
 def _run_local(tasks: Sequence[BagTask], workers: int) -> Generator[BagOutcome, None, None]:
-    """The tasks in this process, or in a process pool (results as they finish)."""
+    """The tasks in this process, or in a process pool (results as they finish).
+
+    The pool's workers end with this process however it ends (:func:`~odocal.core.parallel.
+    end_with_parent`: a ``kill -9`` left them alive for ever, holding its pipes), and an
+    interruption here ends them at once (not after their bags). A worker that ends without its
+    result (killed; out of memory) breaks the pool: every bag in flight comes back as
+    ``retry``, then :class:`~odocal.errors.WorkerLost` (one line)."""
     if workers == 1 or len(tasks) <= 1:
         yield from map(calibrate_bag, tasks)
         return
+    import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures.process import BrokenProcessPool
 
-    pool = ProcessPoolExecutor(max_workers=min(workers, len(tasks)))
+    others = set(mp.active_children())
+    pool = ProcessPoolExecutor(
+        max_workers=min(workers, len(tasks)), initializer=end_with_parent, initargs=(os.getpid(),)
+    )
+    forked: list[Any] = []
+    finished = False
     try:
-        futures = [pool.submit(calibrate_bag, t) for t in tasks]
+        # the workers are forked at the submits, with SIGINT and SIGTERM blocked until their
+        # initializer has set their own handling (not this process's handlers)
+        with signals_held(), callers_signals_blocked():
+            futures = {pool.submit(calibrate_bag, t): t for t in tasks}
+            forked = [p for p in mp.active_children() if p not in others]
+        lost: list[BagTask] = []
         for f in as_completed(futures):
+            if isinstance(f.exception(), BrokenProcessPool):
+                lost.append(futures[f])
+                continue
             yield f.result()
+        if lost:
+            how = worker_endings(forked) or "killed"
+            for t in sorted(lost, key=lambda t: t.bag):
+                yield BagOutcome(t, "retry", LOST.format(how=how), None, None)
+            n = f"the {len(lost)} bags" if len(lost) > 1 else "the bag"
+            raise WorkerLost(
+                f"a worker process ended before returning its result ({how}): {n} in flight "
+                "are stored as retry (tried again at the next ingest); every bag stored so far "
+                "is kept"
+            )
+        finished = True
     finally:
-        pool.shutdown(wait=False, cancel_futures=True)
+        with signals_held():  # (a second Ctrl-C does not stop the workers being ended)
+            if not finished:
+                end_workers(forked or [p for p in mp.active_children() if p not in others])
+            pool.shutdown(wait=True, cancel_futures=True)
 
 
 #: How long to try to reach the Dask scheduler (s): Dask retries a refused connection until then.
@@ -179,18 +247,50 @@ def _store(db: FleetDb, o: BagOutcome, now: str) -> None:
     )
 
 
-def _choose(db: FleetDb, robots: Sequence[RobotFolder]):
-    """Hash every bag; the tasks to run, the bags recorded as retry now, the warnings."""
+@dataclass(frozen=True)
+class _Choice:
+    """What :func:`_choose` found: every bag content under ROOT (by hash), the tasks to run,
+    the bags to record as retry now (with why), the bags that could not be read (path, why:
+    not stored), the warnings."""
+
+    found: dict[str, _Found]
+    tasks: list[BagTask]
+    retry: list[tuple[BagTask, str]]
+    unread: list[tuple[str, str]]
+    warnings: list[str]
+
+
+def _choose(db: FleetDb, robots: Sequence[RobotFolder], skip: Sequence[Path]) -> _Choice:
+    """Hash every bag (module docstring, steps 1 and 2)."""
     found: dict[str, _Found] = {}
     unsteady: list[tuple[RobotFolder, Path, Snapshot, str]] = []
+    unread: list[tuple[str, str]] = []
+    warnings: list[str] = []
+    folders = [r.folder for r in robots]
     for r in robots:
-        for bag in find_bags(r.folder):
-            h, snap, steady = _hash(db, bag)
+        # a path through another robot's folder (a link back up the tree) is no claim
+        scan = find_bags(r.folder, others=folders, skip=skip)
+        warnings += scan.warnings
+        unread += [(str(p), why) for p, why in scan.failures]
+        for bag in scan.bags:
+            try:
+                snap = snapshot(bag)
+            except InputError as exc:  # (gone or unreadable since it was found)
+                unread.append((str(bag), one_line(str(exc))))
+                continue
+            if snap.size_bytes == 0:
+                unread.append((str(bag), f"{quote_path(bag)}: {EMPTY}"))
+                continue
+            try:
+                h, steady = _hash(db, bag, snap)
+            except _Unreadable as exc:
+                unread.append((str(bag), str(exc)))
+                continue
             if not steady:
                 unsteady.append((r, bag, snap, h))
                 continue
             found.setdefault(h, _Found()).claims.append((r, bag, snap))
-    tasks, retry, warnings = [], [], []
+    tasks, retry = [], []
     for h, f in found.items():
         owners = sorted({r.robot_id for r, _, _ in f.claims})
         stored = db.bag_status(h)
@@ -214,7 +314,34 @@ def _choose(db: FleetDb, robots: Sequence[RobotFolder]):
     retry += [
         (BagTask(r.robot_id, str(b), str(r.robot_file), h, s), CHANGED) for r, b, s, h in unsteady
     ]
-    return found, tasks, retry, warnings
+    return _Choice(found, tasks, retry, unread, warnings)
+
+
+def _database_files(db_path: str | Path) -> list[Path]:
+    """The database and the files SQLite keeps beside it: never bags, even inside ROOT."""
+    p = Path(db_path)
+    return [p, *(p.with_name(p.name + s) for s in ("-wal", "-shm", "-journal"))]
+
+
+def _usable_robots(
+    root: str | Path, skip: Sequence[Path]
+) -> tuple[list[RobotFolder], dict[str, dict], list[tuple[str, str]]]:
+    """The robots of ``root`` whose robot.yaml reads, their nominal geometries, and the folders
+    that are not usable robots (folder, one-line reason). None usable: the first reason is the
+    error (nothing would be ingested)."""
+    scan = find_robots(root, skip=skip)
+    robots, nominals = [], {}
+    failures = [(str(p), why) for p, why in scan.failures]
+    for r in scan.robots:
+        try:
+            nominals[r.robot_id] = load_robot(str(r.robot_file)).nominal.as_dict()
+        except OdocalError as exc:
+            failures.append((str(r.folder), one_line(str(exc))))
+            continue
+        robots.append(r)
+    if not robots and failures:
+        raise InputError(sorted(failures)[0][1])
+    return robots, nominals, sorted(failures)
 
 
 def fleet_ingest(
@@ -230,15 +357,16 @@ def fleet_ingest(
     start = time.perf_counter()
     if workers < 1:
         raise InputError(f"--workers must be at least 1, got {workers}")
-    robots = find_robots(root)
-    nominals = {r.robot_id: load_robot(str(r.robot_file)).nominal.as_dict() for r in robots}
+    skip = _database_files(db_path)
+    robots, nominals, robot_failures = _usable_robots(root, skip)
     with open_db(db_path, write=True) as db:
         now = now_utc()
         for r in robots:
             db.upsert_robot(r.robot_id, nominals[r.robot_id], str(r.folder), now)
-        found, tasks, retry, warnings = _choose(db, robots)
+        choice = _choose(db, robots, skip)
+        found, tasks, retry, warnings = choice.found, choice.tasks, choice.retry, choice.warnings
         db.forget_stale_retries(set(found))
-        failures: list[tuple[str, str]] = []
+        failures: list[tuple[str, str]] = list(choice.unread)
         for task, why in retry:
             _store(db, BagOutcome(task, "retry", why, None, None), now)
             failures.append((task.bag, why))
@@ -258,9 +386,9 @@ def fleet_ingest(
             db.replace_alarms(robot_id, drift.alarm_rows(), now)
         skipped = len(found) - len(tasks) - sum(1 for t, w in retry if w != CHANGED)
     return IngestResult(
-        bags_total=len(found) + sum(1 for _, w in retry if w == CHANGED),
+        bags_total=len(found) + sum(1 for _, w in retry if w == CHANGED) + len(choice.unread),
         bags_new=counts["done"],
-        bags_failed=counts["failed"] + counts["retry"],
+        bags_failed=counts["failed"] + counts["retry"] + len(choice.unread),
         bags_retry=counts["retry"],
         bags_skipped=skipped,
         seconds=time.perf_counter() - start,
@@ -268,4 +396,5 @@ def fleet_ingest(
         engine=_engine(workers, dask),
         failures=tuple(sorted(failures)),
         warnings=tuple(warnings),
+        robot_failures=tuple(robot_failures),
     )

@@ -50,10 +50,7 @@ def fleet_report(db_path: str | Path, html_dir: str | Path) -> ReportResult:
     with open_db(db_path, write=False) as db:
         ids = db.robots()
         histories = {r: db.history(r) for r, _ in ids}
-    rows = sorted(
-        (robot_status(r, nom, histories[r]) for r, nom in ids),
-        key=lambda r: (-r.drift_z, r.robot_id),
-    )
+    rows = sorted((robot_status(r, nom, histories[r]) for r, nom in ids), key=lambda r: r.sort_key)
     status = {"db": str(db_path), "robots": [r.as_dict() for r in rows]}
     pages: dict[str, tuple[list[dict[str, Any]], str]] = {}
     for robot_id, history in histories.items():

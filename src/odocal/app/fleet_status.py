@@ -6,7 +6,10 @@ The history of a parameter is the robot's trustworthy bags (the bag route's verd
 The **current parameters** are the filtered levels after the last bag (since the last change:
 a step restarts the filter), with their standard errors. An alarm is **active** while it is
 younger than :data:`ACTIVE_S` (30 days) of bag time before the robot's latest bag: the
-``drift_alarm`` of ``status``.
+``drift_alarm`` of ``status``. A robot without current parameters (no trustworthy bag estimated
+any: all its bags failed, or were calibrated but not to be trusted, or it has none yet) has
+**no trusted calibration**: a problem, listed after the drift alarms and before the robots
+that are well.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from ..calibration.cross_check import KEYS
 from ..calibration.drift import DriftTrack, track_parameter
 from ..core.covariance import odometry_covariance
 from ..core.model import WheelGeometry
-from ..errors import InputError
+from ..errors import InputError, quote_path
 from ..io.fleet_db import BagRow, open_db
 from ..io.outputs import OutputPlan
 from ..io.ros2_export import DEFAULT_CONTROLLER, ros2_params_yaml
@@ -142,6 +145,12 @@ class RobotStatus:
     parameters: dict[str, dict[str, float]] | None
     nominal: dict[str, float]
     alarms: tuple[dict[str, Any], ...]
+    bags_untrusted: int = 0
+
+    @property
+    def trusted(self) -> bool:
+        """Has a trusted calibration: current parameters (module docstring)."""
+        return self.parameters is not None
 
     @property
     def drift_alarm(self) -> bool:
@@ -150,8 +159,14 @@ class RobotStatus:
 
     @property
     def drift_z(self) -> float:
-        """The largest active alarm's size in standard errors (0 without one): the sort key."""
+        """The largest active alarm's size in standard errors (0 without one)."""
         return max((abs(a["z"]) for a in self.alarms), default=0.0)
+
+    @property
+    def sort_key(self) -> tuple[float, bool, str]:
+        """The rows' order: the largest drift first, then the robots without a trusted
+        calibration, then the rest; by id within each."""
+        return (-self.drift_z, self.trusted, self.robot_id)
 
     def as_dict(self) -> dict[str, Any]:
         """The JSON of one robot in ``odocal fleet status --json``."""
@@ -161,8 +176,10 @@ class RobotStatus:
             "bags": self.bags,
             "bags_done": self.bags_done,
             "bags_failed": self.bags_failed,
+            "bags_untrusted": self.bags_untrusted,
             "last_calibrated": self.last_calibrated,
             "parameters": self.parameters,
+            "trusted_calibration": self.trusted,
             "nominal": self.nominal,
             "drift_alarm": self.drift_alarm,
             "drift": None if top is None else dict(top),
@@ -172,7 +189,8 @@ class RobotStatus:
 
 @dataclass(frozen=True)
 class FleetStatus:
-    """``odocal fleet status``: one row per robot, the largest drift first."""
+    """``odocal fleet status``: one row per robot, the largest drift first, then the robots
+    without a trusted calibration."""
 
     db: Path
     robots: tuple[RobotStatus, ...]
@@ -195,14 +213,22 @@ def robot_status(robot_id: str, nominal: dict, history: Sequence[BagRow]) -> Rob
         drift.current(),
         nominal,
         tuple(drift.active_alarms()),
+        sum(not b.enough for b in done),
     )
 
 
 def fleet_status(db_path: str | Path) -> FleetStatus:
-    """Every robot's row (module docstring), sorted by drift (largest first), then by id."""
+    """Every robot's row (module docstring), in :attr:`RobotStatus.sort_key` order: the
+    largest drift first, then the robots without a trusted calibration, then by id."""
     with open_db(db_path, write=False) as db:
         rows = [robot_status(r, nom, db.history(r)) for r, nom in db.robots()]
-    return FleetStatus(Path(db_path), tuple(sorted(rows, key=lambda r: (-r.drift_z, r.robot_id))))
+    return FleetStatus(Path(db_path), tuple(sorted(rows, key=lambda r: r.sort_key)))
+
+
+def _quoted(robot_id: str) -> str:
+    """A robot id in a message: in quotes, with escapes when it holds an odd character."""
+    shown = quote_path(robot_id)
+    return shown if shown != robot_id else f"'{robot_id}'"
 
 
 @dataclass(frozen=True)
@@ -240,14 +266,15 @@ def fleet_export(
         if robot_id not in robots:
             known = ", ".join(robots) or "none"
             raise InputError(
-                f"no robot '{robot_id}' in the fleet database (robots: {known})", db_path
+                f"no robot {_quoted(robot_id)} in the fleet database (robots: {known})", db_path
             )
         history = db.history(robot_id)
     drift = robot_drift(history)
     current = drift.current()
     if current is None:
         raise InputError(
-            f"robot '{robot_id}' has no trustworthy calibration yet (bags: {len(history)})", db_path
+            f"robot {_quoted(robot_id)} has no trustworthy calibration yet (bags: {len(history)})",
+            db_path,
         )
     nominal = WheelGeometry(*(robots[robot_id][k] for k in KEYS))
     # a parameter no bag estimated stays at its nominal value (said in the file)
@@ -268,7 +295,8 @@ def fleet_export(
             window_s=c["window_s"],
         )
     n = max(len(p.bags) for p in drift.parameters)
-    method = f"odocal fleet: robot {robot_id}, filtered level of {n} bags" + (
+    # the id quoted with escapes when it holds a line break (a YAML key of its own otherwise)
+    method = f"odocal fleet: robot {quote_path(robot_id)}, filtered level of {n} bags" + (
         f"; nominal (never estimated): {', '.join(kept)}" if kept else ""
     )
     text = ros2_params_yaml(g, nominal, controller_name, cov, method=method)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..errors import one_line, quote_path
 from .common import ProgressBar, positive_int, print_json, print_table, print_warnings
 
 
@@ -91,7 +92,9 @@ def run(args: argparse.Namespace) -> int:
             f"already stored; {res.seconds:.1f} s on {res.engine}"
         )
         for bag, why in res.failures:
-            print(f"  failed: {why if why.startswith(bag) else f'{bag}: {why}'}")
+            print(one_line(f"  failed: {why if why.startswith(bag) else f'{bag}: {why}'}"))
+        for _, why in res.robot_failures:
+            print(one_line(f"  robot not ingested: {why}"))
         return 0
     if cmd == "status":
         from ..app.fleet_status import fleet_status
@@ -100,15 +103,20 @@ def run(args: argparse.Namespace) -> int:
         if args.json:
             print_json(st.as_dict())
             return 0
-        rows: list[tuple] = [("robot", "bags", "failed", "D_R mm", "D_L mm", "b mm", "drift")]
+        rows: list[tuple] = [
+            ("robot", "bags", "failed", "untrusted", "D_R mm", "D_L mm", "b mm", "drift")
+        ]
         for r in st.robots:
             d = r.as_dict()["drift"]
             drift = "-" if d is None else f"{d['parameter']} {d['size_percent']:+.2f}%"
+            if not r.trusted:
+                drift = "no trusted calibration"
             rows.append(
                 (
-                    r.robot_id,
+                    quote_path(r.robot_id),
                     r.bags,
                     r.bags_failed,
+                    r.bags_untrusted,
                     *(
                         _mm(r.parameters, k)
                         for k in ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
@@ -125,7 +133,10 @@ def run(args: argparse.Namespace) -> int:
         if args.json:
             print_json(ex.as_dict())
             return 0
-        print(f"{ex.robot_id}: filtered level of {ex.bags} bags written to {args.ros2}")
+        print(
+            f"{quote_path(ex.robot_id)}: filtered level of {ex.bags} bags written to "
+            f"{quote_path(args.ros2)}"
+        )
         return 0
     from ..app.fleet_report import fleet_report
 

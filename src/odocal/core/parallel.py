@@ -11,6 +11,10 @@
 - :func:`shared_zeros`: an array of zeros that forked workers write into and this process sees.
 - :func:`signals_held`: SIGINT and SIGTERM held back while a block runs (their handlers run
   after it), for work that must not be cut in the middle.
+- :func:`end_with_parent`: the initializer of a process pool's workers that must never outlive
+  the process that started them (killed with ``kill -9``, they held its pipes for ever), with
+  :func:`callers_signals_blocked` around the submits that fork them, :func:`end_workers` and
+  :func:`worker_endings` (how a pool's workers ended: one line).
 """
 
 from __future__ import annotations
@@ -19,6 +23,8 @@ import mmap
 import os
 import signal
 import sys
+import threading
+import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from types import FrameType
@@ -28,7 +34,17 @@ import numpy as np
 
 from ..errors import WorkerLost
 
-__all__ = ["workers", "run_tasks", "can_fork", "shared_zeros", "signals_held"]
+__all__ = [
+    "workers",
+    "run_tasks",
+    "can_fork",
+    "shared_zeros",
+    "signals_held",
+    "callers_signals_blocked",
+    "end_with_parent",
+    "end_workers",
+    "worker_endings",
+]
 
 T = TypeVar("T")
 
@@ -119,8 +135,73 @@ def _quiet_worker() -> None:
     signal.pthread_sigmask(signal.SIG_UNBLOCK, _CALLERS_SIGNALS)
 
 
+#: How often a worker's watchdog looks for its parent (s), where the kernel cannot be asked to
+#: end the worker with it.
+PARENT_POLL_S = 0.5
+
+
+def _die_with_parent() -> bool:
+    """Ask the kernel to send this process SIGKILL when its parent ends (Linux's
+    ``prctl(PR_SET_PDEATHSIG)``); False where that cannot be done."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        import ctypes
+
+        pr_set_pdeathsig = 1
+        libc = ctypes.CDLL(None, use_errno=True)
+        return int(libc.prctl(pr_set_pdeathsig, int(signal.SIGKILL), 0, 0, 0)) == 0
+    except (OSError, AttributeError):
+        return False
+
+
+def _parent_gone(parent_pid: int) -> bool:
+    """Has the process ``parent_pid`` (the pool's owner) ended?"""
+    try:
+        os.kill(parent_pid, 0)
+    except ProcessLookupError:
+        return True
+    except OSError:  # (exists, another user's: a pid used again)
+        return False
+    return False
+
+
+def _watch_parent(ppid: int) -> None:
+    """A worker's watchdog thread: end the process once its parent is gone (it is then
+    someone else's child: ``os.getppid()`` changes)."""
+    while os.getppid() == ppid:
+        time.sleep(PARENT_POLL_S)
+    os._exit(1)
+
+
+def end_with_parent(parent_pid: int) -> None:
+    """The initializer of a pool's worker process (``ProcessPoolExecutor(initializer=...,
+    initargs=(os.getpid(),))``): the worker ends with its parent, however the parent ends (a
+    worker of a parent killed with ``kill -9`` waited for work for ever, holding the parent's
+    pipes: a caller reading its output waited for ever too).
+
+    Linux: the kernel sends it SIGKILL when its parent ends (``PR_SET_PDEATHSIG``); elsewhere a
+    daemon thread looks every :data:`PARENT_POLL_S` for a new parent (POSIX reparents an
+    orphan). A parent gone before either is in place ends it at once. The worker also leaves
+    interruptions to the parent, as :func:`run_tasks`'s do: Ctrl-C is ignored, SIGTERM ends it
+    at once, without the parent's handlers (the signals blocked in the parent around the
+    submits that fork it, :func:`callers_signals_blocked`, are unblocked here)."""
+    if os.name != "posix":  # (no signal masks, no reparenting to see)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        return
+    _quiet_worker()
+    ppid = os.getppid()
+    armed = _die_with_parent()
+    if os.getppid() != ppid or (ppid != parent_pid and _parent_gone(parent_pid)):
+        os._exit(1)  # (orphaned already: fork, spawn; forkserver's parent is its server)
+    if not armed:
+        threading.Thread(
+            target=_watch_parent, args=(ppid,), name="odocal-parent-watch", daemon=True
+        ).start()
+
+
 @contextmanager
-def _callers_signals_blocked() -> Iterator[None]:
+def callers_signals_blocked() -> Iterator[None]:
     """Block SIGINT and SIGTERM in this thread meanwhile: the processes forked (and the threads
     started) inside inherit the mask. (A signal that comes meanwhile waits, or is taken by
     another thread of this process, numpy's BLAS threads say, and Python runs its handler in
@@ -140,9 +221,9 @@ def _indexed(i: int) -> tuple[bool, Any]:
         return False, exc
 
 
-def _end_workers(workers: list[Any]) -> None:
-    """End the worker processes at once (SIGTERM, their default action; SIGKILL for one that
-    has not ended a few seconds later) and reap them."""
+def end_workers(workers: Sequence[Any]) -> None:
+    """End the worker processes (``multiprocessing`` processes) at once (SIGTERM, their default
+    action; SIGKILL for one that has not ended a few seconds later) and reap them."""
     for p in workers:
         if p.exitcode is None:
             p.terminate()
@@ -153,16 +234,23 @@ def _end_workers(workers: list[Any]) -> None:
             p.join()
 
 
-def _lost_worker(workers: list[Any]) -> WorkerLost:
-    """The error for a worker process that ended without returning its task's result (the
-    workers reaped first: the pool then ends the others with SIGTERM, which says nothing)."""
-    _end_workers(workers)
+def worker_endings(workers: Sequence[Any]) -> str:
+    """How the pool's worker processes ended, one line ('signal 9; out of memory?'), once each
+    is ended and reaped (:func:`end_workers`); '' when none ended by itself (the pool ends the
+    others with SIGTERM, which says nothing)."""
+    end_workers(workers)
     codes = {p.exitcode for p in workers} - {None, 0}
     if codes - {-signal.SIGTERM}:
         codes.discard(-signal.SIGTERM)
     how = ", ".join(f"signal {-c}" if c < 0 else f"exit status {c}" for c in sorted(codes))
     if -signal.SIGKILL in codes:
         how += "; out of memory?"
+    return how
+
+
+def _lost_worker(workers: list[Any]) -> WorkerLost:
+    """The error for a worker process that ended without returning its task's result."""
+    how = worker_endings(workers)
     return WorkerLost(
         "a worker process ended before returning its result"
         + (f" ({how})" if how else "")
@@ -215,7 +303,7 @@ def run_tasks(
         # the workers are forked at the first submit: they inherit the signals blocked, and
         # this process takes a signal only once it knows every worker (a handler run in the
         # middle of a fork could leave one unknown, and alive)
-        with signals_held(), _callers_signals_blocked():
+        with signals_held(), callers_signals_blocked():
             futures = {pool.submit(_indexed, i): i for i in range(first, len(tasks))}
             forked = [p for p in mp.active_children() if p not in others]
         if meanwhile is not None:
@@ -241,7 +329,7 @@ def run_tasks(
         # the workers ended first, then the pool's threads joined: none may still be running
         # when this process exits (Python 3.11 then fails in its exit handler, or aborts)
         with signals_held():
-            _end_workers(forked or [p for p in mp.active_children() if p not in others])
+            end_workers(forked or [p for p in mp.active_children() if p not in others])
             pool.shutdown(wait=True, cancel_futures=True)
         raise
     finally:

@@ -19,14 +19,22 @@ Schema (version :data:`SCHEMA_VERSION`, built by the ordered :data:`MIGRATIONS`;
   detector's alarms (replaced for a robot each time its history grows).
 
 One writer (the ingest's parent process; each bag is one transaction), any number of readers
-(WAL mode). A database written by a newer odocal is refused with one line; so is a file that is
-not one. Every sqlite3 failure (read-only file, disk full) becomes one :class:`InputError` line.
+(WAL mode). A new database appears whole (built beside it, then linked into place: two ingests
+creating it at once both use the first one's); migrations run under SQLite's write lock (a
+second ingest waits). A database written by a newer odocal is refused with one line; so is a
+file that is not one (an empty file too), and a database to be written that cannot be, before
+SQLite opens it (nothing left beside it). Every sqlite3 failure (read-only file, disk full,
+locked by another ingest for longer than :data:`LOCK_TIMEOUT_S`) becomes one
+:class:`InputError` line.
 """
 
 from __future__ import annotations
 
 import json
+import os
 import sqlite3
+import stat
+import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -76,6 +84,20 @@ MIGRATIONS: tuple[str, ...] = (
 SCHEMA_VERSION = len(MIGRATIONS)
 
 
+#: How long a writer waits for another one's write lock (s): an ingest storing a bag holds it
+#: for milliseconds; one creating or migrating the database, for about as long.
+LOCK_TIMEOUT_S = 30.0
+
+_HINTS = {
+    "readonly": " (the file or its folder is read-only: ingest needs to write it)",
+    "full": " (the disk is full: free space and run the ingest again; every bag "
+    "stored so far is kept)",
+    "not a database": " (not an odocal fleet database)",
+    "locked": " (another odocal fleet ingest is writing it: try again when it is done)",
+    "unable to open": " (its folder must be writable: SQLite keeps files beside it)",
+}
+
+
 @contextmanager
 def db_errors(path: Path) -> Iterator[None]:
     """sqlite3's failures as one line naming the database (read-only, full disk, not a
@@ -84,13 +106,7 @@ def db_errors(path: Path) -> Iterator[None]:
         yield
     except sqlite3.Error as exc:
         msg = str(exc)
-        hint = {
-            "readonly": " (the file or its folder is read-only: ingest needs to write it)",
-            "full": " (the disk is full: free space and run the ingest again; every bag "
-            "stored so far is kept)",
-            "not a database": " (not an odocal fleet database)",
-        }
-        extra = next((h for k, h in hint.items() if k in msg), "")
+        extra = next((h for k, h in _HINTS.items() if k in msg), "")
         raise InputError(f"fleet database: {msg}{extra}", path) from None
 
 
@@ -301,31 +317,120 @@ def _columns(result: dict[str, Any]) -> tuple[float | None, ...]:
 
 
 def _version(con: sqlite3.Connection) -> int:
-    """The schema version of an open database (0: empty)."""
+    """The schema version of an open fleet database; a database without the ``schema_version``
+    table (an SQLite file of something else, or of nothing) is not one."""
     tables = {r[0] for r in con.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
     if "schema_version" not in tables:
-        if tables:
-            raise sqlite3.DatabaseError("not a database odocal wrote (no schema_version table)")
-        return 0
+        what = "no schema_version table" if tables else "an SQLite database without tables"
+        raise sqlite3.DatabaseError(f"not a database odocal wrote ({what})")
     row = con.execute("SELECT MAX(version) FROM schema_version").fetchone()
     return int(row[0] or 0)
 
 
-def _migrate(con: sqlite3.Connection, current: int) -> None:
-    """Apply the migrations after ``current``, each in one transaction with its version."""
-    if current == 0:
-        con.execute("CREATE TABLE schema_version (version INTEGER NOT NULL)")
-    for version, sql in enumerate(MIGRATIONS[current:], start=current + 1):
-        con.executescript(
-            f"BEGIN; {sql} DELETE FROM schema_version; "
-            f"INSERT INTO schema_version VALUES ({version}); COMMIT;"
+def _statements(sql: str) -> list[str]:
+    """The SQL statements of a migration, one by one (:meth:`sqlite3.Connection.executescript`
+    would commit the transaction they must run in)."""
+    out, buf = [], ""
+    for part in sql.split(";"):
+        buf += part + ";"
+        if sqlite3.complete_statement(buf):
+            if buf.strip().strip(";").strip():
+                out.append(buf.strip())
+            buf = ""
+    return out
+
+
+def _migrate(con: sqlite3.Connection, path: Path, *, new: bool = False) -> None:
+    """Apply the migrations the database lacks, all in one transaction under SQLite's write
+    lock: a second ingest doing the same waits for the lock (:data:`LOCK_TIMEOUT_S`), then
+    finds the work done. ``new``: an empty database, made here (:func:`_create`)."""
+    con.execute("BEGIN IMMEDIATE")
+    try:
+        if new:
+            con.execute("CREATE TABLE schema_version (version INTEGER NOT NULL)")
+            current = 0
+        else:
+            current = _version(con)
+            _refuse_newer(current, path)
+        for version, sql in enumerate(MIGRATIONS[current:], start=current + 1):
+            for statement in _statements(sql):
+                con.execute(statement)
+            con.execute("DELETE FROM schema_version")
+            con.execute("INSERT INTO schema_version VALUES (?)", (version,))
+        con.execute("COMMIT")
+    except BaseException:
+        if con.in_transaction:  # (SQLite may have rolled it back itself: a full disk)
+            con.execute("ROLLBACK")
+        raise
+
+
+def _refuse_newer(current: int, path: Path) -> None:
+    if current > SCHEMA_VERSION:
+        raise InputError(
+            f"written by a newer odocal (schema {current}; this one knows up to "
+            f"{SCHEMA_VERSION}): upgrade odocal to read it",
+            path,
         )
+
+
+def _create(p: Path) -> None:
+    """Make the database ``p`` whole or not at all: built beside it under a hidden temporary
+    name (WAL mode, every migration), closed, then linked into place. Two ingests creating it at
+    once: the second link fails and that ingest opens the first one's. Nothing is left beside
+    it: SQLite removes the temporary's -wal and -shm when it closes it; the temporary goes."""
+    try:
+        fd, name = tempfile.mkstemp(prefix=f".{p.name}.", suffix=".new", dir=p.parent)
+    except OSError as exc:
+        raise InputError(f"cannot create the fleet database ({exc.strerror})", p) from None
+    os.close(fd)  # (an empty file: SQLite makes it a database)
+    tmp = Path(name)
+    companions = [tmp.with_name(tmp.name + s) for s in ("-wal", "-shm", "-journal")]
+    try:
+        with db_errors(p):
+            con = sqlite3.connect(tmp, timeout=LOCK_TIMEOUT_S, isolation_level=None)
+            try:
+                if con.execute("PRAGMA journal_mode = WAL").fetchone()[0] != "wal":
+                    raise InputError("cannot switch the database to WAL mode", p)
+                _migrate(con, p, new=True)
+            finally:
+                con.close()
+        try:
+            os.link(tmp, p)
+        except FileExistsError:
+            pass  # another ingest made it meanwhile: that one is the database
+        except OSError:  # a file system without hard links: a rename, unless one is there now
+            if not p.exists():
+                os.replace(tmp, p)
+    except OSError as exc:
+        raise InputError(f"cannot create the fleet database ({exc.strerror})", p) from None
+    finally:
+        for f in (tmp, *companions):
+            f.unlink(missing_ok=True)
+
+
+def _check_file(p: Path, write: bool) -> None:
+    """Refuse, before SQLite touches it (and leaves -wal and -shm files beside it), what cannot
+    be a fleet database or cannot be written when it must be."""
+    try:
+        st = p.stat()
+    except OSError as exc:
+        raise InputError(f"cannot open the fleet database ({exc.strerror})", p) from None
+    if not stat.S_ISREG(st.st_mode):
+        raise InputError("not a regular file, not an odocal fleet database", p)
+    if st.st_size == 0:
+        raise InputError("an empty file, not an odocal fleet database", p)
+    if write and not (os.access(p, os.W_OK) and os.access(p.parent, os.W_OK | os.X_OK)):
+        raise InputError(f"fleet database: read-only{_HINTS['readonly']}", p)
 
 
 def open_db(path: str | Path, *, write: bool) -> FleetDb:
     """Open the fleet database ``path``: ``write`` creates it (and its folder must exist) and
     migrates it to :data:`SCHEMA_VERSION`; otherwise it is opened read-only (it must exist; a
-    database of an older schema is read as far as it goes only after an ingest migrates it)."""
+    database of an older schema is read as far as it goes only after an ingest migrates it).
+
+    A new database appears whole (:func:`_create`), so an empty file is never one (refused, as
+    a file of anything else is); a file that must be written and cannot be is refused before
+    it is opened. Either way nothing is left beside it."""
     p = Path(path)
     if p.is_dir():
         raise InputError("is a folder, not a fleet database file", p)
@@ -333,26 +438,26 @@ def open_db(path: str | Path, *, write: bool) -> FleetDb:
         raise InputError("no fleet database here (run 'odocal fleet ingest ROOT --db' first)", p)
     if write and not p.parent.is_dir():
         raise InputError("its folder does not exist", p)
+    if write and not p.exists():
+        _create(p)
+    _check_file(p, write)
     with db_errors(p):
-        if write:
-            con = sqlite3.connect(p, timeout=30.0, isolation_level=None)
+        if write:  # (mode=rw: never SQLite's silent fallback to read-only)
+            uri = f"{p.resolve().as_uri()}?mode=rw"
+            con = sqlite3.connect(uri, uri=True, timeout=LOCK_TIMEOUT_S, isolation_level=None)
         else:
-            con = sqlite3.connect(f"{p.resolve().as_uri()}?mode=ro", uri=True, timeout=30.0)
+            uri = f"{p.resolve().as_uri()}?mode=ro"
+            con = sqlite3.connect(uri, uri=True, timeout=LOCK_TIMEOUT_S)
         try:
             con.execute("PRAGMA foreign_keys = ON")
             current = _version(con)
-            if current > SCHEMA_VERSION:
-                raise InputError(
-                    f"written by a newer odocal (schema {current}; this one knows up to "
-                    f"{SCHEMA_VERSION}): upgrade odocal to read it",
-                    p,
-                )
+            _refuse_newer(current, p)
             if write:
                 if con.execute("PRAGMA journal_mode = WAL").fetchone()[0] != "wal":
                     raise InputError("cannot switch the database to WAL mode", p)
                 con.execute("PRAGMA synchronous = NORMAL")
                 if current < SCHEMA_VERSION:
-                    _migrate(con, current)
+                    _migrate(con, p)
                 con.isolation_level = "DEFERRED"
             elif current < SCHEMA_VERSION:
                 raise InputError(

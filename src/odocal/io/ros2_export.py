@@ -24,7 +24,7 @@ from collections.abc import Sequence
 
 from ..core.covariance import UNMEASURED_VARIANCE, OdometryCovariance
 from ..core.model import WheelGeometry
-from ..errors import InputError
+from ..errors import InputError, one_line
 from .robot_file import untrusted_lines
 
 __all__ = ["ros2_params_yaml", "read_ros2_params", "DEFAULT_CONTROLLER"]
@@ -72,7 +72,8 @@ def ros2_params_yaml(
         f"left {float(calibrated.diameter_left_m):.9g} m, wheelbase "
         f"{float(calibrated.wheelbase_m):.9g} m",
     ]
-    lines += [f"# {k}: {v}" for k, v in record.items()]
+    # one comment line each, whatever a value holds (a line break would start a YAML key)
+    lines += [f"# {k}: {one_line(str(v))}" for k, v in record.items()]
     lines += untrusted_lines(doubts)
     if covariance is not None:
         c = covariance

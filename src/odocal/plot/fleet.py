@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import quote_path
 from ._figure import new_figure
 
 __all__ = ["history_figure", "svg_text"]
@@ -59,7 +60,12 @@ def history_figure(robot_id: str, parameters: Sequence[Any]) -> Any:
         for a in t.alarms:
             ax.axvline(x[a.index], color="tab:red", lw=1.2, ls="--")
         ax.tick_params(labelsize=8)
-    axes[0].set_title(f"{robot_id}: parameter history (red dashes: drift alarms)", fontsize=10)
+    # the id as it is (a folder's name: no mathtext of its dollar signs), escaped when odd
+    axes[0].set_title(
+        f"{quote_path(robot_id)}: parameter history (red dashes: drift alarms)",
+        fontsize=10,
+        parse_math=False,
+    )
     drawn = [ax for ax in axes if ax.get_legend_handles_labels()[1]]
     if drawn:  # on the first panel with estimates
         drawn[0].legend(fontsize=7, loc="best")
