@@ -20,7 +20,11 @@ child and its workers, the largest one, from ``os.wait4``) are measured:
 - ``check``: ``odocal check BAG --truth-frames map:base_link --robot R.yaml``;
 - ``slam``: ``odocal fit BAG --truth-frames map:base_link --robot R.yaml --json``;
 - ``scan``: ``odocal fit BAG --method scan --robot R.yaml --json`` (default interval, 0.5 s);
-- ``scan-every``: the same with ``--scan-interval 0.1`` (every scan matched).
+- ``scan-every``: the same with ``--scan-interval 0.1`` (every scan matched);
+- ``gyro``: ``odocal fit BAG --method gyro --robot R.yaml --json``;
+- ``auto``: ``odocal fit BAG --method auto --robot R.yaml --json`` (every route the bag allows:
+  SLAM, scan, gyro, with the bag read once, and the log check). Its cost against its slowest
+  route is the price of the one command (issue 27: at most that route plus 20 %).
 
 Printed: the machine and its load average, then per route and version the wall time (s), the
 CPU time (s) and the peak memory (MB) at each length, and the slope of a straight line through
@@ -68,6 +72,8 @@ ROUTES = {
     "check": ["check", "{bag}", "--truth-frames", "map:base_link", "--robot", "{robot}"],
     "slam": ["fit", "{bag}", "--truth-frames", "map:base_link", "--robot", "{robot}", "--json"],
     "scan": ["fit", "{bag}", "--method", "scan", "--robot", "{robot}", "--json"],
+    "gyro": ["fit", "{bag}", "--method", "gyro", "--robot", "{robot}", "--json"],
+    "auto": ["fit", "{bag}", "--method", "auto", "--robot", "{robot}", "--json"],
     "scan-every": [
         "fit",
         "{bag}",

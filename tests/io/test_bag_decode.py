@@ -25,7 +25,7 @@ from odocal.core.tracks import Track, spot_turn, straight
 from odocal.errors import InputError
 from odocal.io import bag_decode, bags
 from odocal.io.bag_recording import load_bag_recording
-from odocal.io.bag_slam import load_slam_bag
+from odocal.app.slam_bags import load_slam_bag
 from tests.support.bag_files import (
     KINDS,
     BagWriter,

@@ -26,7 +26,6 @@ from ..io.bag_gyro import read_gyro_bag
 from ..io.bag_options import BagOptions
 from ..io.bag_recording import load_bag_recording
 from ..io.bag_scan import read_scan_bag
-from ..io.bag_slam import load_slam_bag
 from ..io.bag_survey import BagSurvey, RouteOption
 from ..io.bags import BagContents
 from .fit_auto_result import RouteRun
@@ -35,6 +34,7 @@ from .fit_relative import RelativeFitResult
 from .fit_runs import FitResult, fit_runs
 from .fit_scan import scan_fit
 from .fit_slam import slam_fit
+from .slam_bags import load_slam_bag
 
 __all__ = ["run_route", "ROUTE_FUNCTIONS"]
 

@@ -18,13 +18,13 @@ from ..calibration.identifiability import (
     with_prediction,
 )
 from ..calibration.relative_motions import stack_motions
+from ..calibration.slam_bag import SlamBag
 from ..calibration.slam_noise import SLAM_POSE_NOISE, slam_noise_model
 from ..core.model import Robot, WheelGeometry
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
 from ..io.bag_recording import load_bag_recording, without_gyro
-from ..io.bag_slam import SlamBag, load_slam_bags
 from ..io.bags import BagContents
 from ..io.recordings import load_recordings
 from .common import (
@@ -34,6 +34,7 @@ from .common import (
     optional_robot,
     refuse_still_runs,
 )
+from .slam_bags import load_slam_bags
 from .text import Presented, Text, check_text, emits_warnings
 
 __all__ = [

@@ -31,10 +31,10 @@ from ..calibration.relative_checks import (
     preferred_answer,
 )
 from ..calibration.relative_motions import RelativeMotions, overlapping_sources, stack_motions
+from ..calibration.slam_bag import SlamBag
 from ..calibration.time_offset import TimeOffset, TimingCheck
 from ..core.model import WheelGeometry
 from ..errors import InputError
-from ..io.bag_slam import SlamBag
 from ..io.outputs import OutputPlan
 from ..io.tuples import read_tuples, refuse_repeated_tuples, refuse_still_tuples
 from .common import NO_EXPORTS, Exports, RobotSpec, refuse_absurd, refuse_untrusted, robot_nominal

@@ -1,7 +1,7 @@
 """``odocal fit BAG ... --truth-frames PARENT:CHILD``: the relative-motion calibration against a
 SLAM pose on /tf, between the SLAM's updates (docs/slam-truth.md).
 
-:func:`fit_slam_bags` loads the bags (:func:`odocal.io.bag_slam.load_slam_bags`), calls the
+:func:`fit_slam_bags` loads the bags (:func:`load_slam_bags`), calls the
 relative-motion route :func:`odocal.app.fit_relative.fit_relative`, checks the answer
 (:mod:`odocal.calibration.relative_checks`) and writes what was asked for.
 """
@@ -15,10 +15,10 @@ import numpy as np
 
 from ..calibration.censi import SensorOdometryFit
 from ..calibration.relative_checks import slam_chains, with_offset_error
+from ..calibration.slam_bag import SlamBag
 from ..core.model import WheelGeometry
 from ..errors import CalibrationError, InputError
 from ..io.bag_options import BagOptions
-from ..io.bag_slam import SlamBag, load_slam_bags
 from ..io.bags import is_bag
 from ..io.outputs import OutputPlan
 from .common import NO_EXPORTS, Exports, RobotSpec, robot_nominal, robot_ran_with
@@ -28,6 +28,7 @@ from .fit_relative import (
     relative_checks,
     write_bag_route,
 )
+from .slam_bags import load_slam_bags
 
 __all__ = ["fit_slam_bags", "slam_fit"]
 

@@ -16,11 +16,11 @@ from ..core.odometry import dead_reckon, evaluate
 from ..core.recording import Recording
 from ..errors import InputError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
-from ..io.bag_slam import load_slam_bags
 from ..io.outputs import OutputPlan
 from ..io.recordings import load_recordings, require_ground_truth
 from ..io.robot_file import load_params, load_robot
 from .common import RobotSpec, load_warnings
+from .slam_bags import load_slam_bags
 from .text import Presented, Text, emits_warnings
 
 __all__ = ["NOMINAL_SOURCES", "Validation", "validate", "validate_recordings"]

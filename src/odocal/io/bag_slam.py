@@ -1,27 +1,24 @@
-"""A SLAM pose on ``/tf`` as ground truth: relative motions between the SLAM's update instants.
+"""A SLAM pose on ``/tf`` as ground truth, read: what the SLAM route needs of a bag.
 
 Reads the wheel joints, ``/tf`` and ``/tf_static`` of a bag, finds the chain between the truth
 frames (e.g. ``map`` -> ``base_link``, composed through ``map`` -> ``odom`` -> ``base_link``),
 takes the SLAM correction edge (the dynamic edge of the chain published least often, normally
-``map`` -> ``odom``) and hands its messages, the odometry at their stamps and the wheel angles at
-their stamps to :func:`odocal.calibration.slam.slam_relative_motions` (docs/slam-truth.md: why
-only the update instants, and relative motions, can be trusted).
+``map`` -> ``odom``) and gives its stamps, the chain's poses there, the wheel angles and a
+lookup of the odometry (:class:`~odocal.calibration.slam_bag.SlamSeries`). The relative motions
+between the update instants, and the SLAM's clock offset, are computed from it by
+:func:`odocal.calibration.slam_bag.slam_bag` (docs/slam-truth.md: why only the update instants,
+and relative motions, can be trusted).
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..calibration.relative_motions import RelativeMotions, wheel_increments
-from ..calibration.slam import SlamLimits, SlamMotions, slam_relative_motions
-from ..calibration.time_offset import TimeOffset, estimate_time_offset, resolve_offset
+from ..calibration.slam_bag import SlamSeries
 from ..core.model import WheelGeometry
-from ..core.recording import Recording
 from ..core.transforms import RigidTransforms, planar_pose
 from ..errors import InputError
 from .bag_options import BagOptions
@@ -35,7 +32,7 @@ from .bags import (
     transform_buffer,
 )
 
-__all__ = ["SlamBag", "parse_truth_frames", "load_slam_bag", "load_slam_bags", "wheel_increments"]
+__all__ = ["parse_truth_frames", "read_slam_series"]
 
 
 def parse_truth_frames(text: str) -> tuple[str, str]:
@@ -47,85 +44,6 @@ def parse_truth_frames(text: str) -> tuple[str, str]:
     if parent == child:
         raise InputError(f"the truth frames must differ, got {text!r}")
     return parent, child
-
-
-@dataclass(frozen=True)
-class SlamBag:
-    """What one bag gives: the relative motions between SLAM updates, the wheel increments
-    within each interval (right, left; shape (n, K), zero padded: the odometry is integrated
-    over them, not assumed to be one arc), and a recording at the wheel rate whose ground truth
-    is valid only at the update instants (for validation).
-
-    ``chain`` describes the lookup (e.g. 'map -> odom -> base_link'); ``correction`` the edge
-    whose messages are the update instants, or None in direct mode. ``time_offset`` the SLAM's
-    clock against the wheels' (applied: the intervals' wheel rotations are taken at the wheel
-    clock); ``every_increments`` the wheel increments of every interval between updates,
-    dropped ones included (for the held-out check); ``wheels`` where the wheel rotations came
-    from."""
-
-    path: str
-    motions: SlamMotions
-    recording: Recording
-    chain: str
-    correction: str | None
-    increments: tuple[np.ndarray, np.ndarray]
-    meta: dict = field(default_factory=dict)
-    time_offset: TimeOffset = field(default_factory=lambda: TimeOffset.given("slam", 0.0))
-    every_increments: tuple[np.ndarray, np.ndarray] | None = None
-    wheels: str = ""
-    wheel_warnings: tuple[str, ...] = ()
-    wheel_series: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-
-    @property
-    def relative_motions(self) -> RelativeMotions:
-        """The intervals as the relative-motion calibration takes them (the truth frame is the
-        base itself)."""
-        m, d = self.motions, self.time_offset.applied_s
-        return RelativeMotions(
-            m.phi_right_rad, m.phi_left_rad, m.sensor_motion, self.increments,
-            np.asarray(m.start_s) - d, np.asarray(m.end_s) - d,
-        )  # fmt: skip
-
-    @property
-    def every_motions(self) -> RelativeMotions:
-        """Every interval between the SLAM's updates but its jumps, on the wheels' clock: the
-        held-out check's stretches (the intervals dropped as too short or as outliers carry them;
-        a jump, a loop closure or a relocalisation, breaks them: the truth is not continuous
-        there). Which of them are the fit's: :attr:`every_used`."""
-        m, inc, d = self.motions, self.every_increments, self.time_offset.applied_s
-        assert inc is not None  # the loader sets them
-        keep = self._not_jumps
-        return RelativeMotions(
-            inc[0][keep].sum(axis=1), inc[1][keep].sum(axis=1),
-            np.asarray(m.every_motion)[keep], (inc[0][keep], inc[1][keep]),
-            np.asarray(m.every_start_s)[keep] - d, np.asarray(m.every_end_s)[keep] - d,
-        )  # fmt: skip
-
-    @property
-    def every_used(self) -> np.ndarray:
-        """Which intervals of :attr:`every_motions` the fit was given."""
-        return np.asarray(self.motions.every_used, dtype=bool)[self._not_jumps]
-
-    @property
-    def _not_jumps(self) -> np.ndarray:
-        """Every interval between updates that is not a jump."""
-        m = self.motions
-        jumps = [d.start_s for d in m.dropped if d.reason == "jump"]
-        return ~np.isin(np.asarray(m.every_start_s), np.asarray(jumps, dtype=float))
-
-    def as_dict(self) -> dict[str, Any]:
-        """What ``odocal fit --truth-frames --json`` reports of this bag (its ``slam`` entry)."""
-        m = self.motions
-        return {
-            "bag": self.path,
-            "chain": self.chain,
-            "correction_edge": self.correction,
-            **asdict(m.counts),
-            "dropped": m.counts.dropped,
-            "segments": m.segments,
-            "summary": m.summary(),
-            "warnings": list(m.warnings),
-        }
 
 
 def _span(t: np.ndarray, lo: float, hi: float) -> np.ndarray:
@@ -210,7 +128,7 @@ def _correction_edge(
     return edges[key]
 
 
-def load_slam_bag(
+def read_slam_series(
     path,
     truth_frames: tuple[str, str] = ("map", "base_link"),
     options: BagOptions | None = None,
@@ -218,17 +136,16 @@ def load_slam_bag(
     ticks_per_rev: float | None = None,
     stamp_offset_s: float = 0.0,
     ran_with: WheelGeometry | None = None,
-    time_offset_s: float | None = None,
-    limits: SlamLimits | None = None,
-) -> SlamBag:
-    """The SLAM relative motions of one bag (module docstring).
+) -> SlamSeries:
+    """What one bag holds for the SLAM route (module docstring), read: the wheels, the
+    correction's update stamps within them and the chain's poses there
+    (:class:`~odocal.calibration.slam_bag.SlamSeries`); the motions are computed from it by
+    :func:`~odocal.calibration.slam_bag.slam_bag`.
 
     ``stamp_offset_s`` (s) is subtracted from the correction's stamps: slam_toolbox post-dates
     ``map -> odom`` by its ``transform_timeout`` (0.2 s by default), AMCL by its
-    ``transform_tolerance``. ``time_offset_s``: how late the SLAM's clock runs behind the
-    wheels' (its pose stamped t is the robot's pose at wheel time t - offset); None estimates
-    it (:mod:`odocal.calibration.time_offset`). The wheels are the joint states, else the
-    controller's odometry inverted through ``ran_with`` (:mod:`odocal.io.bag_wheels`)."""
+    ``transform_tolerance``. The wheels are the joint states, else the controller's odometry
+    inverted through ``ran_with`` (:mod:`odocal.io.bag_wheels`)."""
     opts = options if options is not None else BagOptions()
     parent, child = truth_frames
     p = check_bag_path(path)
@@ -273,6 +190,7 @@ def load_slam_bag(
             p,
         )
     stamps = stamps[keep]
+    odometry_at = None
     if direct:
         # the chain's only moving edge is the SLAM pose itself (e.g. map -> base_link)
         truth_pose = planar_pose(
@@ -289,131 +207,18 @@ def load_slam_bag(
         correction_pose = planar_pose(corr)
         odometry_pose = planar_pose(buf.lookup(ce.child, child, stamps).transform)
         truth_pose = None
-    right, left = wheels.right, wheels.left
-    lim = limits if limits is not None else SlamLimits()
+        spans = [edges[_edge_key(s)].time_s for s in below if not s.static]
 
-    def motions_at(offset: float, gate: SlamLimits) -> SlamMotions:
-        at = stamps - offset
-        wr, wl = np.interp(at, t_j, right), np.interp(at, t_j, left)
-        wheel_odo = None
-        if offset and odometry_pose is not None:
-            span = (at >= t_j[0]) & (at <= t_j[-1])
-            lo = max(float(at[span][0]), *(float(edges[_edge_key(s)].time_s[0]) for s in below
-                                            if not s.static))  # fmt: skip
-            hi = min(float(at[span][-1]), *(float(edges[_edge_key(s)].time_s[-1]) for s in below
-                                             if not s.static))  # fmt: skip
-            wheel_odo = planar_pose(buf.lookup(ce.child, child, np.clip(at, lo, hi)).transform)
-        return slam_relative_motions(
-            stamps, wr, wl, correction_pose=correction_pose, odometry_pose=odometry_pose,
-            truth_pose=truth_pose, limits=gate, wheel_time_odometry_pose=wheel_odo,
-        )  # fmt: skip
+        def odometry_at(at: np.ndarray) -> np.ndarray:
+            """The odometry's pose at wheel times ``at`` (clipped to the span its edges and
+            the wheels cover)."""
+            inside = at[(at >= t_j[0]) & (at <= t_j[-1])]
+            lo = max(float(inside[0]), *(float(t[0]) for t in spans))
+            hi = min(float(inside[-1]), *(float(t[-1]) for t in spans))
+            return planar_pose(buf.lookup(ce.child, child, np.clip(at, lo, hi)).transform)
 
-    offset = _slam_offset(p, motions_at, lim, t_j, right, left, time_offset_s)
-    motions = motions_at(offset.applied_s, lim)
-    recording = _recording(
-        p,
-        wheels.topic,
-        t_j,
-        right,
-        left,
-        stamps,
-        motions,
-        correction_pose,
-        odometry_pose,
-        truth_pose,
-        meta | wheels.meta,
-        offset.applied_s,
-    )
-    d = offset.applied_s
-    increments = wheel_increments(t_j, right, left, motions.start_s - d, motions.end_s - d)
-    every = wheel_increments(t_j, right, left, motions.every_start_s - d, motions.every_end_s - d)
-    return SlamBag(
-        str(p), motions, recording, chain_text, meta["correction_edge"], increments, meta,
-        offset, every, wheels.describe(), wheels.warnings + mounting, (t_j, right, left),
+    return SlamSeries(
+        str(p), t_j, wheels.right, wheels.left, wheels.topic, wheels.describe(),
+        wheels.warnings + mounting, stamps, correction_pose, odometry_pose, truth_pose,
+        odometry_at, chain_text, meta["correction_edge"], meta | wheels.meta,
     )  # fmt: skip
-
-
-def _slam_offset(
-    p: Path,
-    motions_at: Any,
-    lim: SlamLimits,
-    t_j: np.ndarray,
-    right: np.ndarray,
-    left: np.ndarray,
-    given: float | None,
-) -> TimeOffset:
-    """The SLAM's clock offset: given, else registered on the heading changes between every
-    pair of consecutive update instants (dropped intervals included: the estimator's robust
-    loss deals with real jumps, and a clock offset is what makes ordinary turns look like
-    jumps)."""
-
-    def estimate() -> TimeOffset:
-        first = motions_at(0.0, replace(lim, min_intervals=1))
-        return estimate_time_offset(
-            t_j, right, left, first.every_start_s, first.every_end_s,
-            first.every_motion[:, 2], source="slam",
-        )  # fmt: skip
-
-    return resolve_offset("slam", given, estimate)
-
-
-def _recording(
-    p: Path, jt, t, right, left, stamps, motions, corr, odo, truth, meta, offset: float
-) -> Recording:
-    """The wheel-rate run with the SLAM truth at the update instants used (other samples are
-    not truth: ``meta['truth_samples']`` lists the valid indices), placed at their wheel-clock
-    instants (``stamps - offset``)."""
-    from ..core.transforms import se2_compose
-
-    pose = np.array(truth if truth is not None else se2_compose(corr, odo), dtype=float)
-    # the update instants the motions used (their starts and ends), as wheel-sample indices
-    used_t = np.unique(np.r_[motions.start_s, motions.end_s])
-    on = np.isin(stamps, used_t)
-    t_u, pose_u = stamps[on] - offset, pose[on]
-    pose_u[:, 2] = np.unwrap(pose_u[:, 2])  # less than half a turn between updates
-    # insert the instants into the wheel-rate time base (angles interpolated there)
-    tt = np.union1d(t[(t >= t_u[0]) & (t <= t_u[-1])], t_u)
-    rr, ll = np.interp(tt, t, right), np.interp(tt, t, left)
-    idx = np.searchsorted(tt, t_u)
-    gt = np.full((len(tt), 3), np.nan)
-    gt[idx] = pose_u
-    # start frame at the first valid instant
-    c, s = np.cos(pose_u[0, 2]), np.sin(pose_u[0, 2])
-    dx, dy = gt[:, 0] - pose_u[0, 0], gt[:, 1] - pose_u[0, 1]
-    gt = np.column_stack([c * dx + s * dy, -s * dx + c * dy, gt[:, 2] - pose_u[0, 2]])
-    return Recording(
-        name=f"{p}:{jt}",
-        time_s=tt - tt[0],
-        wheel_angle_right_rad=rr - rr[0],
-        wheel_angle_left_rad=ll - ll[0],
-        ground_truth=gt,
-        meta={**meta, "truth": "slam", "truth_samples": [int(i) for i in idx]},
-    )
-
-
-def load_slam_bags(
-    paths: Sequence[str | Path],
-    truth_frames: tuple[str, str],
-    bag: BagOptions,
-    *,
-    ticks_per_rev: float | None = None,
-    stamp_offset_s: float = 0.0,
-    ran_with: WheelGeometry | None = None,
-    time_offset_s: float | None = None,
-) -> list[SlamBag]:
-    """:func:`load_slam_bag` of every bag of ``paths`` with the topics of ``bag``; InputError
-    when a path is given twice (its runs would count twice)."""
-    from .recordings import refuse_repeated
-
-    return [
-        load_slam_bag(
-            p,
-            truth_frames,
-            bag,
-            ticks_per_rev=ticks_per_rev,
-            stamp_offset_s=stamp_offset_s,
-            ran_with=ran_with,
-            time_offset_s=time_offset_s,
-        )
-        for p in refuse_repeated(paths)
-    ]
