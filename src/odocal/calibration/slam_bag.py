@@ -204,12 +204,26 @@ def slam_bag(
 
 
 def _recording(
-    p: str, jt, t, right, left, stamps, motions, corr, odo, truth, meta, offset: float
+    p: str,
+    jt: str,
+    t: np.ndarray,
+    right: np.ndarray,
+    left: np.ndarray,
+    stamps: np.ndarray,
+    motions: SlamMotions,
+    corr: np.ndarray | None,
+    odo: np.ndarray | None,
+    truth: np.ndarray | None,
+    meta: dict,
+    offset: float,
 ) -> Recording:
     """The wheel-rate run with the SLAM truth at the update instants used (other samples are
     not truth: ``meta['truth_samples']`` lists the valid indices), placed at their wheel-clock
     instants (``stamps - offset``)."""
-    pose = np.array(truth if truth is not None else se2_compose(corr, odo), dtype=float)
+    if truth is None:
+        assert corr is not None and odo is not None  # correction mode: the chain split there
+        truth = se2_compose(corr, odo)
+    pose = np.asarray(truth, dtype=np.float64)
     # the update instants the motions used (their starts and ends), as wheel-sample indices
     used_t = np.unique(np.r_[motions.start_s, motions.end_s])
     on = np.isin(stamps, used_t)
