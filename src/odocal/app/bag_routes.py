@@ -151,12 +151,13 @@ def _trajectory(
     robot: Robot,
     opts: BagOptions,
     _: float,
+    noise: bool,
 ) -> RouteRun:
     recordings = _bag_recordings(bag, opts)
     res = fit_runs(
         recordings, "trajectory", robot=robot, force=True, truth_offset_s=opts.time_offset("truth")
     )
-    return trajectory_run(option, res, _trajectory_noise(recordings, res))
+    return trajectory_run(option, res, _trajectory_noise(recordings, res) if noise else None)
 
 
 def _slam(
@@ -166,13 +167,15 @@ def _slam(
     robot: Robot,
     opts: BagOptions,
     _: float,
+    noise: bool,
 ) -> RouteRun:
     assert found.slam_edge is not None  # the survey allows the route only with it
     loaded = load_slam_bag(
         bag, found.slam_edge, opts, ran_with=robot.believed_geometry,
         time_offset_s=opts.time_offset("slam"),
     )  # fmt: skip
-    return relative_run(option, slam_fit([loaded], robot.nominal, names=[bag.path], force=True))
+    res = slam_fit([loaded], robot.nominal, names=[bag.path], force=True, noise=noise)
+    return relative_run(option, res)
 
 
 def _scan(
@@ -182,11 +185,12 @@ def _scan(
     robot: Robot,
     opts: BagOptions,
     interval_s: float,
+    noise: bool,
 ) -> RouteRun:
     loaded = read_scan_bag(bag, opts, None, robot.believed_geometry)
     res = scan_fit(
         [loaded], robot.nominal, names=[bag.path], scan_interval_s=interval_s,
-        time_offset_s=opts.time_offset("laser"), force=True,
+        time_offset_s=opts.time_offset("laser"), force=True, noise=noise,
     )  # fmt: skip
     return relative_run(option, res)
 
@@ -198,6 +202,7 @@ def _gyro(
     robot: Robot,
     opts: BagOptions,
     _: float,
+    noise: bool,
 ) -> RouteRun:
     topics = BagOptions(
         joint_topic=opts.joint_topic or None,
@@ -211,9 +216,10 @@ def _gyro(
 
 
 #: Route name -> the route (option, bag read, its survey, the robot, the options, the scan
-#: interval (s)) -> its run.
+#: interval (s), whether to estimate its random error) -> its run.
 ROUTE_FUNCTIONS: dict[
-    RouteName, Callable[[RouteOption, BagContents, BagSurvey, Robot, BagOptions, float], RouteRun]
+    RouteName,
+    Callable[[RouteOption, BagContents, BagSurvey, Robot, BagOptions, float, bool], RouteRun],
 ] = {"trajectory": _trajectory, "slam": _slam, "scan": _scan, "gyro": _gyro}
 
 
@@ -224,15 +230,18 @@ def run_route(
     robot: Robot,
     options: BagOptions,
     scan_interval_s: float,
+    noise: bool = True,
 ) -> RouteRun:
     """One route of the survey: run where usable (its own checks become doubts, an error its
-    reason), else not used with the survey's reason. Broken data in the bag (time running
-    backwards, every message twice, two joints named the same: :class:`BagDataError`) are the
-    bag's error, not one route's reason: raised."""
+    reason), else not used with the survey's reason; ``noise``: estimate its random error (only
+    the answer's is used: a route after the first that ran need not). Broken data in the bag
+    (time running backwards, every message twice, two joints named the same:
+    :class:`BagDataError`) are the bag's error, not one route's reason: raised."""
     if not option.usable:
         return RouteRun(option, False, option.reason)
     try:
-        return ROUTE_FUNCTIONS[option.name](option, bag, found, robot, options, scan_interval_s)
+        route = ROUTE_FUNCTIONS[option.name]
+        return route(option, bag, found, robot, options, scan_interval_s, noise)
     except BagDataError:
         raise
     except OdocalError as exc:

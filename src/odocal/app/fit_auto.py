@@ -194,9 +194,10 @@ def fit_auto(
     if not any(o.usable for o in found.routes):
         why = "; ".join(f"{o.name}: {o.reason}" for o in found.routes)
         raise InputError(f"no route can read this bag: {why}", found.path)
-    runs = [
-        run_route(o, contents, found, loaded_robot, options, scan_interval_s) for o in found.routes
-    ]
+    runs: list[RouteRun] = []
+    for o in found.routes:  # the random error of the answer's route only (the first that ran)
+        first = not any(r.used for r in runs)
+        runs.append(run_route(o, contents, found, loaded_robot, options, scan_interval_s, first))
     answer = next((r for r in runs if r.used), None)
     checks = cross_checks([r.answer for r in runs if r.used and r.answer is not None])
     log_check = _log_check(contents, loaded_robot, options, answer)

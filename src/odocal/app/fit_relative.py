@@ -289,13 +289,14 @@ def relative_checks(
     source: str,
     force: bool = False,
     where: str | Path | None = None,
+    noise: bool = True,
 ) -> RelativeChecks:
     """The held-out check and the one-log noise estimate of a bag route
     (:func:`~odocal.calibration.relative_checks.check_relative_fit`). A log too short for the
     check is an InputError unless ``force``; a calibration that no model can make beat the
     nominal one on the held-out blocks is a CalibrationError unless ``force`` (nothing
     written)."""
-    checks = check_relative_fit(motions, usable, mount, result, nominal, source=source)
+    checks = check_relative_fit(motions, usable, mount, result, nominal, source=source, noise=noise)
     if checks.heldout_problem is not None and not force:
         raise InputError(f"{checks.heldout_problem} (--force fits without it)", where)
     refuse_untrusted(checks.heldout, force)

@@ -80,6 +80,7 @@ def scan_fit(
     scan_interval_s: float = 0.5,
     time_offset_s: float | None = None,
     force: bool = False,
+    noise: bool = True,
 ) -> RelativeFitResult:
     """The scan route, I/O-free: the laser's motion between scans ``scan_interval_s`` apart
     from scan matching of the ``loaded`` bags (named ``names`` in messages), the relative-motion
@@ -99,7 +100,7 @@ def scan_fit(
     usable[list(result.dropped_indices)] = False
     mount = np.array([result.sensor_x_m, result.sensor_y_m, result.sensor_yaw_rad])
     checks = relative_checks(
-        stacked, usable, mount, result, nominal, source="laser", force=force,
+        stacked, usable, mount, result, nominal, source="laser", force=force, noise=noise,
         where=names[0] if len(names) == 1 else None,
     )  # fmt: skip
     return RelativeFitResult(

@@ -39,6 +39,7 @@ def slam_fit(
     *,
     names: Sequence[str | Path],
     force: bool = False,
+    noise: bool = True,
 ) -> RelativeFitResult:
     """The SLAM route, I/O-free: the relative-motion calibration of loaded ``bags`` (named
     ``names`` in messages), its offset's own uncertainty, the held-out check and the noise (the
@@ -61,7 +62,7 @@ def slam_fit(
         result.dropped_indices,
     )
     checks = relative_checks(
-        every, usable, np.zeros(3), result, nominal, source="SLAM", force=force,
+        every, usable, np.zeros(3), result, nominal, source="SLAM", force=force, noise=noise,
         where=names[0] if len(names) == 1 else None,
     )  # fmt: skip
     return RelativeFitResult(

@@ -239,8 +239,10 @@ def check_relative_fit(
     nominal: WheelGeometry | None,
     *,
     source: str,
+    noise: bool = True,
 ) -> RelativeChecks:
-    """The held-out check, the timing check and the one-log noise estimate of a bag route:
+    """The held-out check, the timing check and (``noise``) the one-log noise estimate of a bag
+    route:
     ``motions`` every interval in time order (the sensor's motion, seen from a sensor mounted
     at ``mount`` on the base), ``usable`` those the fit used, ``result`` the fit, ``source`` the
     truth source's name (for the timing check's words). Without a nominal geometry there is
@@ -256,8 +258,10 @@ def check_relative_fit(
     timing = timing_consistency(
         motions.phi_right_rad, motions.phi_left_rad, sm[:, 2], start_s, end_s, source=source
     )
-    noise, more = _noise(
+    if not noise:
+        return RelativeChecks(heldout, None, timing, notes, problem)
+    found, more = _noise(
         (inc_r[usable], inc_l[usable]), base[usable], result.geometry, start_s[usable],
         end_s[usable],
     )  # fmt: skip
-    return RelativeChecks(heldout, noise, timing, notes + more, problem)
+    return RelativeChecks(heldout, found, timing, notes + more, problem)
