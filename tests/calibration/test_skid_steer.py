@@ -16,9 +16,11 @@ from odocal.calibration.skid_steer import (
     fit_skid_logs,
     fit_skid_steer,
     log_drift,
+    offset_at,
     skid_intervals,
     truth_clock_offset,
     turn_rate_knots,
+    windowed_truth_offset,
     z_score,
 )
 from odocal.core.model import WheelGeometry
@@ -201,3 +203,21 @@ def test_a_real_warthog_log_needs_a_wide_track_and_two_wheel_scales(warthog):
     nominal = log_drift(warthog, SkidSteerModel.from_geometry(NOMINAL), offset_s=off.offset_s)
     fitted = log_drift(warthog, fit.model, offset_s=off.offset_s)
     assert nominal.median_pct > 20.0 and fitted.median_pct < 3.0 and fitted.pieces >= 10
+
+
+def test_a_wandering_truth_latency_is_followed_window_by_window():
+    # the truth's latency is 0.1 s for the first minute and 0.4 s after (a mapper that fell
+    # behind): windows of 40 s see it; one offset for the log sees one of the two
+    def late(t):
+        return np.where(t < 60.0, 0.1, 0.4)
+
+    log = _log(13, slip=0.005, duration_s=120.0, offset_s=late)
+    w = windowed_truth_offset(log, window_s=40.0, step_s=40.0)
+    assert np.array_equal(w.centre_s, [20.0, 60.0, 100.0])
+    assert w.at([0.0, 20.0])[1] == pytest.approx(0.1, abs=0.03)
+    assert w.at([100.0, 200.0]) == pytest.approx([0.4, 0.4], abs=0.03)
+    assert w.spread_s > 0.25 and w.typical_stderr_s < 0.03
+    assert offset_at(w, log).shape == log.truth_time_s.shape
+    assert offset_at(w.overall, log) == w.overall.offset_s
+    fit, _ = fit_skid_logs([log], NOMINAL, wheel_scales="left-right", offsets=[w])
+    _within(fit, TRUE_VALUES)

@@ -7,11 +7,13 @@ motion is the TRUE model's dead reckoning at ``sim_hz`` (:func:`odocal.core.skid
 dead_reckon_skid`) with optional slip: an AR(1) process (correlation time ``slip_tau_s``) added
 to the body's heading rate and forward speed, in proportion to ``slip`` (rad/s and m/s at unit
 scale). The log holds the wheel angles at ``wheel_hz`` and the truth at ``truth_hz``, stamped
-``offset_s`` late (the truth stamped t saw the robot at t - offset_s), with white position and
-heading noise.
+``offset_s`` late (the truth stamped t saw the robot at t - offset_s; a number, or a function
+of the true time for a latency that wanders), with white position and heading noise.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import numpy as np
 
@@ -47,7 +49,7 @@ def simulate_skid_log(
     sim_hz: float = 100.0,
     wheel_hz: float = 20.0,
     truth_hz: float = 10.0,
-    offset_s: float = 0.0,
+    offset_s: float | Callable[[np.ndarray], np.ndarray] = 0.0,
     sigma_xy_m: float = 0.01,
     sigma_yaw_rad: float = 0.003,
     slip: float = 0.0,
@@ -82,4 +84,5 @@ def simulate_skid_log(
     truth = poses[tk].copy()
     truth[:, :2] += sigma_xy_m * rng.standard_normal((len(tk), 2))
     truth[:, 2] += sigma_yaw_rad * rng.standard_normal(len(tk))
-    return SkidLog(name, t[wk], ang_r[wk], ang_l[wk], t[tk] + offset_s, truth, group)
+    late = offset_s(t[tk]) if callable(offset_s) else offset_s
+    return SkidLog(name, t[wk], ang_r[wk], ang_l[wk], t[tk] + late, truth, group)

@@ -81,10 +81,15 @@ __all__ = [
     "candidate_label",
     "DEFAULT_RATE_LADDER",
     "truth_clock_offset",
+    "WindowedOffset",
+    "windowed_truth_offset",
+    "Offset",
+    "offset_at",
     "skid_intervals",
     "turn_rate_knots",
     "fit_skid_steer",
     "fit_skid_logs",
+    "predict_motion",
     "block_bootstrap",
     "z_score",
     "log_drift",
@@ -282,10 +287,104 @@ def truth_clock_offset(
     )  # fmt: skip
 
 
+@dataclass(frozen=True)
+class WindowedOffset:
+    """A truth clock offset that changes over the log: one estimate per window.
+
+    Attributes
+    ----------
+    centre_s : ndarray, shape (W,)
+        Each window's centre (s, the truth's clock).
+    offset_s, stderr_s : ndarray, shape (W,)
+        Each window's offset and its block-bootstrap standard error (s).
+    overall : TimeOffset
+        The whole log's single offset (used where no window could be estimated).
+    """
+
+    centre_s: np.ndarray
+    offset_s: np.ndarray
+    stderr_s: np.ndarray
+    overall: TimeOffset
+
+    def at(self, time_s: ArrayLike) -> np.ndarray:
+        """The offset (s) at each truth stamp: linear between window centres, held beyond."""
+        t = np.asarray(time_s, dtype=float)
+        if len(self.centre_s) == 0:
+            return np.full(t.shape, self.overall.offset_s)
+        return np.interp(t, self.centre_s, self.offset_s)
+
+    @property
+    def spread_s(self) -> float:
+        """Largest minus smallest window offset (s): how far the latency wandered."""
+        return float(np.ptp(self.offset_s)) if len(self.offset_s) else 0.0
+
+    @property
+    def typical_stderr_s(self) -> float:
+        """Median of the windows' standard errors (s), or the overall one."""
+        if len(self.stderr_s):
+            return float(np.median(self.stderr_s))
+        return float(self.overall.stderr_s or 0.0)
+
+
+def windowed_truth_offset(
+    log: SkidLog,
+    *,
+    window_s: float = 60.0,
+    step_s: float = 30.0,
+    max_offset_s: float = 0.6,
+    rng: np.random.Generator | None = None,
+) -> WindowedOffset:
+    """The truth's clock offset in windows of ``window_s`` every ``step_s`` (each by
+    :func:`truth_clock_offset` on that part of the log; a window with too little turning is
+    skipped). For a truth whose latency wanders (a lidar mapper that falls behind while the
+    robot moves fast): one offset for the whole log then leaves a timing error that changes
+    over the log and biases the fit."""
+    overall = truth_clock_offset(log, max_offset_s=max_offset_s, rng=rng)
+    t0, t1 = float(log.time_s[0]), float(log.time_s[-1])
+    centres: list[float] = []
+    values: list[float] = []
+    errors: list[float] = []
+    start = t0
+    while True:
+        end = min(start + window_s, t1)
+        part = log.window(start, end)
+        if len(part.time_s) >= 2 and len(part.truth_time_s) >= 2:
+            try:
+                o = truth_clock_offset(part, max_offset_s=max_offset_s, rng=rng)
+            except CalibrationError:
+                o = None
+            if o is not None and o.stderr_s is not None and math.isfinite(o.stderr_s):
+                centres.append(0.5 * (start + end))
+                values.append(o.offset_s)
+                errors.append(o.stderr_s)
+        start += step_s
+        if start + 0.5 * window_s >= t1:
+            break
+    return WindowedOffset(np.array(centres), np.array(values), np.array(errors), overall)
+
+
+Offset = TimeOffset | WindowedOffset
+
+
+def offset_at(offset: Offset | float, log: SkidLog) -> float | np.ndarray:
+    """The offset (s) of each of ``log``'s truth stamps: a number, or one per stamp."""
+    if isinstance(offset, WindowedOffset):
+        return offset.at(log.truth_time_s)
+    if isinstance(offset, TimeOffset):
+        return offset.offset_s
+    return float(offset)
+
+
+def _offset_stderr(offset: Offset) -> float | None:
+    if isinstance(offset, WindowedOffset):
+        return offset.typical_stderr_s
+    return offset.stderr_s
+
+
 def skid_intervals(
     log: SkidLog,
     *,
-    offset_s: float = 0.0,
+    offset_s: float | np.ndarray = 0.0,
     interval_s: float = 1.0,
     max_gap_s: float = 1.5,
     substep_s: float = 0.05,
@@ -294,7 +393,8 @@ def skid_intervals(
 ) -> SkidIntervals:
     """The log's truth intervals of about ``interval_s`` and the wheel sub-steps over each
     (module docstring). Consecutive intervals share their truth sample; ``block_s`` sets the
-    clusters of the standard errors (contiguous blocks of the log's time)."""
+    clusters of the standard errors (contiguous blocks of the log's time). ``offset_s``: the
+    truth's clock offset (s), one for the log or one per truth stamp (:func:`offset_at`)."""
     if not (interval_s > 0 and substep_s > 0 and block_s > 0 and max_gap_s > 0):
         raise ModelError("interval_s, substep_s, block_s and max_gap_s must be > 0 (s)")
     tt = np.asarray(log.truth_time_s, dtype=float)
@@ -314,7 +414,8 @@ def skid_intervals(
         ends.append(e)
         k = e
     i0, i1 = np.array(starts, dtype=int), np.array(ends, dtype=int)
-    a, b = tt[i0] - offset_s, tt[i1] - offset_s
+    off = np.broadcast_to(np.asarray(offset_s, dtype=float), tt.shape)
+    a, b = tt[i0] - off[i0], tt[i1] - off[i1]
     inside = (a >= tw[0]) & (b <= tw[-1])
     i0, i1, a, b = i0[inside], i1[inside], a[inside], b[inside]
     dur = b - a
@@ -341,23 +442,22 @@ def turn_rate_knots(
     min_rotation_rad: float = MIN_KNOT_ROTATION_RAD,
 ) -> tuple[float, ...]:
     """The knots of ``ladder`` (|wheel yaw rate|, rad/s) that the intervals support: the
-    sub-steps whose nominal wheel yaw rate lies between the knot's two neighbours on the ladder
-    turn by ``min_rotation_rad`` or more in all. CalibrationError when fewer than two are."""
+    sub-steps whose nominal wheel yaw rate lies within a factor sqrt(2) of the knot turn by
+    ``min_rotation_rad`` or more in all (a knot only the data beyond its neighbour inform would
+    be extrapolated, and come out anywhere). CalibrationError when fewer than two are."""
     rate = np.abs(intervals.wheel_yaw_rate(nominal))
     rot = rate * intervals.dt[:, None]
     lad = np.asarray(sorted(ladder), dtype=float)
-    lo = np.concatenate([[0.0], lad[:-1]])
-    hi = np.concatenate([lad[1:], [np.inf]])
     kept = []
-    for k in range(len(lad)):
-        near = (rate > lo[k]) & (rate < hi[k])
+    for k in lad:
+        near = (rate >= k / math.sqrt(2.0)) & (rate < k * math.sqrt(2.0))
         if float(rot[near].sum()) >= min_rotation_rad:
-            kept.append(float(lad[k]))
+            kept.append(float(k))
     if len(kept) < 2:
         raise CalibrationError(
             f"a turn-rate model needs turning at two rates or more: only {len(kept)} of the "
             f"knots {', '.join(f'{x:g}' for x in lad)} rad/s have {min_rotation_rad:.3g} rad of "
-            "turning around them; drive arcs and spins at several speeds, or fit the "
+            "turning near them; drive arcs and spins at several speeds, or fit the "
             "effective-track model"
         )
     return tuple(kept)
@@ -423,8 +523,13 @@ def _start_and_bounds(
     return np.array(x0), np.array(lo), np.array(hi)
 
 
-def _predict(model: SkidSteerModel, data: SkidIntervals) -> np.ndarray:
-    inc = skid_body_increments(model, data.dphi_right, data.dphi_left, data.dt[:, None])
+def predict_motion(model: SkidSteerModel, intervals: SkidIntervals) -> np.ndarray:
+    """``model``'s motion over each interval (dx_m, dy_m, dtheta_rad in the frame of its
+    start), dead-reckoned over its sub-steps: shape (n, 3). The truth's minus this is a fit's
+    raw residual; on intervals a model was not fitted to, its held-out error."""
+    inc = skid_body_increments(
+        model, intervals.dphi_right, intervals.dphi_left, intervals.dt[:, None]
+    )
     return body_motion_end(*inc)
 
 
@@ -588,7 +693,7 @@ class _Problem:
         return _model(self.kind, self.scales, self.knots, self.nominal, q)
 
     def raw(self, q: np.ndarray) -> np.ndarray:
-        return self.data.motion - _predict(self.model(q), self.data)
+        return self.data.motion - predict_motion(self.model(q), self.data)
 
     def residual(self, q: np.ndarray) -> np.ndarray:
         return (self.raw(q) / self.scale).ravel()
@@ -744,18 +849,19 @@ def fit_skid_logs(
     nominal: WheelGeometry,
     kind: SkidModelKind = "effective-track",
     *,
-    offsets: Sequence[TimeOffset] | None = None,
+    offsets: Sequence[Offset] | None = None,
     wheel_scales: WheelScales = "common",
     knots_rad_s: Sequence[float] | None = None,
     interval_s: float = 1.0,
     block_s: float = 15.0,
     offset_variance: bool = True,
-) -> tuple[SkidSteerFit, tuple[TimeOffset, ...]]:
+) -> tuple[SkidSteerFit, tuple[Offset, ...]]:
     """Fit ``kind`` to the intervals of ``logs`` pooled, each moved onto the wheels' clock by
     its own truth clock offset (given, else estimated: :func:`truth_clock_offset`, applied
-    whatever its significance). With ``offset_variance`` each offset's uncertainty is added to
-    the covariance, J J^T se^2 with J from two refits at offset +- se (the other logs held).
-    Returns the fit and the offsets used."""
+    whatever its significance; a :class:`WindowedOffset` gives one per truth stamp). With
+    ``offset_variance`` each offset's uncertainty is added to the covariance, J J^T se^2 with J
+    from two refits at offset +- se (the other logs held; a windowed offset moved as a whole by
+    its windows' median error). Returns the fit and the offsets used."""
     if offsets is None:
         offsets = tuple(truth_clock_offset(log) for log in logs)
     if len(offsets) != len(logs):
@@ -766,7 +872,7 @@ def fit_skid_logs(
             [
                 skid_intervals(
                     log,
-                    offset_s=o.offset_s + shift.get(i, 0.0),
+                    offset_s=offset_at(o, log) + shift.get(i, 0.0),
                     interval_s=interval_s,
                     block_s=block_s,
                 )  # fmt: skip
@@ -781,7 +887,7 @@ def fit_skid_logs(
         return fit, tuple(offsets)
     extra = np.zeros_like(fit.covariance)
     for i, o in enumerate(offsets):
-        se = o.stderr_s
+        se = _offset_stderr(o)
         if se is None or not math.isfinite(se) or se <= 0:
             continue
         ends = []
@@ -854,19 +960,20 @@ def log_drift(
     log: SkidLog,
     model: SkidSteerModel,
     *,
-    offset_s: float = 0.0,
+    offset_s: float | np.ndarray = 0.0,
     length_m: float = 10.0,
     mode: DriftMode = "consecutive",
     max_gap_s: float = 2.0,
 ) -> PathDrift:
     """The KITTI-style drift (:func:`odocal.core.path_drift.path_drift`) of ``model``'s dead
     reckoning over the whole log against its truth: the wheels dead-reckoned from the start and
-    taken at each truth stamp minus ``offset_s`` (linear between wheel samples); pieces never
+    taken at each truth stamp minus ``offset_s`` (one, or one per stamp: :func:`offset_at`;
+    linear between wheel samples); pieces never
     span a hole in the truth longer than ``max_gap_s`` (the log is cut there)."""
     est = dead_reckon_skid(model, log.angle_right_rad, log.angle_left_rad, log.time_s)
     tt = np.asarray(log.truth_time_s, dtype=float)
     tw = np.asarray(log.time_s, dtype=float)
-    q = tt - offset_s
+    q = tt - np.broadcast_to(np.asarray(offset_s, dtype=float), tt.shape)
     inside = (q >= tw[0]) & (q <= tw[-1])
     at = np.column_stack([np.interp(q[inside], tw, est[:, k]) for k in range(3)])
     truth = np.asarray(log.truth_pose, dtype=float)[inside]
@@ -939,7 +1046,7 @@ def cross_validate(
     nominal: WheelGeometry,
     candidates: Sequence[Candidate] = CANDIDATES,
     *,
-    offsets: Sequence[TimeOffset] | None = None,
+    offsets: Sequence[Offset] | None = None,
     length_m: float = 10.0,
     interval_s: float = 1.0,
     train_filter: Callable[[SkidIntervals], SkidIntervals] | None = None,
@@ -959,7 +1066,7 @@ def cross_validate(
     if len(units) < 2:
         raise CalibrationError("a held-out check needs logs of two groups or more")
     parts = [
-        skid_intervals(log, offset_s=o.offset_s, interval_s=interval_s)
+        skid_intervals(log, offset_s=offset_at(o, log), interval_s=interval_s)
         for log, o in zip(logs, offsets, strict=True)
     ]
     labels = ("nominal", *(candidate_label(c) for c in candidates))
@@ -992,7 +1099,7 @@ def cross_validate(
             )
         for label in labels:
             scored = [
-                log_drift(log, models[label], offset_s=o.offset_s, length_m=length_m)
+                log_drift(log, models[label], offset_s=offset_at(o, log), length_m=length_m)
                 for log, o in test
             ]
             drift[label].append(_pool(scored))
