@@ -23,8 +23,8 @@ Two ways to choose the pieces (``mode``):
 
 - ``"consecutive"``: pieces that follow each other: the first starts at sample 0, each ends at
   the first sample at which the truth path since its start reaches ``length_m``, and the next
-  starts there. This is evo's ``filter_pairs_by_path`` without ``all_pairs`` (evo >= 1.30; older
-  versions skipped the first piece) applied to the reference: ``evo_rpe ... --delta L
+  starts there. This is evo's ``filter_pairs_by_path`` without ``all_pairs`` (evo 1.38; an
+  older one started at the first piece's end) applied to the reference: ``evo_rpe ... --delta L
   --delta_unit m --pairs_from_reference``.
 - ``"all-pairs"``: a piece starts at every sample i; it ends at the sample j > i whose path
   distance from i is nearest ``length_m`` (the first of equals), kept only when that distance is
