@@ -31,12 +31,17 @@ beyond), then drops intervals with a component beyond ``reject_z`` spreads (ICP 
 relocalisations: counted in the result) and fits again.
 
 **Standard errors** are cluster-robust over contiguous time blocks of ``block_s`` seconds of each
-log (:func:`odocal.calibration.robust_covariance.cluster_covariance`, the M-estimator sandwich):
-1 s intervals share truth samples, the ground and the truth's own errors change slowly, so
+log: by default the delete-one-block jackknife of the M-estimate
+(:func:`odocal.calibration.robust_covariance.cluster_jackknife_covariance`; ``covariance=
+"sandwich"`` for :func:`~odocal.calibration.robust_covariance.cluster_covariance`). 1 s
+intervals share truth samples, the ground and the truth's own errors change slowly, so
 neighbouring intervals are not independent and the formal errors would be several times too
-small. Their degrees of freedom are the blocks minus one. :func:`block_bootstrap` refits on
-resampled blocks as a check. The clock offset's own uncertainty is added by
-:func:`fit_skid_logs` (two refits per log at offset +- its standard error).
+small. Their degrees of freedom are the blocks minus one. On simulated logs with slip correlated
+over 2 s the 95 % intervals (Student t) covered 94.5-95.5 % (200 logs; the tests run 40).
+:func:`block_bootstrap` refits on resampled blocks as a check. The clock offset's own
+uncertainty is added by :func:`fit_skid_logs` (two refits per log at offset +- its standard
+error). A truth whose latency wanders over the log (the Norlab ICP: by 0.1-0.4 s) can be given
+one offset per window (:func:`windowed_truth_offset`, :class:`WindowedOffset`).
 
 **Choosing a model** is by held-out drift (:func:`cross_validate`): fitted on some logs (days),
 each other log is dead-reckoned whole with it and scored by the KITTI-style drift of
