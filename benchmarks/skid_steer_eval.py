@@ -17,7 +17,7 @@ What it prints (docs/skid-steer.md holds a run's output and what it means):
 4. Warthog day-to-day and half-to-half agreement (z-scores);
 5. held-out drift of every model (leave one day out; leave one log out), and the winner;
 6. the turn-rate model against the single track: tables, and held-out heading errors per band
-   of turn rate;
+   of turn rate; does the track depend on curvature or speed at one turn rate (6b);
 7. Husky and Marmotte: multipliers, first-half/second-half held-out drift;
 8. held-out drift against minutes of calibration data;
 9. the targets of the issue: met or not.
@@ -480,6 +480,88 @@ def section_turn_rate(logs: list[dict]) -> None:
     }
 
 
+def _cluster_mean(values: np.ndarray, blocks: np.ndarray) -> tuple[float, float, int]:
+    """Mean and its standard error from the block means (blocks as the independent units)."""
+    ids = np.unique(blocks)
+    if len(ids) < 3:
+        return math.nan, math.nan, len(ids)
+    means = np.array([values[blocks == b].mean() for b in ids])
+    sizes = np.array([np.sum(blocks == b) for b in ids])
+    mean = float(np.sum(means * sizes) / sizes.sum())
+    se = float(np.sqrt(np.sum(sizes**2 * (means - mean) ** 2)) / sizes.sum())
+    return mean, se, len(ids)
+
+
+def section_curvature(logs: list[dict]) -> None:
+    header("6b. Does the track depend on curvature or speed at one turn rate?")
+    print(
+        "ratio = ICP heading change / the turn-rate model's (left/right scales, fitted on all of "
+        "the robot's logs), over 1 s intervals turning > 0.05 rad; 'spin': the centre moves less "
+        "than a quarter of the track per radian (radius < b_n / 4), 'arc' otherwise; mean ratio "
+        "+- its error over 15 s blocks; z of spin - arc, and of slow - fast arcs (split at the "
+        "band's median speed)"
+    )
+    war = [e for e in logs if e["robot"] == "warthog"]
+    groups = {"warthog": war, **{e["robot"]: [e] for e in logs if e["robot"] != "warthog"}}
+    out = OUT.setdefault("curvature", {})
+    for name, members in groups.items():
+        nominal = members[0]["nominal"]
+        fit, _ = fit_skid_logs(
+            [e["log"] for e in members],
+            nominal,
+            "turn-rate",
+            wheel_scales="left-right",
+            offsets=[e["offset"] for e in members],
+            offset_variance=False,
+        )
+        iv = SkidIntervals.concatenate([e["intervals"] for e in members])
+        pred = predict_motion(fit.model, iv)
+        turning = np.abs(pred[:, 2]) > 0.05
+        ratio = iv.motion[turning, 2] / pred[turning, 2]
+        radius = np.abs(pred[turning, 0]) / np.abs(pred[turning, 2])
+        spin = radius < 0.25 * float(nominal.wheelbase_m)
+        rate = np.abs(iv.wheel_yaw_rate(nominal)).mean(axis=1)[turning]
+        speed = np.abs(pred[turning, 0]) / iv.duration_s[turning]
+        blocks = iv.block[turning]
+        print(f"\n{name}:")
+        print(
+            "| wheel yaw rate rad/s | spin: ratio (n) | arc: ratio (n) | z spin-arc | "
+            "slow arcs | fast arcs | z slow-fast |"
+        )
+        print("|---|---|---|---|---|---|---|")
+        edges = [0.05, 0.2, 0.4, 0.8, 1.6, 10.0]
+        rows = []
+        for lo, hi in zip(edges[:-1], edges[1:], strict=True):
+            band = (rate >= lo) & (rate < hi)
+            cells = []
+            stats = {}
+            for label, sel in (("spin", band & spin), ("arc", band & ~spin)):
+                m, se, g = _cluster_mean(ratio[sel], blocks[sel])
+                stats[label] = (m, se)
+                cells.append(f"{m:.3f} +- {se:.3f} ({int(sel.sum())})" if g >= 3 else "-")
+            z1 = (
+                (stats["spin"][0] - stats["arc"][0]) / math.hypot(stats["spin"][1], stats["arc"][1])
+                if all(np.isfinite(v) for v in (*stats["spin"], *stats["arc"]))
+                else math.nan
+            )
+            arcs = band & ~spin
+            med = float(np.median(speed[arcs])) if arcs.any() else math.nan
+            slow = _cluster_mean(ratio[arcs & (speed < med)], blocks[arcs & (speed < med)])
+            fast = _cluster_mean(ratio[arcs & (speed >= med)], blocks[arcs & (speed >= med)])
+            z2 = (
+                (slow[0] - fast[0]) / math.hypot(slow[1], fast[1])
+                if slow[2] >= 3 and fast[2] >= 3
+                else math.nan
+            )
+            sl = f"{slow[0]:.3f} +- {slow[1]:.3f}" if slow[2] >= 3 else "-"
+            fa = f"{fast[0]:.3f} +- {fast[1]:.3f}" if fast[2] >= 3 else "-"
+            zs1 = f"{z1:+.1f}" if np.isfinite(z1) else "-"
+            zs2 = f"{z2:+.1f}" if np.isfinite(z2) else "-"
+            print(f"| {lo:g}-{hi:g} | {cells[0]} | {cells[1]} | {zs1} | {sl} | {fa} | {zs2} |")
+            rows.append({"band": [lo, hi], "z_spin_arc": z1, "z_slow_fast": z2})
+        out[name] = rows
+
+
 def section_other_robots(logs: list[dict]) -> None:
     header("7. Husky (tile, deflated tyres) and Marmotte (tracks, boreal forest)")
     for e in logs:
@@ -701,6 +783,7 @@ def main(argv: list[str] | None = None) -> int:
     section_agreement(logs)
     section_heldout(logs)
     section_turn_rate(logs)
+    section_curvature(logs)
     section_other_robots(logs)
     section_minutes(logs, 3 if args.quick else 10)
     section_targets()
