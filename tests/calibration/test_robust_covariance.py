@@ -166,3 +166,22 @@ def test_time_blocks_of_one_run_keep_each_group_s_own_covariance():
         np.testing.assert_allclose(c.stderr[k], own, rtol=1e-12)
     np.testing.assert_allclose(c.p_value, chi2.sf(c.statistic, 1), rtol=1e-12)
     assert c.dispersion_dof == 0
+
+
+def test_the_cluster_jackknife_is_the_exact_delete_one_cluster_jackknife_of_least_squares():
+    # for a linear least-squares fit one Gauss-Newton step from the full estimate is the exact
+    # refit without the cluster, so the one-step jackknife equals the refitting one
+    from odocal.calibration.robust_covariance import cluster_jackknife_covariance
+
+    rng = np.random.default_rng(7)
+    x = rng.normal(size=(120, 3))
+    groups = np.repeat(np.arange(12), 10)
+    y = x @ [1.0, -2.0, 0.5] + rng.normal(size=120) + rng.normal(size=12)[groups]
+    beta = np.linalg.lstsq(x, y, rcond=None)[0]
+    cc = cluster_jackknife_covariance(x, x @ beta - y, groups)
+    refits = np.array(
+        [np.linalg.lstsq(x[groups != g], y[groups != g], rcond=None)[0] for g in range(12)]
+    )
+    dev = refits - refits.mean(axis=0)
+    assert cc.covariance == pytest.approx(11 / 12 * dev.T @ dev, rel=1e-9)
+    assert cc.clusters == 12 and cc.dof == 11

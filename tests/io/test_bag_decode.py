@@ -20,12 +20,12 @@ from rosbags.rosbag2 import StoragePlugin
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
 from odocal.app.fit import fit_gyro_bag
+from odocal.app.slam_bags import load_slam_bag
 from odocal.core.model import WheelGeometry
 from odocal.core.tracks import Track, spot_turn, straight
 from odocal.errors import InputError
 from odocal.io import bag_decode, bags
 from odocal.io.bag_recording import load_bag_recording
-from odocal.app.slam_bags import load_slam_bag
 from tests.support.bag_files import (
     KINDS,
     BagWriter,

@@ -170,8 +170,8 @@ def test_the_same_slam_bag_twice_under_two_names_is_refused(cli, slam_bag, tmp_p
 def test_a_truth_frame_mounted_on_the_base_is_read_as_the_base(slam_bag):
     # map:laser: the laser hangs below base_link by /tf_static (0.15, 0.05, 0.1 rad); its motion
     # taken for the base's put the geometry 0.6-2.4 % off. The base's motion is used, and said
-    from odocal.io.bag_options import BagOptions
     from odocal.app.slam_bags import load_slam_bag
+    from odocal.io.bag_options import BagOptions
 
     base = load_slam_bag(slam_bag, ("map", "base_link"), BagOptions(), time_offset_s=0.0)
     laser = load_slam_bag(slam_bag, ("map", "laser"), BagOptions(), time_offset_s=0.0)

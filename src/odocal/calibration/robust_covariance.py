@@ -28,7 +28,7 @@ import numpy as np
 
 from ..errors import CalibrationError
 
-__all__ = ["ClusterCovariance", "cluster_covariance"]
+__all__ = ["ClusterCovariance", "cluster_covariance", "cluster_jackknife_covariance"]
 
 
 @dataclass(frozen=True)
@@ -286,3 +286,48 @@ def _own_covariance_consistency(
     dof = len(rows) - 1
     p = chi2.sf(q, dof)
     return Consistency(tuple(kept), e, s, q, dof, p, bool(np.all(p >= 0.01)))
+
+
+def cluster_jackknife_covariance(
+    jacobian: np.ndarray,
+    residual: np.ndarray,
+    clusters: np.ndarray,
+    curvature: np.ndarray | None = None,
+) -> ClusterCovariance:
+    """The delete-one-cluster jackknife covariance ("CR3"), from one Gauss-Newton step per
+    deleted cluster: with H = sum_i w_i J_i J_i^T (w_i = ``curvature``, default 1), H_g its
+    part from cluster g and s_g = sum_{i in g} J_i r_i, deleting g moves the estimate by
+    d_g = (H - H_g)^-1 s_g, and
+
+        cov = (G - 1) / G sum_g (d_g - mean d)(d_g - mean d)^T.
+
+    Arguments as :func:`cluster_covariance`. Unlike that sandwich it accounts for each cluster's
+    leverage (a cluster that pulls the estimate hard also shrinks its own residuals), so it is
+    larger with few or unequal clusters: on simulated skid-steer logs with slip correlated over
+    seconds its 95 % intervals covered 93-96 % where the sandwich's covered 89-92 %
+    (tests/calibration/test_skid_steer.py). A cluster whose deletion leaves H singular makes it
+    fail (CalibrationError)."""
+    j = np.asarray(jacobian, dtype=float)
+    r = np.asarray(residual, dtype=float)
+    w = np.ones(len(r)) if curvature is None else np.asarray(curvature, dtype=float)
+    labels, g = np.unique(np.asarray(clusters), return_inverse=True)
+    m, p = j.shape
+    n_g = len(labels)
+    if n_g < 2:
+        raise CalibrationError("a cluster jackknife needs at least 2 clusters")
+    h_g = np.zeros((n_g, p, p))
+    np.add.at(h_g, g, (j * w[:, None])[:, :, None] * j[:, None, :])
+    scores = np.zeros((n_g, p))
+    np.add.at(scores, g, j * r[:, None])
+    h = h_g.sum(axis=0)
+    try:
+        d = np.linalg.solve(h[None, :, :] - h_g, scores[:, :, None])[:, :, 0]
+        bread = np.linalg.inv(h)
+    except np.linalg.LinAlgError:
+        raise CalibrationError(
+            "the parameters are not identified without one of the clusters"
+        ) from None
+    dev = d - d.mean(axis=0)
+    cov = (n_g - 1) / n_g * dev.T @ dev
+    s2 = float(r @ r) / max(m - p, 1)
+    return ClusterCovariance(0.5 * (cov + cov.T), n_g, n_g - 1, s2 * bread)
