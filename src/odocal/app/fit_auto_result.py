@@ -228,7 +228,7 @@ def auto_text(res: AutoFitResult) -> str:
         out.table(rows)
     for o in res.time_offsets:
         pm = "" if o.stderr_s is None else f" +- {o.stderr_s:.4f}"
-        out(f"clock offset of the {o.source}: {o.offset_s:+.4f}{pm} s ({o.how})")
+        out(f"clock offset of the {o.label}: {o.offset_s:+.4f}{pm} s ({o.how})")
     if res.heldout is not None:
         out(res.heldout.verdict())
     for c in res.cross_checks:

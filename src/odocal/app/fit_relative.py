@@ -384,7 +384,7 @@ def _print_checks(out: Text, res: RelativeFitResult) -> None:
     """Clock offsets, the held-out check, the answer's model and the one-log noise."""
     for o in res.time_offsets:
         se = "" if o.stderr_s is None else f" +- {o.stderr_s:.4f}"
-        out(f"  clock offset of the {o.source}: {o.offset_s:+.4f}{se} s ({o.how}; > 0: its "
+        out(f"  clock offset of the {o.label}: {o.offset_s:+.4f}{se} s ({o.how}; > 0: its "
               "stamps run late)")  # fmt: skip
     if res.heldout is not None:
         out(f"  {res.heldout.verdict()}")

@@ -394,7 +394,7 @@ def _print_offsets(out: Text, offsets: tuple[TimeOffset, ...]) -> None:
     for o in offsets:
         if o.applied:
             se = "" if o.stderr_s is None else f" +- {o.stderr_s:.4f}"
-            out(f"clock offset of the {o.source}: {o.offset_s:+.4f}{se} s ({o.how}; applied)")
+            out(f"clock offset of the {o.label}: {o.offset_s:+.4f}{se} s ({o.how}; applied)")
     if quiet:
         worst = max(abs(o.offset_s) for o in quiet)
         out(

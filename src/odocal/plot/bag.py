@@ -30,7 +30,7 @@ def offset_figure(offsets: Sequence[TimeOffset]) -> Any:
             continue
         loss = np.asarray(o.loss, dtype=float)
         span = float(loss.max() - loss.min()) or 1.0
-        (line,) = ax.plot(1e3 * o.grid_s, (loss - loss.min()) / span, label=o.source)
+        (line,) = ax.plot(1e3 * o.grid_s, (loss - loss.min()) / span, label=o.label)
         ax.axvline(1e3 * o.offset_s, color=line.get_color(), lw=1, ls="--")
         if o.stderr_s is not None and np.isfinite(o.stderr_s):
             lo, hi = 1e3 * (o.offset_s - 1.96 * o.stderr_s), 1e3 * (o.offset_s + 1.96 * o.stderr_s)
