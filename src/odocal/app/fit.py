@@ -34,6 +34,7 @@ from ..calibration.fit_settings import (
     TrajectorySettings,
     check_heading_source,
 )
+from ..core.model import Kinematics
 from ..errors import InputError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
 from ..io.bags import is_bag
@@ -46,6 +47,7 @@ from .fit_gyro import GyroFitResult, fit_gyro, fit_gyro_bag, gyro_fit
 from .fit_relative import RelativeFitResult, fit_tuple_files, is_tuple_file
 from .fit_runs import FitResult, fit_recordings, fit_run_files, fit_runs
 from .fit_scan import fit_scan_bags
+from .fit_skid import SkidFitResult
 from .fit_slam import fit_slam_bags
 from .text import emits_warnings
 
@@ -56,6 +58,7 @@ __all__ = [
     "RelativeFitResult",
     "GyroFitResult",
     "AutoFitResult",
+    "SkidFitResult",
     "choose_route",
     "fit",
     "fit_recordings",
@@ -212,7 +215,8 @@ def fit(
     plot: str | Path | None = None,
     robot_out: str | Path | None = None,
     force: bool = False,
-) -> FitResult | RelativeFitResult | GyroFitResult | AutoFitResult:
+    kinematics: Kinematics | None = None,
+) -> FitResult | RelativeFitResult | GyroFitResult | AutoFitResult | SkidFitResult:
     """Load the runs in ``paths`` and calibrate with ``method`` (None: the trajectory fit, or
     the relative-motion fit for ``.tuple`` files and ``truth_frames``); write PARAMS.yaml to
     ``out``, a ros2_control file to ``ros2``, the effective-wheelbase figure (trajectory fits)
@@ -243,6 +247,9 @@ def fit(
     allows, cross-checked, one answer (:func:`odocal.app.fit_auto.fit_auto`; ``out`` is then a
     folder for its report)."""
     paths = expand_folders([paths] if isinstance(paths, (str, Path)) else list(paths))
+    if _kinematics(kinematics, robot) == "skid-steer":
+        return _fit_skid(paths, method, robot, bag, ticks_per_rev, out, ros2, controller_name,
+                         plot, robot_out, force)  # fmt: skip
     if _is_auto(paths, method, truth_frames, bag, settings, squares):
         _refuse_for_auto(paths, plot, robot_out)
         return fit_auto(paths[0], robot=robot, options=bag, out=out, ros2=ros2,
@@ -261,6 +268,52 @@ def fit(
     )  # fmt: skip
     unused = unused_offsets(bag.time_offsets, _offset_sources(res))
     return replace(res, load_warnings=unused + res.load_warnings)
+
+
+def _kinematics(kinematics: Kinematics | None, robot: RobotSpec) -> Kinematics:
+    """The kinematics asked for, else the robot file's (its ``kinematics``), else differential."""
+    if kinematics is not None:
+        return kinematics
+    if robot:
+        from ..io.robot_file import load_robot
+
+        return load_robot(robot).kinematics
+    return "differential"
+
+
+def _fit_skid(
+    paths: list[str | Path],
+    method: FitMethod | None,
+    robot: RobotSpec,
+    bag: BagOptions,
+    ticks_per_rev: float | None,
+    out: str | Path | None,
+    ros2: str | Path | None,
+    controller_name: str,
+    plot: str | Path | None,
+    robot_out: str | Path | None,
+    force: bool,
+) -> SkidFitResult:
+    """The skid-steer route (:mod:`odocal.app.fit_skid`): bags with a truth pose track."""
+    from .fit_skid import fit_skid_bags
+
+    if method not in (None, "auto"):
+        raise InputError(
+            f"--kinematics skid-steer fits the effective track of bags with a truth pose track; "
+            f"--method {method} is a differential-drive method",
+            field="method",
+        )
+    for what, value in (("--plot", plot), ("--robot-out", robot_out)):
+        if value is not None:
+            raise InputError(f"{what} is not made by the skid-steer fit", field=what.lstrip("-"))
+    for p in paths:
+        if not is_bag(p):
+            raise InputError("--kinematics skid-steer reads ROS bags (wheels and a truth pose)", p)
+    exports = Exports(out, ros2, controller_name)
+    plan = OutputPlan(input_paths(list(paths), robot))
+    exports.register(plan)
+    return fit_skid_bags(paths, plan, bag, robot=robot, ticks_per_rev=ticks_per_rev,
+                         exports=exports, force=force)  # fmt: skip
 
 
 def _offset_sources(res: FitResult | RelativeFitResult) -> list[str]:

@@ -1046,6 +1046,10 @@ class SkidHeldOut:
         """The model with the lowest pooled held-out median drift."""
         return min(self.labels, key=self.pooled_median_pct)
 
+    def pooled(self, label: str) -> PathDrift:
+        """Every held-out piece of a model, the units pooled."""
+        return _pool(self.drift[label])
+
 
 def cross_validate(
     logs: Sequence[SkidLog],

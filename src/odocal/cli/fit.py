@@ -52,6 +52,15 @@ def add_parser(sub: Any) -> None:
         "its 'believed', else nominal); default: the recordings' metadata",
     )
     p.add_argument("--method", choices=FIT_METHODS, default=None, help=methods_help())
+    p.add_argument(
+        "--kinematics",
+        choices=("differential", "skid-steer"),
+        default=None,
+        help="differential (a two-wheel differential drive) or skid-steer (a skid-steer or "
+        "tracked robot: the effective track, the diff_drive_controller multipliers, the track "
+        "against the turn rate; bags with a truth pose track); default: the robot file's "
+        "'kinematics', else differential",
+    )
     add_export_args(p, "write the calibrated parameters")
     p.add_argument(
         "--force",
@@ -201,7 +210,7 @@ def run(args: argparse.Namespace) -> int:
     """Run ``odocal fit``: calibrate, print (text or JSON), return the exit status."""
     if args.list_topics:
         return _list_topics(args.paths)
-    from ..app.fit import AutoFitResult, fit
+    from ..app.fit import AutoFitResult, SkidFitResult, fit
     from ..calibration.fit_settings import SquareSettings, TrajectorySettings
 
     res = fit(
@@ -235,8 +244,10 @@ def run(args: argparse.Namespace) -> int:
         plot=args.plot,
         robot_out=args.robot_out,
         force=args.force,
+        kinematics=args.kinematics,
     )
-    status = NOT_ENOUGH if isinstance(res, AutoFitResult) and not res.enough else 0
+    untrusted = isinstance(res, (AutoFitResult, SkidFitResult)) and not res.enough
+    status = NOT_ENOUGH if untrusted else 0
     print_warnings(getattr(res, "load_warnings", ()))
     print_warnings(res.warnings)
     if args.json:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -18,6 +19,8 @@ from numpy.typing import ArrayLike
 from ..errors import ModelError
 
 __all__ = [
+    "Kinematics",
+    "KINEMATICS",
     "ModelError",
     "WheelGeometry",
     "wheel_factors",
@@ -249,6 +252,12 @@ class MeasurementNoise:
         return cls(sigma_xy_m, math.radians(sigma_theta_deg))
 
 
+#: The kinematics odocal models: a two-wheel differential drive, or a skid-steer or tracked
+#: robot.
+Kinematics = Literal["differential", "skid-steer"]
+KINEMATICS: tuple[Kinematics, ...] = ("differential", "skid-steer")
+
+
 @dataclass(frozen=True)
 class Robot:
     """A differential-drive robot: nominal geometry, its errors, and what it believes.
@@ -262,6 +271,13 @@ class Robot:
     believed : WheelGeometry or None
         The parameters the robot's controller and odometry use; ``None`` means the nominal ones.
         A calibration result is installed here to re-drive a calibrated robot.
+    kinematics : {'differential', 'skid-steer'}
+        A two-wheel differential drive, or a skid-steer or tracked robot (its effective track
+        wider than the physical one: :mod:`odocal.core.skid_steer`).
+    ran_with_stated : bool
+        Whether the robot file says what the controller ran with (``believed``, or the
+        diff_drive_controller multipliers): when it does not, the nominal geometry stands in,
+        and a route that inverts the controller's odometry says so.
     """
 
     nominal: WheelGeometry
@@ -269,6 +285,8 @@ class Robot:
     nonsystematic: NonSystematicError = field(default_factory=NonSystematicError)
     measurement: MeasurementNoise = field(default_factory=MeasurementNoise)
     believed: WheelGeometry | None = None
+    kinematics: Kinematics = "differential"
+    ran_with_stated: bool = False
 
     @property
     def true_geometry(self) -> WheelGeometry:

@@ -14,6 +14,11 @@ ROBOT.yaml::
       wheel_diameter_right_m: 0.15
       wheel_diameter_left_m: 0.15
       wheelbase_m: 0.385
+    kinematics: skid_steer           # optional: differential (default), skid_steer (or tracked)
+    # optional, instead of 'believed': the diff_drive_controller multipliers the robot runs with
+    wheel_separation_multiplier: 1.875
+    left_wheel_radius_multiplier: 1.0
+    right_wheel_radius_multiplier: 1.0
 
 PARAMS.yaml holds ``wheel_diameter_right_m``, ``wheel_diameter_left_m`` and ``wheelbase_m`` at the
 top level (other keys, such as those ``odocal calibrate --out`` writes beside them, are kept for
@@ -25,7 +30,14 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
-from ..core.model import MeasurementNoise, NonSystematicError, Robot, SystematicError, WheelGeometry
+from ..core.model import (
+    Kinematics,
+    MeasurementNoise,
+    NonSystematicError,
+    Robot,
+    SystematicError,
+    WheelGeometry,
+)
 from ..core.plausibility import proportions_problem, robot_scale_problem
 from ..errors import InputError, ModelError
 from ..presets import DEFAULT_ROBOT, PRESETS
@@ -42,6 +54,20 @@ if TYPE_CHECKING:
 
 __all__ = ["load_robot", "load_params", "robot_from_doc", "params_yaml", "robot_yaml"]
 
+#: The diff_drive_controller multipliers a robot file may state (what the controller ran with).
+MULTIPLIERS = (
+    "wheel_separation_multiplier",
+    "left_wheel_radius_multiplier",
+    "right_wheel_radius_multiplier",
+)
+#: How a robot file may name each kinematics.
+_KINEMATICS: dict[str, Kinematics] = {
+    "differential": "differential",
+    "skid_steer": "skid-steer",
+    "skid-steer": "skid-steer",
+    "tracked": "skid-steer",
+}
+
 _TOP = (
     "name",
     "wheel_diameter_m",
@@ -52,6 +78,8 @@ _TOP = (
     "nonsystematic",
     "measurement",
     "believed",
+    "kinematics",
+    *MULTIPLIERS,
 )
 _GEOMETRY = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
 
@@ -138,7 +166,36 @@ def robot_from_doc(doc: YamlDoc) -> Robot:
     if d.get("believed") is not None:
         b = doc.section("believed", _GEOMETRY)
         believed = _geometry(doc, b, "believed.")
-    return Robot(nominal, systematic, nonsys, measurement, believed)
+    stated = [k for k in MULTIPLIERS if k in d]
+    if stated:
+        if believed is not None:
+            raise InputError(
+                f"give either 'believed' or the controller's multipliers ({', '.join(stated)}), "
+                "not both: both say what the robot runs with",
+                doc.path,
+                None,
+                stated[0],
+            )
+        m = {k: doc.number(k, d[k], positive=True, at_least=0.2, at_most=5.0) for k in stated}
+        believed = WheelGeometry(
+            nominal.diameter_right_m * m.get("right_wheel_radius_multiplier", 1.0),
+            nominal.diameter_left_m * m.get("left_wheel_radius_multiplier", 1.0),
+            nominal.wheelbase_m * m.get("wheel_separation_multiplier", 1.0),
+        )
+    kinematics: Kinematics = "differential"
+    if "kinematics" in d:
+        name = doc.text("kinematics", d["kinematics"]).strip().lower()
+        if name not in _KINEMATICS:
+            raise InputError(
+                f"kinematics must be one of differential, skid_steer, tracked; got {name!r}",
+                doc.path,
+                None,
+                "kinematics",
+            )
+        kinematics = _KINEMATICS[name]
+    return Robot(
+        nominal, systematic, nonsys, measurement, believed, kinematics, believed is not None
+    )
 
 
 def load_robot(spec) -> Robot:
@@ -219,4 +276,6 @@ def robot_yaml(robot: Robot, comments: tuple[str, ...] = ()) -> str:
     if robot.believed is not None:
         lines.append("believed:")
         lines += [f"  {k}: {v:.9g}" for k, v in robot.believed.as_dict().items()]
+    if robot.kinematics != "differential":
+        lines.append("kinematics: skid_steer")
     return "\n".join(lines) + "\n"

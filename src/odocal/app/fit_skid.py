@@ -1,0 +1,441 @@
+"""``odocal fit BAG... --kinematics skid-steer``: the effective track of a skid-steer or tracked
+robot (and its wheel scales), the multipliers ros2_control's ``diff_drive_controller`` needs, the
+track against the turn rate, and how far the odometry then drifts on recordings the fit did not
+see (docs/skid-steer.md).
+
+:func:`skid_fit` is the route, I/O-free over loaded logs (:class:`~odocal.calibration.skid_steer.
+SkidLog`: the wheels and a truth pose track, each on its own clock); :func:`fit_skid_bags` reads
+the bags (:func:`odocal.io.bag_skid.read_skid_log`), calls it and writes what was asked for.
+
+1. **The answer** is the model the controller can hold: the effective track with a wheel scale
+   per side (``wheel_separation_multiplier`` and the two radius multipliers), fitted on every
+   recording pooled, each with its truth's clock offset (estimated), with cluster-robust errors
+   over time blocks and the offsets' own uncertainty (:func:`~odocal.calibration.skid_steer.
+   fit_skid_logs`).
+2. **Held out** (:func:`~odocal.calibration.skid_steer.cross_validate`): every model of the
+   literature is fitted without one recording (one half of a single recording) and scored on it
+   by the KITTI-style drift (% of 10 m of truth path, :mod:`odocal.core.path_drift`); the
+   nominal geometry too. The one that wins is named, beside the one exported.
+3. **Per recording**: each recording's own multiplier and its distance from the others' (in
+   combined standard errors): beyond 3 the robot (its load, its tyres, the ground) changed.
+4. **The curve**: the multiplier at knots of the turn rate the recordings cover, for a
+   controller that turns at other rates.
+5. **Verdict**: trustworthy when the exported model beats the nominal on the held-out
+   recordings, the recordings agree, and the answer is a plausible skid-steer robot (a track
+   multiplier 0.8-3, wheel scales within 25 % of the nominal).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..calibration.result import ABSURD_FRACTION
+from ..calibration.skid_steer import (
+    CANDIDATES,
+    Candidate,
+    SkidHeldOut,
+    SkidLog,
+    SkidSteerFit,
+    TurnRateRow,
+    candidate_label,
+    cross_validate,
+    fit_skid_logs,
+    truth_clock_offset,
+    z_score,
+)
+from ..calibration.time_offset import TimeOffset
+from ..core.model import Robot, WheelGeometry
+from ..core.path_drift import PathDrift
+from ..errors import CalibrationError, InputError
+from ..io.bag_options import BagOptions
+from ..io.outputs import OutputPlan
+from .common import NO_EXPORTS, Exports, RobotSpec
+from .text import Presented, Text, written_lines
+
+__all__ = ["SkidFitResult", "RecordingMultiplier", "skid_fit", "fit_skid_bags", "EXPORTED"]
+
+#: The model a diff_drive_controller can hold: the effective track and a wheel scale per side.
+EXPORTED: Candidate = ("effective-track", "left-right")
+#: A skid-steer robot's effective track is wider than its wheelbase, but not beyond this range
+#: of multipliers (the Warthog's is 1.6-1.7, a Husky's 1.8-1.9, a tracked robot's 1.1-1.5).
+TRACK_MULTIPLIER_RANGE = (0.8, 3.0)
+#: Recordings whose multipliers differ by more than this many combined standard errors are of
+#: a robot that changed.
+MAX_Z = 3.0
+
+
+@dataclass(frozen=True)
+class RecordingMultiplier:
+    """One recording's own multiplier, and its distance from the others' in combined standard
+    errors (None with one recording)."""
+
+    name: str
+    multiplier: float
+    stderr: float
+    z: float | None
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready."""
+        return {"recording": self.name, "multiplier": self.multiplier, "std_error": self.stderr,
+                "z": self.z}  # fmt: skip
+
+
+def _drift_dict(d: PathDrift | None) -> dict[str, Any] | None:
+    """The JSON contract's drift: ``median``, ``mean`` (% of the piece length) and ``pieces``,
+    and the heading drift (deg per 10 m)."""
+    if d is None or not d.pieces:
+        return None
+    return {
+        "median": d.median_pct,
+        "mean": float(np.mean(d.error_pct)),
+        "pieces": d.pieces,
+        "piece_length_m": d.length_m,
+        "heading_deg_per_10m": d.median_heading_deg_per_10m,
+    }
+
+
+@dataclass(frozen=True)
+class SkidFitResult(Presented):
+    """A skid-steer calibration (module docstring).
+
+    Attributes
+    ----------
+    names : tuple of str
+        The recordings.
+    nominal : WheelGeometry
+    fit : SkidSteerFit
+        The exported model on every recording pooled.
+    offsets : tuple of TimeOffset
+        Each recording's truth clock offset against its wheels.
+    per_recording : tuple of RecordingMultiplier
+    curve : tuple of TurnRateRow
+        The multiplier at knots of the wheel yaw rate (empty when the recordings cover too few).
+    heldout : SkidHeldOut or None
+        Every model scored on recordings (or halves) it did not see.
+    reasons : tuple of str
+        Why the answer is not to be trusted (empty: it is).
+    notes : tuple of str
+    written : tuple of Path
+    """
+
+    names: tuple[str, ...]
+    nominal: WheelGeometry
+    fit: SkidSteerFit
+    offsets: tuple[TimeOffset, ...]
+    per_recording: tuple[RecordingMultiplier, ...] = ()
+    curve: tuple[TurnRateRow, ...] = ()
+    heldout: SkidHeldOut | None = None
+    reasons: tuple[str, ...] = ()
+    notes: tuple[str, ...] = ()
+    written: tuple[Path, ...] = ()
+
+    method = "skid-steer"
+
+    @property
+    def enough(self) -> bool:
+        """A trustworthy answer: nothing speaks against it."""
+        return not self.reasons
+
+    @property
+    def geometry(self) -> WheelGeometry:
+        """The exported model as a differential drive's geometry: each side's effective rolling
+        diameter and the effective track."""
+        m = self.fit.model
+        return WheelGeometry.unchecked(2 * m.radius_right_m, 2 * m.radius_left_m, m.track_m)
+
+    @property
+    def multipliers(self) -> dict[str, float]:
+        """The diff_drive_controller multipliers against the nominal geometry."""
+        return self.fit.model.ros2_multipliers(self.nominal)
+
+    @property
+    def track_multiplier(self) -> tuple[float, float]:
+        """The effective track over the nominal wheelbase, and its standard error."""
+        return self.fit.track_multiplier()
+
+    def drift(self, label: str) -> PathDrift | None:
+        """The pooled held-out drift of a model (:func:`candidate_label`, or 'nominal')."""
+        h = self.heldout
+        if h is None or label not in h.labels:
+            return None
+        return h.pooled(label)
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """The clock offsets' warnings."""
+        return tuple(w for o in self.offsets for w in o.warnings)
+
+    def text(self) -> str:
+        """The text ``odocal fit --kinematics skid-steer`` prints."""
+        return skid_text(self)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON of ``odocal fit --kinematics skid-steer --json``."""
+        m, se = self.track_multiplier
+        h = self.heldout
+        exported = candidate_label(EXPORTED)
+        return {
+            "method": "skid-steer",
+            "kinematics": "skid-steer",
+            "recordings": list(self.names),
+            "nominal": self.nominal.as_dict(),
+            "model": self.fit.as_dict(),
+            "track_multiplier": {"value": m, "std_error": se},
+            "effective_track_m": float(self.fit.model.track_m),
+            "ros2": {"wheel_separation": float(self.nominal.wheelbase_m), **self.multipliers},
+            "turn_rate": [
+                {
+                    "wheel_yaw_rate_rad_s": r.wheel_rate_rad_s,
+                    "yaw_rate_rad_s": r.true_rate_rad_s,
+                    "multiplier": r.multiplier,
+                    "std_error": r.stderr,
+                }
+                for r in self.curve
+            ],  # fmt: skip
+            "per_recording": [r.as_dict() for r in self.per_recording],
+            "time_offsets": [o.as_dict() for o in self.offsets],
+            "heldout": None
+            if h is None
+            else {
+                "units": list(h.held_out),
+                "exported": exported,
+                "best": h.best(),
+                "models": {lab: _drift_dict(self.drift(lab)) for lab in h.labels},
+            },
+            "drift_percent_per_10m": _drift_dict(self.drift(exported)),
+            "nominal_drift_percent_per_10m": _drift_dict(self.drift("nominal")),
+            "notes": list(self.notes),
+            "verdict": {"enough": self.enough, "reasons": list(self.reasons)},
+            "warnings": list(self.warnings),
+            "written": [str(p) for p in self.written],
+        }
+
+
+def _offsets(logs: Sequence[SkidLog]) -> tuple[TimeOffset, ...]:
+    """Each log's truth clock offset (0, with the reason, where it cannot be estimated)."""
+    out = []
+    for log in logs:
+        try:
+            out.append(truth_clock_offset(log))
+        except CalibrationError as exc:
+            out.append(TimeOffset.not_estimated("truth", str(exc)))
+    return tuple(out)
+
+
+def _per_recording(
+    logs: Sequence[SkidLog], nominal: WheelGeometry, offsets: Sequence[TimeOffset]
+) -> tuple[RecordingMultiplier, ...]:
+    """Each recording's own multiplier, and its distance from the inverse-variance mean of the
+    others'."""
+    own = []
+    for log, o in zip(logs, offsets, strict=True):
+        f, _ = fit_skid_logs([log], nominal, EXPORTED[0], offsets=[o], wheel_scales=EXPORTED[1])
+        own.append(f.track_multiplier())
+    out = []
+    for k, (log, (m, se)) in enumerate(zip(logs, own, strict=True)):
+        rest = [x for j, x in enumerate(own) if j != k]
+        z = None
+        if rest:
+            w = np.array([1 / s**2 for _, s in rest])
+            mean = float(np.sum(w * np.array([v for v, _ in rest])) / np.sum(w))
+            z = z_score(m, se, mean, float(1 / math.sqrt(np.sum(w))))
+        out.append(RecordingMultiplier(log.name, m, se, z))
+    return tuple(out)
+
+
+def _halves(log: SkidLog) -> list[SkidLog]:
+    """A single recording's two halves in time, each its own group (the held-out units)."""
+    t = np.asarray(log.time_s)
+    mid = 0.5 * (float(t[0]) + float(t[-1]))
+    return [
+        log.window(float(t[0]), mid, group="first half"),
+        log.window(mid, float(t[-1]), group="second half"),
+    ]
+
+
+def _curve(
+    logs: Sequence[SkidLog], nominal: WheelGeometry, offsets: Sequence[TimeOffset]
+) -> tuple[tuple[TurnRateRow, ...], tuple[str, ...]]:
+    """The turn-rate table (left and right wheel scales), or a note why not."""
+    try:
+        f, _ = fit_skid_logs(logs, nominal, "turn-rate", offsets=offsets,
+                             wheel_scales="left-right", offset_variance=False)  # fmt: skip
+    except CalibrationError as exc:
+        return (), (f"no turn-rate table: {exc}",)
+    return f.turn_rate_rows(), ()
+
+
+def _plausibility(res_fit: SkidSteerFit, nominal: WheelGeometry) -> list[str]:
+    """What makes the answer no plausible skid-steer robot (the units, the wheels' scale)."""
+    out = []
+    m, _ = res_fit.track_multiplier()
+    lo, hi = TRACK_MULTIPLIER_RANGE
+    if not lo <= m <= hi:
+        out.append(
+            f"the effective track is {m:.3g} times the wheelbase: no skid-steer robot's "
+            f"({lo:g}-{hi:g}); check the wheelbase and the units of the robot file"
+        )
+    model = res_fit.model
+    for side, r, d in (("right", model.radius_right_m, nominal.diameter_right_m),
+                       ("left", model.radius_left_m, nominal.diameter_left_m)):  # fmt: skip
+        scale = 2 * r / float(d)
+        if abs(scale - 1) > ABSURD_FRACTION:
+            what = (
+                "a sprocket radius given as a wheel diameter, or a diameter in other units?"
+                if abs(scale - 0.5) < 0.1 or abs(scale - 2.0) < 0.4
+                else "the wheel diameter of the robot file, its units, or the joint rates"
+            )
+            out.append(
+                f"the {side} side rolls {scale:.3g} times the nominal wheel's circumference: "
+                f"more than 25 % off; {what}"
+            )
+    return out
+
+
+def skid_fit(
+    logs: Sequence[SkidLog],
+    robot: Robot,
+    *,
+    force: bool = False,
+    candidates: Sequence[Candidate] = CANDIDATES,
+) -> SkidFitResult:
+    """The skid-steer route, I/O-free (module docstring). An answer that is no plausible
+    skid-steer robot is a CalibrationError unless ``force`` (then a reason)."""
+    if not logs:
+        raise InputError("no recording to fit")
+    nominal = robot.nominal
+    offsets = _offsets(logs)
+    fit, _ = fit_skid_logs(logs, nominal, EXPORTED[0], offsets=offsets, wheel_scales=EXPORTED[1])
+    reasons = _plausibility(fit, nominal)
+    if reasons and not force:
+        raise CalibrationError(f"{reasons[0]}; nothing written (--force accepts it anyway)")
+    notes: list[str] = []
+    per = _per_recording(logs, nominal, offsets) if len(logs) > 1 else ()
+    for r in per:
+        if r.z is not None and abs(r.z) > MAX_Z:
+            reasons.append(
+                f"{r.name}: its multiplier {r.multiplier:.4f} +- {r.stderr:.4f} differs from "
+                f"the other recordings' by {r.z:+.1f} combined standard errors: the robot, its "
+                "load or the ground changed between them (fit them apart)"
+            )
+    units = list(logs) if len(logs) > 1 else _halves(logs[0])
+    unit_offsets = offsets if len(logs) > 1 else (offsets[0], offsets[0])
+    heldout = None
+    try:
+        heldout = cross_validate(units, nominal, candidates, offsets=unit_offsets)
+    except CalibrationError as exc:
+        notes.append(f"no held-out check: {exc}")
+        reasons.append("no held-out check: the recordings cannot show that the calibration helps")
+    if heldout is not None:
+        exported = candidate_label(EXPORTED)
+        cal, nom = heldout.pooled_median_pct(exported), heldout.pooled_median_pct("nominal")
+        if not cal < nom:
+            reasons.append(
+                f"held out, the calibrated odometry drifts {cal:.3g} % per 10 m against "
+                f"{nom:.3g} % with the nominal geometry: the calibration does not help"
+            )
+    curve, more = _curve(logs, nominal, offsets)
+    notes += more
+    return SkidFitResult(
+        tuple(log.name for log in logs), nominal, fit, offsets, per, curve, heldout,
+        tuple(reasons), tuple(notes),
+    )  # fmt: skip
+
+
+def fit_skid_bags(
+    paths: Sequence[str | Path],
+    plan: OutputPlan,
+    bag: BagOptions,
+    *,
+    robot: RobotSpec,
+    ticks_per_rev: float | None = None,
+    exports: Exports = NO_EXPORTS,
+    force: bool = False,
+) -> SkidFitResult:
+    """``fit BAG... --kinematics skid-steer``: every bag read (:func:`~odocal.io.bag_skid.
+    read_skid_log`), fitted (:func:`skid_fit`) and the ``exports`` written (the exported model's
+    multipliers; with ``force`` despite the reasons, which the files then carry)."""
+    from ..io.bag_skid import read_skid_log
+    from ..io.bags import read_bag_once
+    from ..io.recordings import refuse_repeated
+    from ..io.robot_file import load_robot
+
+    if not robot:
+        raise InputError(
+            "--kinematics skid-steer needs the robot file (--robot ROBOT.yaml): the nominal "
+            "wheel diameter and wheelbase the multipliers are relative to"
+        )
+    loaded_robot = load_robot(robot)
+    named = (bag.joint_topic, bag.truth_topic, bag.odom_topic)
+    logs = [
+        read_skid_log(
+            read_bag_once(p, named), bag, loaded_robot.believed_geometry,
+            ticks_per_rev=ticks_per_rev,
+        )  # fmt: skip
+        for p in refuse_repeated(paths)
+    ]
+    res = skid_fit(logs, loaded_robot, force=force)
+    if res.reasons and not force and (exports.out or exports.ros2):
+        return res
+    written = exports.write(
+        plan, res.geometry, res.nominal, record={"method": "skid-steer"}, doubts=res.reasons
+    )
+    return replace(res, written=written)
+
+
+def skid_text(res: SkidFitResult) -> str:
+    """The text of a skid-steer fit."""
+    out = Text()
+    out(f"skid-steer fit of {len(res.names)} recording(s)")
+    m, se = res.track_multiplier
+    b = float(res.nominal.wheelbase_m)
+    out(
+        f"  effective track {res.fit.model.track_m:.4f} m = wheel_separation {b:.4g} m x "
+        f"wheel_separation_multiplier {m:.4f} +- {se:.4f}"
+    )
+    mult = res.multipliers
+    for side in ("right", "left"):
+        name = f"{side}_wheel_radius_multiplier"
+        out(f"  {name} {mult[name]:.4f} +- {res.fit.se(f'scale_{side}'):.4f}")
+    for o in res.offsets:
+        pm = "" if o.stderr_s is None else f" +- {o.stderr_s:.4f}"
+        out(f"clock offset of the {o.label}: {o.offset_s:+.4f}{pm} s ({o.how})")
+    if res.per_recording:
+        out("per recording (its own multiplier; z against the others'):")
+        rows: list[tuple[str, ...]] = [("", "multiplier", "std. error", "z")]
+        for r in res.per_recording:
+            z = "-" if r.z is None else f"{r.z:+.2f}"
+            rows.append((Path(r.name).name, f"{r.multiplier:.4f}", f"{r.stderr:.4f}", z))
+        out.table(rows)
+    if res.curve:
+        out("the multiplier against the turn rate (for a controller turning at other rates):")
+        curve: list[tuple[str, ...]] = [("|yaw rate| rad/s", "multiplier", "std. error")]
+        curve += [(f"{r.true_rate_rad_s:.3g}", f"{r.multiplier:.4f}", f"{r.stderr:.4f}")
+                  for r in res.curve]  # fmt: skip
+        out.table(curve)
+    h = res.heldout
+    if h is not None:
+        exported = candidate_label(EXPORTED)
+        out(f"held out ({', '.join(Path(u).name for u in h.held_out)} each left out), median "
+            "drift in % of 10 m of truth path:")  # fmt: skip
+        best = h.best()
+        for lab in h.labels:
+            tag = " (exported: what the controller holds)" if lab == exported else ""
+            tag += " (best)" if lab == best else ""
+            out(f"  {lab:32s} {h.pooled_median_pct(lab):6.2f}{tag}")
+    for note in res.notes:
+        out(note)
+    if res.enough:
+        out("verdict: trustworthy")
+    else:
+        out("verdict: NOT to be trusted:")
+        for reason in res.reasons:
+            out(f"  - {reason}")
+    written_lines(out, res.written)
+    return str(out)

@@ -1,0 +1,79 @@
+"""``odocal fit BAG... --kinematics skid-steer`` on the real Norlab recordings (issue 28): the
+effective track, the multipliers diff_drive_controller needs, the held-out drift, and what a
+robot file in the wrong units or a bag without a truth says."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from odocal.app.fit import fit
+from odocal.errors import CalibrationError, InputError
+
+
+@pytest.fixture(scope="module")
+def skid(realdata):
+    return realdata / "norlab_skid"
+
+
+def _bag(skid, name):
+    return next((skid / name).glob("*_bag"))
+
+
+@pytest.fixture(scope="module")
+def husky(skid, tmp_path_factory):
+    out = tmp_path_factory.mktemp("husky")
+    res = fit([_bag(skid, "husky_wheels-deflated_tile_2023_12_12_16h16")],
+              robot=skid / "robots" / "husky.yaml", kinematics="skid-steer",
+              ros2=out / "dd.yaml")  # fmt: skip
+    return res, out / "dd.yaml"
+
+
+def test_the_husky_s_multiplier_with_its_error_and_the_drift_it_buys(husky):
+    res, ros2 = husky
+    m, se = res.track_multiplier
+    # the deflated Husky on tile: 1.79 (Clearpath's default 1.875 is many errors away)
+    assert 1.74 < m < 1.84 and 0 < se < 0.03 and abs(m - 1.875) > 5 * se
+    d = json.loads(json.dumps(res.as_dict()))
+    drift, nominal = d["drift_percent_per_10m"], d["nominal_drift_percent_per_10m"]
+    assert set(drift) >= {"median", "mean", "pieces"} and drift["pieces"] >= 10
+    # held out (fitted on one half, scored on the other): a fifth of the nominal drift or less
+    assert drift["median"] < 0.2 * nominal["median"]
+    assert d["heldout"]["best"] in d["heldout"]["models"] and d["verdict"]["enough"] is True
+    text = ros2.read_text()
+    assert "wheel_separation: 0.55" in text
+    assert (
+        f"wheel_separation_multiplier: {res.multipliers['wheel_separation_multiplier']!r}" in text
+    )
+    assert d["ros2"]["wheel_separation_multiplier"] == pytest.approx(m)
+    assert "the multiplier against the turn rate" in res.text() and d["turn_rate"]
+
+
+def test_two_warthog_recordings_each_with_its_own_multiplier(skid):
+    bags = [_bag(skid, f"warthog_wheels_grass_2024_8_8_{t}") for t in ("15h56s39", "16h19s23")]
+    res = fit(bags, robot=skid / "robots" / "warthog.yaml", kinematics="skid-steer")
+    m, se = res.track_multiplier
+    assert 1.6 < m < 1.75 and se < 0.03
+    assert [r.z is not None for r in res.per_recording] == [True, True]
+    # the same day: the recordings agree within 3 combined errors
+    assert all(abs(r.z) < 3 for r in res.per_recording)
+    assert len(res.heldout.held_out) == 2
+    exported = res.drift("effective-track (left-right)")
+    assert exported.median_pct < 0.2 * res.drift("nominal").median_pct
+
+
+def test_skid_steer_bad_inputs(skid, tmp_path, cli):
+    husky = _bag(skid, "husky_wheels-deflated_tile_2023_12_12_16h16")
+    # the sprocket's radius given as the wheel's diameter: each side rolls half as far
+    half = tmp_path / "half.yaml"
+    half.write_text("wheel_diameter_m: 0.66\nwheelbase_m: 0.55\nkinematics: skid_steer\n")
+    with pytest.raises(CalibrationError, match="sprocket radius given as a wheel diameter"):
+        fit([husky], robot=half, ros2=tmp_path / "x.yaml")
+    assert not (tmp_path / "x.yaml").exists()
+    # a bag without a truth pose track (the MIT bag's /odom is the wheel odometry)
+    mit = skid.parent / "mit_csail" / "csail_half1"
+    with pytest.raises(InputError, match="needs a truth pose track"):
+        fit([mit], robot=skid / "robots" / "husky.yaml", kinematics="skid-steer")
+    status, out, err = cli("fit", husky, "--robot", half, "--json")
+    assert status == 2 and out == "" and err.count("\n") == 1 and "sprocket" in err
