@@ -64,6 +64,8 @@ def test_the_joint_states_are_the_wheels_and_a_map_frame_odometry_is_a_truth(rea
     # the wheels turn 1.9 times as far as the gyro: the skid-steer track, not the file's
     assert gyro.answer.ratio == pytest.approx(0.52, abs=0.03)
     assert not res.enough
+    # and the one command says what the robot is, and what to run instead
+    assert any("skid-steer" in r and "--kinematics skid-steer" in r for r in res.reasons)
 
 
 def test_the_wheel_odometry_named_as_the_truth_is_refused(realdata):

@@ -36,7 +36,7 @@ from ..core.covariance import OdometryCovariance, odometry_covariance
 from ..core.model import Robot
 from ..errors import InputError, OdocalError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
-from ..io.bag_survey import survey
+from ..io.bag_survey import BagSurvey, survey
 from ..io.bags import BagContents, read_bag_once
 from ..io.outputs import OutputPlan
 from ..io.robot_file import load_robot
@@ -201,7 +201,12 @@ def fit_auto(
     answer = next((r for r in runs if r.used), None)
     checks = cross_checks([r.answer for r in runs if r.used and r.answer is not None])
     log_check = _log_check(contents, loaded_robot, options, answer)
-    reasons = tuple(_reasons(answer, runs, checks) + _check_reasons(answer, log_check))
+    reasons = tuple(
+        _reasons(answer, runs, checks)
+        + _check_reasons(answer, log_check)
+        + _skid_steer(runs, loaded_robot)
+        + _ran_with_unstated(found, loaded_robot)
+    )
     noise = None if answer is None else answer.noise
     result = AutoFitResult(found.path, tuple(runs), answer, loaded_robot.nominal, checks, noise,
                            _covariance(answer), reasons, (), _warnings(runs, answer, options),
@@ -223,6 +228,48 @@ def _log_check(
         return check_bag(bag, robot, options, slam)
     except OdocalError:
         return None
+
+
+#: A differential drive whose measured wheelbase is this much wider than its file's turns like
+#: a skid-steer or tracked robot (the Warthog: 1.6-1.9, a Husky: 1.8).
+SKID_STEER_TRACK = 1.25
+
+
+def _skid_steer(runs: Sequence[RouteRun], robot: Robot) -> list[str]:
+    """A differential model that fits badly because the robot skids: a route that measured the
+    wheelbase found it far wider than the file's. Says so, and what to run instead."""
+    if robot.kinematics != "differential":
+        return []
+    b = float(robot.nominal.wheelbase_m)
+    wide = [
+        (r.name, float(r.answer.parameters[2].value))
+        for r in runs
+        if r.used and r.answer is not None and r.answer.parameters[2].measured
+    ]
+    wide = [(n, v) for n, v in wide if v > SKID_STEER_TRACK * b]
+    if not wide:
+        return []
+    name, v = wide[0]
+    return [
+        f"the {name} route's wheelbase is {v / b:.2f} times the robot file's ({v:.4g} m against "
+        f"{b:.4g} m): the robot turns like a skid-steer or tracked robot, whose effective track "
+        "is wider than its wheels are apart; a differential-drive calibration of it is wrong: "
+        "fit it with --kinematics skid-steer (or kinematics: skid_steer in the robot file)"
+    ]
+
+
+def _ran_with_unstated(found: BagSurvey, robot: Robot) -> list[str]:
+    """The wheels are the controller's odometry inverted through the geometry it ran with, and
+    the robot file does not say what that was: for a skid-steer robot (whose controller runs
+    with a wheel_separation_multiplier far from 1) that guess is a reason."""
+    inverted = found.wheels is not None and "inverted" in found.wheels
+    if not inverted or robot.ran_with_stated or robot.kinematics != "skid-steer":
+        return []
+    return [
+        "the wheels are the controller's odometry, and the robot file does not say what the "
+        "controller ran with (no 'believed', no wheel_separation_multiplier): the nominal "
+        "geometry was taken, which a skid-steer controller rarely runs with"
+    ]
 
 
 def _check_reasons(answer: RouteRun | None, log_check: CheckResult | None) -> list[str]:
