@@ -13,6 +13,7 @@ import numpy as np
 
 from ..core.model import Robot, WheelGeometry
 from ..core.odometry import dead_reckon, evaluate
+from ..core.path_drift import PathDrift, path_drift, path_length
 from ..core.recording import Recording
 from ..errors import InputError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
@@ -48,6 +49,8 @@ class Validation(Presented):
     written: tuple[Path, ...] = ()
     params_label: str = "the given geometry"
     robot_label: str | None = None
+    drift: PathDrift | None = None
+    nominal_drift: PathDrift | None = None
 
     def as_dict(self) -> dict[str, Any]:
         """The JSON of ``odocal validate --json``: the per-run errors, their means (m, rad), the
@@ -73,6 +76,9 @@ class Validation(Presented):
             ),
             "params": self.params.as_dict(),
         }
+        out["drift_percent_per_10m"] = drift_dict(self.drift)
+        out["nominal_drift_percent_per_10m"] = drift_dict(self.nominal_drift)
+        out["drift_alignment"] = DRIFT_ALIGNMENT
         if self.written:
             out["plots"] = [str(p) for p in self.written]
         return out
@@ -132,12 +138,91 @@ class Validation(Presented):
         }
         out(f"  {col} columns: {source[result.nominal_source]}")
         out.table(rows, title=f"{len(result.runs)} run(s), parameters from {self.params_label}")
+        for what, d in (("these parameters", self.drift), (col, self.nominal_drift)):
+            if d is not None and d.pieces:
+                out(
+                    f"drift with {what}: median {d.median_pct:.2f} %, mean "
+                    f"{float(np.mean(d.error_pct)):.2f} % of {d.length_m:g} m of truth path "
+                    f"({d.pieces} pieces), heading {d.median_heading_deg_per_10m:.2f} deg per "
+                    "10 m (KITTI style: each piece re-anchored to the truth at its start)"
+                )
         if result.written:
             out(f"wrote {len(result.written)} plot(s) to {result.written[0].parent}")
         return str(out)
 
 
 NOMINAL_SOURCES = ("robot", "firmware")
+#: How the drift's pieces are aligned to the truth: what evo_rpe needs to reproduce it.
+DRIFT_ALIGNMENT = (
+    "each piece re-anchored to the truth at its start (SE(2), no scale); the truth as "
+    "recorded, on the wheels' clock (no time offset applied); evo_rpe tum truth.tum "
+    "calibrated.tum --delta L --delta_unit m --pairs_from_reference gives the same errors in "
+    "metres"
+)
+#: Runs with at least this much truth path are cut into 10 m pieces, shorter ones into 1 m.
+LONG_RUN_M = 20.0
+
+
+def drift_dict(d: PathDrift | None) -> dict[str, Any] | None:
+    """The JSON contract's drift: ``median`` and ``mean`` (% of the piece length), ``pieces``,
+    the piece length (m) and the heading drift (deg per 10 m); None without pieces."""
+    if d is None or not d.pieces:
+        return None
+    return {
+        "median": d.median_pct,
+        "mean": float(np.mean(d.error_pct)),
+        "pieces": d.pieces,
+        "piece_length_m": d.length_m,
+        "heading_deg_per_10m": d.median_heading_deg_per_10m,
+    }
+
+
+def _truth_samples(r: Recording) -> np.ndarray:
+    """The samples whose truth is valid (a SLAM truth: only at its update instants)."""
+    valid = r.meta.get("truth_samples") if r.meta else None
+    if valid is not None:
+        return np.asarray(valid, dtype=int)
+    assert r.ground_truth is not None
+    return np.flatnonzero(np.all(np.isfinite(r.ground_truth), axis=1))
+
+
+def piece_length(recordings: Sequence[Recording]) -> float:
+    """10 m pieces when every run has 20 m of truth path or more (a robot outdoors), else 1 m
+    (a small indoor run)."""
+    lengths = []
+    for r in recordings:
+        assert r.ground_truth is not None
+        k = _truth_samples(r)
+        lengths.append(float(path_length(r.ground_truth[k, :2])[-1]) if len(k) else 0.0)
+    return 10.0 if lengths and min(lengths) >= LONG_RUN_M else 1.0
+
+
+def recordings_drift(
+    recordings: Sequence[Recording], geometry_of: Any, length_m: float
+) -> PathDrift | None:
+    """The KITTI-style drift (:func:`~odocal.core.path_drift.path_drift`) of dead reckoning with
+    ``geometry_of(run)`` (None: skipped) over every run, the pieces pooled; None without any."""
+    parts = []
+    for r in recordings:
+        g = geometry_of(r)
+        if g is None or r.ground_truth is None:
+            continue
+        k = _truth_samples(r)
+        if len(k) < 2:
+            continue
+        est = dead_reckon(r.wheel_angle_right_rad, r.wheel_angle_left_rad, g)[k]
+        parts.append(path_drift(r.ground_truth[k], est, length_m=length_m))
+    parts = [d for d in parts if d.pieces]
+    if not parts:
+        return None
+    first = parts[0]
+    return PathDrift(
+        first.length_m, first.mode,
+        np.concatenate([d.start for d in parts]), np.concatenate([d.end for d in parts]),
+        np.concatenate([d.piece_length_m for d in parts]),
+        np.concatenate([d.error_m for d in parts]),
+        np.concatenate([d.heading_error_rad for d in parts]),
+    )  # fmt: skip
 
 
 def validate_recordings(
@@ -163,7 +248,10 @@ def validate_recordings(
             row["nominal_params"] = nom.as_dict()
         runs.append(row)
     source = "robot" if nominal is not None else ("firmware" if known else "unknown")
-    return Validation(runs, params, known, source)
+    length = piece_length(recordings)
+    drift = recordings_drift(recordings, lambda r: params, length)
+    nom_drift = recordings_drift(recordings, lambda r: nominal or r.ran_with, length)
+    return Validation(runs, params, known, source, drift=drift, nominal_drift=nom_drift)
 
 
 def _plot_names(recordings: Sequence[Recording]) -> list[str]:
@@ -227,6 +315,36 @@ def _load(
     return [b.recording for b in slam]
 
 
+def _tum_files(
+    recordings: Sequence[Recording],
+    folder: Path,
+    geometry: WheelGeometry,
+    nominal: WheelGeometry | None,
+) -> dict[Path, str]:
+    """Each run's truth and dead reckonings as TUM text (at the truth's valid samples, stamped
+    in seconds since the epoch when the run says when it started)."""
+    from ..io.tum import tum_text
+
+    out: dict[Path, str] = {}
+    for r, name in zip(recordings, _plot_names(recordings), strict=True):
+        assert r.ground_truth is not None  # validate requires it
+        stem = name.removesuffix(".png")
+        k = _truth_samples(r)
+        t = np.asarray(r.time_s, dtype=float)[k] + float((r.meta or {}).get("start_s") or 0.0)
+        trajs = {"truth": r.ground_truth[k]}
+        trajs["calibrated"] = dead_reckon(r.wheel_angle_right_rad, r.wheel_angle_left_rad,
+                                          geometry)[k]  # fmt: skip
+        nom = nominal or r.ran_with
+        if nom is not None:
+            trajs["nominal"] = dead_reckon(r.wheel_angle_right_rad, r.wheel_angle_left_rad,
+                                           nom)[k]  # fmt: skip
+        for what, poses in trajs.items():
+            out[folder / f"{stem}.{what}.tum"] = tum_text(
+                t, poses, comment=f"odocal validate: {r.name}, {what} (start frame)"
+            )
+    return out
+
+
 def _figure(r: Recording, geometry: WheelGeometry, nominal: WheelGeometry | None) -> Any:
     """One run: its ground truth against its dead reckoning with the nominal geometry (given,
     else the run's own) and with ``geometry``."""
@@ -257,6 +375,7 @@ def validate(
     bag: BagOptions = NO_BAG_OPTIONS,
     truth_frames: tuple[str, str] | None = None,
     slam_stamp_offset_s: float = 0.0,
+    tum: str | Path | None = None,
 ) -> Validation:
     """Dead-reckon the runs in ``paths`` with ``params`` (PARAMS.yaml or a geometry) and with the
     nominal geometry; with ``plot``, one PNG per run in that folder.
@@ -267,7 +386,10 @@ def validate(
     each run's firmware values where it has them (the result's ``nominal_source`` says which:
     'robot', 'firmware' or 'unknown'). ``bag``: the topics and joints of bags. With
     ``truth_frames`` (bags whose truth is a SLAM pose on /tf), the errors are measured at the
-    SLAM's update instants only (docs/slam-truth.md)."""
+    SLAM's update instants only (docs/slam-truth.md). With ``tum``, each run's truth and its
+    dead reckoning with ``params`` and with the nominal geometry are written into that folder as
+    TUM trajectories (``RUN.truth.tum``, ``RUN.calibrated.tum``, ``RUN.nominal.tum``), all or
+    none with the plots."""
     paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
     source = _nominal_source(nominal, robot)
     inputs = [*map(Path, paths)]
@@ -280,6 +402,8 @@ def validate(
 
         require_matplotlib()
         plan.folder(plot, "--plot")
+    if tum is not None:
+        plan.folder(tum, "--tum")
     geometry = params if isinstance(params, WheelGeometry) else load_params(params)
     notes: list[str] = []
     recordings = _load(paths, bag, ticks_per_rev, truth_frames, slam_stamp_offset_s, notes)
@@ -289,12 +413,16 @@ def validate(
         _require_firmware(recordings)
     result = validate_recordings(recordings, geometry, nominal_geometry)
     written: tuple[Path, ...] = ()
+    files: dict[Path, Any] = {}
     if plot is not None:
-        figures = {
+        files.update({
             Path(plot) / name: (lambda r=r: _figure(r, geometry, nominal_geometry))
             for r, name in zip(recordings, _plot_names(recordings), strict=True)
-        }
-        written = tuple(plan.commit(figures))
+        })  # fmt: skip
+    if tum is not None:
+        files.update(_tum_files(recordings, Path(tum), geometry, nominal_geometry))
+    if files:
+        written = tuple(plan.commit(files))
     return replace(
         result,
         load_warnings=tuple(notes) + load_warnings(recordings),

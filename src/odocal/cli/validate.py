@@ -39,6 +39,13 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--plot", metavar="DIR", help="write one PNG trajectory plot per run into DIR")
+    p.add_argument(
+        "--tum",
+        metavar="DIR",
+        help="write each run's truth and its dead reckoning with the parameters and with the "
+        "nominal geometry as TUM trajectories into DIR (evo_rpe reproduces the drift: "
+        "docs/skid-steer.md)",
+    )
     add_slam_args(p)
     p.set_defaults(run=run)
 
@@ -54,6 +61,7 @@ def run(args: argparse.Namespace) -> int:
         robot=args.robot,
         nominal=args.nominal,
         plot=args.plot,
+        tum=args.tum,
         ticks_per_rev=args.ticks_per_rev,
         bag=bag_options(args),
         truth_frames=truth_frames(args),
