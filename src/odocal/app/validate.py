@@ -137,7 +137,6 @@ class Validation(Presented):
             "unknown": "unknown for some runs (they do not say what they ran with; give --robot)",
         }
         out(f"  {col} columns: {source[result.nominal_source]}")
-        out.table(rows, title=f"{len(result.runs)} run(s), parameters from {self.params_label}")
         for what, d in (("these parameters", self.drift), (col, self.nominal_drift)):
             if d is not None and d.pieces:
                 out(
@@ -146,6 +145,7 @@ class Validation(Presented):
                     f"({d.pieces} pieces), heading {d.median_heading_deg_per_10m:.2f} deg per "
                     "10 m (KITTI style: each piece re-anchored to the truth at its start)"
                 )
+        out.table(rows, title=f"{len(result.runs)} run(s), parameters from {self.params_label}")
         if result.written:
             out(f"wrote {len(result.written)} plot(s) to {result.written[0].parent}")
         return str(out)
