@@ -382,6 +382,9 @@ def runs_text(res: FitResult) -> str:
     _print_offsets(out, res.time_offsets)
     if res.heldout is not None:
         out(res.heldout.verdict())
+        line = res.heldout.drift_line()
+        if line is not None:
+            out(line)
     for note in res.notes:
         out(note)
     written_lines(out, res.written)

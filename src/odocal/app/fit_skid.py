@@ -87,17 +87,8 @@ class RecordingMultiplier:
 
 
 def _drift_dict(d: PathDrift | None) -> dict[str, Any] | None:
-    """The JSON contract's drift: ``median``, ``mean`` (% of the piece length) and ``pieces``,
-    and the heading drift (deg per 10 m)."""
-    if d is None or not d.pieces:
-        return None
-    return {
-        "median": d.median_pct,
-        "mean": float(np.mean(d.error_pct)),
-        "pieces": d.pieces,
-        "piece_length_m": d.length_m,
-        "heading_deg_per_10m": d.median_heading_deg_per_10m,
-    }
+    """The JSON contract's drift (:meth:`~odocal.core.path_drift.PathDrift.contract`)."""
+    return None if d is None or not d.pieces else d.contract()
 
 
 @dataclass(frozen=True)

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..core.model import Robot, WheelGeometry
 from ..core.odometry import dead_reckon, evaluate
-from ..core.path_drift import PathDrift, path_drift, path_length
+from ..core.path_drift import PathDrift, path_drift, path_length, piece_length_for, pool_drift
 from ..core.recording import Recording
 from ..errors import InputError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
@@ -137,13 +137,13 @@ class Validation(Presented):
             "unknown": "unknown for some runs (they do not say what they ran with; give --robot)",
         }
         out(f"  {col} columns: {source[result.nominal_source]}")
-        for what, d in (("these parameters", self.drift), (col, self.nominal_drift)):
-            if d is not None and d.pieces:
+        for what, drift in (("these parameters", self.drift), (col, self.nominal_drift)):
+            if drift is not None and drift.pieces:
                 out(
-                    f"drift with {what}: median {d.median_pct:.2f} %, mean "
-                    f"{float(np.mean(d.error_pct)):.2f} % of {d.length_m:g} m of truth path "
-                    f"({d.pieces} pieces), heading {d.median_heading_deg_per_10m:.2f} deg per "
-                    "10 m (KITTI style: each piece re-anchored to the truth at its start)"
+                    f"drift with {what}: median {drift.median_pct:.2f} %, mean "
+                    f"{drift.mean_pct:.2f} % of {drift.length_m:g} m of truth path "
+                    f"({drift.pieces} pieces), heading {drift.median_heading_deg_per_10m:.2f} deg "
+                    "per 10 m (KITTI style: each piece re-anchored to the truth at its start)"
                 )
         out.table(rows, title=f"{len(result.runs)} run(s), parameters from {self.params_label}")
         if result.written:
@@ -159,22 +159,12 @@ DRIFT_ALIGNMENT = (
     "calibrated.tum --delta L --delta_unit m --pairs_from_reference gives the same errors in "
     "metres"
 )
-#: Runs with at least this much truth path are cut into 10 m pieces, shorter ones into 1 m.
-LONG_RUN_M = 20.0
 
 
 def drift_dict(d: PathDrift | None) -> dict[str, Any] | None:
-    """The JSON contract's drift: ``median`` and ``mean`` (% of the piece length), ``pieces``,
-    the piece length (m) and the heading drift (deg per 10 m); None without pieces."""
-    if d is None or not d.pieces:
-        return None
-    return {
-        "median": d.median_pct,
-        "mean": float(np.mean(d.error_pct)),
-        "pieces": d.pieces,
-        "piece_length_m": d.length_m,
-        "heading_deg_per_10m": d.median_heading_deg_per_10m,
-    }
+    """The JSON contract's drift (:meth:`~odocal.core.path_drift.PathDrift.contract`); None
+    without pieces."""
+    return None if d is None or not d.pieces else d.contract()
 
 
 def _truth_samples(r: Recording) -> np.ndarray:
@@ -187,14 +177,14 @@ def _truth_samples(r: Recording) -> np.ndarray:
 
 
 def piece_length(recordings: Sequence[Recording]) -> float:
-    """10 m pieces when every run has 20 m of truth path or more (a robot outdoors), else 1 m
-    (a small indoor run)."""
+    """The drift's piece length for these runs (:func:`~odocal.core.path_drift.
+    piece_length_for`)."""
     lengths = []
     for r in recordings:
         assert r.ground_truth is not None
         k = _truth_samples(r)
         lengths.append(float(path_length(r.ground_truth[k, :2])[-1]) if len(k) else 0.0)
-    return 10.0 if lengths and min(lengths) >= LONG_RUN_M else 1.0
+    return piece_length_for(lengths)
 
 
 def recordings_drift(
@@ -212,17 +202,7 @@ def recordings_drift(
             continue
         est = dead_reckon(r.wheel_angle_right_rad, r.wheel_angle_left_rad, g)[k]
         parts.append(path_drift(r.ground_truth[k], est, length_m=length_m))
-    parts = [d for d in parts if d.pieces]
-    if not parts:
-        return None
-    first = parts[0]
-    return PathDrift(
-        first.length_m, first.mode,
-        np.concatenate([d.start for d in parts]), np.concatenate([d.end for d in parts]),
-        np.concatenate([d.piece_length_m for d in parts]),
-        np.concatenate([d.error_m for d in parts]),
-        np.concatenate([d.heading_error_rad for d in parts]),
-    )  # fmt: skip
+    return pool_drift(parts)
 
 
 def validate_recordings(

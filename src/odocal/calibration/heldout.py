@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Literal, cast
 
 import numpy as np
@@ -48,6 +48,7 @@ from numpy.typing import ArrayLike
 
 from ..core.model import WheelGeometry
 from ..core.odometry import dead_reckon, dead_reckon_rows
+from ..core.path_drift import PathDrift, path_drift, path_length, piece_length_for, pool_drift
 from ..core.recording import Recording
 from ..core.transforms import se2_relative
 from ..errors import CalibrationError
@@ -162,6 +163,9 @@ class HeldOut:
     preferred : str or None
         The model the held-out data prefer among those that beat the nominal; the full model
         when none does and it is not worse; None when it is worse and none beats the nominal.
+    drift : tuple of (str, PathDrift or None)
+        The KITTI-style drift of the held-out runs with the nominal and the full model (runs
+        with a truth; empty for chains of relative motions).
     """
 
     folds: int
@@ -171,6 +175,7 @@ class HeldOut:
     calibrated_final_error_m: float
     models: tuple[ModelScore, ...]
     preferred: str | None
+    drift: tuple[tuple[str, PathDrift | None], ...] = ()
 
     @property
     def calibration_helps(self) -> bool:
@@ -211,6 +216,18 @@ class HeldOut:
             "data it did not fit"
         )
 
+    def drift_line(self) -> str | None:
+        """The held-out runs' KITTI-style drift in one line (None without it)."""
+        d = dict(self.drift)
+        full, nom = d.get("full"), d.get("nominal")
+        if full is None or nom is None:
+            return None
+        return (
+            f"held-out drift: {full.median_pct:.2f} % calibrated against {nom.median_pct:.2f} % "
+            f"nominal (median of {full.pieces} pieces of {full.length_m:g} m of truth path, each "
+            "re-anchored to the truth at its start)"
+        )
+
     def as_dict(self) -> dict:
         """JSON-ready (the ``heldout`` object of ``fit --json``)."""
         return {
@@ -222,6 +239,9 @@ class HeldOut:
             "calibration_helps": self.calibration_helps,
             "preferred_model": self.preferred,
             "models": [m.as_dict() for m in self.models],
+            "drift_percent_per_10m": {
+                k: None if d is None else d.contract() for k, d in self.drift
+            },
             "verdict": self.verdict(),
         }
 
@@ -586,6 +606,11 @@ def heldout_runs(
         )
     block = (np.arange(len(runs)) * folds) // len(runs)
 
+    length = piece_length_for(
+        [float(path_length(np.asarray(r.ground_truth)[:, :2])[-1]) for r in runs]
+    )
+    drift: dict[str, list[PathDrift]] = {"nominal": [], "full": []}
+
     def fold_errors(models: Sequence[str]) -> dict[str, list[np.ndarray]]:
         out: dict[str, list[np.ndarray]] = {k: [] for k in models}
         for f in range(folds):
@@ -597,6 +622,8 @@ def heldout_runs(
                 except (CalibrationError, ValueError, np.linalg.LinAlgError):
                     g = nominal
                 out[mod].append(np.array([_final_error(r, g) for r in test]))
+                if mod in drift:
+                    drift[mod] += [_run_drift(r, g, length) for r in test]
         return out
 
     durations = [float(r.time_s[-1] - r.time_s[0]) for r in runs]
@@ -609,7 +636,15 @@ def heldout_runs(
                 wholes[mod] = BaseMotionFit(mod, fit_model(runs, mod))
             except (CalibrationError, ValueError, np.linalg.LinAlgError):
                 wholes[mod] = BaseMotionFit(mod, nominal)
-    return _verdict(errors, wholes, folds, durations)
+    held = _verdict(errors, wholes, folds, durations)
+    return replace(held, drift=tuple((k, pool_drift(v)) for k, v in drift.items()))
+
+
+def _run_drift(recording: Recording, g: WheelGeometry, length_m: float) -> PathDrift:
+    """The KITTI-style drift of a run dead-reckoned with ``g`` (:mod:`odocal.core.path_drift`)."""
+    assert recording.ground_truth is not None  # the caller keeps runs with a truth
+    est = dead_reckon(recording.wheel_angle_right_rad, recording.wheel_angle_left_rad, g)
+    return path_drift(recording.ground_truth, est, length_m=length_m)
 
 
 def _final_error(recording: Recording, g: WheelGeometry) -> float:

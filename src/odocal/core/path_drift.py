@@ -40,6 +40,7 @@ all-pairs mode may differ from it by up to the tolerance (``error_m`` holds evo'
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -48,7 +49,16 @@ from numpy.typing import ArrayLike
 
 from ..errors import ModelError
 
-__all__ = ["DriftMode", "DRIFT_MODES", "PathDrift", "path_drift", "path_length"]
+__all__ = [
+    "DriftMode",
+    "DRIFT_MODES",
+    "PathDrift",
+    "path_drift",
+    "path_length",
+    "piece_length_for",
+    "pool_drift",
+    "LONG_RUN_M",
+]
 
 DriftMode = Literal["consecutive", "all-pairs"]
 DRIFT_MODES: tuple[DriftMode, ...] = ("consecutive", "all-pairs")
@@ -112,6 +122,18 @@ class PathDrift:
         """Median of :attr:`heading_deg_per_10m` (NaN without pieces)."""
         return float(np.median(self.heading_deg_per_10m)) if self.pieces else math.nan
 
+    def contract(self) -> dict:
+        """The JSON contract's ``drift_percent_per_10m`` object: ``median`` and ``mean`` (% of
+        the piece length), ``pieces``, the piece length (m) and the heading drift (deg per
+        10 m)."""
+        return {
+            "median": self.median_pct,
+            "mean": self.mean_pct,
+            "pieces": self.pieces,
+            "piece_length_m": self.length_m,
+            "heading_deg_per_10m": self.median_heading_deg_per_10m,
+        }
+
     def as_dict(self) -> dict:
         """JSON-ready summary."""
         return {
@@ -122,6 +144,32 @@ class PathDrift:
             "mean_pct": self.mean_pct,
             "median_heading_deg_per_10m": self.median_heading_deg_per_10m,
         }
+
+
+#: Runs with at least this much truth path are cut into 10 m pieces, shorter ones into 1 m.
+LONG_RUN_M = 20.0
+
+
+def piece_length_for(path_lengths_m: Sequence[float]) -> float:
+    """The piece length (m) for runs of these truth path lengths: 10 m when every run has
+    :data:`LONG_RUN_M` or more (a robot outdoors), else 1 m (small indoor runs)."""
+    return 10.0 if path_lengths_m and min(path_lengths_m) >= LONG_RUN_M else 1.0
+
+
+def pool_drift(parts: Sequence[PathDrift]) -> PathDrift | None:
+    """One PathDrift of the pieces of several runs (their indices per run); None without any
+    piece."""
+    parts = [d for d in parts if d.pieces]
+    if not parts:
+        return None
+    first = parts[0]
+    return PathDrift(
+        first.length_m, first.mode,
+        np.concatenate([d.start for d in parts]), np.concatenate([d.end for d in parts]),
+        np.concatenate([d.piece_length_m for d in parts]),
+        np.concatenate([d.error_m for d in parts]),
+        np.concatenate([d.heading_error_rad for d in parts]),
+    )  # fmt: skip
 
 
 def _poses(p: ArrayLike, name: str) -> np.ndarray:
