@@ -36,10 +36,16 @@ from .bags import (
     static_rotation,
 )
 
-__all__ = ["load_bag_recording", "without_gyro"]
+__all__ = ["load_bag_recording", "without_gyro", "reads_gyro"]
 
 # False within without_gyro(): the IMU topic is chosen (and checked) but not read
 _READ_GYRO: ContextVar[bool] = ContextVar("odocal_read_gyro", default=True)
+
+
+def reads_gyro() -> bool:
+    """Whether :func:`load_bag_recording` reads the IMU now (False within
+    :func:`without_gyro`)."""
+    return _READ_GYRO.get()
 
 
 @contextmanager

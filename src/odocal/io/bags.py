@@ -62,6 +62,7 @@ __all__ = [
     "read_bag",
     "read_bag_once",
     "ROUTE_TYPES",
+    "RUN_TYPES",
     "TopicChoice",
     "present",
     "check_bag_path",
@@ -280,6 +281,8 @@ class _Bag:
         wanted = set(topics)
         out: dict[str, Any] = {t: [] for t in wanted}
         conns = [c for c in self.reader.connections if c.topic in wanted]
+        if not conns:  # (rosbags reads every connection when given none)
+            return out
         deserialize = self.reader.deserialize
         ros1 = not self.reader.is2
         typestore = self.reader.typestore
@@ -525,17 +528,30 @@ def _from_contents(
 
 #: The message types a bag route may read: what :func:`read_bag_once` reads.
 ROUTE_TYPES = (JOINT_STATE, IMU, ODOMETRY, "sensor_msgs/msg/LaserScan", *POSE_TYPES)
+#: What a run of a bag is made of (wheels, truth, gyro): :func:`read_bag_once` without scans.
+RUN_TYPES = (JOINT_STATE, IMU, ODOMETRY, *POSE_TYPES)
 
 
-def read_bag_once(path, named: Iterable[str | None] = ()) -> BagContents:
-    """Every topic of ``path`` any bag route may read (the types of :data:`ROUTE_TYPES`,
-    ``/tf``, ``/tf_static`` and the topics ``named`` by the user), in one pass: the routes then
-    pick their topics from it (:func:`read_bag` of a :class:`BagContents`) without opening the
-    bag again."""
+def read_bag_once(
+    path, named: Iterable[str | None] = (), types: Sequence[str] = ROUTE_TYPES
+) -> BagContents:
+    """Every topic of ``path`` any bag route may read (the ``types``, default
+    :data:`ROUTE_TYPES`; ``/tf``, ``/tf_static`` and the topics ``named`` by the user), in one
+    pass: the routes then pick their topics from it (:func:`read_bag` of a :class:`BagContents`)
+    without opening the bag again. Each topic's frames are known then
+    (:attr:`TopicInfo.frames`: an Odometry in a world frame is a truth, not the wheels)."""
 
     def choose(info: list[TopicInfo]) -> dict[str, str | None]:
         names = {t.name for t in info}
-        keep = [t.name for t in info if t.msgtype in ROUTE_TYPES or t.name in ("/tf", "/tf_static")]
+        # /tf (often most of a bag's messages) when a route may need it: a SLAM pose, a laser's
+        # mounting, or wheels that are only odom -> base_link; /tf_static (an IMU's or a laser's
+        # mounting) when something it mounts is read
+        wheels = any(t.msgtype in (JOINT_STATE, ODOMETRY) for t in info)
+        frames = ["/tf"] if (ROUTE_TYPES == tuple(types) or not wheels) else []
+        if any(t.msgtype in types and t.msgtype in (IMU, "sensor_msgs/msg/LaserScan")
+               for t in info):  # fmt: skip
+            frames.append("/tf_static")
+        keep = [t.name for t in info if t.msgtype in types or t.name in frames]
         keep += [t for t in named if t and t in names]
         return {t: t for t in dict.fromkeys(keep)}
 
