@@ -11,7 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
+from odocal.calibration.route_answer import ParameterEstimate
 from odocal.core.model import WheelGeometry
+from odocal.io.fleet_record import CalibrationRecord
 from tests.support.synthetic_robot import Laser, default_track, simulate_robot, write_ros2_bag
 
 NOMINAL = WheelGeometry.symmetric(0.050, 0.250)
@@ -48,20 +50,45 @@ def write_bag(
     return path
 
 
+KEYS = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
+
+
+def _model(std_errors) -> str | None:
+    """'full' when every parameter has a standard error; else no model of the bag route's."""
+    return "full" if all(s is not None for s in std_errors) else None
+
+
 def fake_result(bag: str, values, std_errors, *, enough: bool = True) -> dict:
-    """A ``fit --method auto`` JSON with the given (D_R, D_L, b) and standard errors: the
-    keys odocal fleet reads and the bag report prints (for databases filled without bags)."""
-    keys = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
-    params = {k: {"value": float(v), "std_error": None if s is None else float(s)}
-              for k, v, s in zip(keys, values, std_errors, strict=True)}  # fmt: skip
+    """A ``fit --method auto`` JSON with the given (D_R, D_L, b) and standard errors (None: the
+    parameter is held): the bag's report (for databases filled without bags)."""
+    params = {k: {"value": float(v), "std_error": None if s is None else float(s),
+                  "status": "held" if s is None else "estimated"}
+              for k, v, s in zip(KEYS, values, std_errors, strict=True)}  # fmt: skip
     return {
-        "method": "auto", "bag": bag, "answer_route": "slam", "parameters": params,
+        "method": "auto", "bag": bag, "answer_route": "slam",
+        "answer_model": _model(std_errors), "parameters": params,
         "routes": [{"name": "slam", "used": True, "reason": "simulated"}],
         "nominal": NOMINAL.as_dict(), "time_offsets_s": {}, "time_offsets": [],
         "heldout": None, "cross_checks": [], "noise": None, "covariance": None,
         "verdict": {"enough": enough, "reasons": [] if enough else ["simulated doubt"]},
         "warnings": [], "written": [],
     }  # fmt: skip
+
+
+def fake_record(values, std_errors, *, enough: bool = True) -> CalibrationRecord:
+    """The calibration record of :func:`fake_result` (the SLAM route's answer; a parameter
+    without a standard error held)."""
+    p0, p1, p2 = (
+        ParameterEstimate(k, float(v), None if s is None else float(s),
+                          "held" if s is None else "estimated")
+        for k, v, s in zip(KEYS, values, std_errors, strict=True)
+    )  # fmt: skip
+    return CalibrationRecord(
+        odocal_version="test", route="slam", model=_model(std_errors), parameters=(p0, p1, p2),
+        heading_ratio=None, heading_ratio_std_error=None, enough=enough,
+        reasons=() if enough else ("simulated doubt",), time_offsets=(), covariance=None,
+        nominal=NOMINAL,
+    )  # fmt: skip
 
 
 def fill_db(
