@@ -6,6 +6,8 @@ an 8-ray laser the scan route declines, no IMU): about 0.36 MB and 0.2-0.3 s of
 
 from __future__ import annotations
 
+import json
+import sqlite3
 from dataclasses import replace
 from pathlib import Path
 
@@ -105,8 +107,49 @@ def fill_db(
                 content_hash=f"{robot_id}-{i:04d}".ljust(64, "0"), robot_id=robot_id, path=path,
                 size_bytes=1000, span_s=(1.7e9 + 86400.0 * i, 1.7e9 + 86400.0 * i + 60),
                 status="done", reason=None, version="test", now=now,
-                result=fake_result(path, values, ses, enough=robot_id not in untrusted),
+                record=fake_record(values, ses, enough=robot_id not in untrusted),
+                report=fake_result(path, values, ses, enough=robot_id not in untrusted),
             )  # fmt: skip
+
+
+def first_format(fit: dict) -> dict:
+    """A fit --json as the fleet's first version stored it: no status per parameter, no model
+    (odocal before the route answers had them; a held parameter had an error of 0 or none)."""
+    fit = json.loads(json.dumps(fit))
+    fit.pop("answer_model")
+    for p in (fit["parameters"] or {}).values():
+        p.pop("status")
+    return fit
+
+
+def old_database(path: Path, robots: dict, now: str = "2026-01-01T00:00:00+00:00") -> None:
+    """A fleet database as the code before the record wrote it: schema 2 (its two migrations),
+    rows inserted as its store_bag did, ``result_json`` the fit --json of the time. ``robots``:
+    robot id -> list of (status, fit --json or None) in time order."""
+    from odocal.io.fleet_db import MIGRATIONS
+
+    con = sqlite3.connect(path)
+    schema = f"{MIGRATIONS[0]}{MIGRATIONS[1]} INSERT INTO schema_version VALUES (2);"
+    con.executescript(f"CREATE TABLE schema_version (version INTEGER NOT NULL); {schema}")
+    for robot_id, bags in robots.items():
+        nominal = json.dumps(NOMINAL.as_dict())
+        con.execute("INSERT INTO robots VALUES (?, ?, ?, ?, ?)",
+                    (robot_id, nominal, f"/fleet/{robot_id}", now, now))  # fmt: skip
+        for i, (status, fit) in enumerate(bags):
+            h = f"{robot_id}-{i:04d}".ljust(64, "0")
+            start = 1.7e9 + 86400.0 * i
+            con.execute("INSERT INTO bags VALUES (?, ?, ?, 1000, ?, ?, ?, ?, '0.1.0', ?, 1)",
+                        (h, robot_id, f"/fleet/{robot_id}/bag{i:03d}", start, start + 60, status,
+                         None if status == "done" else "cannot read the bag", now))  # fmt: skip
+            if fit is not None:
+                p = fit.get("parameters") or {}  # (its store_bag's _columns)
+                cols = [x for k in KEYS for x in (p.get(k, {}).get("value"),
+                                                  p.get(k, {}).get("std_error"))]  # fmt: skip
+                con.execute("INSERT INTO calibrations VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                            (h, fit["answer_route"], int(fit["verdict"]["enough"]), *cols,
+                             json.dumps(fit, sort_keys=True)))  # fmt: skip
+    con.commit()
+    con.close()
 
 
 def run_within(seconds: float, fn, *, fifo: Path | None = None):

@@ -2,7 +2,11 @@
 detector (:mod:`odocal.calibration.drift`), its current parameters and its alarms.
 
 The history of a parameter is the robot's trustworthy bags (the bag route's verdict
-``enough``) that estimate it with a standard error, in the order of the bags' start times.
+``enough``) whose answer ESTIMATED it with a standard error, in the order of the bags' start
+times, each read from the bag's calibration record
+(:meth:`~odocal.io.fleet_record.CalibrationRecord.measurement`): a parameter the route held (at
+nominal, or at the value the robot ran with) is no measurement, nor are diameters tied to one
+common scale, nor the diameters of a ratio-only answer (the gyro).
 The **current parameters** are the filtered levels after the last bag (since the last change:
 a step restarts the filter), with their standard errors. An alarm is **active** while it is
 younger than :data:`ACTIVE_S` (30 days) of bag time before the robot's latest bag: the
@@ -121,12 +125,11 @@ def robot_drift(history: Sequence[BagRow]) -> RobotDrift:
     for key in KEYS:
         idx, vals, ses = [], [], []
         for i, b in enumerate(history):
-            p = ((b.result or {}).get("parameters") or {}).get(key) or {}
-            v, se = p.get("value"), p.get("std_error")
-            if b.status == "done" and b.enough and v is not None and se is not None and se > 0:
+            m = None if b.status != "done" or b.record is None else b.record.measurement(key)
+            if m is not None:
                 idx.append(i)
-                vals.append(v)
-                ses.append(se)
+                vals.append(m[0])
+                ses.append(m[1])
         y, s = np.asarray(vals, float), np.asarray(ses, float)
         track = track_parameter(y, s) if len(y) else None
         params.append(ParameterHistory(key, tuple(idx), y, s, track))
@@ -283,16 +286,16 @@ def fleet_export(
     )
     kept = [k for k in KEYS if k not in current]
     cov = None
-    latest = [b.result for b in history if b.status == "done" and b.enough and b.result]
-    c = latest[-1].get("covariance") if latest else None
-    if c:
+    latest = [b.record for b in history if b.status == "done" and b.record and b.record.enough]
+    c = latest[-1].covariance if latest else None
+    if c is not None:
         cov = odometry_covariance(
-            c["k_r_m"],
-            c["k_l_m"],
+            c.k_r_m,
+            c.k_l_m,
             float(g.wheelbase_m),
-            speed_m_s=c["speed_m_s"],
-            distance_m=c["distance_m"],
-            window_s=c["window_s"],
+            speed_m_s=c.speed_m_s,
+            distance_m=c.distance_m,
+            window_s=c.window_s,
         )
     n = max(len(p.bags) for p in drift.parameters)
     # the id quoted with escapes when it holds a line break (a YAML key of its own otherwise)
