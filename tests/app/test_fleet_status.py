@@ -266,3 +266,41 @@ def test_a_ratio_only_answer_never_feeds_the_diameters(tmp_path):
     assert params["wheel_diameter_right_m"].bags == tuple(range(6))
     assert params["wheel_diameter_left_m"].bags == tuple(range(6))
     assert params["wheelbase_m"].bags == tuple(range(7))  # its wheelbase (at nominal scale)
+
+
+# ---- alarms an operator acknowledged (issue 27, item 3)
+
+
+def test_an_acknowledged_alarm_is_kept_but_no_longer_active(db, tmp_path):
+    """The alarms table was written and never read: an alarm an operator had seen to stayed the
+    robot's drift alarm for 30 days of bags."""
+    from odocal.app.fleet import fleet_ingest
+    from odocal.app.fleet_alarms import fleet_ack, fleet_alarms
+    from odocal.app.fleet_report import fleet_report
+    from odocal.app.fleet_status import fleet_status
+    from tests.support.fleet import robot_yaml
+
+    robot_yaml(tmp_path / "root" / "steady")
+    fleet_ingest(tmp_path / "root", db)  # stores every robot's alarms
+    listed = fleet_alarms(db)
+    assert [(a.robot_id, a.parameter, active) for a, active in
+            zip(listed.alarms, listed.active, strict=True)] == [
+        ("old-step", "wheelbase_m", False), ("worn", "wheel_diameter_right_m", True)]  # fmt: skip
+    done = fleet_ack(db, "worn", "D_R")
+    assert (
+        not done.already and done.alarm.acknowledged and done.alarm.bag.startswith("/fleet/worn/")
+    )
+    rows = {r["robot_id"]: r for r in fleet_status(db).as_dict()["robots"]}
+    assert rows["worn"]["drift_alarm"] is False and rows["worn"]["alarms"] == []
+    (ack,) = rows["worn"]["alarms_acknowledged"]
+    assert ack["parameter"] == "wheel_diameter_right_m" and ack["z"] > 3
+    # kept: listed, acknowledged, and still acknowledged after the next ingest
+    fleet_ingest(tmp_path / "root", db)
+    (a,) = [a for a in fleet_alarms(db).alarms if a.robot_id == "worn"]
+    assert a.acknowledged_at == done.alarm.acknowledged_at
+    assert fleet_ack(db, "worn", "wheel_diameter_right_m", a.content_hash[:12]).already
+    fleet_report(db, tmp_path / "html")
+    index = (tmp_path / "html" / "index.html").read_text()
+    assert "0 with a drift alarm" in index and 'class="alarm"' not in index
+    page = (tmp_path / "html" / "robots" / "worn.html").read_text()
+    assert "No active drift alarm." in page and "Acknowledged" in page

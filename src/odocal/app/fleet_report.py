@@ -12,7 +12,7 @@ from ..io.fleet_db import BagRow, open_db
 from ..io.fleet_html import fleet_pages
 from ..io.outputs import OutputPlan
 from .fleet import now_utc
-from .fleet_status import robot_drift, robot_status
+from .fleet_status import acknowledged_alarms, robot_drift, robot_status
 
 __all__ = ["ReportResult", "fleet_report"]
 
@@ -49,6 +49,7 @@ def fleet_report(db_path: str | Path, html_dir: str | Path) -> ReportResult:
     plan.folder(folder / "bags", "--html")
     with open_db(db_path, write=False) as db:
         ids = db.robots()
+        acks = acknowledged_alarms(db)
         histories = {r: db.history(r) for r, _ in ids}
         reports = {
             b.content_hash: db.report(b.content_hash)
@@ -56,7 +57,10 @@ def fleet_report(db_path: str | Path, html_dir: str | Path) -> ReportResult:
             for b in h
             if b.record is not None
         }
-    rows = sorted((robot_status(r, nom, histories[r]) for r, nom in ids), key=lambda r: r.sort_key)
+    rows = sorted(
+        (robot_status(r, nom, histories[r], acks.get(r, ())) for r, nom in ids),
+        key=lambda r: r.sort_key,
+    )
     status = {"db": str(db_path), "robots": [r.as_dict() for r in rows]}
     pages: dict[str, tuple[list[BagRow], str]] = {}
     for robot_id, history in histories.items():

@@ -10,15 +10,16 @@ common scale, nor the diameters of a ratio-only answer (the gyro).
 The **current parameters** are the filtered levels after the last bag (since the last change:
 a step restarts the filter), with their standard errors. An alarm is **active** while it is
 younger than :data:`ACTIVE_S` (30 days) of bag time before the robot's latest bag: the
-``drift_alarm`` of ``status``. A robot without current parameters (no trustworthy bag estimated
-any: all its bags failed, or were calibrated but not to be trusted, or it has none yet) has
-**no trusted calibration**: a problem, listed after the drift alarms and before the robots
-that are well.
+``drift_alarm`` of ``status``, unless an operator acknowledged it (``odocal fleet ack``: kept in
+the alarms table and the history, no longer active). A robot without current parameters (no
+trustworthy bag estimated any: all its bags failed, or were calibrated but not to be trusted,
+or it has none yet) has **no trusted calibration**: a problem, listed after the drift alarms
+and before the robots that are well.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -30,7 +31,7 @@ from ..calibration.drift import DriftTrack, track_parameter
 from ..core.covariance import odometry_covariance
 from ..core.model import WheelGeometry
 from ..errors import InputError, quote_path
-from ..io.fleet_db import BagRow, open_db
+from ..io.fleet_db import BagRow, FleetDb, open_db
 from ..io.outputs import OutputPlan
 from ..io.ros2_export import DEFAULT_CONTROLLER, ros2_params_yaml
 
@@ -92,10 +93,22 @@ class RobotDrift:
                 }
         return out or None
 
-    def active_alarms(self) -> list[dict[str, Any]]:
-        """The alarms younger than :data:`ACTIVE_S` before the latest bag, largest first."""
+    def active_alarms(self, acknowledged: Collection[tuple[str, str]] = ()) -> list[dict[str, Any]]:
+        """The alarms younger than :data:`ACTIVE_S` before the latest bag, largest first, but
+        those ``acknowledged`` ((parameter, content_hash of the bag that raised it) each)."""
+        return [a for key, a in self._recent_alarms() if key not in acknowledged]
+
+    def acknowledged_alarms(
+        self, acknowledged: Collection[tuple[str, str]]
+    ) -> list[dict[str, Any]]:
+        """The alarms that would be active but are ``acknowledged``, largest first."""
+        return [a for key, a in self._recent_alarms() if key in acknowledged]
+
+    def _recent_alarms(self) -> list[tuple[tuple[str, str], dict[str, Any]]]:
+        """((parameter, content_hash), alarm) of the alarms younger than :data:`ACTIVE_S`
+        before the latest bag, largest first."""
         latest = max((b.start_s for b in self.history if b.start_s is not None), default=None)
-        out = []
+        out: list[tuple[tuple[str, str], dict[str, Any]]] = []
         for p in self.parameters:
             if p.track is None:
                 continue
@@ -106,17 +119,20 @@ class RobotDrift:
                     continue
                 before = float(p.track.level[a.index] - a.size)
                 out.append(
-                    {
-                        "parameter": p.key,
-                        "size_m": a.size,
-                        "size_percent": 100.0 * a.size / before,
-                        "z": a.z,
-                        "bag": bag.path,
-                        "change_bag": self.history[p.bags[a.start_index]].path,
-                        "bags_since": len(self.history) - 1 - p.bags[a.index],
-                    }
+                    (
+                        (p.key, bag.content_hash),
+                        {
+                            "parameter": p.key,
+                            "size_m": a.size,
+                            "size_percent": 100.0 * a.size / before,
+                            "z": a.z,
+                            "bag": bag.path,
+                            "change_bag": self.history[p.bags[a.start_index]].path,
+                            "bags_since": len(self.history) - 1 - p.bags[a.index],
+                        },
+                    )
                 )
-        return sorted(out, key=lambda d: -abs(d["z"]))
+        return sorted(out, key=lambda ka: -abs(ka[1]["z"]))
 
 
 def robot_drift(history: Sequence[BagRow]) -> RobotDrift:
@@ -149,6 +165,7 @@ class RobotStatus:
     nominal: dict[str, float]
     alarms: tuple[dict[str, Any], ...]
     bags_untrusted: int = 0
+    acknowledged: tuple[dict[str, Any], ...] = ()
 
     @property
     def trusted(self) -> bool:
@@ -187,6 +204,7 @@ class RobotStatus:
             "drift_alarm": self.drift_alarm,
             "drift": None if top is None else dict(top),
             "alarms": [dict(a) for a in self.alarms],
+            "alarms_acknowledged": [dict(a) for a in self.acknowledged],
         }
 
 
@@ -203,8 +221,14 @@ class FleetStatus:
         return {"db": str(self.db), "robots": [r.as_dict() for r in self.robots]}
 
 
-def robot_status(robot_id: str, nominal: dict, history: Sequence[BagRow]) -> RobotStatus:
-    """One robot's row of the status (its history through the detector)."""
+def robot_status(
+    robot_id: str,
+    nominal: dict,
+    history: Sequence[BagRow],
+    acknowledged: Collection[tuple[str, str]] = (),
+) -> RobotStatus:
+    """One robot's row of the status (its history through the detector); ``acknowledged``:
+    (parameter, content_hash) of its alarms an operator acknowledged (not active)."""
     drift = robot_drift(history)
     done = [b for b in history if b.status == "done"]
     return RobotStatus(
@@ -215,16 +239,27 @@ def robot_status(robot_id: str, nominal: dict, history: Sequence[BagRow]) -> Rob
         max((b.ingested_at for b in done), default=None),
         drift.current(),
         nominal,
-        tuple(drift.active_alarms()),
+        tuple(drift.active_alarms(acknowledged)),
         sum(not b.enough for b in done),
+        tuple(drift.acknowledged_alarms(acknowledged)),
     )
+
+
+def acknowledged_alarms(db: FleetDb) -> dict[str, set[tuple[str, str]]]:
+    """Robot id -> (parameter, content_hash) of each alarm an operator acknowledged."""
+    out: dict[str, set[tuple[str, str]]] = {}
+    for a in db.alarms():
+        if a.acknowledged:
+            out.setdefault(a.robot_id, set()).add((a.parameter, a.content_hash))
+    return out
 
 
 def fleet_status(db_path: str | Path) -> FleetStatus:
     """Every robot's row (module docstring), in :attr:`RobotStatus.sort_key` order: the
     largest drift first, then the robots without a trusted calibration, then by id."""
     with open_db(db_path, write=False) as db:
-        rows = [robot_status(r, nom, db.history(r)) for r, nom in db.robots()]
+        acks = acknowledged_alarms(db)
+        rows = [robot_status(r, nom, db.history(r), acks.get(r, ())) for r, nom in db.robots()]
     return FleetStatus(Path(db_path), tuple(sorted(rows, key=lambda r: r.sort_key)))
 
 

@@ -2,8 +2,9 @@
 (inline CSS, inline SVG figures; no script, no server, no network), opened from disk.
 
 - ``index.html``: the fleet table, the largest drift first, each robot linked to its page;
-- ``robots/<robot_id>.html``: the parameter history figure, the alarms, every bag with its
-  status (its verdict from its calibration record) and a link to its calibration report;
+- ``robots/<robot_id>.html``: the parameter history figure, the active alarms (and those an
+  operator acknowledged), every bag with its status (its verdict from its calibration record)
+  and a link to its calibration report;
 - ``bags/<hash>.html``: one bag's calibration report (the bag route's report, as
   ``odocal fit BAG --method auto --out`` writes it, from the ``fit --json`` the database keeps
   for it), as HTML (:mod:`odocal.io.markdown_html`), with the held-out check's figure drawn from
@@ -166,6 +167,12 @@ def _alarm_table(alarms: Sequence[Mapping[str, Any]]) -> str:
 def _robot(robot: Mapping[str, Any], bags: Sequence[BagRow], svg: str) -> str:
     alarms = robot["alarms"]
     alarm_html = _alarm_table(alarms) if alarms else "<p>No active drift alarm.</p>"
+    acknowledged = robot.get("alarms_acknowledged") or []
+    if acknowledged:
+        alarm_html += (
+            "<p>Acknowledged (<code>odocal fleet ack</code>; no longer active):</p>"
+            + _alarm_table(acknowledged)
+        )
     bag_rows = []
     for i, b in enumerate(bags):
         link = (
