@@ -268,6 +268,29 @@ def test_a_ratio_only_answer_never_feeds_the_diameters(tmp_path):
     assert params["wheelbase_m"].bags == tuple(range(7))  # its wheelbase (at nominal scale)
 
 
+def test_export_never_writes_a_multiplier_beyond_the_25_percent_rule(db, tmp_path):
+    """A filtered level far from the robot's nominal geometry (its robot.yaml changed since,
+    or bags stored before a result 25 % from nominal made them untrustworthy) was written."""
+    from odocal.app.fleet_status import fleet_export
+    from odocal.errors import CalibrationError
+
+    with open_db(db, write=True) as fdb:  # the robot's wheels are now said to be 0.07 m
+        fdb.upsert_robot("worn", {"wheel_diameter_right_m": 0.07, "wheel_diameter_left_m": 0.07,
+                                  "wheelbase_m": 0.25}, "/fleet/worn", "2026-02-01")  # fmt: skip
+    out = tmp_path / "worn.yaml"
+    with pytest.raises(CalibrationError, match=r"robot 'worn': the filtered level's "
+                       r"wheel_diameter_right_m = 0.0508\d* m is -27 % from nominal 0.07 m: "
+                       r"absurd for a calibration; has its robot.yaml changed.*\(and \d more\); "
+                       "nothing written"):  # fmt: skip
+        fleet_export(db, "worn", out)
+    assert not out.exists()
+    fleet_export(db, "steady", tmp_path / "steady.yaml")  # (within the rule: written)
+    text = (tmp_path / "steady.yaml").read_text()
+    for line in text.splitlines():
+        if "multiplier:" in line:
+            assert abs(float(line.split(":")[1]) - 1) < 0.25
+
+
 # ---- alarms an operator acknowledged (issue 27, item 3)
 
 

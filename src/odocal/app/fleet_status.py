@@ -28,12 +28,13 @@ import numpy as np
 
 from ..calibration.cross_check import KEYS
 from ..calibration.drift import DriftTrack, track_parameter
+from ..calibration.result import ABSURD_FRACTION, CalibrationError, far_from_nominal
 from ..core.covariance import odometry_covariance
 from ..core.model import WheelGeometry
 from ..errors import InputError, quote_path
 from ..io.fleet_db import BagRow, FleetDb, open_db
 from ..io.outputs import OutputPlan
-from ..io.ros2_export import DEFAULT_CONTROLLER, ros2_params_yaml
+from ..io.ros2_export import DEFAULT_CONTROLLER, ros2_multipliers, ros2_params_yaml
 
 __all__ = [
     "ParameterHistory",
@@ -319,6 +320,7 @@ def fleet_export(
     g = WheelGeometry(
         *(float(current[k]["value"]) if k in current else robots[robot_id][k] for k in KEYS)
     )
+    _refuse_absurd(robot_id, g, nominal)
     kept = [k for k in KEYS if k not in current]
     cov = None
     latest = [b.record for b in history if b.status == "done" and b.record and b.record.enough]
@@ -339,3 +341,28 @@ def fleet_export(
     )
     text = ros2_params_yaml(g, nominal, controller_name, cov, method=method)
     return ExportResult(robot_id, g, n, tuple(plan.commit({Path(ros2): text})))
+
+
+#: What a filtered level far from the robot's nominal geometry usually means in a fleet.
+FLEET_HINT = (
+    "has its robot.yaml changed since these bags were calibrated, or were they stored before "
+    "a result 25 % from nominal made a bag untrustworthy?"
+)
+
+
+def _refuse_absurd(robot_id: str, g: WheelGeometry, nominal: WheelGeometry) -> None:
+    """The 25 % rule on what export writes: no parameter further than
+    :data:`~odocal.calibration.result.ABSURD_FRACTION` from the robot's nominal geometry, and no
+    multiplier of the file further than that from 1 (nothing written otherwise)."""
+    values = (g.diameter_right_m, g.diameter_left_m, g.wheelbase_m)
+    problems = far_from_nominal(values, nominal, FLEET_HINT)
+    problems += [
+        f"{k} = {m:.6g} is {100 * (m - 1):+.0f} % from 1: absurd for a calibration"
+        for k, m in ros2_multipliers(g, nominal).items()
+        if abs(m - 1) > ABSURD_FRACTION
+    ]
+    if problems:
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        raise CalibrationError(
+            f"robot {_quoted(robot_id)}: the filtered level's {problems[0]}{more}; nothing written"
+        )
