@@ -6,9 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from odocal.core.model import WheelGeometry
 from odocal.errors import InputError
 from odocal.io.fleet_db import open_db
-from tests.support.fleet import fill_db
+from tests.support.fleet import fake_result, fill_db, old_database
 
 SE = np.array([5e-5, 5e-5, 2.5e-4])  # 0.1 % per bag
 TRUE = np.array([0.0505, 0.0495, 0.25])
@@ -74,9 +75,11 @@ def test_the_ingest_stores_every_robot_s_alarms(db, tmp_path):
     assert fleet_ingest(tmp_path / "root", db).bags_total == 0
     with open_db(db, write=False) as fdb:
         (worn,) = fdb.alarms("worn")
-        assert worn[0] == "wheel_diameter_right_m" and worn[1].startswith("worn-002")
-        assert worn[3] == pytest.approx(0.006 * TRUE[0], rel=0.35) and worn[4] > 3
-        assert [a[0] for a in fdb.alarms("old-step")] == ["wheelbase_m"]
+        assert worn.parameter == "wheel_diameter_right_m"
+        assert worn.content_hash.startswith("worn-002")
+        assert worn.size == pytest.approx(0.006 * TRUE[0], rel=0.35) and worn.z > 3
+        assert worn.bag.startswith("/fleet/worn/bag02") and not worn.acknowledged
+        assert [a.parameter for a in fdb.alarms("old-step")] == ["wheelbase_m"]
         assert fdb.alarms("steady") == []
 
 
@@ -189,3 +192,138 @@ def test_a_robot_whose_bags_are_all_untrusted_is_no_healthy_robot(tmp_path):
     assert order == sorted(order)
     row = body[order[1] : order[2]]
     assert "no trusted calibration" in row and '<span class="ok">' not in row
+
+
+# ---- the stored record (issue 27, item 3): only what a route estimated is a measurement
+
+
+def _step_rows(n=40, at=25, statuses=("estimated", "estimated", "estimated"), step=(0, 0, 0)):
+    """fit --json rows of a robot whose parameters step at bag ``at``, each parameter with the
+    given status (as the bag route writes it today) and a standard error."""
+    rng = np.random.default_rng(3)
+    rows = []
+    for i in range(n):
+        v = TRUE * (1 + (np.asarray(step) if i >= at else 0)) + SE * rng.standard_normal(3)
+        fit = fake_result(f"/b{i}", v, SE)
+        for k, s in zip(fit["parameters"], statuses, strict=True):
+            fit["parameters"][k]["status"] = s
+        rows.append(("done", fit))
+    return rows
+
+
+def test_held_and_tied_parameters_never_enter_the_drift_history(tmp_path):
+    """The detector read each parameter's value and standard error whatever the route did with
+    it: a held wheelbase that a route reported with an error, and diameters tied to one scale
+    (the nominal ratio), stepped the filter and raised alarms. Only estimated parameters do."""
+    from odocal.app.fleet_status import fleet_status, robot_drift
+
+    path = tmp_path / "old.db"
+    old_database(path, {
+        "held-b": _step_rows(statuses=("estimated", "estimated", "held"), step=(0, 0, 0.01)),
+        "tied": _step_rows(statuses=("tied", "tied", "estimated"), step=(0.006, 0, 0)),
+        "free": _step_rows(step=(0.006, 0, 0.01)),
+    })  # fmt: skip
+    open_db(path, write=True).close()  # migrated
+    rows = {r.robot_id: r for r in fleet_status(path).robots}
+    assert not rows["held-b"].drift_alarm and "wheelbase_m" not in rows["held-b"].parameters
+    assert not rows["tied"].drift_alarm
+    assert set(rows["tied"].parameters) == {"wheelbase_m"}
+    assert {a["parameter"] for a in rows["free"].alarms} == {"wheel_diameter_right_m",
+                                                             "wheelbase_m"}  # fmt: skip
+    with open_db(path, write=False) as db:
+        h = db.history("held-b")
+    (b,) = [p for p in robot_drift(h).parameters if p.key == "wheelbase_m"]
+    assert b.bags == () and b.track is None
+    assert [p.status for p in h[0].record.parameters] == ["estimated", "estimated", "held"]
+    assert h[0].record.parameters[2].std_error is None  # (its error was dropped: held)
+
+
+def test_a_ratio_only_answer_never_feeds_the_diameters(tmp_path):
+    """A gyro answer (a heading ratio, the diameters held at nominal) in the history of a robot
+    whose diameters another route measured: the diameters' history is the other route's."""
+    from odocal.app.fleet_status import robot_drift
+    from odocal.calibration.route_answer import ParameterEstimate
+    from odocal.io.fleet_record import CalibrationRecord
+
+    path = tmp_path / "f.db"
+    keys = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
+    with open_db(path, write=True) as db:
+        fill_db(db, {"r1": _history(np.random.default_rng(1), 6)})
+        gyro = CalibrationRecord(
+            "test", "gyro", "heading-ratio",
+            (ParameterEstimate(keys[0], 0.05, None, "held"),
+             ParameterEstimate(keys[1], 0.05, None, "held"),
+             ParameterEstimate(keys[2], 0.2506, 2.5e-4, "estimated")),
+            0.9976, 1e-3, True, (), (), None, WheelGeometry(0.05, 0.05, 0.25),
+        )  # fmt: skip
+        db.store_bag(content_hash="g" * 64, robot_id="r1", path="/gyro", size_bytes=1,
+                     span_s=(1.8e9, 1.8e9 + 60), status="done", reason=None, version="t",
+                     now="2026-02-01", record=gyro, report=fake_result("/gyro", (0.05, 0.05,
+                     0.2506), (None, None, 2.5e-4)))  # fmt: skip
+        h = db.history("r1")
+    params = {p.key: p for p in robot_drift(h).parameters}
+    assert h[-1].record.ratio_only and len(h) == 7
+    assert params["wheel_diameter_right_m"].bags == tuple(range(6))
+    assert params["wheel_diameter_left_m"].bags == tuple(range(6))
+    assert params["wheelbase_m"].bags == tuple(range(7))  # its wheelbase (at nominal scale)
+
+
+def test_export_never_writes_a_multiplier_beyond_the_25_percent_rule(db, tmp_path):
+    """A filtered level far from the robot's nominal geometry (its robot.yaml changed since,
+    or bags stored before a result 25 % from nominal made them untrustworthy) was written."""
+    from odocal.app.fleet_status import fleet_export
+    from odocal.errors import CalibrationError
+
+    with open_db(db, write=True) as fdb:  # the robot's wheels are now said to be 0.07 m
+        fdb.upsert_robot("worn", {"wheel_diameter_right_m": 0.07, "wheel_diameter_left_m": 0.07,
+                                  "wheelbase_m": 0.25}, "/fleet/worn", "2026-02-01")  # fmt: skip
+    out = tmp_path / "worn.yaml"
+    with pytest.raises(CalibrationError, match=r"robot 'worn': the filtered level's "
+                       r"wheel_diameter_right_m = 0.0508\d* m is -27 % from nominal 0.07 m: "
+                       r"absurd for a calibration; has its robot.yaml changed.*\(and \d more\); "
+                       "nothing written"):  # fmt: skip
+        fleet_export(db, "worn", out)
+    assert not out.exists()
+    fleet_export(db, "steady", tmp_path / "steady.yaml")  # (within the rule: written)
+    text = (tmp_path / "steady.yaml").read_text()
+    for line in text.splitlines():
+        if "multiplier:" in line:
+            assert abs(float(line.split(":")[1]) - 1) < 0.25
+
+
+# ---- alarms an operator acknowledged (issue 27, item 3)
+
+
+def test_an_acknowledged_alarm_is_kept_but_no_longer_active(db, tmp_path):
+    """The alarms table was written and never read: an alarm an operator had seen to stayed the
+    robot's drift alarm for 30 days of bags."""
+    from odocal.app.fleet import fleet_ingest
+    from odocal.app.fleet_alarms import fleet_ack, fleet_alarms
+    from odocal.app.fleet_report import fleet_report
+    from odocal.app.fleet_status import fleet_status
+    from tests.support.fleet import robot_yaml
+
+    robot_yaml(tmp_path / "root" / "steady")
+    fleet_ingest(tmp_path / "root", db)  # stores every robot's alarms
+    listed = fleet_alarms(db)
+    assert [(a.robot_id, a.parameter, active) for a, active in
+            zip(listed.alarms, listed.active, strict=True)] == [
+        ("old-step", "wheelbase_m", False), ("worn", "wheel_diameter_right_m", True)]  # fmt: skip
+    done = fleet_ack(db, "worn", "D_R")
+    assert (
+        not done.already and done.alarm.acknowledged and done.alarm.bag.startswith("/fleet/worn/")
+    )
+    rows = {r["robot_id"]: r for r in fleet_status(db).as_dict()["robots"]}
+    assert rows["worn"]["drift_alarm"] is False and rows["worn"]["alarms"] == []
+    (ack,) = rows["worn"]["alarms_acknowledged"]
+    assert ack["parameter"] == "wheel_diameter_right_m" and ack["z"] > 3
+    # kept: listed, acknowledged, and still acknowledged after the next ingest
+    fleet_ingest(tmp_path / "root", db)
+    (a,) = [a for a in fleet_alarms(db).alarms if a.robot_id == "worn"]
+    assert a.acknowledged_at == done.alarm.acknowledged_at
+    assert fleet_ack(db, "worn", "wheel_diameter_right_m", a.content_hash[:12]).already
+    fleet_report(db, tmp_path / "html")
+    index = (tmp_path / "html" / "index.html").read_text()
+    assert "0 with a drift alarm" in index and 'class="alarm"' not in index
+    page = (tmp_path / "html" / "robots" / "worn.html").read_text()
+    assert "No active drift alarm." in page and "Acknowledged" in page

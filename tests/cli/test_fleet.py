@@ -267,3 +267,79 @@ def test_status_says_when_a_robot_has_no_trusted_calibration(cli, tmp_path):
     assert header.split()[:4] == ["robot", "bags", "failed", "untrusted"]
     assert row.split()[:4] == ["r1", "3", "0", "3"]
     assert row.endswith("no trusted calibration")
+
+
+# ---- the alarms, read and acknowledged (issue 27, item 3)
+
+
+def _alarmed(tmp_path):
+    """A database whose robot r1 has one drift alarm (its wheelbase 2 % up from bag 20), stored
+    by an ingest as every ingest does."""
+    from odocal.app.fleet import fleet_ingest
+
+    rng = np.random.default_rng(1)
+    bags = []
+    for i in range(30):
+        v = np.array([0.05, 0.05, 0.25 * (1.02 if i >= 20 else 1.0)])
+        bags.append((tuple(v + np.array(SE) * rng.standard_normal(3)), SE))
+    db = tmp_path / "f.db"
+    with open_db(db, write=True) as fdb:
+        fill_db(fdb, {"r1": bags, "r2": bags[:10]})
+    robot_yaml(tmp_path / "root" / "r2")
+    fleet_ingest(tmp_path / "root", db)
+    return db
+
+
+def test_alarms_are_listed_and_one_is_acknowledged(cli, tmp_path):
+    """The alarms table was written by every ingest and read by nothing."""
+    db = _alarmed(tmp_path)
+    status, out, err = cli("fleet", "alarms", "--db", db)
+    assert status == 0 and err == ""
+    header, row = out.splitlines()
+    assert header.split() == ["robot", "parameter", "bag", "size", "mm", "z", "raised", "state"]
+    assert row.split()[:3] == ["r1", "wheelbase_m", "/fleet/r1/bag020"]
+    assert row.split()[-1] == "ACTIVE" and float(row.split()[3]) > 3  # (+5 mm)
+    status, out, _ = cli("fleet", "status", "--db", db)
+    assert (
+        out.splitlines()[1].split()[0] == "r1" and out.splitlines()[1].split()[-2] == "wheelbase_m"
+    )
+    # acknowledged: kept, no longer the robot's drift alarm
+    status, out, err = cli("fleet", "ack", "--db", db, "r1", "b")
+    assert status == 0 and err == ""
+    assert out.startswith("r1 wheelbase_m: the alarm raised by /fleet/r1/bag020 (")
+    assert " acknowledged at 20" in out
+    status, out, _ = cli("fleet", "alarms", "--db", db, "--json")
+    (a,) = json.loads(out)["alarms"]
+    assert a["acknowledged"] is True and a["active"] is False and a["acknowledged_at"]
+    assert (a["robot_id"], a["parameter"], a["bag"]) == ("r1", "wheelbase_m", "/fleet/r1/bag020")
+    assert a["z"] > 3 and a["size_m"] > 0 and a["raised_at"]
+    status, out, _ = cli("fleet", "status", "--db", db, "--json")
+    rows = {r["robot_id"]: r for r in json.loads(out)["robots"]}
+    assert rows["r1"]["drift_alarm"] is False and len(rows["r1"]["alarms_acknowledged"]) == 1
+    status, out, _ = cli("fleet", "status", "--db", db)
+    assert [r.split()[-1] for r in out.splitlines()[1:]] == ["-", "-"]  # r1 is well again
+    status, out, _ = cli("fleet", "alarms", "--db", db)
+    assert "acknowledged 20" in out.splitlines()[1]
+    status, out, _ = cli("fleet", "ack", "--db", db, "r1", "wheelbase_m", "/fleet/r1/bag020",
+                         "--json")  # fmt: skip
+    assert status == 0 and json.loads(out)["already_acknowledged"] is True
+
+
+def test_ack_errors_are_one_line(cli, tmp_path):
+    db = _alarmed(tmp_path)
+    for argv, said in (
+        (("r1", "diameter"), "no parameter 'diameter': one of wheel_diameter_right_m"),
+        (("r9", "b"), "no robot r9 in the fleet database (robots: r1, r2)"),
+        (("r1", "D_L"), "no alarm of wheel_diameter_left_m on robot r1 to acknowledge"),
+        (("r1", "b", "/fleet/r1/bag003"), "no alarm of wheelbase_m on robot r1 raised by bag "
+         "/fleet/r1/bag003 (its alarms: /fleet/r1/bag020)"),
+    ):  # fmt: skip
+        status, out, err = cli("fleet", "ack", "--db", db, *argv)
+        assert status == 2 and out == "" and said in err, err
+        assert err.count("\n") == 1
+    status, _, err = cli("fleet", "ack", "--db", tmp_path / "none.db", "r1", "b")
+    assert status == 2 and "no fleet database here" in err and not (tmp_path / "none.db").exists()
+    empty = tmp_path / "e.db"
+    open_db(empty, write=True).close()
+    status, out, _ = cli("fleet", "alarms", "--db", empty)
+    assert status == 0 and out.startswith("no drift alarm in ")

@@ -4,14 +4,16 @@ disk full)."""
 
 from __future__ import annotations
 
+import json
 import sqlite3
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from odocal.errors import InputError
 from odocal.io.fleet_db import MIGRATIONS, SCHEMA_VERSION, open_db
-from tests.support.fleet import fake_result, fill_db
+from tests.support.fleet import fake_record, fake_result, fill_db, first_format, old_database
 
 NOW = "2026-01-01T00:00:00+00:00"
 
@@ -29,7 +31,8 @@ def test_a_new_database_has_the_schema_in_wal_mode(tmp_path):
         ]
     with open_db(tmp_path / "f.db", write=False) as db:
         h = db.history("r1")
-        assert [b.status for b in h] == ["done"] * 3 and h[0].result["parameters"]
+        assert [b.status for b in h] == ["done"] * 3 and h[0].record.parameters
+        assert db.report(h[0].content_hash)["parameters"]
         assert db.count() == 3 and db.robots()[0][0] == "r1"
 
 
@@ -44,7 +47,7 @@ def test_an_older_schema_is_migrated_and_keeps_its_rows(tmp_path):
     with pytest.raises(InputError, match="older fleet database.*ingest"):
         open_db(path, write=False)
     with open_db(path, write=True) as db:
-        assert db.con.execute("SELECT version FROM schema_version").fetchone()[0] == 2
+        assert db.con.execute("SELECT version FROM schema_version").fetchone()[0] == 3
         assert db.robots() == [("r1", {})]
         db.remember_file("/a.bag", 1, 2, "h")  # the table of migration 2
         assert db.known_file("/a.bag", 1, 2) == "h" and db.known_file("/a.bag", 1, 3) is None
@@ -56,7 +59,7 @@ def test_a_newer_schema_is_refused_and_left_as_it_is(tmp_path):
         c.execute("UPDATE schema_version SET version = 99")
     before = path.read_bytes()
     for write in (True, False):
-        with pytest.raises(InputError, match=r"newer odocal \(schema 99; this one knows up to 2"):
+        with pytest.raises(InputError, match=r"newer odocal \(schema 99; this one knows up to 3"):
             open_db(path, write=write)
     assert path.read_bytes() == before
 
@@ -82,7 +85,7 @@ def test_a_reader_reads_while_the_writer_is_in_a_transaction(tmp_path):
         db.con.execute("BEGIN IMMEDIATE")  # the writer holds the write lock, uncommitted
         db.con.execute("DELETE FROM calibrations")
         with open_db(path, write=False) as reader:  # not blocked, sees the last commit
-            assert reader.count("done") == 2 and reader.history("r1")[0].result is not None
+            assert reader.count("done") == 2 and reader.history("r1")[0].record is not None
         db.con.execute("ROLLBACK")
 
 
@@ -108,7 +111,8 @@ def test_a_full_disk_loses_nothing_stored(tmp_path):
         with pytest.raises(InputError, match="disk is full.*every bag stored so far is kept"):
             db.store_bag(content_hash="z" * 64, robot_id="r1", path="/big", size_bytes=1,
                          span_s=None, status="done", reason=None, version="t", now=NOW,
-                         result=big)  # fmt: skip
+                         record=fake_record((0.05, 0.05, 0.25), (1e-5, 1e-5, 1e-5)),
+                         report=big)  # fmt: skip
     with open_db(path, write=False) as db:
         assert db.count() == 2 and db.bag_status("z" * 64) is None
 
@@ -243,3 +247,163 @@ def test_a_read_only_database_leaves_nothing_beside_it(tmp_path):
         assert listing == "['f.db']"
     finally:
         shutil.rmtree(folder)
+
+
+# ---- schema 3: the typed, versioned calibration record (issue 27, item 3)
+
+KEYS = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
+
+
+def _old_drift_inputs(path, robot_id):
+    """What the drift detector took from each bag before the record: fleet_status.robot_drift
+    of the code before it (commit cddfbe2), reading result_json by its keys."""
+    with sqlite3.connect(path) as con:
+        rows = con.execute(
+            "SELECT b.status, c.result_json, c.enough FROM bags b LEFT JOIN calibrations c "
+            "USING (content_hash) WHERE b.robot_id = ? ORDER BY b.start_s, b.path",
+            (robot_id,),
+        ).fetchall()
+    out = {}
+    for key in KEYS:
+        idx, vals, ses = [], [], []
+        for i, (status, j, ok) in enumerate(rows):
+            result = None if j is None else json.loads(j)
+            p = ((result or {}).get("parameters") or {}).get(key) or {}
+            v, se = p.get("value"), p.get("std_error")
+            if status == "done" and bool(ok) and v is not None and se is not None and se > 0:
+                idx.append(i)
+                vals.append(v)
+                ses.append(se)
+        out[key] = (tuple(idx), vals, ses)
+    return out
+
+
+def _old_fleet():
+    """Every kind of row the code before the record stored: both formats of result_json, a
+    step in D_R, a first-version gyro answer (diameters without an error), a restricted model's
+    held b (an error of 0), failed and untrusted bags, a bag no route could calibrate."""
+    import numpy as np
+
+    rng = np.random.default_rng(7)
+    se = np.array([5e-5, 5e-5, 2.5e-4])
+    true = np.array([0.0505, 0.0495, 0.25])
+    worn, mixed = [], []
+    for i in range(40):
+        v = true * (1 + np.array([0.006 if i >= 25 else 0.0, 0, 0])) + se * rng.standard_normal(3)
+        fit = fake_result(f"/fleet/worn/bag{i:03d}", v, se, enough=i % 9 != 4)
+        worn.append(("done", first_format(fit) if i < 20 else fit))
+    for i in range(12):
+        v = true + se * rng.standard_normal(3)
+        if i % 4 == 0:  # a restricted model of the first version: b held, reported as 0
+            fit = first_format(fake_result("/b", v, (se[0], se[1], 0.0)))
+        elif i % 4 == 1:  # the gyro of the first version: diameters without an error
+            fit = first_format(fake_result("/b", (0.05, 0.05, v[2]), (None, None, se[2])))
+            fit["answer_route"] = "gyro"
+            fit["routes"] = [{"name": "gyro", "used": True, "reason": "x"}]
+        elif i % 4 == 2:
+            fit = fake_result("/b", v, se)
+        else:
+            mixed.append(("failed", None))
+            continue
+        mixed.append(("done", fit))
+    none = fake_result("/b", (0, 0, 0), (None, None, None), enough=False)
+    none.update(answer_route=None, answer_model=None, parameters=None)
+    mixed.append(("done", none))
+    return {"worn": worn, "mixed": mixed}
+
+
+def test_a_database_of_the_code_before_the_record_is_migrated_with_its_drift_history(tmp_path):
+    """Schema 2 stored the fit --json and read it by its keys; schema 3 reads every row into a
+    record once. The drift history (which bags, their values and errors, the levels and the
+    alarms) is the same, bit for bit."""
+    from odocal.app.fleet_status import fleet_status, robot_drift
+    from odocal.calibration.drift import track_parameter
+
+    path = tmp_path / "old.db"
+    old_database(path, _old_fleet())
+    before = {r: _old_drift_inputs(path, r) for r in ("worn", "mixed")}
+    with pytest.raises(InputError, match="older fleet database.*schema 2.*ingest"):
+        open_db(path, write=False)
+    open_db(path, write=True).close()  # what an ingest does first: migrate
+    with open_db(path, write=False) as db:
+        assert db.con.execute("SELECT version FROM schema_version").fetchone() == (3,)
+        for robot_id, old in before.items():
+            history = db.history(robot_id)
+            assert all(b.record is not None for b in history if b.status == "done")
+            for p in robot_drift(history).parameters:
+                idx, vals, ses = old[p.key]
+                assert p.bags == idx and p.values.tolist() == vals
+                assert p.std_errors.tolist() == ses
+                if vals:
+                    t = track_parameter(np.asarray(vals), np.asarray(ses))
+                    assert p.track.level.tolist() == t.level.tolist()
+                    assert p.track.alarms == t.alarms
+        # the columns are the record's: a held parameter has no standard error
+        (row,) = db.con.execute(
+            "SELECT d_right_se_m, wheelbase_m, wheelbase_se_m, route FROM calibrations "
+            "WHERE content_hash LIKE 'mixed-0000%'"
+        )
+        assert row[0] == pytest.approx(5e-5, rel=0.5) and row[1] > 0.24 and row[2] is None
+        assert row[3] == "slam"
+        mixed = [b.record for b in db.history("mixed") if b.record is not None]
+        assert [r.route for r in mixed[:2]] == ["slam", "gyro"] and mixed[-1].route is None
+        assert [p.status for p in mixed[1].parameters] == ["held", "held", "estimated"]
+    assert len(before["worn"]["wheel_diameter_right_m"][0]) == 36  # (4 untrusted bags)
+    (worn,) = [r for r in fleet_status(path).robots if r.robot_id == "worn"]
+    assert worn.drift_alarm and worn.alarms[0]["parameter"] == "wheel_diameter_right_m"
+
+
+def test_a_row_the_migration_cannot_read_is_named_and_nothing_changes(tmp_path):
+    """A stored result with a renamed key ('params' for 'parameters') dropped its bag from the
+    drift history without a word; now the migration names the bag and changes nothing."""
+    fleet = _old_fleet()
+    status, fit = fleet["worn"][7]
+    fit["params"] = fit.pop("parameters")
+    path = tmp_path / "old.db"
+    old_database(path, fleet)
+    with sqlite3.connect(path) as con:
+        rows = con.execute("SELECT * FROM calibrations ORDER BY content_hash").fetchall()
+    with pytest.raises(InputError) as err:
+        open_db(path, write=True)
+    msg = str(err.value)
+    assert "cannot migrate the fleet database to schema 3" in msg
+    assert "bag /fleet/worn/bag007" in msg and "record.fit has no 'parameters'" in msg
+    assert "nothing was changed" in msg and "\n" not in msg
+    with sqlite3.connect(path) as con:
+        assert con.execute("SELECT version FROM schema_version").fetchone() == (2,)
+        assert con.execute("SELECT * FROM calibrations ORDER BY content_hash").fetchall() == rows
+        assert "record_json" not in [c[1] for c in con.execute("PRAGMA table_info(calibrations)")]
+
+
+def test_a_record_of_a_newer_odocal_is_one_line_naming_its_bag(tmp_path):
+    from odocal.app.fleet_status import fleet_status
+
+    path = tmp_path / "f.db"
+    with open_db(path, write=True) as db:
+        fill_db(db, {"r1": _history(2)})
+        with db.transaction() as c:
+            (text,) = c.execute("SELECT record_json FROM calibrations LIMIT 1").fetchone()
+            d = json.loads(text)
+            d["record_version"] = 2
+            c.execute("UPDATE calibrations SET record_json = ? WHERE record_json = ?",
+                      (json.dumps(d), text))  # fmt: skip
+    with pytest.raises(InputError, match=r"record of bag /fleet/r1/bag00\d: record version 2 was "
+                       "written by a newer odocal"):  # fmt: skip
+        fleet_status(path)
+
+
+def test_an_acknowledged_alarm_keeps_its_acknowledgement_when_the_alarms_are_replaced(tmp_path):
+    path = tmp_path / "f.db"
+    with open_db(path, write=True) as db:
+        fill_db(db, {"r1": _history(3)})
+        h = "r1-0002".ljust(64, "0")
+        db.replace_alarms("r1", [("wheelbase_m", h, 1.7e9, 1e-3, 5.0)], NOW)
+        db.acknowledge("r1", "wheelbase_m", h, "2026-02-01T00:00:00+00:00")
+        db.replace_alarms("r1", [("wheelbase_m", h, 1.7e9, 1.1e-3, 5.5),
+                                 ("wheel_diameter_left_m", h, 1.7e9, 1e-4, -4.5)],
+                          "2026-03-01T00:00:00+00:00")  # fmt: skip
+        got = {a.parameter: a for a in db.alarms("r1")}
+        assert got["wheelbase_m"].acknowledged_at == "2026-02-01T00:00:00+00:00"
+        assert got["wheelbase_m"].raised_at == NOW and got["wheelbase_m"].size == 1.1e-3
+        assert not got["wheel_diameter_left_m"].acknowledged
+        assert got["wheelbase_m"].bag == "/fleet/r1/bag002"

@@ -6,12 +6,16 @@ an 8-ray laser the scan route declines, no IMU): about 0.36 MB and 0.2-0.3 s of
 
 from __future__ import annotations
 
+import json
+import sqlite3
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
+from odocal.calibration.route_answer import ParameterEstimate
 from odocal.core.model import WheelGeometry
+from odocal.io.fleet_record import CalibrationRecord
 from tests.support.synthetic_robot import Laser, default_track, simulate_robot, write_ros2_bag
 
 NOMINAL = WheelGeometry.symmetric(0.050, 0.250)
@@ -48,20 +52,45 @@ def write_bag(
     return path
 
 
+KEYS = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
+
+
+def _model(std_errors) -> str | None:
+    """'full' when every parameter has a standard error; else no model of the bag route's."""
+    return "full" if all(s is not None for s in std_errors) else None
+
+
 def fake_result(bag: str, values, std_errors, *, enough: bool = True) -> dict:
-    """A ``fit --method auto`` JSON with the given (D_R, D_L, b) and standard errors: the
-    keys odocal fleet reads and the bag report prints (for databases filled without bags)."""
-    keys = ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m")
-    params = {k: {"value": float(v), "std_error": None if s is None else float(s)}
-              for k, v, s in zip(keys, values, std_errors, strict=True)}  # fmt: skip
+    """A ``fit --method auto`` JSON with the given (D_R, D_L, b) and standard errors (None: the
+    parameter is held): the bag's report (for databases filled without bags)."""
+    params = {k: {"value": float(v), "std_error": None if s is None else float(s),
+                  "status": "held" if s is None else "estimated"}
+              for k, v, s in zip(KEYS, values, std_errors, strict=True)}  # fmt: skip
     return {
-        "method": "auto", "bag": bag, "answer_route": "slam", "parameters": params,
+        "method": "auto", "bag": bag, "answer_route": "slam",
+        "answer_model": _model(std_errors), "parameters": params,
         "routes": [{"name": "slam", "used": True, "reason": "simulated"}],
         "nominal": NOMINAL.as_dict(), "time_offsets_s": {}, "time_offsets": [],
         "heldout": None, "cross_checks": [], "noise": None, "covariance": None,
         "verdict": {"enough": enough, "reasons": [] if enough else ["simulated doubt"]},
         "warnings": [], "written": [],
     }  # fmt: skip
+
+
+def fake_record(values, std_errors, *, enough: bool = True) -> CalibrationRecord:
+    """The calibration record of :func:`fake_result` (the SLAM route's answer; a parameter
+    without a standard error held)."""
+    p0, p1, p2 = (
+        ParameterEstimate(k, float(v), None if s is None else float(s),
+                          "held" if s is None else "estimated")
+        for k, v, s in zip(KEYS, values, std_errors, strict=True)
+    )  # fmt: skip
+    return CalibrationRecord(
+        odocal_version="test", route="slam", model=_model(std_errors), parameters=(p0, p1, p2),
+        heading_ratio=None, heading_ratio_std_error=None, enough=enough,
+        reasons=() if enough else ("simulated doubt",), time_offsets=(), covariance=None,
+        nominal=NOMINAL,
+    )  # fmt: skip
 
 
 def fill_db(
@@ -78,8 +107,49 @@ def fill_db(
                 content_hash=f"{robot_id}-{i:04d}".ljust(64, "0"), robot_id=robot_id, path=path,
                 size_bytes=1000, span_s=(1.7e9 + 86400.0 * i, 1.7e9 + 86400.0 * i + 60),
                 status="done", reason=None, version="test", now=now,
-                result=fake_result(path, values, ses, enough=robot_id not in untrusted),
+                record=fake_record(values, ses, enough=robot_id not in untrusted),
+                report=fake_result(path, values, ses, enough=robot_id not in untrusted),
             )  # fmt: skip
+
+
+def first_format(fit: dict) -> dict:
+    """A fit --json as the fleet's first version stored it: no status per parameter, no model
+    (odocal before the route answers had them; a held parameter had an error of 0 or none)."""
+    fit = json.loads(json.dumps(fit))
+    fit.pop("answer_model")
+    for p in (fit["parameters"] or {}).values():
+        p.pop("status")
+    return fit
+
+
+def old_database(path: Path, robots: dict, now: str = "2026-01-01T00:00:00+00:00") -> None:
+    """A fleet database as the code before the record wrote it: schema 2 (its two migrations),
+    rows inserted as its store_bag did, ``result_json`` the fit --json of the time. ``robots``:
+    robot id -> list of (status, fit --json or None) in time order."""
+    from odocal.io.fleet_db import MIGRATIONS
+
+    con = sqlite3.connect(path)
+    schema = f"{MIGRATIONS[0]}{MIGRATIONS[1]} INSERT INTO schema_version VALUES (2);"
+    con.executescript(f"CREATE TABLE schema_version (version INTEGER NOT NULL); {schema}")
+    for robot_id, bags in robots.items():
+        nominal = json.dumps(NOMINAL.as_dict())
+        con.execute("INSERT INTO robots VALUES (?, ?, ?, ?, ?)",
+                    (robot_id, nominal, f"/fleet/{robot_id}", now, now))  # fmt: skip
+        for i, (status, fit) in enumerate(bags):
+            h = f"{robot_id}-{i:04d}".ljust(64, "0")
+            start = 1.7e9 + 86400.0 * i
+            con.execute("INSERT INTO bags VALUES (?, ?, ?, 1000, ?, ?, ?, ?, '0.1.0', ?, 1)",
+                        (h, robot_id, f"/fleet/{robot_id}/bag{i:03d}", start, start + 60, status,
+                         None if status == "done" else "cannot read the bag", now))  # fmt: skip
+            if fit is not None:
+                p = fit.get("parameters") or {}  # (its store_bag's _columns)
+                cols = [x for k in KEYS for x in (p.get(k, {}).get("value"),
+                                                  p.get(k, {}).get("std_error"))]  # fmt: skip
+                con.execute("INSERT INTO calibrations VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                            (h, fit["answer_route"], int(fit["verdict"]["enough"]), *cols,
+                             json.dumps(fit, sort_keys=True)))  # fmt: skip
+    con.commit()
+    con.close()
 
 
 def run_within(seconds: float, fn, *, fifo: Path | None = None):

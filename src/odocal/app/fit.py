@@ -34,13 +34,14 @@ from ..calibration.fit_settings import (
     TrajectorySettings,
     check_heading_source,
 )
-from ..core.model import Kinematics
+from ..core.model import Kinematics, Robot
 from ..errors import InputError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
 from ..io.bags import is_bag
 from ..io.outputs import OutputPlan
 from ..io.recordings import expand_folders, refuse_repeated
 from ..io.ros2_export import DEFAULT_CONTROLLER
+from ..presets import PRESETS
 from .common import Exports, RobotSpec, input_paths, unused_offsets
 from .fit_auto import AutoFitResult, fit_auto
 from .fit_gyro import GyroFitResult, fit_gyro, fit_gyro_bag, gyro_fit
@@ -271,10 +272,14 @@ def fit(
 
 
 def _kinematics(kinematics: Kinematics | None, robot: RobotSpec) -> Kinematics:
-    """The kinematics asked for, else the robot file's (its ``kinematics``), else differential."""
+    """The kinematics asked for, else the robot's (its file's ``kinematics``), else
+    differential. A robot file that is a pipe is read once, by the route (say
+    ``--kinematics`` then)."""
     if kinematics is not None:
         return kinematics
-    if robot:
+    if isinstance(robot, Robot):
+        return robot.kinematics
+    if robot and (str(robot) in PRESETS or Path(robot).is_file()):
         from ..io.robot_file import load_robot
 
         return load_robot(robot).kinematics

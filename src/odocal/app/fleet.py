@@ -192,7 +192,7 @@ def _run_local(tasks: Sequence[BagTask], workers: int) -> Generator[BagOutcome, 
         if lost:
             how = worker_endings(forked) or "killed"
             for t in sorted(lost, key=lambda t: t.bag):
-                yield BagOutcome(t, "retry", LOST.format(how=how), None, None)
+                yield BagOutcome(t, "retry", LOST.format(how=how), None)
             n = f"the {len(lost)} bags" if len(lost) > 1 else "the bag"
             raise WorkerLost(
                 f"a worker process ended before returning its result ({how}): {n} in flight "
@@ -243,7 +243,8 @@ def _store(db: FleetDb, o: BagOutcome, now: str) -> None:
         reason=o.reason,
         version=__version__,
         now=now,
-        result=o.result,
+        record=o.record,
+        report=o.report,
     )
 
 
@@ -368,7 +369,7 @@ def fleet_ingest(
         db.forget_stale_retries(set(found))
         failures: list[tuple[str, str]] = list(choice.unread)
         for task, why in retry:
-            _store(db, BagOutcome(task, "retry", why, None, None), now)
+            _store(db, BagOutcome(task, "retry", why, None), now)
             failures.append((task.bag, why))
         counts = {"done": 0, "failed": 0, "retry": len(retry)}
         outcomes = _run_dask(tasks, dask) if dask is not None else _run_local(tasks, workers)

@@ -2,19 +2,24 @@
 detector (:mod:`odocal.calibration.drift`), its current parameters and its alarms.
 
 The history of a parameter is the robot's trustworthy bags (the bag route's verdict
-``enough``) that estimate it with a standard error, in the order of the bags' start times.
+``enough``) whose answer ESTIMATED it with a standard error, in the order of the bags' start
+times, each read from the bag's calibration record
+(:meth:`~odocal.io.fleet_record.CalibrationRecord.measurement`): a parameter the route held (at
+nominal, or at the value the robot ran with) is no measurement, nor are diameters tied to one
+common scale, nor the diameters of a ratio-only answer (the gyro).
 The **current parameters** are the filtered levels after the last bag (since the last change:
 a step restarts the filter), with their standard errors. An alarm is **active** while it is
 younger than :data:`ACTIVE_S` (30 days) of bag time before the robot's latest bag: the
-``drift_alarm`` of ``status``. A robot without current parameters (no trustworthy bag estimated
-any: all its bags failed, or were calibrated but not to be trusted, or it has none yet) has
-**no trusted calibration**: a problem, listed after the drift alarms and before the robots
-that are well.
+``drift_alarm`` of ``status``, unless an operator acknowledged it (``odocal fleet ack``: kept in
+the alarms table and the history, no longer active). A robot without current parameters (no
+trustworthy bag estimated any: all its bags failed, or were calibrated but not to be trusted,
+or it has none yet) has **no trusted calibration**: a problem, listed after the drift alarms
+and before the robots that are well.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -23,12 +28,13 @@ import numpy as np
 
 from ..calibration.cross_check import KEYS
 from ..calibration.drift import DriftTrack, track_parameter
+from ..calibration.result import ABSURD_FRACTION, CalibrationError, far_from_nominal
 from ..core.covariance import odometry_covariance
 from ..core.model import WheelGeometry
 from ..errors import InputError, quote_path
-from ..io.fleet_db import BagRow, open_db
+from ..io.fleet_db import BagRow, FleetDb, open_db
 from ..io.outputs import OutputPlan
-from ..io.ros2_export import DEFAULT_CONTROLLER, ros2_params_yaml
+from ..io.ros2_export import DEFAULT_CONTROLLER, ros2_multipliers, ros2_params_yaml
 
 __all__ = [
     "ParameterHistory",
@@ -88,10 +94,22 @@ class RobotDrift:
                 }
         return out or None
 
-    def active_alarms(self) -> list[dict[str, Any]]:
-        """The alarms younger than :data:`ACTIVE_S` before the latest bag, largest first."""
+    def active_alarms(self, acknowledged: Collection[tuple[str, str]] = ()) -> list[dict[str, Any]]:
+        """The alarms younger than :data:`ACTIVE_S` before the latest bag, largest first, but
+        those ``acknowledged`` ((parameter, content_hash of the bag that raised it) each)."""
+        return [a for key, a in self._recent_alarms() if key not in acknowledged]
+
+    def acknowledged_alarms(
+        self, acknowledged: Collection[tuple[str, str]]
+    ) -> list[dict[str, Any]]:
+        """The alarms that would be active but are ``acknowledged``, largest first."""
+        return [a for key, a in self._recent_alarms() if key in acknowledged]
+
+    def _recent_alarms(self) -> list[tuple[tuple[str, str], dict[str, Any]]]:
+        """((parameter, content_hash), alarm) of the alarms younger than :data:`ACTIVE_S`
+        before the latest bag, largest first."""
         latest = max((b.start_s for b in self.history if b.start_s is not None), default=None)
-        out = []
+        out: list[tuple[tuple[str, str], dict[str, Any]]] = []
         for p in self.parameters:
             if p.track is None:
                 continue
@@ -102,17 +120,20 @@ class RobotDrift:
                     continue
                 before = float(p.track.level[a.index] - a.size)
                 out.append(
-                    {
-                        "parameter": p.key,
-                        "size_m": a.size,
-                        "size_percent": 100.0 * a.size / before,
-                        "z": a.z,
-                        "bag": bag.path,
-                        "change_bag": self.history[p.bags[a.start_index]].path,
-                        "bags_since": len(self.history) - 1 - p.bags[a.index],
-                    }
+                    (
+                        (p.key, bag.content_hash),
+                        {
+                            "parameter": p.key,
+                            "size_m": a.size,
+                            "size_percent": 100.0 * a.size / before,
+                            "z": a.z,
+                            "bag": bag.path,
+                            "change_bag": self.history[p.bags[a.start_index]].path,
+                            "bags_since": len(self.history) - 1 - p.bags[a.index],
+                        },
+                    )
                 )
-        return sorted(out, key=lambda d: -abs(d["z"]))
+        return sorted(out, key=lambda ka: -abs(ka[1]["z"]))
 
 
 def robot_drift(history: Sequence[BagRow]) -> RobotDrift:
@@ -121,12 +142,11 @@ def robot_drift(history: Sequence[BagRow]) -> RobotDrift:
     for key in KEYS:
         idx, vals, ses = [], [], []
         for i, b in enumerate(history):
-            p = ((b.result or {}).get("parameters") or {}).get(key) or {}
-            v, se = p.get("value"), p.get("std_error")
-            if b.status == "done" and b.enough and v is not None and se is not None and se > 0:
+            m = None if b.status != "done" or b.record is None else b.record.measurement(key)
+            if m is not None:
                 idx.append(i)
-                vals.append(v)
-                ses.append(se)
+                vals.append(m[0])
+                ses.append(m[1])
         y, s = np.asarray(vals, float), np.asarray(ses, float)
         track = track_parameter(y, s) if len(y) else None
         params.append(ParameterHistory(key, tuple(idx), y, s, track))
@@ -146,6 +166,7 @@ class RobotStatus:
     nominal: dict[str, float]
     alarms: tuple[dict[str, Any], ...]
     bags_untrusted: int = 0
+    acknowledged: tuple[dict[str, Any], ...] = ()
 
     @property
     def trusted(self) -> bool:
@@ -184,6 +205,7 @@ class RobotStatus:
             "drift_alarm": self.drift_alarm,
             "drift": None if top is None else dict(top),
             "alarms": [dict(a) for a in self.alarms],
+            "alarms_acknowledged": [dict(a) for a in self.acknowledged],
         }
 
 
@@ -200,8 +222,14 @@ class FleetStatus:
         return {"db": str(self.db), "robots": [r.as_dict() for r in self.robots]}
 
 
-def robot_status(robot_id: str, nominal: dict, history: Sequence[BagRow]) -> RobotStatus:
-    """One robot's row of the status (its history through the detector)."""
+def robot_status(
+    robot_id: str,
+    nominal: dict,
+    history: Sequence[BagRow],
+    acknowledged: Collection[tuple[str, str]] = (),
+) -> RobotStatus:
+    """One robot's row of the status (its history through the detector); ``acknowledged``:
+    (parameter, content_hash) of its alarms an operator acknowledged (not active)."""
     drift = robot_drift(history)
     done = [b for b in history if b.status == "done"]
     return RobotStatus(
@@ -212,16 +240,27 @@ def robot_status(robot_id: str, nominal: dict, history: Sequence[BagRow]) -> Rob
         max((b.ingested_at for b in done), default=None),
         drift.current(),
         nominal,
-        tuple(drift.active_alarms()),
+        tuple(drift.active_alarms(acknowledged)),
         sum(not b.enough for b in done),
+        tuple(drift.acknowledged_alarms(acknowledged)),
     )
+
+
+def acknowledged_alarms(db: FleetDb) -> dict[str, set[tuple[str, str]]]:
+    """Robot id -> (parameter, content_hash) of each alarm an operator acknowledged."""
+    out: dict[str, set[tuple[str, str]]] = {}
+    for a in db.alarms():
+        if a.acknowledged:
+            out.setdefault(a.robot_id, set()).add((a.parameter, a.content_hash))
+    return out
 
 
 def fleet_status(db_path: str | Path) -> FleetStatus:
     """Every robot's row (module docstring), in :attr:`RobotStatus.sort_key` order: the
     largest drift first, then the robots without a trusted calibration, then by id."""
     with open_db(db_path, write=False) as db:
-        rows = [robot_status(r, nom, db.history(r)) for r, nom in db.robots()]
+        acks = acknowledged_alarms(db)
+        rows = [robot_status(r, nom, db.history(r), acks.get(r, ())) for r, nom in db.robots()]
     return FleetStatus(Path(db_path), tuple(sorted(rows, key=lambda r: r.sort_key)))
 
 
@@ -281,18 +320,19 @@ def fleet_export(
     g = WheelGeometry(
         *(float(current[k]["value"]) if k in current else robots[robot_id][k] for k in KEYS)
     )
+    _refuse_absurd(robot_id, g, nominal)
     kept = [k for k in KEYS if k not in current]
     cov = None
-    latest = [b.result for b in history if b.status == "done" and b.enough and b.result]
-    c = latest[-1].get("covariance") if latest else None
-    if c:
+    latest = [b.record for b in history if b.status == "done" and b.record and b.record.enough]
+    c = latest[-1].covariance if latest else None
+    if c is not None:
         cov = odometry_covariance(
-            c["k_r_m"],
-            c["k_l_m"],
+            c.k_r_m,
+            c.k_l_m,
             float(g.wheelbase_m),
-            speed_m_s=c["speed_m_s"],
-            distance_m=c["distance_m"],
-            window_s=c["window_s"],
+            speed_m_s=c.speed_m_s,
+            distance_m=c.distance_m,
+            window_s=c.window_s,
         )
     n = max(len(p.bags) for p in drift.parameters)
     # the id quoted with escapes when it holds a line break (a YAML key of its own otherwise)
@@ -301,3 +341,28 @@ def fleet_export(
     )
     text = ros2_params_yaml(g, nominal, controller_name, cov, method=method)
     return ExportResult(robot_id, g, n, tuple(plan.commit({Path(ros2): text})))
+
+
+#: What a filtered level far from the robot's nominal geometry usually means in a fleet.
+FLEET_HINT = (
+    "has its robot.yaml changed since these bags were calibrated, or were they stored before "
+    "a result 25 % from nominal made a bag untrustworthy?"
+)
+
+
+def _refuse_absurd(robot_id: str, g: WheelGeometry, nominal: WheelGeometry) -> None:
+    """The 25 % rule on what export writes: no parameter further than
+    :data:`~odocal.calibration.result.ABSURD_FRACTION` from the robot's nominal geometry, and no
+    multiplier of the file further than that from 1 (nothing written otherwise)."""
+    values = (g.diameter_right_m, g.diameter_left_m, g.wheelbase_m)
+    problems = far_from_nominal(values, nominal, FLEET_HINT)
+    problems += [
+        f"{k} = {m:.6g} is {100 * (m - 1):+.0f} % from 1: absurd for a calibration"
+        for k, m in ros2_multipliers(g, nominal).items()
+        if abs(m - 1) > ABSURD_FRACTION
+    ]
+    if problems:
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        raise CalibrationError(
+            f"robot {_quoted(robot_id)}: the filtered level's {problems[0]}{more}; nothing written"
+        )

@@ -1,5 +1,6 @@
 """One bag of a fleet, calibrated where a worker runs it (a process of the pool, a Dask worker,
-or the ingest's own process): plain data in, plain data out, no database.
+or the ingest's own process): plain data in, plain data out (the bag's calibration record and
+its report), no database.
 
 The task carries the bag's :class:`~odocal.io.fleet_files.Snapshot` taken before its bytes
 were hashed; the worker takes another after the calibration, and a bag that changed in between
@@ -11,14 +12,25 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from threadpoolctl import threadpool_limits
 
+from .._version import __version__
+from ..core.model import WheelGeometry
 from ..errors import OdocalError
 from ..io.fleet_files import Snapshot, bag_span_s, snapshot
+from ..io.fleet_record import (
+    COVARIANCE_KEYS,
+    CalibrationRecord,
+    StoredCovariance,
+    StoredOffset,
+)
 
-__all__ = ["BagTask", "BagOutcome", "calibrate_bag", "CHANGED"]
+if TYPE_CHECKING:  # (the bag route's modules are imported where a bag is calibrated)
+    from .fit_auto_result import AutoFitResult
+
+__all__ = ["BagTask", "BagOutcome", "calibrate_bag", "calibration_record", "CHANGED"]
 
 CHANGED = "the bag changed while it was read (still being written?): tried again at the next ingest"
 
@@ -37,13 +49,50 @@ class BagTask:
 @dataclass(frozen=True)
 class BagOutcome:
     """What a worker returns. ``status``: done, failed (``reason``) or retry (``reason``);
-    ``result``: the JSON of ``odocal fit BAG --method auto`` when done."""
+    when done, ``record``: the bag's calibration record (:func:`calibration_record`) and
+    ``report``: the JSON of ``odocal fit BAG --method auto`` (its page in the dashboard)."""
 
     task: BagTask
     status: str
     reason: str | None
     span_s: tuple[float, float] | None
-    result: dict[str, Any] | None
+    record: CalibrationRecord | None = None
+    report: dict[str, Any] | None = None
+
+
+def calibration_record(result: AutoFitResult, version: str = __version__) -> CalibrationRecord:
+    """What the fleet keeps of one bag's calibration, from the typed result of the bag route:
+    the answer route's parameters with their statuses (and its heading ratio when it measured
+    only that), the verdict, the clock offsets, what the covariances were computed from, the
+    nominal geometry, and ``version``, the odocal that calibrated it."""
+    run = result.answer
+    answer = None if run is None else run.answer
+    cov, n = result.covariance, result.nominal
+    return CalibrationRecord(
+        odocal_version=version,
+        route=None if run is None else run.name,
+        model=None if answer is None else answer.model,
+        parameters=None if answer is None else answer.parameters,
+        heading_ratio=None if answer is None else answer.ratio,
+        heading_ratio_std_error=None if answer is None else answer.ratio_std_error,
+        enough=bool(result.enough),
+        reasons=tuple(result.reasons),
+        time_offsets=tuple(
+            StoredOffset(
+                o.label,
+                float(o.offset_s),
+                None if o.stderr_s is None else float(o.stderr_s),
+                bool(o.applied),
+            )
+            for o in result.time_offsets
+        ),
+        covariance=None
+        if cov is None
+        else StoredCovariance(*(float(getattr(cov, k)) for k in COVARIANCE_KEYS)),
+        nominal=WheelGeometry(
+            float(n.diameter_right_m), float(n.diameter_left_m), float(n.wheelbase_m)
+        ),  # fmt: skip
+    )
 
 
 def calibrate_bag(task: BagTask) -> BagOutcome:
@@ -52,15 +101,17 @@ def calibrate_bag(task: BagTask) -> BagOutcome:
     from .fit_auto import fit_auto
 
     bag = Path(task.bag)
-    result: dict[str, Any] | None = None
+    record: CalibrationRecord | None = None
+    report: dict[str, Any] | None = None
     reason: str | None = None
     try:
         # one core per bag: the workers are the parallelism (BLAS's own threads on a busy
         # machine made a bag 4 times slower)
         with threadpool_limits(limits=1):
             res = fit_auto(bag, robot=task.robot_file)
+        record = calibration_record(res)
         # through JSON: the same plain values whichever process or machine ran it
-        result = json.loads(json.dumps(res.as_dict()))
+        report = json.loads(json.dumps(res.as_dict()))
         status = "done"
     except OdocalError as exc:
         status, reason = "failed", str(exc).splitlines()[0]
@@ -72,5 +123,5 @@ def calibrate_bag(task: BagTask) -> BagOutcome:
     except OdocalError:
         changed = True
     if changed:
-        return BagOutcome(task, "retry", CHANGED, None, None)
-    return BagOutcome(task, status, reason, span, result)
+        return BagOutcome(task, "retry", CHANGED, None)
+    return BagOutcome(task, status, reason, span, record, report)

@@ -1,5 +1,6 @@
 """``odocal fleet``: a fleet's bags calibrated as they arrive, a history per robot, drift alarms
-and a dashboard (docs/fleet.md). Subcommands ``ingest``, ``status``, ``export``, ``report``."""
+and a dashboard (docs/fleet.md). Subcommands ``ingest``, ``status``, ``export``, ``report``,
+``alarms``, ``ack``."""
 
 from __future__ import annotations
 
@@ -53,7 +54,31 @@ def add_parser(sub) -> None:
     )
     rep = fs.add_parser("report", help="write the static HTML dashboard")
     rep.add_argument("--html", metavar="DIR", required=True, help="the folder to write")
-    for q in (ing, st, ex, rep):
+    al = fs.add_parser(
+        "alarms",
+        help="list the drift alarms: robot, parameter, bag, size, z, raised, acknowledged",
+    )
+    ack = fs.add_parser(
+        "ack",
+        help="acknowledge a drift alarm (kept in the history, no longer active)",
+        description="Acknowledge one drift alarm: it stays in 'fleet alarms' and the robot's "
+        "history, and no longer counts as the robot's drift alarm in 'fleet status' and the "
+        "dashboard.",
+    )
+    ack.add_argument("robot_id", metavar="ROBOT_ID")
+    ack.add_argument(
+        "parameter",
+        metavar="PARAMETER",
+        help="wheel_diameter_right_m (D_R), wheel_diameter_left_m (D_L) or wheelbase_m (b)",
+    )
+    ack.add_argument(
+        "bag",
+        metavar="BAG",
+        nargs="?",
+        help="the bag that raised it (its path as 'fleet alarms' lists it, or the start of its "
+        "sha256); needed when the parameter has more than one alarm not acknowledged",
+    )
+    for q in (ing, st, ex, rep, al, ack):
         q.add_argument("--db", metavar="FLEET_DB", required=True, help="the fleet database file")
         q.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=run)
@@ -138,6 +163,22 @@ def run(args: argparse.Namespace) -> int:
             f"{quote_path(args.ros2)}"
         )
         return 0
+    if cmd == "alarms":
+        return _alarms(args)
+    if cmd == "ack":
+        from ..app.fleet_alarms import fleet_ack
+
+        done = fleet_ack(args.db, args.robot_id, args.parameter, args.bag)
+        if args.json:
+            print_json(done.as_dict())
+            return 0
+        a = done.alarm
+        word = "already acknowledged" if done.already else "acknowledged"
+        print(
+            f"{quote_path(a.robot_id)} {a.parameter}: the alarm raised by "
+            f"{quote_path(a.bag or a.content_hash)} ({a.raised_at}) {word} at {a.acknowledged_at}"
+        )
+        return 0
     from ..app.fleet_report import fleet_report
 
     rep = fleet_report(args.db, args.html)
@@ -145,4 +186,36 @@ def run(args: argparse.Namespace) -> int:
         print_json(rep.as_dict())
         return 0
     print(f"dashboard of {rep.robots} robots ({rep.bags} bags): {rep.index}")
+    return 0
+
+
+def _alarms(args: argparse.Namespace) -> int:
+    """``odocal fleet alarms``: one row per stored alarm."""
+    from ..app.fleet_alarms import fleet_alarms
+
+    res = fleet_alarms(args.db)
+    if args.json:
+        print_json(res.as_dict())
+        return 0
+    if not res.alarms:
+        print(f"no drift alarm in {quote_path(args.db)}")
+        return 0
+    rows: list[tuple] = [("robot", "parameter", "bag", "size mm", "z", "raised", "state")]
+    for a, active in zip(res.alarms, res.active, strict=True):
+        if a.acknowledged:
+            state = f"acknowledged {a.acknowledged_at}"
+        else:
+            state = "ACTIVE" if active else "past (over 30 days before the robot's latest bag)"
+        rows.append(
+            (
+                quote_path(a.robot_id),
+                a.parameter,
+                quote_path(a.bag or a.content_hash),
+                f"{1e3 * a.size:+.3f}",
+                f"{a.z:+.1f}",
+                a.raised_at,
+                state,
+            )
+        )
+    print_table(rows)
     return 0

@@ -11,12 +11,21 @@ Schema (version :data:`SCHEMA_VERSION`, built by the ordered :data:`MIGRATIONS`;
   (cannot be calibrated; ``reason`` says why; not tried again), ``retry`` (being written, or
   claimed by two robots: tried again at the next ingest);
 - ``calibrations(content_hash, route, enough, d_right_m, d_right_se_m, d_left_m, d_left_se_m,
-  wheelbase_m, wheelbase_se_m, result_json)``: the bag route's whole answer (``result_json`` is
-  ``odocal fit BAG --method auto --json``) and its parameters as columns;
+  wheelbase_m, wheelbase_se_m, result_json, record_version, record_json)``: the bag's
+  calibration record (``record_json``, version ``record_version``: a
+  :class:`~odocal.io.fleet_record.CalibrationRecord`, what every reader reads), its route,
+  verdict and parameters as columns (copied from the record, for SQL), and the bag's report
+  (``result_json``: ``odocal fit BAG --method auto --json`` as the ingest got it, rendered on
+  the bag's page; no fact is read from it);
 - ``files(path, size_bytes, mtime_ns, content_hash)`` (version 2): the last hash of each path,
   so a nightly run hashes only new or changed files;
-- ``alarms(robot_id, parameter, content_hash, start_s, size, z, raised_at)``: the change
-  detector's alarms (replaced for a robot each time its history grows).
+- ``alarms(robot_id, parameter, content_hash, start_s, size, z, raised_at, acknowledged_at)``:
+  the change detector's alarms (replaced for a robot each time its history grows; an alarm
+  found again keeps its ``raised_at`` and its acknowledgement, version 3).
+
+Version 3 converted every stored ``result_json`` into a record (its migration reads each row
+through :func:`~odocal.io.fleet_record.upgrade_fit_json` and refuses, naming the bag, a row it
+cannot read: nothing is changed then).
 
 One writer (the ingest's parent process; each bag is one transaction), any number of readers
 (WAL mode). A new database appears whole (built beside it, then linked into place: two ingests
@@ -35,24 +44,71 @@ import os
 import sqlite3
 import stat
 import tempfile
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..errors import InputError
+from ..errors import InputError, one_line
+from .fleet_record import RECORD_VERSION, CalibrationRecord, RecordError
 
 __all__ = [
     "SCHEMA_VERSION",
     "MIGRATIONS",
     "FleetDb",
     "BagRow",
+    "AlarmRow",
     "open_db",
     "db_errors",
 ]
 
-MIGRATIONS: tuple[str, ...] = (
+
+def _records(con: sqlite3.Connection, path: Path) -> None:
+    """3: each calibration's typed, versioned record beside its report, and alarms that can be
+    acknowledged. Every stored ``result_json`` (the ``fit --method auto --json`` of the odocal
+    that stored it) is read into a record (:func:`~odocal.io.fleet_record.upgrade_fit_json`) and
+    its columns are rewritten from it; a row that cannot be read stops the migration (nothing
+    changed), naming its bag."""
+    for statement in (
+        "ALTER TABLE calibrations ADD COLUMN record_version INTEGER",
+        "ALTER TABLE calibrations ADD COLUMN record_json TEXT",
+        "ALTER TABLE alarms ADD COLUMN acknowledged_at TEXT",
+    ):
+        con.execute(statement)
+    rows = con.execute(
+        "SELECT c.content_hash, b.path, b.odocal_version, c.result_json FROM calibrations c "
+        "LEFT JOIN bags b USING (content_hash) ORDER BY b.robot_id, b.start_s, b.path"
+    ).fetchall()
+    bad: list[str] = []
+    for content_hash, bag, version, text in rows:
+        try:
+            old = {"record_version": 0, "odocal_version": version or "", "fit": json.loads(text)}
+            record = CalibrationRecord.from_dict(old)
+        except (ValueError, RecordError) as exc:
+            bad.append(f"bag {bag} (sha256 {content_hash[:12]}): {one_line(str(exc))}")
+            continue
+        con.execute(
+            "UPDATE calibrations SET route = ?, enough = ?, d_right_m = ?, d_right_se_m = ?, "
+            "d_left_m = ?, d_left_se_m = ?, wheelbase_m = ?, wheelbase_se_m = ?, "
+            "record_version = ?, record_json = ? WHERE content_hash = ?",
+            (*_record_columns(record), content_hash),
+        )
+    if bad:
+        more = f" (and {len(bad) - 1} more)" if len(bad) > 1 else ""
+        raise InputError(
+            f"cannot migrate the fleet database to schema 3: the stored result of {bad[0]}"
+            f"{more}; nothing was changed (docs/fleet.md, 'The calibration record': remove "
+            "that bag's rows and the next ingest calibrates it again)",
+            path,
+        )
+
+
+#: A migration: SQL statements, or a function of the open connection (in the migrations'
+#: transaction) for one that converts rows.
+Migration = str | Callable[[sqlite3.Connection, Path], None]
+
+MIGRATIONS: tuple[Migration, ...] = (
     # 1: robots, bags, calibrations, alarms
     """
     CREATE TABLE robots (
@@ -80,6 +136,8 @@ MIGRATIONS: tuple[str, ...] = (
         content_hash TEXT NOT NULL);
     CREATE INDEX bags_by_robot ON bags(robot_id, start_s);
     """,
+    # 3: the calibration record (converted from every result_json), alarms acknowledged
+    _records,
 )
 SCHEMA_VERSION = len(MIGRATIONS)
 
@@ -112,7 +170,7 @@ def db_errors(path: Path) -> Iterator[None]:
 
 @dataclass(frozen=True)
 class BagRow:
-    """One bag of the database with its calibration (None unless done)."""
+    """One bag of the database with its calibration record (None unless done)."""
 
     content_hash: str
     robot_id: str
@@ -122,8 +180,34 @@ class BagRow:
     status: str
     reason: str | None
     ingested_at: str
-    result: dict[str, Any] | None
-    enough: bool
+    record: CalibrationRecord | None
+
+    @property
+    def enough(self) -> bool:
+        """Calibrated with the verdict 'trustworthy'."""
+        return self.record is not None and self.record.enough
+
+
+@dataclass(frozen=True)
+class AlarmRow:
+    """One alarm of the change detector as stored: the robot, the parameter, the bag that
+    raised it (its hash, path and start), the step's size (m) and its size in standard errors
+    (z), when it was first raised and when it was acknowledged (None: not yet)."""
+
+    robot_id: str
+    parameter: str
+    content_hash: str
+    bag: str | None
+    start_s: float | None
+    size: float
+    z: float
+    raised_at: str
+    acknowledged_at: str | None
+
+    @property
+    def acknowledged(self) -> bool:
+        """Acknowledged by an operator (``odocal fleet ack``)."""
+        return self.acknowledged_at is not None
 
 
 class FleetDb:
@@ -179,9 +263,13 @@ class FleetDb:
         reason: str | None,
         version: str,
         now: str,
-        result: dict[str, Any] | None = None,
+        record: CalibrationRecord | None = None,
+        report: dict[str, Any] | None = None,
     ) -> None:
-        """Store one bag's outcome (and its calibration when done) in one transaction."""
+        """Store one bag's outcome (and when done its calibration: ``record``, and ``report``,
+        the ``fit --json`` its page renders) in one transaction."""
+        if (record is None) != (report is None):
+            raise ValueError("a calibration is stored with its record and its report")
         start, end = span_s if span_s is not None else (None, None)
         with self.transaction() as c:
             c.execute(
@@ -204,33 +292,45 @@ class FleetDb:
                     now,
                 ),
             )
-            if result is not None:
+            if record is not None:
                 c.execute(
-                    "INSERT OR REPLACE INTO calibrations VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
-                    (
-                        content_hash,
-                        result.get("answer_route"),
-                        int(bool(result["verdict"]["enough"])),
-                        *_columns(result),
-                        json.dumps(result, sort_keys=True),
-                    ),
+                    "INSERT OR REPLACE INTO calibrations (content_hash, route, enough, "
+                    "d_right_m, d_right_se_m, d_left_m, d_left_se_m, wheelbase_m, "
+                    "wheelbase_se_m, record_version, record_json, result_json) "
+                    "VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    (content_hash, *_record_columns(record), json.dumps(report, sort_keys=True)),
                 )
 
     def replace_alarms(self, robot_id: str, alarms: list[tuple], now: str) -> None:
         """The robot's alarms, (parameter, content_hash, start_s, size, z) each; an alarm
-        already stored keeps its first ``raised_at``."""
+        already stored keeps its first ``raised_at`` and its acknowledgement."""
         with self.transaction() as c:
             old = {
-                (p, h): t
-                for p, h, t in c.execute(
-                    "SELECT parameter, content_hash, raised_at FROM alarms WHERE robot_id = ?",
+                (p, h): (t, ack)
+                for p, h, t, ack in c.execute(
+                    "SELECT parameter, content_hash, raised_at, acknowledged_at FROM alarms "
+                    "WHERE robot_id = ?",
                     (robot_id,),
                 )
             }
             c.execute("DELETE FROM alarms WHERE robot_id = ?", (robot_id,))
             c.executemany(
-                "INSERT INTO alarms VALUES (?, ?, ?, ?, ?, ?, ?)",
-                [(robot_id, p, h, s, size, z, old.get((p, h), now)) for p, h, s, size, z in alarms],
+                "INSERT INTO alarms (robot_id, parameter, content_hash, start_s, size, z, "
+                "raised_at, acknowledged_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                [
+                    (robot_id, p, h, s, size, z, *old.get((p, h), (now, None)))
+                    for p, h, s, size, z in alarms
+                ],
+            )
+
+    def acknowledge(self, robot_id: str, parameter: str, content_hash: str, now: str) -> None:
+        """Mark the alarm of ``robot_id``'s ``parameter`` raised by the bag ``content_hash`` as
+        acknowledged at ``now`` (kept, no longer active)."""
+        with self.transaction() as c:
+            c.execute(
+                "UPDATE alarms SET acknowledged_at = ? WHERE robot_id = ? AND parameter = ? AND "
+                "content_hash = ? AND acknowledged_at IS NULL",
+                (now, robot_id, parameter, content_hash),
             )
 
     def forget_stale_retries(self, present: set[str]) -> None:
@@ -271,31 +371,66 @@ class FleetDb:
         return [(str(r), json.loads(n)) for r, n in rows]
 
     def history(self, robot_id: str) -> list[BagRow]:
-        """The robot's bags in time order (bag start, then path)."""
+        """The robot's bags in time order (bag start, then path), each with its calibration
+        record read back (:class:`~odocal.io.fleet_record.RecordError` naming the bag when one
+        cannot be read)."""
         with db_errors(self.path):
             rows = self.con.execute(
                 "SELECT b.content_hash, b.robot_id, b.path, b.start_s, b.end_s, b.status, "
-                "b.reason, b.ingested_at, c.result_json, c.enough FROM bags b LEFT JOIN "
-                "calibrations c USING (content_hash) WHERE b.robot_id = ? "
-                "ORDER BY b.start_s, b.path",
+                "b.reason, b.ingested_at, c.content_hash IS NOT NULL, c.record_json "
+                "FROM bags b LEFT JOIN calibrations c USING (content_hash) "
+                "WHERE b.robot_id = ? ORDER BY b.start_s, b.path",
                 (robot_id,),
             ).fetchall()
         return [
-            BagRow(h, r, p, s, e, st, why, at, None if j is None else json.loads(j), bool(ok))
-            for h, r, p, s, e, st, why, at, j, ok in rows
+            BagRow(h, r, p, s, e, st, why, at, self._record(p, j) if has else None)
+            for h, r, p, s, e, st, why, at, has, j in rows
         ]
 
-    def alarms(self, robot_id: str) -> list[tuple[str, str, float | None, float, float, str]]:
-        """(parameter, content_hash, start_s, size, z, raised_at) of the robot's alarms."""
+    def _record(self, bag: str, text: str | None) -> CalibrationRecord:
+        """A stored record, read back."""
+        try:
+            if text is None:
+                raise RecordError("a calibration without its record")
+            return CalibrationRecord.from_dict(json.loads(text))
+        except (ValueError, RecordError) as exc:
+            raise RecordError(
+                f"fleet database: the calibration record of bag {bag}: {one_line(str(exc))}",
+                self.path,
+            ) from None
+
+    def report(self, content_hash: str) -> dict[str, Any] | None:
+        """The bag's report (the ``fit --method auto --json`` the ingest got; its page renders
+        it), or None when the bag was not calibrated."""
         with db_errors(self.path):
-            return [
-                tuple(r)
-                for r in self.con.execute(
-                    "SELECT parameter, content_hash, start_s, size, z, raised_at FROM alarms "
-                    "WHERE robot_id = ? ORDER BY start_s, parameter",
-                    (robot_id,),
-                )
-            ]
+            row = self.con.execute(
+                "SELECT result_json FROM calibrations WHERE content_hash = ?", (content_hash,)
+            ).fetchone()
+        return None if row is None else json.loads(row[0])
+
+    def alarms(self, robot_id: str | None = None) -> list[AlarmRow]:
+        """The alarms of one robot (or of every robot), by robot, bag start and parameter."""
+        sql = (
+            "SELECT a.robot_id, a.parameter, a.content_hash, b.path, a.start_s, a.size, a.z, "
+            "a.raised_at, a.acknowledged_at FROM alarms a LEFT JOIN bags b USING (content_hash)"
+        )
+        args: tuple[str, ...] = ()
+        if robot_id is not None:
+            sql, args = sql + " WHERE a.robot_id = ?", (robot_id,)
+        with db_errors(self.path):
+            rows = self.con.execute(
+                sql + " ORDER BY a.robot_id, a.start_s, a.parameter", args
+            ).fetchall()
+        return [AlarmRow(*r) for r in rows]
+
+    def latest_starts(self) -> dict[str, float]:
+        """Robot id -> the start of its latest bag (s since the epoch)."""
+        with db_errors(self.path):
+            rows = self.con.execute(
+                "SELECT robot_id, MAX(start_s) FROM bags WHERE start_s IS NOT NULL "
+                "GROUP BY robot_id"
+            ).fetchall()
+        return {str(r): float(t) for r, t in rows}
 
     def count(self, status: str | None = None) -> int:
         """How many bags (of one status)."""
@@ -306,14 +441,16 @@ class FleetDb:
             return int(self.con.execute(sql, args).fetchone()[0])
 
 
-def _columns(result: dict[str, Any]) -> tuple[float | None, ...]:
-    """(D_R, se, D_L, se, b, se) of the bag route's answer (None without one)."""
-    p = result.get("parameters") or {}
-    out: list[float | None] = []
-    for key in ("wheel_diameter_right_m", "wheel_diameter_left_m", "wheelbase_m"):
-        v = p.get(key) or {}
-        out += [v.get("value"), v.get("std_error")]
-    return tuple(out)
+def _record_columns(record: CalibrationRecord) -> tuple[Any, ...]:
+    """The calibrations row's columns from its record: route, enough, (D_R, se, D_L, se, b, se)
+    (None without an answer; a held parameter has no standard error), record_version and
+    record_json."""
+    out: list[Any] = [record.route, int(record.enough)]
+    for p in record.parameters or ():
+        out += [p.value, p.std_error]
+    if record.parameters is None:
+        out += [None] * 6
+    return (*out, RECORD_VERSION, json.dumps(record.as_dict(), sort_keys=True))
 
 
 def _version(con: sqlite3.Connection) -> int:
@@ -352,9 +489,12 @@ def _migrate(con: sqlite3.Connection, path: Path, *, new: bool = False) -> None:
         else:
             current = _version(con)
             _refuse_newer(current, path)
-        for version, sql in enumerate(MIGRATIONS[current:], start=current + 1):
-            for statement in _statements(sql):
-                con.execute(statement)
+        for version, migration in enumerate(MIGRATIONS[current:], start=current + 1):
+            if callable(migration):
+                migration(con, path)
+            else:
+                for statement in _statements(migration):
+                    con.execute(statement)
             con.execute("DELETE FROM schema_version")
             con.execute("INSERT INTO schema_version VALUES (?)", (version,))
         con.execute("COMMIT")
@@ -423,10 +563,11 @@ def _check_file(p: Path, write: bool) -> None:
         raise InputError(f"fleet database: read-only{_HINTS['readonly']}", p)
 
 
-def open_db(path: str | Path, *, write: bool) -> FleetDb:
-    """Open the fleet database ``path``: ``write`` creates it (and its folder must exist) and
-    migrates it to :data:`SCHEMA_VERSION`; otherwise it is opened read-only (it must exist; a
-    database of an older schema is read as far as it goes only after an ingest migrates it).
+def open_db(path: str | Path, *, write: bool, create: bool = True) -> FleetDb:
+    """Open the fleet database ``path``: ``write`` creates it (unless not ``create``; its
+    folder must exist) and migrates it to :data:`SCHEMA_VERSION`; otherwise it is opened
+    read-only (it must exist; a database of an older schema is read only after an ingest
+    migrates it).
 
     A new database appears whole (:func:`_create`), so an empty file is never one (refused, as
     a file of anything else is); a file that must be written and cannot be is refused before
@@ -434,7 +575,7 @@ def open_db(path: str | Path, *, write: bool) -> FleetDb:
     p = Path(path)
     if p.is_dir():
         raise InputError("is a folder, not a fleet database file", p)
-    if not write and not p.exists():
+    if (not write or not create) and not p.exists():
         raise InputError("no fleet database here (run 'odocal fleet ingest ROOT --db' first)", p)
     if write and not p.parent.is_dir():
         raise InputError("its folder does not exist", p)

@@ -2,11 +2,13 @@
 (inline CSS, inline SVG figures; no script, no server, no network), opened from disk.
 
 - ``index.html``: the fleet table, the largest drift first, each robot linked to its page;
-- ``robots/<robot_id>.html``: the parameter history figure, the alarms, every bag with its
-  status and a link to its calibration report;
+- ``robots/<robot_id>.html``: the parameter history figure, the active alarms (and those an
+  operator acknowledged), every bag with its status (its verdict from its calibration record)
+  and a link to its calibration report;
 - ``bags/<hash>.html``: one bag's calibration report (the bag route's report, as
-  ``odocal fit BAG --method auto --out`` writes it), as HTML (:mod:`odocal.io.markdown_html`),
-  with the held-out check's figure drawn from the stored result (:func:`heldout_svg`).
+  ``odocal fit BAG --method auto --out`` writes it, from the ``fit --json`` the database keeps
+  for it), as HTML (:mod:`odocal.io.markdown_html`), with the held-out check's figure drawn from
+  it (:func:`heldout_svg`).
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ from urllib.parse import quote
 
 from ..errors import quote_path
 from .auto_report import auto_report_markdown
+from .fleet_db import BagRow
 from .markdown_html import markdown_html
 
 __all__ = ["fleet_pages", "bag_page_name", "robot_page_name", "shown_id", "heldout_svg"]
@@ -148,31 +151,41 @@ def _index(status: Mapping[str, Any], generated: str) -> str:
     return _page("Fleet odometry", body)
 
 
-def _robot(robot: Mapping[str, Any], bags: Sequence[Mapping[str, Any]], svg: str) -> str:
-    alarms = robot["alarms"]
-    alarm_rows = "".join(
+def _alarm_table(alarms: Sequence[Mapping[str, Any]]) -> str:
+    rows = "".join(
         f"<tr><td>{_e(a['parameter'])}</td><td>{1e3 * a['size_m']:+.3f}</td>"
         f"<td>{a['size_percent']:+.2f}</td><td>{a['z']:+.1f}</td><td>{_e(a['change_bag'])}</td>"
         f"<td>{_e(a['bag'])}</td></tr>"
         for a in alarms
     )
-    alarm_html = (
-        "<p>No active drift alarm.</p>"
-        if not alarms
-        else "<table><tr><th>parameter</th><th>step (mm)</th><th>step (%)</th><th>se</th>"
-        f"<th>first bag of the new level</th><th>found at bag</th></tr>{alarm_rows}</table>"
+    return (
+        "<table><tr><th>parameter</th><th>step (mm)</th><th>step (%)</th><th>se</th>"
+        f"<th>first bag of the new level</th><th>found at bag</th></tr>{rows}</table>"
     )
+
+
+def _robot(robot: Mapping[str, Any], bags: Sequence[BagRow], svg: str) -> str:
+    alarms = robot["alarms"]
+    alarm_html = _alarm_table(alarms) if alarms else "<p>No active drift alarm.</p>"
+    acknowledged = robot.get("alarms_acknowledged") or []
+    if acknowledged:
+        alarm_html += (
+            "<p>Acknowledged (<code>odocal fleet ack</code>; no longer active):</p>"
+            + _alarm_table(acknowledged)
+        )
     bag_rows = []
     for i, b in enumerate(bags):
         link = (
-            f'<a href="../{_e(bag_page_name(b["content_hash"]))}">report</a>'
-            if b["result"] is not None
+            f'<a href="../{_e(bag_page_name(b.content_hash))}">report</a>'
+            if b.record is not None
             else ""
         )
-        verdict = ("trustworthy" if b["enough"] else "not trustworthy") if b["result"] else ""
+        verdict = ""
+        if b.record is not None:
+            verdict = "trustworthy" if b.record.enough else "not trustworthy"
         bag_rows.append(
-            f"<tr><td>{i}</td><td>{_e(b['path'])}</td><td>{_e(b['start'])}</td>"
-            f"<td>{_e(b['status'])}</td><td>{_e(verdict or b['reason'] or '')}</td>"
+            f"<tr><td>{i}</td><td>{_e(b.path)}</td><td>{_e(_utc(b.start_s))}</td>"
+            f"<td>{_e(b.status)}</td><td>{_e(verdict or b.reason or '')}</td>"
             f"<td>{link}</td></tr>"
         )
     body = (
@@ -273,18 +286,18 @@ def _figures(result: Mapping[str, Any]) -> str:
     return "<h2>Figures</h2>\n" + "\n".join(parts) + "\n" if parts else ""
 
 
-def _bag(robot_id: str, b: Mapping[str, Any]) -> str:
+def _bag(robot_id: str, b: BagRow, report: Mapping[str, Any]) -> str:
     """A bag's page: its report (the bag route's Markdown, as HTML) with its figures."""
-    md = auto_report_markdown(b["result"])
+    md = auto_report_markdown(dict(report))
     # the report's closing line names figure files a dashboard does not have: the figures
     # themselves follow instead
     md = "\n".join(line for line in md.splitlines() if not line.startswith("Figures: "))
     body = (
         f'<p><a href="../{_e(quote(robot_page_name(robot_id)))}">{_e(shown_id(robot_id))}</a>'
-        f"</p>\n<p>sha256 {_e(b['content_hash'])}</p>\n"
-        f'<div class="report">\n{markdown_html(md)}{_figures(b["result"])}</div>'
+        f"</p>\n<p>sha256 {_e(b.content_hash)}</p>\n"
+        f'<div class="report">\n{markdown_html(md)}{_figures(report)}</div>'
     )
-    return _page(f"bag {b['path']}", body)
+    return _page(f"bag {b.path}", body)
 
 
 def _utc(t: float | None) -> str:
@@ -293,19 +306,21 @@ def _utc(t: float | None) -> str:
 
 def fleet_pages(
     status: Mapping[str, Any],
-    robots: Mapping[str, tuple[Sequence[Mapping[str, Any]], str]],
+    robots: Mapping[str, tuple[Sequence[BagRow], str]],
+    reports: Mapping[str, Mapping[str, Any]],
     folder: Path,
     generated: str,
 ) -> dict[Path, str]:
     """Every page of the dashboard: ``status`` is ``odocal fleet status --json``; ``robots``
-    maps each robot id to (its bags: content_hash, path, start_s, status, reason, enough,
-    result; its history figure as SVG text)."""
+    maps each robot id to (its bags, with their calibration records; its history figure as SVG
+    text); ``reports`` each calibrated bag's content hash to its report (its ``fit --json``)."""
     out = {folder / "index.html": _index(status, generated)}
     by_id = {r["robot_id"]: r for r in status["robots"]}
     for robot_id, (bags, svg) in robots.items():
-        rows = [dict(b, start=_utc(b.get("start_s"))) for b in bags]
-        out[folder / robot_page_name(robot_id)] = _robot(by_id[robot_id], rows, svg)
-        for b in rows:
-            if b["result"] is not None:
-                out[folder / bag_page_name(b["content_hash"])] = _bag(robot_id, b)
+        out[folder / robot_page_name(robot_id)] = _robot(by_id[robot_id], bags, svg)
+        for b in bags:
+            if b.record is not None:
+                out[folder / bag_page_name(b.content_hash)] = _bag(
+                    robot_id, b, reports[b.content_hash]
+                )
     return out

@@ -27,7 +27,7 @@ from ..core.model import WheelGeometry
 from ..errors import InputError, one_line
 from .robot_file import untrusted_lines
 
-__all__ = ["ros2_params_yaml", "read_ros2_params", "DEFAULT_CONTROLLER"]
+__all__ = ["ros2_params_yaml", "ros2_multipliers", "read_ros2_params", "DEFAULT_CONTROLLER"]
 
 DEFAULT_CONTROLLER = "diff_drive_controller"
 _NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_/]*$")
@@ -61,9 +61,7 @@ def ros2_params_yaml(
     values = {
         "wheel_separation": b_n,
         "wheel_radius": d_n / 2.0,
-        "wheel_separation_multiplier": float(calibrated.wheelbase_m) / b_n,
-        "left_wheel_radius_multiplier": float(calibrated.diameter_left_m) / d_n,
-        "right_wheel_radius_multiplier": float(calibrated.diameter_right_m) / d_n,
+        **ros2_multipliers(calibrated, nominal),
     }
     lines = [
         "# ros2_control diff_drive_controller parameters written by odocal",
@@ -97,6 +95,18 @@ def ros2_params_yaml(
             "# entries describe how fast the robot can change speed, which k does not tell.",
         ]
     return "\n".join(lines) + "\n"
+
+
+def ros2_multipliers(calibrated: WheelGeometry, nominal: WheelGeometry) -> dict[str, float]:
+    """The calibration as diff_drive_controller's multipliers of the nominal base values (the
+    wheelbase, the mean wheel radius): ``wheel_separation_multiplier``,
+    ``left_wheel_radius_multiplier``, ``right_wheel_radius_multiplier``."""
+    d_n = float(nominal.mean_diameter_m)
+    return {
+        "wheel_separation_multiplier": float(calibrated.wheelbase_m) / float(nominal.wheelbase_m),
+        "left_wheel_radius_multiplier": float(calibrated.diameter_left_m) / d_n,
+        "right_wheel_radius_multiplier": float(calibrated.diameter_right_m) / d_n,
+    }
 
 
 def _floats(values) -> str:
