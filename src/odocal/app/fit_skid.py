@@ -36,6 +36,7 @@ from typing import Any
 import numpy as np
 
 from ..calibration.result import ABSURD_FRACTION
+from ..calibration.route_answer import RouteAnswer, route_answer
 from ..calibration.skid_steer import (
     CANDIDATES,
     Candidate,
@@ -144,6 +145,25 @@ class SkidFitResult(Presented):
     def multipliers(self) -> dict[str, float]:
         """The diff_drive_controller multipliers against the nominal geometry."""
         return self.fit.model.ros2_multipliers(self.nominal)
+
+    def answer(self) -> RouteAnswer:
+        """The exported model as a route's answer (the 'trajectory' route of a truth pose,
+        model 'skid-steer'): each side's effective rolling diameter and the effective track,
+        with their covariance from the fit's (the scales times the nominal diameters, the
+        multiplier times the nominal wheelbase)."""
+        names = self.fit.names
+        jac = np.zeros((3, len(names)))
+        n = self.nominal
+        for row, (name, ref) in enumerate((("scale_right", n.diameter_right_m),
+                                           ("scale_left", n.diameter_left_m),
+                                           ("track_multiplier", n.wheelbase_m))):  # fmt: skip
+            jac[row, names.index(name)] = float(ref)
+        cov = jac @ self.fit.covariance @ jac.T
+        se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+        return route_answer(
+            "trajectory", "skid-steer", self.geometry, (float(se[0]), float(se[1]), float(se[2])),
+            cov,
+        )  # fmt: skip
 
     @property
     def track_multiplier(self) -> tuple[float, float]:
@@ -366,7 +386,9 @@ def fit_skid_bags(
     named = (bag.joint_topic, bag.truth_topic, bag.odom_topic)
     logs = [
         read_skid_log(
-            read_bag_once(p, named), bag, loaded_robot.believed_geometry,
+            read_bag_once(p, named),
+            bag,
+            loaded_robot.believed_geometry,
             ticks_per_rev=ticks_per_rev,
         )  # fmt: skip
         for p in refuse_repeated(paths)

@@ -29,8 +29,16 @@ from ..io.fleet_record import (
 
 if TYPE_CHECKING:  # (the bag route's modules are imported where a bag is calibrated)
     from .fit_auto_result import AutoFitResult
+    from .fit_skid import SkidFitResult
 
-__all__ = ["BagTask", "BagOutcome", "calibrate_bag", "calibration_record", "CHANGED"]
+__all__ = [
+    "BagTask",
+    "BagOutcome",
+    "calibrate_bag",
+    "calibration_record",
+    "skid_record",
+    "CHANGED",
+]
 
 CHANGED = "the bag changed while it was read (still being written?): tried again at the next ingest"
 
@@ -95,11 +103,62 @@ def calibration_record(result: AutoFitResult, version: str = __version__) -> Cal
     )
 
 
-def calibrate_bag(task: BagTask) -> BagOutcome:
-    """Run the one-command bag route on the task's bag (module docstring). Never raises for a
-    bag that cannot be calibrated: the reason comes back as one line."""
+def skid_record(result: SkidFitResult, version: str = __version__) -> CalibrationRecord:
+    """What the fleet keeps of a skid-steer robot's bag (:mod:`odocal.app.fit_skid`): the
+    effective rolling diameters and the effective track, estimated (the drift alarms follow the
+    track multiplier), the verdict and the truth's clock offset."""
+    answer = result.answer()
+    n = result.nominal
+    return CalibrationRecord(
+        odocal_version=version,
+        route=answer.route,
+        model=answer.model,
+        parameters=answer.parameters,
+        heading_ratio=None,
+        heading_ratio_std_error=None,
+        enough=bool(result.enough),
+        reasons=tuple(result.reasons),
+        time_offsets=tuple(
+            StoredOffset(
+                o.label,
+                float(o.offset_s),
+                None if o.stderr_s is None else float(o.stderr_s),
+                bool(o.applied),
+            )
+            for o in result.offsets
+        ),  # fmt: skip
+        covariance=None,
+        nominal=WheelGeometry(
+            float(n.diameter_right_m), float(n.diameter_left_m), float(n.wheelbase_m)
+        ),  # fmt: skip
+    )
+
+
+def _calibrate(bag: Path, robot_file: str) -> tuple[CalibrationRecord, dict[str, Any]]:
+    """One bag's record and report: the skid-steer fit for a robot whose file says
+    ``kinematics: skid_steer`` (its halves held out), else the one-command bag route."""
+    from ..io.robot_file import load_robot
+
+    robot = load_robot(robot_file)
+    if robot.kinematics == "skid-steer":
+        from ..io.bag_options import NO_BAG_OPTIONS
+        from ..io.bag_skid import read_skid_log
+        from ..io.bags import read_bag_once
+        from .fit_skid import skid_fit
+
+        log = read_skid_log(read_bag_once(bag), NO_BAG_OPTIONS, robot.believed_geometry)
+        skid = skid_fit([log], robot, force=True)
+        return skid_record(skid), skid.as_dict()
     from .fit_auto import fit_auto
 
+    res = fit_auto(bag, robot=robot)
+    return calibration_record(res), res.as_dict()
+
+
+def calibrate_bag(task: BagTask) -> BagOutcome:
+    """Run the one-command bag route (the skid-steer fit for a skid-steer robot) on the task's
+    bag (module docstring). Never raises for a bag that cannot be calibrated: the reason comes
+    back as one line."""
     bag = Path(task.bag)
     record: CalibrationRecord | None = None
     report: dict[str, Any] | None = None
@@ -108,10 +167,9 @@ def calibrate_bag(task: BagTask) -> BagOutcome:
         # one core per bag: the workers are the parallelism (BLAS's own threads on a busy
         # machine made a bag 4 times slower)
         with threadpool_limits(limits=1):
-            res = fit_auto(bag, robot=task.robot_file)
-        record = calibration_record(res)
+            record, result = _calibrate(bag, task.robot_file)
         # through JSON: the same plain values whichever process or machine ran it
-        report = json.loads(json.dumps(res.as_dict()))
+        report = json.loads(json.dumps(result))
         status = "done"
     except OdocalError as exc:
         status, reason = "failed", str(exc).splitlines()[0]

@@ -52,6 +52,8 @@ _MODEL_STATUS: dict[str, tuple[ParameterStatus, ParameterStatus, ParameterStatus
     "equal-diameters": ("tied", "tied", "estimated"),
     "scale": ("tied", "tied", "held"),
     "heading-ratio": ("held", "held", "estimated"),
+    # a skid-steer robot's effective rolling diameters and effective track
+    "skid-steer": ("estimated", "estimated", "estimated"),
 }
 
 
@@ -95,8 +97,9 @@ class RouteAnswer:
     route : str
         One of :data:`ROUTE_NAMES`.
     model : str
-        'full', 'equal-diameters', 'scale' (the held-out check's models) or 'heading-ratio'
-        (the gyro).
+        'full', 'equal-diameters', 'scale' (the held-out check's models), 'heading-ratio'
+        (the gyro) or 'skid-steer' (the effective track and rolling diameters of a skid-steer
+        robot, :mod:`odocal.calibration.skid_steer`).
     parameters : tuple of ParameterEstimate
         (D_R, D_L, b), in :data:`KEYS` order.
     covariance : ndarray, shape (3, 3), or None

@@ -5,15 +5,55 @@ from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["auto_report_markdown"]
+__all__ = ["auto_report_markdown", "skid_report_markdown"]
 
 
 def _num(v: Any, fmt: str = ".6g") -> str:
     return "-" if v is None else format(v, fmt)
 
 
+def skid_report_markdown(d: dict[str, Any]) -> str:
+    """The report of one skid-steer fit (``fit --kinematics skid-steer``, its ``as_dict()``)."""
+    v = d["verdict"]
+    m = d["track_multiplier"]
+    lines = [
+        f"# Skid-steer calibration of `{', '.join(d['recordings'])}`",
+        "",
+        f"**Verdict: {'trustworthy' if v['enough'] else 'NOT to be trusted'}**"
+        + ("" if v["enough"] else ":"),
+    ]
+    lines += [f"- {r}" for r in v["reasons"]]
+    lines += ["", "## diff_drive_controller", "", "| parameter | value |", "|---|---|"]
+    lines += [f"| {k} | {_num(val)} |" for k, val in d["ros2"].items()]
+    lines += [
+        "",
+        f"wheel_separation_multiplier {m['value']:.4f} +- {m['std_error']:.4f} (effective track "
+        f"{d['effective_track_m']:.4f} m)",
+    ]
+    drift, nominal = d["drift_percent_per_10m"], d["nominal_drift_percent_per_10m"]
+    if drift and nominal:
+        lines += [
+            "",
+            "## Held-out drift",
+            "",
+            f"{drift['median']:.2f} % of {drift['piece_length_m']:g} m calibrated against "
+            f"{nominal['median']:.2f} % nominal (median of {drift['pieces']} pieces)",
+        ]
+    if d["turn_rate"]:
+        lines += ["", "## The multiplier against the turn rate", "",
+                  "| yaw rate (rad/s) | multiplier | std. error |", "|---|---|---|"]  # fmt: skip
+        lines += [f"| {r['yaw_rate_rad_s']:.3g} | {r['multiplier']:.4f} | {r['std_error']:.4f} |"
+                  for r in d["turn_rate"]]  # fmt: skip
+    if d["warnings"]:
+        lines += ["", "## Warnings", ""] + [f"- {w}" for w in d["warnings"]]
+    return "\n".join(lines) + "\n"
+
+
 def auto_report_markdown(d: dict[str, Any]) -> str:
-    """The report of one ``fit --method auto`` result (its ``as_dict()``)."""
+    """The report of one ``fit --method auto`` result (its ``as_dict()``; a skid-steer fit's:
+    :func:`skid_report_markdown`)."""
+    if d.get("method") == "skid-steer":
+        return skid_report_markdown(d)
     v = d["verdict"]
     lines = [
         f"# Odometry calibration of `{d['bag']}`",
