@@ -77,3 +77,20 @@ def test_skid_steer_bad_inputs(skid, tmp_path, cli):
         fit([mit], robot=skid / "robots" / "husky.yaml", kinematics="skid-steer")
     status, out, err = cli("fit", husky, "--robot", half, "--json")
     assert status == 2 and out == "" and err.count("\n") == 1 and "sprocket" in err
+
+
+def test_a_recording_that_never_turns_cannot_show_the_track():
+    import numpy as np
+
+    from odocal.app.fit_skid import skid_fit
+    from odocal.calibration.skid_steer import SkidLog
+    from odocal.core.model import Robot, WheelGeometry
+
+    t = np.arange(0.0, 60.0, 0.05)
+    angle = 2.0 * t  # both sides at 2 rad/s: straight ahead
+    truth_t = np.arange(0.1, 59.0, 0.1)
+    truth = np.column_stack([0.3 * 2.0 * truth_t, np.zeros_like(truth_t), np.zeros_like(truth_t)])
+    log = SkidLog("straight", t, angle, angle, truth_t, truth)
+    robot = Robot(WheelGeometry.symmetric(0.6, 1.08), kinematics="skid-steer")
+    with pytest.raises(InputError, match="cannot be seen without turning"):
+        skid_fit([log], robot)

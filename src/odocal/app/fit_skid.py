@@ -309,6 +309,27 @@ def _plausibility(res_fit: SkidSteerFit, nominal: WheelGeometry) -> list[str]:
     return out
 
 
+#: Least turning (rad, all recordings, as the nominal wheels say) that can show the track.
+MIN_TURNING_RAD = 2 * math.pi
+
+
+def _refuse_no_turning(logs: Sequence[SkidLog], nominal: WheelGeometry) -> None:
+    """Recordings that do not turn cannot show the effective track (only straight driving sees
+    the wheels' scale): InputError saying so, before any fit."""
+    turned = 0.0
+    for log in logs:
+        dr = np.diff(np.asarray(log.angle_right_rad)) * 0.5 * float(nominal.diameter_right_m)
+        dl = np.diff(np.asarray(log.angle_left_rad)) * 0.5 * float(nominal.diameter_left_m)
+        turned += float(np.sum(np.abs(dr - dl))) / float(nominal.wheelbase_m)
+    if turned < MIN_TURNING_RAD:
+        raise InputError(
+            f"the recordings turn {math.degrees(turned):.0f} deg in all (by the wheels): the "
+            "effective track cannot be seen without turning; drive spins and arcs in both "
+            f"directions, at least {math.degrees(MIN_TURNING_RAD):.0f} deg (odocal check says "
+            "the same of a differential drive's log)"
+        )
+
+
 def skid_fit(
     logs: Sequence[SkidLog],
     robot: Robot,
@@ -321,6 +342,7 @@ def skid_fit(
     if not logs:
         raise InputError("no recording to fit")
     nominal = robot.nominal
+    _refuse_no_turning(logs, nominal)
     offsets = _offsets(logs)
     fit, _ = fit_skid_logs(logs, nominal, EXPORTED[0], offsets=offsets, wheel_scales=EXPORTED[1])
     reasons = _plausibility(fit, nominal)
