@@ -24,7 +24,7 @@ from ..core.recording import Recording
 from ..errors import BagDataError, CalibrationError, OdocalError
 from ..io.bag_gyro import read_gyro_bag
 from ..io.bag_options import BagOptions
-from ..io.bag_recording import load_bag_recording
+from ..io.bag_recording import load_bag_run
 from ..io.bag_scan import read_scan_bag
 from ..io.bag_survey import BagSurvey, RouteOption
 from ..io.bags import BagContents
@@ -118,20 +118,8 @@ def _speed(res: RelativeFitResult) -> float | None:
 
 
 def _bag_recordings(bag: BagContents, options: BagOptions) -> list[Recording]:
-    """The bag's run with its truth topic (:func:`~odocal.io.bag_recording.load_bag_recording`)."""
-    return [
-        load_bag_recording(
-            bag,
-            joint_topic=options.joint_topic,
-            truth_topic=options.truth_topic,
-            imu_topic=options.imu_topic,
-            right_joint=options.right_joint,
-            left_joint=options.left_joint,
-            invert_right=options.invert_right,
-            invert_left=options.invert_left,
-            imu_axis=options.imu_axis,
-        )
-    ]
+    """The bag's run with its truth topic (:func:`~odocal.io.bag_recording.load_bag_run`)."""
+    return [load_bag_run(bag, options)]
 
 
 def _trajectory_noise(recordings: list[Recording], res: FitResult) -> IntervalNoise | None:

@@ -24,7 +24,7 @@ from ..core.model import Robot, WheelGeometry
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
-from ..io.bag_recording import load_bag_recording, without_gyro
+from ..io.bag_recording import load_bag_run, without_gyro
 from ..io.bags import BagContents
 from ..io.recordings import load_recordings
 from .common import (
@@ -204,19 +204,7 @@ def check_bag(
         noise = (model, source)
     else:
         with without_gyro():
-            recordings = [
-                load_bag_recording(
-                    bag,
-                    joint_topic=options.joint_topic,
-                    truth_topic=options.truth_topic,
-                    imu_topic=options.imu_topic,
-                    right_joint=options.right_joint,
-                    left_joint=options.left_joint,
-                    invert_right=options.invert_right,
-                    invert_left=options.invert_left,
-                    ran_with=robot.believed_geometry,
-                )
-            ]
+            recordings = [load_bag_run(bag, options, ran_with=robot.believed_geometry)]
     res = check_loaded(recordings, robot.nominal, robot, noise=noise)
     if prediction is not None and np.all(np.isfinite(prediction)):
         what = "the SLAM route's relative-motion fit (intervals between updates)"

@@ -21,7 +21,7 @@ from .check import CheckResult
 from .fit_gyro import GyroFitResult
 from .fit_relative import RelativeFitResult
 from .fit_runs import FitResult
-from .text import Presented, Text, check_text, written_lines
+from .text import Presented, Text, check_text, verdict_lines, written_lines
 
 __all__ = ["RouteRun", "RouteDetail", "AutoFitResult"]
 
@@ -241,12 +241,8 @@ def auto_text(res: AutoFitResult) -> str:
         cov = res.covariance
         out(f"covariances for diff_drive_controller: pose {list(cov.pose_diagonal)}, twist "
               f"{list(cov.twist_diagonal)} (k_r = k_l = {cov.k_r_m:.3g} m)")  # fmt: skip
-    if res.enough:
-        out("verdict: trustworthy")
-    else:
-        out("verdict: NOT to be trusted:")
-        for reason in res.reasons:
-            out(f"  - {reason}")
+    verdict_lines(out, res.enough, res.reasons)
+    if not res.enough:
         if not res.written:
             out("nothing written (--force writes the files anyway)")
         else:

@@ -57,7 +57,7 @@ from ..errors import CalibrationError, InputError
 from ..io.bag_options import BagOptions
 from ..io.outputs import OutputPlan
 from .common import NO_EXPORTS, Exports, RobotSpec
-from .text import Presented, Text, written_lines
+from .text import Presented, Text, verdict_lines, written_lines
 
 __all__ = ["SkidFitResult", "RecordingMultiplier", "skid_fit", "fit_skid_bags", "EXPORTED"]
 
@@ -466,11 +466,6 @@ def skid_text(res: SkidFitResult) -> str:
             out(f"  {lab:32s} {h.pooled_median_pct(lab):6.2f}{tag}")
     for note in res.notes:
         out(note)
-    if res.enough:
-        out("verdict: trustworthy")
-    else:
-        out("verdict: NOT to be trusted:")
-        for reason in res.reasons:
-            out(f"  - {reason}")
+    verdict_lines(out, res.enough, res.reasons)
     written_lines(out, res.written)
     return str(out)

@@ -10,6 +10,7 @@ were hashed; the worker takes another after the calibration, and a bag that chan
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -17,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 from threadpoolctl import threadpool_limits
 
 from .._version import __version__
+from ..calibration.time_offset import TimeOffset
 from ..core.model import WheelGeometry
 from ..errors import OdocalError
 from ..io.fleet_files import Snapshot, bag_span_s, snapshot
@@ -68,6 +70,20 @@ class BagOutcome:
     report: dict[str, Any] | None = None
 
 
+def _stored_offsets(offsets: Sequence[TimeOffset]) -> tuple[StoredOffset, ...]:
+    """The clock offsets as the record keeps them."""
+    return tuple(
+        StoredOffset(o.label, float(o.offset_s),
+                     None if o.stderr_s is None else float(o.stderr_s), bool(o.applied))
+        for o in offsets
+    )  # fmt: skip
+
+
+def _plain(g: WheelGeometry) -> WheelGeometry:
+    """``g`` with plain floats (not numpy scalars): what the record stores."""
+    return WheelGeometry(float(g.diameter_right_m), float(g.diameter_left_m), float(g.wheelbase_m))
+
+
 def calibration_record(result: AutoFitResult, version: str = __version__) -> CalibrationRecord:
     """What the fleet keeps of one bag's calibration, from the typed result of the bag route:
     the answer route's parameters with their statuses (and its heading ratio when it measured
@@ -85,21 +101,11 @@ def calibration_record(result: AutoFitResult, version: str = __version__) -> Cal
         heading_ratio_std_error=None if answer is None else answer.ratio_std_error,
         enough=bool(result.enough),
         reasons=tuple(result.reasons),
-        time_offsets=tuple(
-            StoredOffset(
-                o.label,
-                float(o.offset_s),
-                None if o.stderr_s is None else float(o.stderr_s),
-                bool(o.applied),
-            )
-            for o in result.time_offsets
-        ),
+        time_offsets=_stored_offsets(result.time_offsets),
         covariance=None
         if cov is None
         else StoredCovariance(*(float(getattr(cov, k)) for k in COVARIANCE_KEYS)),
-        nominal=WheelGeometry(
-            float(n.diameter_right_m), float(n.diameter_left_m), float(n.wheelbase_m)
-        ),  # fmt: skip
+        nominal=_plain(n),
     )
 
 
@@ -118,19 +124,9 @@ def skid_record(result: SkidFitResult, version: str = __version__) -> Calibratio
         heading_ratio_std_error=None,
         enough=bool(result.enough),
         reasons=tuple(result.reasons),
-        time_offsets=tuple(
-            StoredOffset(
-                o.label,
-                float(o.offset_s),
-                None if o.stderr_s is None else float(o.stderr_s),
-                bool(o.applied),
-            )
-            for o in result.offsets
-        ),  # fmt: skip
+        time_offsets=_stored_offsets(result.offsets),
         covariance=None,
-        nominal=WheelGeometry(
-            float(n.diameter_right_m), float(n.diameter_left_m), float(n.wheelbase_m)
-        ),  # fmt: skip
+        nominal=_plain(n),
     )
 
 

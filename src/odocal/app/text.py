@@ -155,3 +155,13 @@ def format_topics(topics: Iterable[Any]) -> str:
     rows = [("topic", "type", "messages")] + [(t.name, t.msgtype, str(t.count)) for t in topics]
     w0, w1, w2 = (max(len(r[i]) for r in rows) for i in range(3))
     return "\n".join(f"{a.ljust(w0)}  {b.ljust(w1)}  {c.rjust(w2)}" for a, b, c in rows)
+
+
+def verdict_lines(out: Text, enough: bool, reasons: tuple[str, ...] | list[str]) -> None:
+    """The verdict of a route that weighs its answer: trustworthy, or not and why."""
+    if enough:
+        out("verdict: trustworthy")
+        return
+    out("verdict: NOT to be trusted:")
+    for reason in reasons:
+        out(f"  - {reason}")

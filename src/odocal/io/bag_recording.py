@@ -36,7 +36,7 @@ from .bags import (
     static_rotation,
 )
 
-__all__ = ["load_bag_recording", "without_gyro", "reads_gyro"]
+__all__ = ["load_bag_recording", "load_bag_run", "without_gyro", "reads_gyro"]
 
 # False within without_gyro(): the IMU topic is chosen (and checked) but not read
 _READ_GYRO: ContextVar[bool] = ContextVar("odocal_read_gyro", default=True)
@@ -306,4 +306,27 @@ def load_bag_recording(
         gyro_yaw_rad=gyro_yaw,
         ran_with=ran_with,
         meta=meta,
+    )
+
+
+def load_bag_run(
+    path,
+    options: BagOptions,
+    *,
+    ticks_per_rev: float | None = None,
+    ran_with: WheelGeometry | None = None,
+) -> Recording:
+    """:func:`load_bag_recording` with the topics, joints and IMU axis of ``options``."""
+    return load_bag_recording(
+        path,
+        joint_topic=options.joint_topic,
+        truth_topic=options.truth_topic,
+        imu_topic=options.imu_topic,
+        right_joint=options.right_joint,
+        left_joint=options.left_joint,
+        ticks_per_rev=ticks_per_rev,
+        invert_right=options.invert_right,
+        invert_left=options.invert_left,
+        imu_axis=options.imu_axis,
+        ran_with=ran_with,
     )

@@ -55,28 +55,15 @@ MAX_WALK_DEPTH = 4
 def _load_bag(
     path: Path, bag: BagOptions, ticks_per_rev: float | None, ran_with: WheelGeometry | None
 ) -> list[Recording]:
-    from .bag_recording import load_bag_recording, reads_gyro
+    from .bag_recording import load_bag_run, reads_gyro
     from .bags import IMU, RUN_TYPES, read_bag_once
 
     # read once with each Odometry's frames known (one in 'map' is a truth, not the wheels);
     # the IMU only when the run's gyro heading is wanted (a bag's most numerous messages)
     types = RUN_TYPES if reads_gyro() else tuple(t for t in RUN_TYPES if t != IMU)
     named = (bag.joint_topic, bag.truth_topic, bag.imu_topic if reads_gyro() else None)
-    return [
-        load_bag_recording(
-            read_bag_once(path, named, types),
-            ran_with=ran_with,
-            joint_topic=bag.joint_topic,
-            truth_topic=bag.truth_topic,
-            imu_topic=bag.imu_topic,
-            right_joint=bag.right_joint,
-            left_joint=bag.left_joint,
-            ticks_per_rev=ticks_per_rev,
-            invert_right=bag.invert_right,
-            invert_left=bag.invert_left,
-            imu_axis=bag.imu_axis,
-        )
-    ]
+    return [load_bag_run(read_bag_once(path, named, types), bag, ticks_per_rev=ticks_per_rev,
+                         ran_with=ran_with)]  # fmt: skip
 
 
 def _load_file(path: Path, ticks_per_rev: float | None) -> list[Recording]:
