@@ -94,3 +94,14 @@ def test_a_recording_that_never_turns_cannot_show_the_track():
     robot = Robot(WheelGeometry.symmetric(0.6, 1.08), kinematics="skid-steer")
     with pytest.raises(InputError, match="cannot be seen without turning"):
         skid_fit([log], robot)
+
+
+def test_a_slam_pose_on_tf_is_a_truth_track_too(realdata):
+    # the MIT half: no truth topic, a SLAM pose (map -> odom -> base_link) at its updates; the
+    # effective track agrees with the differential SLAM route's wheelbase (0.4868 +- 0.0043 m)
+    half = realdata / "mit_csail" / "csail_half1"
+    res = fit([half], robot=realdata / "mit_csail" / "robot_virtual.yaml",
+              kinematics="skid-steer")  # fmt: skip
+    m, se = res.track_multiplier
+    slam_b, slam_se = 0.4868 / 0.5, 0.0043 / 0.5
+    assert abs(m - slam_b) < 3 * (se**2 + slam_se**2) ** 0.5

@@ -1,7 +1,8 @@
 """What the skid-steer route reads from a bag: the wheels (joint states, else the controller's
 odometry inverted through the geometry it ran with: :mod:`odocal.io.bag_wheels`) and a truth
 pose track on its own clock (an Odometry in a world frame such as a lidar-ICP ``/icp_odom``, a
-PoseStamped, ...), as a :class:`~odocal.calibration.skid_steer.SkidLog`. The identification is
+PoseStamped, ...; else a SLAM pose on ``/tf`` at its update stamps), as a
+:class:`~odocal.calibration.skid_steer.SkidLog`. The identification is
 :mod:`odocal.calibration.skid_steer`'s."""
 
 from __future__ import annotations
@@ -12,14 +13,18 @@ import numpy as np
 
 from ..calibration.skid_steer import SkidLog
 from ..core.model import WheelGeometry
+from ..core.transforms import se2_compose
 from ..errors import InputError
 from .bag_options import BagOptions
+from .bag_slam import read_slam_series
+from .bag_survey import slam_frames
 from .bag_wheels import choose_wheels, wheel_series
 from .bags import (
     POSE_TYPES,
     BagContents,
     TopicInfo,
     check_bag_path,
+    list_topics,
     pick_topic,
     pose_series,
     read_bag,
@@ -59,6 +64,16 @@ def read_skid_log(
     """The wheels and the truth of one bag, each on its own clock (the truth's offset is the
     route's to estimate)."""
     p = check_bag_path(path)
+    info = path.topics if isinstance(path, BagContents) else list_topics(p)
+    try:
+        truth_topic(info, options, p)
+    except InputError:
+        if options.truth_topic or not isinstance(path, BagContents):
+            raise
+        edge = slam_frames(path)
+        if edge is None:
+            raise
+        return _slam_log(path, edge, options, ran_with, ticks_per_rev, group)
 
     def choose(info: list[TopicInfo]) -> dict[str, str | None]:
         return {**choose_wheels(info, options, p), "truth": truth_topic(info, options, p)}
@@ -88,3 +103,27 @@ def read_skid_log(
     return SkidLog(
         str(p), wheels.time_s, wheels.right, wheels.left, truth.time_s, pose, group or str(p)
     )
+
+
+def _slam_log(
+    bag: BagContents,
+    edge: tuple[str, str],
+    options: BagOptions,
+    ran_with: WheelGeometry | None,
+    ticks_per_rev: float | None,
+    group: str,
+) -> SkidLog:
+    """A bag whose truth is a SLAM pose on /tf: its pose at the SLAM's update stamps (a
+    measurement only there: docs/slam-truth.md), on the SLAM's clock, as the truth track."""
+    series = read_slam_series(bag, edge, options, ticks_per_rev=ticks_per_rev, ran_with=ran_with)
+    if series.truth_pose is not None:
+        pose = series.truth_pose
+    else:
+        assert series.correction_pose is not None and series.odometry_pose is not None
+        pose = se2_compose(series.correction_pose, series.odometry_pose)
+    pose = np.array(pose, dtype=float)
+    pose[:, 2] = np.unwrap(pose[:, 2])
+    return SkidLog(
+        series.path, series.wheel_time_s, series.wheel_right_rad, series.wheel_left_rad,
+        series.stamps_s, pose, group or series.path,
+    )  # fmt: skip

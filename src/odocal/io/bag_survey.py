@@ -30,7 +30,7 @@ from .bags import (
     tf_messages,
 )
 
-__all__ = ["RouteOption", "BagSurvey", "survey", "ROUTES"]
+__all__ = ["RouteOption", "BagSurvey", "survey", "slam_frames", "ROUTES"]
 
 #: The bag routes, in the order the one-command fit prefers them.
 ROUTES = ROUTE_NAMES
@@ -86,7 +86,7 @@ def _of(topics: list[TopicInfo], types: tuple[str, ...]) -> list[str]:
     return [t.name for t in topics if t.msgtype in types]
 
 
-def _slam_frames(path: Path | BagContents) -> tuple[str, str] | None:
+def slam_frames(path: Path | BagContents) -> tuple[str, str] | None:
     """The truth frames of a SLAM pose on /tf: (the parent of the odometry frame ``odom``, the
     odometry's child, the base), if /tf has both edges."""
     bag = read_bag(path, ["/tf"])
@@ -139,7 +139,7 @@ def survey(path: str | Path | BagContents, options: BagOptions | None = None) ->
         wheels = None
     elif "/tf" in names:
         wheels = "odom -> base_link on /tf (inverted: needs --robot)"
-    edge = _slam_frames(path if isinstance(path, BagContents) else p) if "/tf" in names else None
+    edge = slam_frames(path if isinstance(path, BagContents) else p) if "/tf" in names else None
     no_wheels = (
         f"no wheel data (several Odometry topics: {', '.join(odoms)}; name the wheel odometry "
         "with --odom-topic)"
