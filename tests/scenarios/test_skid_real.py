@@ -71,10 +71,11 @@ def test_skid_steer_bad_inputs(skid, tmp_path, cli):
     with pytest.raises(CalibrationError, match="sprocket radius given as a wheel diameter"):
         fit([husky], robot=half, ros2=tmp_path / "x.yaml")
     assert not (tmp_path / "x.yaml").exists()
-    # a bag without a truth pose track (the MIT bag's /odom is the wheel odometry)
-    mit = skid.parent / "mit_csail" / "csail_half1"
+    # a bag without a truth pose track or a SLAM pose (the shared Husky bag: its controller's
+    # odometry, an IMU and a GPS)
+    ros = skid.parent / "husky" / "husky_test1.bag"
     with pytest.raises(InputError, match="needs a truth pose track"):
-        fit([mit], robot=skid / "robots" / "husky.yaml", kinematics="skid-steer")
+        fit([ros], robot=skid / "robots" / "husky.yaml", kinematics="skid-steer")
     status, out, err = cli("fit", husky, "--robot", half, "--json")
     assert status == 2 and out == "" and err.count("\n") == 1 and "sprocket" in err
 

@@ -13,6 +13,7 @@ doubts here, which the one answer's verdict weighs (:mod:`odocal.app.fit_auto`).
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -22,19 +23,16 @@ from ..calibration.route_answer import RouteName, route_answer
 from ..core.model import Robot
 from ..core.recording import Recording
 from ..errors import BagDataError, CalibrationError, OdocalError
-from ..io.bag_gyro import read_gyro_bag
 from ..io.bag_options import BagOptions
 from ..io.bag_recording import load_bag_run
-from ..io.bag_scan import read_scan_bag
 from ..io.bag_survey import BagSurvey, RouteOption
 from ..io.bags import BagContents
 from .fit_auto_result import RouteRun
-from .fit_gyro import GyroFitResult, gyro_route_fit
-from .fit_relative import RelativeFitResult
-from .fit_runs import FitResult, fit_runs
-from .fit_scan import scan_fit
-from .fit_slam import slam_fit
-from .slam_bags import load_slam_bag
+
+if TYPE_CHECKING:  # each route's modules are imported when the bag allows that route
+    from .fit_gyro import GyroFitResult
+    from .fit_relative import RelativeFitResult
+    from .fit_runs import FitResult
 
 __all__ = ["run_route", "ROUTE_FUNCTIONS"]
 
@@ -141,6 +139,8 @@ def _trajectory(
     _: float,
     noise: bool,
 ) -> RouteRun:
+    from .fit_runs import fit_runs
+
     recordings = _bag_recordings(bag, opts)
     res = fit_runs(
         recordings, "trajectory", robot=robot, force=True, truth_offset_s=opts.time_offset("truth")
@@ -157,6 +157,9 @@ def _slam(
     _: float,
     noise: bool,
 ) -> RouteRun:
+    from .fit_slam import slam_fit
+    from .slam_bags import load_slam_bag
+
     assert found.slam_edge is not None  # the survey allows the route only with it
     loaded = load_slam_bag(
         bag, found.slam_edge, opts, ran_with=robot.believed_geometry,
@@ -175,6 +178,9 @@ def _scan(
     interval_s: float,
     noise: bool,
 ) -> RouteRun:
+    from ..io.bag_scan import read_scan_bag
+    from .fit_scan import scan_fit
+
     loaded = read_scan_bag(bag, opts, None, robot.believed_geometry)
     res = scan_fit(
         [loaded], robot.nominal, names=[bag.path], scan_interval_s=interval_s,
@@ -192,6 +198,9 @@ def _gyro(
     _: float,
     noise: bool,
 ) -> RouteRun:
+    from ..io.bag_gyro import read_gyro_bag
+    from .fit_gyro import gyro_route_fit
+
     topics = BagOptions(
         joint_topic=opts.joint_topic or None,
         imu_topic=opts.imu_topic or None,

@@ -24,7 +24,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 from ..calibration.fit_methods import FIT_METHODS, FitMethod
 from ..calibration.fit_settings import (
@@ -43,14 +43,39 @@ from ..io.recordings import expand_folders, refuse_repeated
 from ..io.ros2_export import DEFAULT_CONTROLLER
 from ..presets import PRESETS
 from .common import Exports, RobotSpec, input_paths, unused_offsets
-from .fit_auto import AutoFitResult, fit_auto
-from .fit_gyro import GyroFitResult, fit_gyro, fit_gyro_bag, gyro_fit
-from .fit_relative import RelativeFitResult, fit_tuple_files, is_tuple_file
-from .fit_runs import FitResult, fit_recordings, fit_run_files, fit_runs
-from .fit_scan import fit_scan_bags
-from .fit_skid import SkidFitResult
-from .fit_slam import fit_slam_bags
 from .text import emits_warnings
+
+if TYPE_CHECKING:  # each route's module is imported when a fit takes that route
+    from .fit_auto import AutoFitResult
+    from .fit_gyro import GyroFitResult, fit_gyro, fit_gyro_bag, gyro_fit
+    from .fit_relative import RelativeFitResult
+    from .fit_runs import FitResult, fit_recordings, fit_runs
+    from .fit_skid import SkidFitResult
+
+#: The names this module re-exports, and the route module each comes from (imported on first
+#: use: a bag that needs one route does not pay for the others' imports).
+_LAZY = {
+    "AutoFitResult": "fit_auto",
+    "fit_auto": "fit_auto",
+    "GyroFitResult": "fit_gyro",
+    "fit_gyro": "fit_gyro",
+    "fit_gyro_bag": "fit_gyro",
+    "gyro_fit": "fit_gyro",
+    "RelativeFitResult": "fit_relative",
+    "FitResult": "fit_runs",
+    "fit_recordings": "fit_runs",
+    "fit_runs": "fit_runs",
+    "SkidFitResult": "fit_skid",
+}
+
+
+def __getattr__(name: str) -> object:
+    """The re-exported names of :data:`_LAZY`, from their route's module."""
+    if name in _LAZY:
+        from importlib import import_module
+
+        return getattr(import_module(f".{_LAZY[name]}", __package__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 __all__ = [
     "METHODS",
@@ -80,6 +105,8 @@ Route = Literal["runs", "tuples", "slam", "scan", "gyro"]
 def _tuple_inputs(paths: Sequence[str | Path], relative: bool) -> list[str | Path]:
     """The paths that hold tuples: ``.tuple`` files, and with ``relative`` whatever is no bag (a
     pipe or ``<(...)`` has no name to tell a tuple file by)."""
+    from .fit_relative import is_tuple_file
+
     return [p for p in paths if is_tuple_file(p) or (relative and not is_bag(p))]
 
 
@@ -252,6 +279,8 @@ def fit(
         return _fit_skid(paths, method, robot, bag, ticks_per_rev, out, ros2, controller_name,
                          plot, robot_out, force)  # fmt: skip
     if _is_auto(paths, method, truth_frames, bag, settings, squares):
+        from .fit_auto import fit_auto
+
         _refuse_for_auto(paths, plot, robot_out)
         return fit_auto(paths[0], robot=robot, options=bag, out=out, ros2=ros2,
                         controller_name=controller_name, scan_interval_s=scan_interval_s,
@@ -261,6 +290,8 @@ def fit(
     if method == "gyro":
         if len(paths) != 1:
             raise InputError("--method gyro takes exactly one bag", field="paths")
+        from .fit_gyro import fit_gyro
+
         gyro = fit_gyro(paths[0], robot=robot, exports=exports, options=bag, force=force)
         return replace(gyro, load_warnings=unused_offsets(bag.time_offsets, ["imu"]))
     res = _fit_route(
@@ -323,6 +354,8 @@ def _fit_skid(
 
 def _offset_sources(res: FitResult | RelativeFitResult) -> list[str]:
     """The clocks a route aligns: the truth's (a trajectory fit), the SLAM's, the laser's."""
+    from .fit_relative import RelativeFitResult
+
     if isinstance(res, RelativeFitResult):
         return {"slam": ["slam"], "scan": ["laser"]}.get(res.source, [])
     return ["truth"] if res.fit.method == "trajectory" else []
@@ -354,6 +387,8 @@ def _fit_route(
         )
     plan = _output_plan(paths, robot, exports, plot, robot_out, route)
     if route == "scan":
+        from .fit_scan import fit_scan_bags
+
         return fit_scan_bags(
             paths,
             plan,
@@ -371,9 +406,13 @@ def _fit_route(
                 "--plot: .tuple files have no clock and no stretches to hold out; nothing to draw",
                 field="plot",
             )
+        from .fit_relative import fit_tuple_files
+
         return fit_tuple_files(paths, plan, robot=robot, exports=exports, force=force)
     if route == "slam":
         assert truth_frames is not None  # the route needs them
+        from .fit_slam import fit_slam_bags
+
         return fit_slam_bags(
             paths,
             plan,
@@ -390,6 +429,8 @@ def _fit_route(
     run_method: FitMethod = method or "trajectory"
     # before the runs are loaded (many bags take a while), as fit_recordings checks it
     check_heading_source(run_method, squares.heading_source)
+    from .fit_runs import fit_run_files
+
     return fit_run_files(
         paths,
         run_method,

@@ -45,8 +45,6 @@ from .bag_routes import run_route
 from .check import CheckResult, check_bag
 from .common import RobotSpec, input_paths, unused_offsets, write_exports
 from .fit_auto_result import AutoFitResult, RouteRun
-from .fit_relative import RelativeFitResult
-from .fit_runs import FitResult
 
 __all__ = ["AutoFitResult", "CrossCheck", "RouteRun", "fit_auto", "KEYS", "MAX_Z"]
 
@@ -220,6 +218,9 @@ def _log_check(
     """Is this log enough? The trajectory route's own check; else the check of the bag's wheel
     motion (with the SLAM truth's noise and predicted errors when the answer is the SLAM
     route's); None when the wheels cannot be read."""
+    from .fit_relative import RelativeFitResult
+    from .fit_runs import FitResult
+
     detail = None if answer is None else answer.detail
     if isinstance(detail, FitResult):
         return detail.log_check

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..calibration.cross_check import CrossCheck
 from ..calibration.heldout import HeldOut
@@ -18,16 +18,18 @@ from ..core.covariance import OdometryCovariance
 from ..core.model import WheelGeometry
 from ..io.bag_survey import RouteOption
 from .check import CheckResult
-from .fit_gyro import GyroFitResult
-from .fit_relative import RelativeFitResult
-from .fit_runs import FitResult
 from .text import Presented, Text, check_text, verdict_lines, written_lines
 
-__all__ = ["RouteRun", "RouteDetail", "AutoFitResult"]
+__all__ = ["RouteRun", "AutoFitResult"]
 
 
-#: A route's own result, as the route's module gives it.
-RouteDetail = FitResult | RelativeFitResult | GyroFitResult
+if TYPE_CHECKING:  # (a route's module is imported when the bag allows the route)
+    from .fit_gyro import GyroFitResult
+    from .fit_relative import RelativeFitResult
+    from .fit_runs import FitResult
+
+    #: A route's own result, as the route's module gives it.
+    RouteDetail = FitResult | RelativeFitResult | GyroFitResult
 
 
 @dataclass(frozen=True)

@@ -70,7 +70,7 @@ def read_skid_log(
     except InputError:
         if options.truth_topic or not isinstance(path, BagContents):
             raise
-        edge = slam_frames(path)
+        edge = slam_frames(path) if any(t.name == "/tf" for t in info) else None
         if edge is None:
             raise
         return _slam_log(path, edge, options, ran_with, ticks_per_rev, group)
