@@ -430,7 +430,9 @@ def test_validate_plot_is_byte_identical(cli, tmp_path, runs_dir):
 def test_compare_plot_and_json_are_byte_identical(cli, tmp_path):
     docs = []
     for name in ("first", "second"):
-        plot = tmp_path / name
+        # a folder two levels below one that exists: the command creates both (the figure of
+        # tests/cli/test_compare.py's JSON test, tested here where it is drawn anyway)
+        plot = tmp_path / name / "new" / "dir"
         status, out, err = cli("compare", "--trials", 3, "--seed", 5, "--plot", plot, "--json")
         assert status == 0, err
         doc = json.loads(out)
@@ -438,6 +440,8 @@ def test_compare_plot_and_json_are_byte_identical(cli, tmp_path):
         docs.append((doc, tree(plot)))
     assert docs[0] == docs[1] and docs[0][0]["seed"] == 5
     assert list(docs[0][1]) == ["compare.png"]
+    png = docs[0][1]["compare.png"]
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000
 
 
 def test_sigterm_in_library_use_cleans_up_then_terminates(tmp_path):
