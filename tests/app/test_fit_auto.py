@@ -154,12 +154,33 @@ def test_the_25_percent_rule_holds_on_every_route_and_names_the_units(bag, tmp_p
     assert "absurd" not in " ".join(res.warnings)
 
 
-def test_a_gyro_answer_is_a_ratio_not_a_calibration(realdata):
-    # the Husky bag (controller odometry + IMU): a TurtleBot3 file gave a 'trustworthy'
-    # 0.154 m; the gyro measures the heading ratio only, so any scale passed
+def test_a_robot_file_in_millimetres_is_refused_before_the_bag_is_read(tmp_path):
+    from odocal.app.fit_auto import fit_auto
+    from odocal.errors import InputError
+
+    mm = tmp_path / "mm.yaml"
+    mm.write_text("wheel_diameter_m: 330\nwheelbase_m: 555\n")
+    with pytest.raises(InputError, match="millimetres"):
+        fit_auto(tmp_path / "no-such.bag", robot=mm)
+
+
+@pytest.fixture(scope="module")
+def husky_forced(realdata, tmp_path_factory):
+    """The Husky bag (controller odometry + IMU) with a TurtleBot-sized preset, written with
+    --force: the verdict and its reasons are those of a run without it (force only writes)."""
     from odocal.app.fit_auto import fit_auto
 
-    res = fit_auto(realdata / "husky" / "husky_test1.bag", robot="paper-fig5")
+    out = tmp_path_factory.mktemp("husky") / "report"
+    ros2 = out.parent / "dd.yaml"
+    res = fit_auto(realdata / "husky" / "husky_test1.bag", robot="paper-fig5", out=out,
+                   ros2=ros2, force=True)  # fmt: skip
+    return res, out, ros2
+
+
+def test_a_gyro_answer_is_a_ratio_not_a_calibration(husky_forced):
+    # the Husky bag (controller odometry + IMU): a TurtleBot3 file gave a 'trustworthy'
+    # 0.154 m; the gyro measures the heading ratio only, so any scale passed
+    res, _, _ = husky_forced
     assert res.answer is not None and res.answer.name == "gyro"
     a = res.answer.answer
     assert a.model == "heading-ratio" and a.held == ("wheel_diameter_right_m",
@@ -175,24 +196,11 @@ def test_a_gyro_answer_is_a_ratio_not_a_calibration(realdata):
     assert d["verdict"]["enough"] is False
 
 
-def test_a_robot_file_in_millimetres_is_refused_before_the_bag_is_read(tmp_path):
-    from odocal.app.fit_auto import fit_auto
-    from odocal.errors import InputError
-
-    mm = tmp_path / "mm.yaml"
-    mm.write_text("wheel_diameter_m: 330\nwheelbase_m: 555\n")
-    with pytest.raises(InputError, match="millimetres"):
-        fit_auto(tmp_path / "no-such.bag", robot=mm)
-
-
-def test_files_written_with_force_carry_the_verdict(realdata, tmp_path):
+def test_files_written_with_force_carry_the_verdict(husky_forced):
     # a week later a forced file must not look like a trustworthy one
-    from odocal.app.fit_auto import fit_auto
     from odocal.io.robot_file import load_params
 
-    out, ros2 = tmp_path / "report", tmp_path / "dd.yaml"
-    res = fit_auto(realdata / "husky" / "husky_test1.bag", robot="paper-fig5", out=out,
-                   ros2=ros2, force=True)  # fmt: skip
+    res, out, ros2 = husky_forced
     assert not res.enough and res.written
     assert res.as_dict()["verdict"]["written_despite_reasons"] is True
     assert "written anyway (--force)" in res.text()
