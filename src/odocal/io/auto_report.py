@@ -70,9 +70,8 @@ def auto_report_markdown(d: dict[str, Any]) -> str:
         nom = d["nominal"]
         lines += ["| parameter | nominal | calibrated | std. error |", "|---|---|---|---|"]
         for k, p in d["parameters"].items():
-            lines.append(
-                f"| {k} | {_num(nom[k])} | {_num(p['value'])} | {_num(p['std_error'], '.2e')} |"
-            )
+            se = "held" if p.get("status") == "held" else _num(p["std_error"], ".2e")
+            lines.append(f"| {k} | {_num(nom[k])} | {_num(p['value'])} | {se} |")
         lines += [
             "",
             "Standard errors: cluster-robust over time blocks or runs (docs/uncertainty.md).",
