@@ -26,7 +26,7 @@ def husky(skid, tmp_path_factory):
     out = tmp_path_factory.mktemp("husky")
     res = fit([_bag(skid, "husky_wheels-deflated_tile_2023_12_12_16h16")],
               robot=skid / "robots" / "husky.yaml", kinematics="skid-steer",
-              ros2=out / "dd.yaml")  # fmt: skip
+              ros2=out / "dd.yaml", plot=out / "plots")  # fmt: skip
     return res, out / "dd.yaml"
 
 
@@ -48,6 +48,8 @@ def test_the_husky_s_multiplier_with_its_error_and_the_drift_it_buys(husky):
     )
     assert d["ros2"]["wheel_separation_multiplier"] == pytest.approx(m)
     assert "the multiplier against the turn rate" in res.text() and d["turn_rate"]
+    figure = ros2.parent / "plots" / "track_multiplier.png"
+    assert figure in res.written and figure.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_two_warthog_recordings_each_with_its_own_multiplier(skid):

@@ -339,17 +339,22 @@ def _fit_skid(
             f"--method {method} is a differential-drive method",
             field="method",
         )
-    for what, value in (("--plot", plot), ("--robot-out", robot_out)):
-        if value is not None:
-            raise InputError(f"{what} is not made by the skid-steer fit", field=what.lstrip("-"))
+    if robot_out is not None:
+        raise InputError("--robot-out is not made by the skid-steer fit", field="robot-out")
     for p in paths:
         if not is_bag(p):
             raise InputError("--kinematics skid-steer reads ROS bags (wheels and a truth pose)", p)
     exports = Exports(out, ros2, controller_name)
     plan = OutputPlan(input_paths(list(paths), robot))
     exports.register(plan)
+    if plot is not None:
+        from ..plot._figure import require_matplotlib
+        from ..plot.skid import SKID_FIGURE
+
+        require_matplotlib()
+        plan.folder(plot, "--plot", files=(SKID_FIGURE,))
     return fit_skid_bags(paths, plan, bag, robot=robot, ticks_per_rev=ticks_per_rev,
-                         exports=exports, force=force)  # fmt: skip
+                         exports=exports, force=force, plot=plot)  # fmt: skip
 
 
 def _offset_sources(res: FitResult | RelativeFitResult) -> list[str]:

@@ -390,6 +390,7 @@ def fit_skid_bags(
     ticks_per_rev: float | None = None,
     exports: Exports = NO_EXPORTS,
     force: bool = False,
+    plot: str | Path | None = None,
 ) -> SkidFitResult:
     """``fit BAG... --kinematics skid-steer``: every bag read (:func:`~odocal.io.bag_skid.
     read_skid_log`), fitted (:func:`skid_fit`) and the ``exports`` written (the exported model's
@@ -418,9 +419,22 @@ def fit_skid_bags(
     res = skid_fit(logs, loaded_robot, force=force)
     if res.reasons and not force and (exports.out or exports.ros2):
         return res
+    files: dict[Path, Any] = {}
+    if plot is not None:
+        if not res.curve:
+            raise InputError(
+                "--plot: the recordings cover too few turn rates for the multiplier's curve "
+                f"({'; '.join(res.notes) or 'no table'}); nothing written",
+                field="plot",
+            )
+        from ..plot.skid import skid_figures
+
+        title = f"Effective track against the turn rate ({len(res.names)} recording(s))"
+        files.update(skid_figures(plot, res.curve, res.track_multiplier, title))
     written = exports.write(
-        plan, res.geometry, res.nominal, record={"method": "skid-steer"}, doubts=res.reasons
-    )
+        plan, res.geometry, res.nominal, files=files, record={"method": "skid-steer"},
+        doubts=res.reasons,
+    )  # fmt: skip
     return replace(res, written=written)
 
 
