@@ -27,3 +27,12 @@ def test_a_skid_steer_robot_in_a_fleet(realdata, tmp_path):
     value = b["value"] if isinstance(b, dict) else b
     assert 1.7 < value < 1.9, d["parameters"]
     assert robot.robot_id == "warthog"
+    # and fleet export writes the skid-steer multiplier (the 25 % rule is a differential
+    # drive's: a skid-steer track is 0.8-3 times the wheelbase by design)
+    from odocal.app.fleet_status import fleet_export
+
+    exported = fleet_export(tmp_path / "f.db", "warthog", tmp_path / "dd.yaml")
+    text = (tmp_path / "dd.yaml").read_text()
+    assert exported.written and "wheel_separation: 1.08" in text
+    m = float(text.split("wheel_separation_multiplier: ")[1].split()[0])
+    assert 1.6 < m < 1.75

@@ -320,10 +320,11 @@ def fleet_export(
     g = WheelGeometry(
         *(float(current[k]["value"]) if k in current else robots[robot_id][k] for k in KEYS)
     )
-    _refuse_absurd(robot_id, g, nominal)
+    latest = [b.record for b in history if b.status == "done" and b.record and b.record.enough]
+    skid = bool(latest) and latest[-1].model == "skid-steer"
+    _refuse_absurd(robot_id, g, nominal, skid)
     kept = [k for k in KEYS if k not in current]
     cov = None
-    latest = [b.record for b in history if b.status == "done" and b.record and b.record.enough]
     c = latest[-1].covariance if latest else None
     if c is not None:
         cov = odometry_covariance(
@@ -350,17 +351,30 @@ FLEET_HINT = (
 )
 
 
-def _refuse_absurd(robot_id: str, g: WheelGeometry, nominal: WheelGeometry) -> None:
+def _refuse_absurd(robot_id: str, g: WheelGeometry, nominal: WheelGeometry, skid: bool) -> None:
     """The 25 % rule on what export writes: no parameter further than
     :data:`~odocal.calibration.result.ABSURD_FRACTION` from the robot's nominal geometry, and no
-    multiplier of the file further than that from 1 (nothing written otherwise)."""
+    multiplier of the file further than that from 1 (nothing written otherwise). A skid-steer
+    robot's effective track is wider than its wheelbase by design: its
+    ``wheel_separation_multiplier`` must lie in
+    :data:`~odocal.app.fit_skid.TRACK_MULTIPLIER_RANGE` instead."""
+    from .fit_skid import TRACK_MULTIPLIER_RANGE
+
     values = (g.diameter_right_m, g.diameter_left_m, g.wheelbase_m)
-    problems = far_from_nominal(values, nominal, FLEET_HINT)
-    problems += [
-        f"{k} = {m:.6g} is {100 * (m - 1):+.0f} % from 1: absurd for a calibration"
-        for k, m in ros2_multipliers(g, nominal).items()
-        if abs(m - 1) > ABSURD_FRACTION
+    problems = [
+        x
+        for x in far_from_nominal(values, nominal, FLEET_HINT)
+        if not (skid and x.startswith("wheelbase_m"))
     ]
+    lo, hi = TRACK_MULTIPLIER_RANGE
+    for k, m in ros2_multipliers(g, nominal).items():
+        if skid and k == "wheel_separation_multiplier":
+            if not lo <= m <= hi:
+                problems.append(f"{k} = {m:.6g} is no skid-steer robot's ({lo:g}-{hi:g})")
+        elif abs(m - 1) > ABSURD_FRACTION:
+            problems.append(
+                f"{k} = {m:.6g} is {100 * (m - 1):+.0f} % from 1: absurd for a calibration"
+            )
     if problems:
         more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
         raise CalibrationError(
