@@ -240,7 +240,11 @@ def _skid_steer(runs: Sequence[RouteRun], robot: Robot) -> list[str]:
     """A differential model that fits badly because the robot skids: a route that measured the
     wheelbase found it far wider than the file's. Says so, and what to run instead."""
     if robot.kinematics != "differential":
-        return []
+        return [
+            "the robot file says skid-steer: a differential-drive calibration is not its answer "
+            "(odocal fit BAG --kinematics skid-steer, or the library's fit(..., "
+            "kinematics='skid-steer'), fits its effective track)"
+        ]
     b = float(robot.nominal.wheelbase_m)
     wide = [
         (r.name, float(r.answer.parameters[2].value))
