@@ -13,6 +13,7 @@ doubts here, which the one answer's verdict weighs (:mod:`odocal.app.fit_auto`).
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -34,7 +35,7 @@ if TYPE_CHECKING:  # each route's modules are imported when the bag allows that 
     from .fit_relative import RelativeFitResult
     from .fit_runs import FitResult
 
-__all__ = ["run_route", "ROUTE_FUNCTIONS"]
+__all__ = ["BagInputs", "run_route", "ROUTE_FUNCTIONS"]
 
 
 def _heldout_doubts(res: FitResult | RelativeFitResult) -> list[str]:
@@ -130,115 +131,84 @@ def _trajectory_noise(recordings: list[Recording], res: FitResult) -> IntervalNo
         return None
 
 
-def _trajectory(
-    option: RouteOption,
-    bag: BagContents,
-    found: BagSurvey,
-    robot: Robot,
-    opts: BagOptions,
-    _: float,
-    noise: bool,
-) -> RouteRun:
+@dataclass(frozen=True)
+class BagInputs:
+    """What every route of one bag takes: the bag read once, its survey, the robot loaded once,
+    the options, the scan interval (s) and whether to estimate the route's random error (only
+    the answer's is used)."""
+
+    bag: BagContents
+    found: BagSurvey
+    robot: Robot
+    options: BagOptions
+    scan_interval_s: float = 0.5
+    noise: bool = True
+
+
+def _trajectory(option: RouteOption, x: BagInputs) -> RouteRun:
     from .fit_runs import fit_runs
 
-    recordings = _bag_recordings(bag, opts)
+    recordings = _bag_recordings(x.bag, x.options)
     res = fit_runs(
-        recordings, "trajectory", robot=robot, force=True, truth_offset_s=opts.time_offset("truth")
-    )
-    return trajectory_run(option, res, _trajectory_noise(recordings, res) if noise else None)
+        recordings, "trajectory", robot=x.robot, force=True,
+        truth_offset_s=x.options.time_offset("truth"),
+    )  # fmt: skip
+    return trajectory_run(option, res, _trajectory_noise(recordings, res) if x.noise else None)
 
 
-def _slam(
-    option: RouteOption,
-    bag: BagContents,
-    found: BagSurvey,
-    robot: Robot,
-    opts: BagOptions,
-    _: float,
-    noise: bool,
-) -> RouteRun:
+def _slam(option: RouteOption, x: BagInputs) -> RouteRun:
     from .fit_slam import slam_fit
     from .slam_bags import load_slam_bag
 
-    assert found.slam_edge is not None  # the survey allows the route only with it
+    assert x.found.slam_edge is not None  # the survey allows the route only with it
     loaded = load_slam_bag(
-        bag, found.slam_edge, opts, ran_with=robot.believed_geometry,
-        time_offset_s=opts.time_offset("slam"),
+        x.bag, x.found.slam_edge, x.options, ran_with=x.robot.believed_geometry,
+        time_offset_s=x.options.time_offset("slam"),
     )  # fmt: skip
-    res = slam_fit([loaded], robot.nominal, names=[bag.path], force=True, noise=noise)
+    res = slam_fit([loaded], x.robot.nominal, names=[x.bag.path], force=True, noise=x.noise)
     return relative_run(option, res)
 
 
-def _scan(
-    option: RouteOption,
-    bag: BagContents,
-    found: BagSurvey,
-    robot: Robot,
-    opts: BagOptions,
-    interval_s: float,
-    noise: bool,
-) -> RouteRun:
+def _scan(option: RouteOption, x: BagInputs) -> RouteRun:
     from ..io.bag_scan import read_scan_bag
     from .fit_scan import scan_fit
 
-    loaded = read_scan_bag(bag, opts, None, robot.believed_geometry)
+    loaded = read_scan_bag(x.bag, x.options, None, x.robot.believed_geometry)
     res = scan_fit(
-        [loaded], robot.nominal, names=[bag.path], scan_interval_s=interval_s,
-        time_offset_s=opts.time_offset("laser"), force=True, noise=noise,
+        [loaded], x.robot.nominal, names=[x.bag.path], scan_interval_s=x.scan_interval_s,
+        time_offset_s=x.options.time_offset("laser"), force=True, noise=x.noise,
     )  # fmt: skip
     return relative_run(option, res)
 
 
-def _gyro(
-    option: RouteOption,
-    bag: BagContents,
-    found: BagSurvey,
-    robot: Robot,
-    opts: BagOptions,
-    _: float,
-    noise: bool,
-) -> RouteRun:
+def _gyro(option: RouteOption, x: BagInputs) -> RouteRun:
     from ..io.bag_gyro import read_gyro_bag
-    from .fit_gyro import gyro_route_fit
+    from .fit_gyro import gyro_route_fit, gyro_topics
 
-    topics = BagOptions(
-        joint_topic=opts.joint_topic or None,
-        imu_topic=opts.imu_topic or None,
-        odom_topic=opts.odom_topic or None,
-        right_joint=opts.right_joint or None,
-        left_joint=opts.left_joint or None,
+    loaded = read_gyro_bag(
+        x.bag, gyro_topics(x.options), have_geometry=True, mounting=not x.options.imu_axis
     )
-    loaded = read_gyro_bag(bag, topics, have_geometry=True, mounting=not opts.imu_axis)
-    return gyro_run(option, gyro_route_fit(loaded, robot, opts, force=True))
+    return gyro_run(option, gyro_route_fit(loaded, x.robot, x.options, force=True))
 
 
-#: Route name -> the route (option, bag read, its survey, the robot, the options, the scan
-#: interval (s), whether to estimate its random error) -> its run.
-ROUTE_FUNCTIONS: dict[
-    RouteName,
-    Callable[[RouteOption, BagContents, BagSurvey, Robot, BagOptions, float, bool], RouteRun],
-] = {"trajectory": _trajectory, "slam": _slam, "scan": _scan, "gyro": _gyro}
+#: Route name -> the route (its option, the bag's inputs) -> its run.
+ROUTE_FUNCTIONS: dict[RouteName, Callable[[RouteOption, BagInputs], RouteRun]] = {
+    "trajectory": _trajectory,
+    "slam": _slam,
+    "scan": _scan,
+    "gyro": _gyro,
+}
 
 
-def run_route(
-    option: RouteOption,
-    bag: BagContents,
-    found: BagSurvey,
-    robot: Robot,
-    options: BagOptions,
-    scan_interval_s: float,
-    noise: bool = True,
-) -> RouteRun:
+def run_route(option: RouteOption, inputs: BagInputs) -> RouteRun:
     """One route of the survey: run where usable (its own checks become doubts, an error its
-    reason), else not used with the survey's reason; ``noise``: estimate its random error (only
-    the answer's is used: a route after the first that ran need not). Broken data in the bag
-    (time running backwards, every message twice, two joints named the same:
-    :class:`BagDataError`) are the bag's error, not one route's reason: raised."""
+    reason), else not used with the survey's reason. Broken data in the bag (time running
+    backwards, every message twice, two joints named the same: :class:`BagDataError`) are the
+    bag's error, not one route's reason: raised."""
     if not option.usable:
         return RouteRun(option, False, option.reason)
     try:
-        route = ROUTE_FUNCTIONS[option.name]
-        return route(option, bag, found, robot, options, scan_interval_s, noise)
+        return ROUTE_FUNCTIONS[option.name](option, inputs)
     except BagDataError:
         raise
     except OdocalError as exc:

@@ -41,7 +41,7 @@ from ..io.bags import BagContents, read_bag_once
 from ..io.outputs import OutputPlan
 from ..io.robot_file import load_robot
 from ..io.ros2_export import DEFAULT_CONTROLLER
-from .bag_routes import run_route
+from .bag_routes import BagInputs, run_route
 from .check import CheckResult, check_bag
 from .common import RobotSpec, input_paths, unused_offsets, write_exports
 from .fit_auto_result import AutoFitResult, RouteRun
@@ -192,10 +192,11 @@ def fit_auto(
     if not any(o.usable for o in found.routes):
         why = "; ".join(f"{o.name}: {o.reason}" for o in found.routes)
         raise InputError(f"no route can read this bag: {why}", found.path)
+    inputs = BagInputs(contents, found, loaded_robot, options, scan_interval_s)
     runs: list[RouteRun] = []
     for o in found.routes:  # the random error of the answer's route only (the first that ran)
         first = not any(r.used for r in runs)
-        runs.append(run_route(o, contents, found, loaded_robot, options, scan_interval_s, first))
+        runs.append(run_route(o, replace(inputs, noise=first)))
     answer = next((r for r in runs if r.used), None)
     checks = cross_checks([r.answer for r in runs if r.used and r.answer is not None])
     log_check = _log_check(contents, loaded_robot, options, answer)

@@ -28,7 +28,14 @@ from ..io.robot_file import load_robot
 from .common import NO_EXPORTS, Exports, RobotSpec
 from .text import Presented, Text, written_lines
 
-__all__ = ["GyroFitResult", "gyro_fit", "gyro_route_fit", "fit_gyro_bag", "fit_gyro"]
+__all__ = [
+    "GyroFitResult",
+    "gyro_fit",
+    "gyro_route_fit",
+    "gyro_topics",
+    "fit_gyro_bag",
+    "fit_gyro",
+]
 
 
 @dataclass(frozen=True)
@@ -330,7 +337,7 @@ def fit_gyro(
     if (exports.out or exports.ros2) and loaded_robot is None:
         raise InputError("--out/--ros2 with --method gyro need the nominal geometry: --robot")
     loaded = read_gyro_bag(
-        bag, _topics(options), have_geometry=loaded_robot is not None,
+        bag, gyro_topics(options), have_geometry=loaded_robot is not None,
         mounting=not options.imu_axis,
     )  # fmt: skip
     res = gyro_route_fit(loaded, loaded_robot, options, force=force)
@@ -342,7 +349,7 @@ def fit_gyro(
     return replace(res, written=written)
 
 
-def _topics(options: BagOptions) -> BagOptions:
+def gyro_topics(options: BagOptions) -> BagOptions:
     """The topics and joints of ``options`` for the reader (an empty name: none given)."""
     return BagOptions(
         joint_topic=options.joint_topic or None,
