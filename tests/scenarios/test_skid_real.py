@@ -130,3 +130,34 @@ def test_a_slam_pose_on_tf_is_a_truth_track_too(realdata):
     m, se = res.track_multiplier
     slam_b, slam_se = 0.4868 / 0.5, 0.0043 / 0.5
     assert abs(m - slam_b) < 3 * (se**2 + slam_se**2) ** 0.5
+
+
+def test_validate_reads_a_skid_steer_bag_with_its_truth_on_the_wheels_clock(husky, skid):
+    """``validate --kinematics skid-steer``: the bag read as the fit reads it, the ICP's clock
+    offset estimated and applied (stated), and the drift the same as the skid-steer layer's own
+    dead reckoning of the log at that offset (an independent path: no Recording, no inserted
+    samples)."""
+    from odocal.app.validate import validate
+    from odocal.calibration.skid_steer import log_drift
+    from odocal.core.skid_steer import SkidSteerModel
+    from odocal.io.bag_options import BagOptions
+    from odocal.io.bag_skid import read_skid_log
+    from odocal.io.bags import read_bag_once
+
+    res, _ = husky
+    bag = _bag(skid, "husky_wheels-deflated_tile_2023_12_12_16h16")
+    robot = skid / "robots" / "husky.yaml"
+    v = validate([bag], res.geometry, robot=robot, kinematics="skid-steer")
+    (offset,) = v.offsets
+    assert offset.how == "estimated"
+    assert offset.offset_s == pytest.approx(res.offsets[0].offset_s, abs=1e-6)
+    d = v.as_dict()
+    assert d["kinematics"] == "skid-steer" and d["time_offsets"][0]["offset_s"] == offset.offset_s
+    assert "clock offset of the truth" in v.text()
+    log = read_skid_log(read_bag_once(bag, (None, None, None)), BagOptions(), None)
+    own = log_drift(log, SkidSteerModel.from_geometry(res.geometry), offset_s=offset.offset_s)
+    assert v.drift is not None and v.drift.pieces == own.pieces
+    # (the offset left out moves it by 4 %)
+    assert v.drift.median_pct == pytest.approx(own.median_pct, rel=0.005)
+    # the nominal geometry drifts several times further
+    assert v.nominal_drift is not None and v.nominal_drift.median_pct > 3 * v.drift.median_pct

@@ -13,7 +13,7 @@ import numpy as np
 from ..calibration.heldout import HeldOut
 from ..calibration.result import WHEELS_HINT, far_from_nominal
 from ..core.covariance import OdometryCovariance
-from ..core.model import Robot, WheelGeometry
+from ..core.model import Kinematics, Robot, WheelGeometry
 from ..core.plausibility import calibrated_geometry_problem, wheel_size_problem
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
@@ -25,6 +25,7 @@ from ..presets import DEFAULT_ROBOT, PRESETS
 
 __all__ = [
     "RobotSpec",
+    "kinematics_of",
     "resolve_robot",
     "optional_robot",
     "robot_label",
@@ -359,3 +360,16 @@ class Exports:
 
 #: No file to write.
 NO_EXPORTS = Exports()
+
+
+def kinematics_of(kinematics: Kinematics | None, robot: RobotSpec) -> Kinematics:
+    """The kinematics asked for, else the robot's (its file's ``kinematics``), else
+    differential. A robot file that is a pipe is read once, by the route (say
+    ``--kinematics`` then)."""
+    if kinematics is not None:
+        return kinematics
+    if isinstance(robot, Robot):
+        return robot.kinematics
+    if robot and (str(robot) in PRESETS or Path(robot).is_file()):
+        return load_robot(robot).kinematics
+    return "differential"

@@ -34,15 +34,14 @@ from ..calibration.fit_settings import (
     TrajectorySettings,
     check_heading_source,
 )
-from ..core.model import Kinematics, Robot
+from ..core.model import Kinematics
 from ..errors import InputError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
 from ..io.bags import is_bag
 from ..io.outputs import OutputPlan
 from ..io.recordings import expand_folders, refuse_repeated
 from ..io.ros2_export import DEFAULT_CONTROLLER
-from ..presets import PRESETS
-from .common import Exports, RobotSpec, input_paths, unused_offsets
+from .common import Exports, RobotSpec, input_paths, kinematics_of, unused_offsets
 from .text import emits_warnings
 
 if TYPE_CHECKING:  # each route's module is imported when a fit takes that route
@@ -275,7 +274,7 @@ def fit(
     allows, cross-checked, one answer (:func:`odocal.app.fit_auto.fit_auto`; ``out`` is then a
     folder for its report)."""
     paths = expand_folders([paths] if isinstance(paths, (str, Path)) else list(paths))
-    if _kinematics(kinematics, robot) == "skid-steer":
+    if kinematics_of(kinematics, robot) == "skid-steer":
         return _fit_skid(paths, method, robot, bag, ticks_per_rev, out, ros2, controller_name,
                          plot, robot_out, force)  # fmt: skip
     if _is_auto(paths, method, truth_frames, bag, settings, squares):
@@ -300,21 +299,6 @@ def fit(
     )  # fmt: skip
     unused = unused_offsets(bag.time_offsets, _offset_sources(res))
     return replace(res, load_warnings=unused + res.load_warnings)
-
-
-def _kinematics(kinematics: Kinematics | None, robot: RobotSpec) -> Kinematics:
-    """The kinematics asked for, else the robot's (its file's ``kinematics``), else
-    differential. A robot file that is a pipe is read once, by the route (say
-    ``--kinematics`` then)."""
-    if kinematics is not None:
-        return kinematics
-    if isinstance(robot, Robot):
-        return robot.kinematics
-    if robot and (str(robot) in PRESETS or Path(robot).is_file()):
-        from ..io.robot_file import load_robot
-
-        return load_robot(robot).kinematics
-    return "differential"
 
 
 def _fit_skid(

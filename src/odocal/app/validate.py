@@ -11,7 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from ..core.model import Robot, WheelGeometry
+from ..calibration.time_offset import TimeOffset
+from ..core.model import Kinematics, Robot, WheelGeometry
 from ..core.odometry import dead_reckon, evaluate
 from ..core.path_drift import PathDrift, path_drift, path_length, piece_length_for, pool_drift
 from ..core.recording import Recording
@@ -20,7 +21,7 @@ from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
 from ..io.outputs import OutputPlan
 from ..io.recordings import load_recordings, require_ground_truth
 from ..io.robot_file import load_params, load_robot
-from .common import RobotSpec, load_warnings
+from .common import RobotSpec, kinematics_of, load_warnings
 from .slam_bags import load_slam_bags
 from .text import Presented, Text, emits_warnings
 
@@ -51,6 +52,8 @@ class Validation(Presented):
     robot_label: str | None = None
     drift: PathDrift | None = None
     nominal_drift: PathDrift | None = None
+    kinematics: Kinematics = "differential"
+    offsets: tuple[TimeOffset, ...] = ()
 
     def as_dict(self) -> dict[str, Any]:
         """The JSON of ``odocal validate --json``: the per-run errors, their means (m, rad), the
@@ -78,7 +81,10 @@ class Validation(Presented):
         }
         out["drift_percent_per_10m"] = drift_dict(self.drift)
         out["nominal_drift_percent_per_10m"] = drift_dict(self.nominal_drift)
-        out["drift_alignment"] = DRIFT_ALIGNMENT
+        out["drift_alignment"] = SKID_ALIGNMENT if self.offsets else DRIFT_ALIGNMENT
+        out["kinematics"] = self.kinematics
+        if self.offsets:
+            out["time_offsets"] = [o.as_dict() for o in self.offsets]
         if self.written:
             out["plots"] = [str(p) for p in self.written]
         return out
@@ -137,6 +143,11 @@ class Validation(Presented):
             "unknown": "unknown for some runs (they do not say what they ran with; give --robot)",
         }
         out(f"  {col} columns: {source[result.nominal_source]}")
+        if self.kinematics == "skid-steer":
+            out("  skid-steer: the parameters' wheelbase is the effective track")
+        for o in self.offsets:
+            pm = "" if o.stderr_s is None else f" +- {o.stderr_s:.4f}"
+            out(f"  clock offset of the {o.label}: {o.offset_s:+.4f}{pm} s ({o.how}; applied)")
         for what, drift in (("these parameters", self.drift), (col, self.nominal_drift)):
             if drift is not None and drift.pieces:
                 out(
@@ -158,6 +169,14 @@ DRIFT_ALIGNMENT = (
     "recorded, on the wheels' clock (no time offset applied); evo_rpe tum truth.tum "
     "calibrated.tum --delta L --delta_unit m --pairs_from_reference gives the same errors in "
     "metres"
+)
+#: The same for skid-steer bags: their truth (a lidar ICP, a SLAM) is placed on the wheels'
+#: clock by its estimated offset first.
+SKID_ALIGNMENT = (
+    "each piece re-anchored to the truth at its start (SE(2), no scale); the truth shifted onto "
+    "the wheels' clock by its estimated offset (time_offsets: its stamp minus the offset); "
+    "evo_rpe tum truth.tum calibrated.tum --delta L --delta_unit m --pairs_from_reference "
+    "gives the same errors in metres (the TUM files carry the shifted stamps)"
 )
 
 
@@ -201,7 +220,9 @@ def recordings_drift(
         if len(k) < 2:
             continue
         est = dead_reckon(r.wheel_angle_right_rad, r.wheel_angle_left_rad, g)[k]
-        parts.append(path_drift(r.ground_truth[k], est, length_m=length_m))
+        gap = (r.meta or {}).get("truth_max_gap_s")  # a skid-steer log: cut at the truth's holes
+        breaks = None if gap is None else np.flatnonzero(np.diff(r.time_s[k]) > gap) + 1
+        parts.append(path_drift(r.ground_truth[k], est, length_m=length_m, breaks=breaks))
     return pool_drift(parts)
 
 
@@ -295,6 +316,48 @@ def _load(
     return [b.recording for b in slam]
 
 
+def _load_skid(
+    paths: Sequence[str | Path],
+    bag: BagOptions,
+    robot: RobotSpec,
+    ticks_per_rev: float | None,
+    truth_frames: tuple[str, str] | None,
+) -> tuple[list[Recording], tuple[TimeOffset, ...]]:
+    """Skid-steer bags read as the skid-steer fit reads them (:func:`~odocal.io.bag_skid.
+    read_skid_log`: a world-frame odometry or a SLAM /tf as the truth), each truth placed on the
+    wheels' clock by its estimated offset."""
+    from ..calibration.skid_steer import skid_recording, truth_clock_offset
+    from ..errors import CalibrationError
+    from ..io.bag_skid import read_skid_log
+    from ..io.bags import is_bag, read_bag_once
+    from ..io.recordings import refuse_repeated
+
+    if truth_frames is not None:
+        raise InputError(
+            "--truth-frames: with --kinematics skid-steer a SLAM /tf truth is found as the "
+            "skid-steer fit finds it (leave the flag out)",
+            field="truth-frames",
+        )
+    ran_with = load_robot(robot).believed_geometry if robot else None
+    named = (bag.joint_topic, bag.truth_topic, bag.odom_topic)
+    recordings, offsets = [], []
+    for p in refuse_repeated(paths):
+        if not is_bag(p):
+            raise InputError("--kinematics skid-steer reads ROS bags (wheels and a truth pose)", p)
+        log = read_skid_log(read_bag_once(p, named), bag, ran_with, ticks_per_rev=ticks_per_rev)
+        try:
+            offset = truth_clock_offset(log)
+        except CalibrationError as exc:
+            offset = TimeOffset.not_estimated("truth", str(exc))
+        offset = replace(offset, part=Path(p).name)
+        try:
+            recordings.append(skid_recording(log, offset))
+        except CalibrationError as exc:
+            raise InputError(str(exc), p) from None
+        offsets.append(offset)
+    return recordings, tuple(offsets)
+
+
 def _tum_files(
     recordings: Sequence[Recording],
     folder: Path,
@@ -356,6 +419,7 @@ def validate(
     truth_frames: tuple[str, str] | None = None,
     slam_stamp_offset_s: float = 0.0,
     tum: str | Path | None = None,
+    kinematics: Kinematics | None = None,
 ) -> Validation:
     """Dead-reckon the runs in ``paths`` with ``params`` (PARAMS.yaml or a geometry) and with the
     nominal geometry; with ``plot``, one PNG per run in that folder.
@@ -369,7 +433,10 @@ def validate(
     SLAM's update instants only (docs/slam-truth.md). With ``tum``, each run's truth and its
     dead reckoning with ``params`` and with the nominal geometry are written into that folder as
     TUM trajectories (``RUN.truth.tum``, ``RUN.calibrated.tum``, ``RUN.nominal.tum``), all or
-    none with the plots."""
+    none with the plots. ``kinematics`` (default: the robot file's, else differential):
+    'skid-steer' reads bags as the skid-steer fit does (docs/skid-steer.md), estimates each
+    truth's clock offset and applies it (the result's ``offsets``); the parameters' wheelbase
+    is then the effective track."""
     paths = [paths] if isinstance(paths, (str, Path)) else list(paths)
     source = _nominal_source(nominal, robot)
     inputs = [*map(Path, paths)]
@@ -386,7 +453,13 @@ def validate(
         plan.folder(tum, "--tum")
     geometry = params if isinstance(params, WheelGeometry) else load_params(params)
     notes: list[str] = []
-    recordings = _load(paths, bag, ticks_per_rev, truth_frames, slam_stamp_offset_s, notes)
+    kind = kinematics_of(kinematics, robot)
+    offsets: tuple[TimeOffset, ...] = ()
+    if kind == "skid-steer":
+        recordings, offsets = _load_skid(paths, bag, robot, ticks_per_rev, truth_frames)
+        notes.extend(w for o in offsets for w in o.warnings)
+    else:
+        recordings = _load(paths, bag, ticks_per_rev, truth_frames, slam_stamp_offset_s, notes)
     nominal_geometry = load_robot(robot).nominal if source == "robot" else None
     require_ground_truth(recordings, "validate")
     if source == "firmware" and nominal is not None:
@@ -409,4 +482,6 @@ def validate(
         written=written,
         params_label=str(params) if isinstance(params, (str, Path)) else "the given geometry",
         robot_label=None if robot is None or isinstance(robot, Robot) else str(robot),
+        kinematics=kind,
+        offsets=offsets,
     )

@@ -60,6 +60,7 @@ from numpy.typing import ArrayLike
 
 from ..core.model import WheelGeometry
 from ..core.path_drift import DriftMode, PathDrift, path_drift
+from ..core.recording import Recording, with_truth_at
 from ..core.skid_steer import (
     SkidSteerModel,
     TurnRateTable,
@@ -90,6 +91,7 @@ __all__ = [
     "windowed_truth_offset",
     "Offset",
     "offset_at",
+    "skid_recording",
     "skid_intervals",
     "turn_rate_knots",
     "fit_skid_steer",
@@ -113,6 +115,8 @@ MIN_KNOT_ROTATION_RAD = 2 * math.pi
 #: Intervals whose wheels turned less than this (rad, both wheels' |rotation| summed) are
 #: left out.
 MIN_WHEEL_ROTATION_RAD = 0.05
+#: A drift piece never spans a hole in the truth longer than this (s): the log is cut there.
+MAX_TRUTH_GAP_S = 2.0
 # Fewest intervals and blocks for a fit with a cluster-robust covariance.
 _MIN_INTERVALS = 20
 _MIN_BLOCKS = 3
@@ -379,6 +383,28 @@ def offset_at(offset: Offset | float, log: SkidLog) -> float | np.ndarray:
     if isinstance(offset, TimeOffset):
         return offset.offset_s
     return float(offset)
+
+
+def skid_recording(log: SkidLog, offset: TimeOffset) -> Recording:
+    """``log`` as a wheel-rate :class:`~odocal.core.recording.Recording` whose truth is valid
+    at its stamps only, placed on the wheels' clock by ``offset`` (its ``offset_s``: what the
+    skid-steer fit uses), so that every differential-drive evaluation (validate's errors, its
+    drift, plots, TUM files) applies to the effective geometry."""
+    shifted = np.asarray(log.truth_time_s, dtype=float) - offset.offset_s
+    inside = (shifted >= log.time_s[0]) & (shifted <= log.time_s[-1])
+    if inside.sum() < 2:
+        raise CalibrationError(
+            f"{log.name}: fewer than 2 truth samples within the wheels' time once the truth's "
+            f"clock offset ({offset.offset_s:+.3f} s) is applied"
+        )
+    return with_truth_at(
+        log.name, log.time_s, log.angle_right_rad, log.angle_left_rad, shifted[inside],
+        np.asarray(log.truth_pose, dtype=float)[inside],
+        {
+            "truth": "pose", "truth_offset_s": offset.offset_s, "truth_max_gap_s": MAX_TRUTH_GAP_S,
+            "dataset": log.group or log.name,
+        },
+    )  # fmt: skip
 
 
 def _offset_stderr(offset: Offset) -> float | None:
@@ -969,7 +995,7 @@ def log_drift(
     offset_s: float | np.ndarray = 0.0,
     length_m: float = 10.0,
     mode: DriftMode = "consecutive",
-    max_gap_s: float = 2.0,
+    max_gap_s: float = MAX_TRUTH_GAP_S,
 ) -> PathDrift:
     """The KITTI-style drift (:func:`odocal.core.path_drift.path_drift`) of ``model``'s dead
     reckoning over the whole log against its truth: the wheels dead-reckoned from the start and

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from ..core.recording import Recording
+from ..core.recording import Recording, with_truth_at
 from ..core.transforms import se2_compose
 from .relative_motions import RelativeMotions, wheel_increments
 from .slam import SlamLimits, SlamMotions, slam_relative_motions
@@ -224,26 +224,9 @@ def _recording(
         assert corr is not None and odo is not None  # correction mode: the chain split there
         truth = se2_compose(corr, odo)
     pose = np.asarray(truth, dtype=np.float64)
-    # the update instants the motions used (their starts and ends), as wheel-sample indices
+    # the update instants the motions used (their starts and ends)
     used_t = np.unique(np.r_[motions.start_s, motions.end_s])
     on = np.isin(stamps, used_t)
     t_u, pose_u = stamps[on] - offset, pose[on]
     pose_u[:, 2] = np.unwrap(pose_u[:, 2])  # less than half a turn between updates
-    # insert the instants into the wheel-rate time base (angles interpolated there)
-    tt = np.union1d(t[(t >= t_u[0]) & (t <= t_u[-1])], t_u)
-    rr, ll = np.interp(tt, t, right), np.interp(tt, t, left)
-    idx = np.searchsorted(tt, t_u)
-    gt = np.full((len(tt), 3), np.nan)
-    gt[idx] = pose_u
-    # start frame at the first valid instant
-    c, s = np.cos(pose_u[0, 2]), np.sin(pose_u[0, 2])
-    dx, dy = gt[:, 0] - pose_u[0, 0], gt[:, 1] - pose_u[0, 1]
-    gt = np.column_stack([c * dx + s * dy, -s * dx + c * dy, gt[:, 2] - pose_u[0, 2]])
-    return Recording(
-        name=f"{p}:{jt}",
-        time_s=tt - tt[0],
-        wheel_angle_right_rad=rr - rr[0],
-        wheel_angle_left_rad=ll - ll[0],
-        ground_truth=gt,
-        meta={**meta, "truth": "slam", "truth_samples": [int(i) for i in idx]},
-    )
+    return with_truth_at(f"{p}:{jt}", t, right, left, t_u, pose_u, {**meta, "truth": "slam"})

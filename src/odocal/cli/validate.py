@@ -37,6 +37,15 @@ def add_parser(sub: Any) -> None:
         "--robot) or firmware (each run's own ran-with parameters, e.g. an OptiOdom data set's "
         "firmware values); default robot with --robot, else firmware",
     )
+    p.add_argument(
+        "--kinematics",
+        choices=("differential", "skid-steer"),
+        default=None,
+        help="skid-steer: read the bags as fit --kinematics skid-steer does (a world-frame "
+        "odometry such as a lidar ICP, or a SLAM /tf, as the truth), estimate each truth's "
+        "clock offset and apply it; the parameters' wheelbase is the effective track; default: "
+        "the robot file's 'kinematics', else differential",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument("--plot", metavar="DIR", help="write one PNG trajectory plot per run into DIR")
     p.add_argument(
@@ -62,6 +71,7 @@ def run(args: argparse.Namespace) -> int:
         nominal=args.nominal,
         plot=args.plot,
         tum=args.tum,
+        kinematics=args.kinematics,
         ticks_per_rev=args.ticks_per_rev,
         bag=bag_options(args),
         truth_frames=truth_frames(args),

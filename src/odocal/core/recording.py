@@ -12,7 +12,7 @@ import numpy as np
 
 from .model import WheelGeometry
 
-__all__ = ["Recording", "same_recording"]
+__all__ = ["Recording", "same_recording", "with_truth_at"]
 
 
 @dataclass(frozen=True)
@@ -61,6 +61,43 @@ class Recording:
         if given:
             return str(given)
         return str(Path(self.meta.get("bag") or self.name).parent)
+
+
+def with_truth_at(
+    name: str,
+    time_s: np.ndarray,
+    right_rad: np.ndarray,
+    left_rad: np.ndarray,
+    truth_time_s: np.ndarray,
+    truth_pose: np.ndarray,
+    meta: dict,
+) -> Recording:
+    """The wheel-rate run with a truth measured only at ``truth_time_s`` (on the wheels' clock:
+    any offset already removed): those instants inserted into the wheel time base (the angles
+    interpolated there), the truth valid only at them (``meta['truth_samples']`` lists their
+    indices; other samples are NaN), cut to the span both cover, time and angles from zero, the
+    truth in the frame of its first pose. Yaw must be unwrapped."""
+    t = np.asarray(time_s, dtype=float)
+    t_u = np.asarray(truth_time_s, dtype=float)
+    pose_u = np.asarray(truth_pose, dtype=float)
+    on = (t_u >= t[0]) & (t_u <= t[-1])
+    t_u, pose_u = t_u[on], pose_u[on]
+    tt = np.union1d(t[(t >= t_u[0]) & (t <= t_u[-1])], t_u)
+    rr, ll = np.interp(tt, t, right_rad), np.interp(tt, t, left_rad)
+    idx = np.searchsorted(tt, t_u)
+    gt = np.full((len(tt), 3), np.nan)
+    gt[idx] = pose_u
+    c, s = np.cos(pose_u[0, 2]), np.sin(pose_u[0, 2])
+    dx, dy = gt[:, 0] - pose_u[0, 0], gt[:, 1] - pose_u[0, 1]
+    gt = np.column_stack([c * dx + s * dy, -s * dx + c * dy, gt[:, 2] - pose_u[0, 2]])
+    return Recording(
+        name=name,
+        time_s=tt - tt[0],
+        wheel_angle_right_rad=rr - rr[0],
+        wheel_angle_left_rad=ll - ll[0],
+        ground_truth=gt,
+        meta={**meta, "truth_samples": [int(i) for i in idx]},
+    )
 
 
 #: Increments (rad, m) equal to this are one measurement, and stamps equal to a microsecond one
