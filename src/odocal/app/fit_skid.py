@@ -47,12 +47,14 @@ from ..calibration.skid_steer import (
     candidate_label,
     cross_validate,
     fit_skid_logs,
+    skid_recording,
     truth_clock_offset,
     z_score,
 )
 from ..calibration.time_offset import TimeOffset
 from ..core.model import Robot, WheelGeometry
 from ..core.path_drift import PathDrift
+from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
 from ..io.bag_options import BagOptions
 from ..io.outputs import OutputPlan
@@ -228,7 +230,7 @@ class SkidFitResult(Presented):
         }
 
 
-def _offsets(logs: Sequence[SkidLog]) -> tuple[TimeOffset, ...]:
+def truth_offsets(logs: Sequence[SkidLog]) -> tuple[TimeOffset, ...]:
     """Each log's truth clock offset (0, with the reason, where it cannot be estimated)."""
     out = []
     for log in logs:
@@ -237,6 +239,22 @@ def _offsets(logs: Sequence[SkidLog]) -> tuple[TimeOffset, ...]:
         except CalibrationError as exc:
             out.append(TimeOffset.not_estimated("truth", str(exc)))
     return tuple(out)
+
+
+def skid_recordings(logs: Sequence[SkidLog]) -> tuple[list[Recording], tuple[TimeOffset, ...]]:
+    """Each log as a wheel-rate recording with its truth on the wheels' clock
+    (:func:`~odocal.calibration.skid_steer.skid_recording`, its offset estimated as the fit
+    estimates it), and those offsets (named after their bags); a truth that no longer overlaps
+    the wheels once shifted is an InputError."""
+    recordings, offsets = [], []
+    for log, offset in zip(logs, truth_offsets(logs), strict=True):
+        offset = replace(offset, part=Path(log.name).name)
+        try:
+            recordings.append(skid_recording(log, offset))
+        except CalibrationError as exc:
+            raise InputError(str(exc), log.name) from None
+        offsets.append(offset)
+    return recordings, tuple(offsets)
 
 
 def _per_recording(
@@ -343,7 +361,7 @@ def skid_fit(
         raise InputError("no recording to fit")
     nominal = robot.nominal
     _refuse_no_turning(logs, nominal)
-    offsets = _offsets(logs)
+    offsets = truth_offsets(logs)
     fit, _ = fit_skid_logs(logs, nominal, EXPORTED[0], offsets=offsets, wheel_scales=EXPORTED[1])
     reasons = _plausibility(fit, nominal)
     if reasons and not force:
@@ -381,6 +399,31 @@ def skid_fit(
     )  # fmt: skip
 
 
+def read_skid_logs(
+    paths: Sequence[str | Path],
+    bag: BagOptions,
+    robot: Robot | None,
+    ticks_per_rev: float | None = None,
+) -> list[SkidLog]:
+    """Each bag's wheels and truth (:func:`~odocal.io.bag_skid.read_skid_log`; the wheels from
+    the controller's odometry are inverted through ``robot``'s believed geometry), the same bag
+    twice refused; a path that is no bag is an InputError."""
+    from ..io.bag_skid import read_skid_log
+    from ..io.bags import is_bag, read_bag_once
+    from ..io.recordings import refuse_repeated
+
+    named = (bag.joint_topic, bag.truth_topic, bag.odom_topic)
+    ran_with = None if robot is None else robot.believed_geometry
+    logs = []
+    for p in refuse_repeated(paths):
+        if not is_bag(p):
+            raise InputError("--kinematics skid-steer reads ROS bags (wheels and a truth pose)", p)
+        logs.append(
+            read_skid_log(read_bag_once(p, named), bag, ran_with, ticks_per_rev=ticks_per_rev)
+        )
+    return logs
+
+
 def fit_skid_bags(
     paths: Sequence[str | Path],
     plan: OutputPlan,
@@ -395,9 +438,6 @@ def fit_skid_bags(
     """``fit BAG... --kinematics skid-steer``: every bag read (:func:`~odocal.io.bag_skid.
     read_skid_log`), fitted (:func:`skid_fit`) and the ``exports`` written (the exported model's
     multipliers; with ``force`` despite the reasons, which the files then carry)."""
-    from ..io.bag_skid import read_skid_log
-    from ..io.bags import read_bag_once
-    from ..io.recordings import refuse_repeated
     from ..io.robot_file import load_robot
 
     if not robot:
@@ -406,16 +446,7 @@ def fit_skid_bags(
             "wheel diameter and wheelbase the multipliers are relative to"
         )
     loaded_robot = load_robot(robot)
-    named = (bag.joint_topic, bag.truth_topic, bag.odom_topic)
-    logs = [
-        read_skid_log(
-            read_bag_once(p, named),
-            bag,
-            loaded_robot.believed_geometry,
-            ticks_per_rev=ticks_per_rev,
-        )  # fmt: skip
-        for p in refuse_repeated(paths)
-    ]
+    logs = read_skid_logs(paths, bag, loaded_robot, ticks_per_rev)
     res = skid_fit(logs, loaded_robot, force=force)
     if res.reasons and not force and (exports.out or exports.ros2):
         return res

@@ -326,11 +326,7 @@ def _load_skid(
     """Skid-steer bags read as the skid-steer fit reads them (:func:`~odocal.io.bag_skid.
     read_skid_log`: a world-frame odometry or a SLAM /tf as the truth), each truth placed on the
     wheels' clock by its estimated offset."""
-    from ..calibration.skid_steer import skid_recording, truth_clock_offset
-    from ..errors import CalibrationError
-    from ..io.bag_skid import read_skid_log
-    from ..io.bags import is_bag, read_bag_once
-    from ..io.recordings import refuse_repeated
+    from .fit_skid import read_skid_logs, skid_recordings
 
     if truth_frames is not None:
         raise InputError(
@@ -338,24 +334,8 @@ def _load_skid(
             "skid-steer fit finds it (leave the flag out)",
             field="truth-frames",
         )
-    ran_with = load_robot(robot).believed_geometry if robot else None
-    named = (bag.joint_topic, bag.truth_topic, bag.odom_topic)
-    recordings, offsets = [], []
-    for p in refuse_repeated(paths):
-        if not is_bag(p):
-            raise InputError("--kinematics skid-steer reads ROS bags (wheels and a truth pose)", p)
-        log = read_skid_log(read_bag_once(p, named), bag, ran_with, ticks_per_rev=ticks_per_rev)
-        try:
-            offset = truth_clock_offset(log)
-        except CalibrationError as exc:
-            offset = TimeOffset.not_estimated("truth", str(exc))
-        offset = replace(offset, part=Path(p).name)
-        try:
-            recordings.append(skid_recording(log, offset))
-        except CalibrationError as exc:
-            raise InputError(str(exc), p) from None
-        offsets.append(offset)
-    return recordings, tuple(offsets)
+    logs = read_skid_logs(paths, bag, load_robot(robot) if robot else None, ticks_per_rev)
+    return skid_recordings(logs)
 
 
 def _tum_files(
