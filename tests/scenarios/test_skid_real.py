@@ -161,3 +161,61 @@ def test_validate_reads_a_skid_steer_bag_with_its_truth_on_the_wheels_clock(husk
     assert v.drift.median_pct == pytest.approx(own.median_pct, rel=0.005)
     # the nominal geometry drifts several times further
     assert v.nominal_drift is not None and v.nominal_drift.median_pct > 3 * v.drift.median_pct
+
+
+def test_check_of_a_skid_steer_bag_uses_the_fit_s_own_errors(husky, skid, cli):
+    """``check --kinematics skid-steer``: the effective track's standard error is the fit's
+    multiplier error times the wheelbase (not a stated wheel noise's), the clock offset is the
+    fit's, the turn rates of the curve said."""
+    res, _ = husky
+    bag = _bag(skid, "husky_wheels-deflated_tile_2023_12_12_16h16")
+    status, out, err = cli("check", bag, "--robot", skid / "robots" / "husky.yaml",
+                           "--kinematics", "skid-steer", "--json")  # fmt: skip
+    assert status == 0, err
+    d = json.loads(out)
+    m, se = res.track_multiplier
+    assert d["kinematics"] == "skid-steer"
+    assert d["stderr"]["wheelbase_m"] == pytest.approx(se * 0.55, rel=0.01)
+    b = dict(zip(d["parameters"], d["values"], strict=True))["wheelbase_m"]
+    assert b == pytest.approx(m * 0.55, rel=1e-3)
+    assert any(f"{res.offsets[0].offset_s:+.4f}" in n for n in d["notes"])
+    assert any("can be read at yaw rates" in n for n in d["notes"])
+
+
+def test_check_of_a_skid_steer_log_that_never_turns():
+    """A straight-only log: the check says NOT enough and why (the track is blind), not an
+    error; the fit itself refuses it (above)."""
+    import numpy as np
+
+    from odocal.app.check_skid import check_skid_logs
+    from odocal.calibration.skid_steer import SkidLog
+    from odocal.core.model import Robot, WheelGeometry
+
+    t = np.arange(0.0, 60.0, 0.05)
+    angle = 2.0 * t
+    truth_t = np.arange(0.1, 59.0, 0.1)
+    truth = np.column_stack([0.3 * 2.0 * truth_t, np.zeros_like(truth_t), np.zeros_like(truth_t)])
+    log = SkidLog("straight", t, angle, angle, truth_t, truth)
+    robot = Robot(WheelGeometry.symmetric(0.6, 1.08), kinematics="skid-steer")
+    res = check_skid_logs([log], robot)
+    assert not res.check.ok
+    assert any(g.severity == "blind" for g in res.check.degeneracies)
+    assert any("no skid-steer fit" in n for n in res.notes)
+    assert any("cannot be read" in n for n in res.notes)
+
+
+def test_validate_and_check_skid_steer_refuse_what_they_cannot_read(skid, tmp_path, cli):
+    husky = skid / "robots" / "husky.yaml"
+    params = tmp_path / "p.yaml"
+    params.write_text(
+        "wheel_diameter_right_m: 0.30\nwheel_diameter_left_m: 0.32\nwheelbase_m: 0.98\n"
+    )
+    csv = _csv(skid, "husky_wheels-deflated_tile_2023_12_12_16h16")
+    for command in (("validate", csv, "--params", params), ("check", csv)):
+        status, out, err = cli(*command, "--robot", husky, "--kinematics", "skid-steer")
+        assert status == 2 and out == "" and err.count("\n") == 1
+        assert "reads ROS bags" in err
+    bag = _bag(skid, "husky_wheels-deflated_tile_2023_12_12_16h16")
+    flags = ("--kinematics", "skid-steer", "--truth-frames", "map:base_link")
+    status, _, err = cli("validate", bag, "--params", params, "--robot", husky, *flags)
+    assert status == 2 and "--truth-frames" in err

@@ -20,7 +20,7 @@ from ..calibration.identifiability import (
 from ..calibration.relative_motions import stack_motions
 from ..calibration.slam_bag import SlamBag
 from ..calibration.slam_noise import SLAM_POSE_NOISE, slam_noise_model
-from ..core.model import Robot, WheelGeometry
+from ..core.model import Kinematics, Robot, WheelGeometry
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
@@ -29,6 +29,7 @@ from ..io.bags import BagContents
 from ..io.recordings import load_recordings
 from .common import (
     RobotSpec,
+    kinematics_of,
     load_warnings,
     nominal_geometry,
     optional_robot,
@@ -58,12 +59,16 @@ class CheckResult(Presented):
     noise_source: str
     recordings: int
     load_warnings: tuple[str, ...] = ()
+    kinematics: Kinematics = "differential"
+    notes: tuple[str, ...] = ()
 
     def as_dict(self) -> dict[str, Any]:
         """The JSON of ``odocal check --json``: the check, the noise it assumed and its source."""
         return self.check.as_dict() | {
             "noise_source": self.noise_source,
             "load_warnings": list(self.load_warnings),
+            "kinematics": self.kinematics,
+            "notes": list(self.notes),
         }
 
     def text(self) -> str:
@@ -72,7 +77,11 @@ class CheckResult(Presented):
         out = Text()
         out(f"Is this log enough? {self.recordings} run(s)")
         out(f"  ({JUDGES})")
+        if self.kinematics == "skid-steer":
+            out("  skid-steer: b is the effective track")
         check_text(out, self)
+        for note in self.notes:
+            out(f"  {note}")
         return str(out)
 
 
@@ -140,15 +149,25 @@ def check(
     slam_stamp_offset_s: float = 0.0,
     mounting: bool = False,
     settings: TrajectorySettings = DEFAULT_TRAJECTORY,
+    kinematics: Kinematics | None = None,
 ) -> CheckResult:
     """Load the runs in ``paths`` (ground truth optional) and check what they let a trajectory
     fit with ``settings`` see, at the nominal geometry (``robot``, else the recordings'
     metadata). ``truth_frames``: bags whose truth is a SLAM pose on /tf (its stamps
-    ``slam_stamp_offset_s`` late)."""
+    ``slam_stamp_offset_s`` late). ``kinematics`` (default: the robot file's, else
+    differential): 'skid-steer' checks bags for the effective track
+    (:func:`~odocal.app.check_skid.check_skid`)."""
     if isinstance(paths, (str, Path)):
         paths = [paths]
     notes: list[str] = []
     r = optional_robot(robot)
+    if kinematics_of(kinematics, r) == "skid-steer":
+        from .check_skid import check_skid
+
+        if truth_frames is not None or mounting:
+            flag = "--truth-frames" if truth_frames is not None else "--mounting"
+            raise InputError(f"{flag} is not used by the skid-steer check", field=flag[2:])
+        return check_skid(paths, r, bag, ticks_per_rev)
     noise = None
     if truth_frames is not None:
         slam = load_slam_bags(

@@ -50,6 +50,15 @@ def add_parser(sub: Any) -> None:
         action="store_true",
         help="also the mounting (x, y, yaw) of the ground-truth sensor (relative-motion fits)",
     )
+    p.add_argument(
+        "--kinematics",
+        choices=("differential", "skid-steer"),
+        default=None,
+        help="skid-steer: bags of a skid-steer or tracked robot read as fit --kinematics "
+        "skid-steer reads them; the standard errors are the skid-steer fit's own (its slip), "
+        "and the turn rates its multiplier's curve can be read at; default: the robot file's "
+        "'kinematics', else differential",
+    )
     add_slam_args(p)
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(run=run)
@@ -69,6 +78,7 @@ def run(args: argparse.Namespace) -> int:
         slam_stamp_offset_s=args.slam_stamp_offset,
         mounting=args.mounting,
         settings=TrajectorySettings(residual=args.residual),
+        kinematics=args.kinematics,
     )
     print_warnings(res.load_warnings)
     status = 0 if res.check.ok else NOT_ENOUGH
