@@ -86,3 +86,30 @@ def simulate_skid_log(
     truth[:, 2] += sigma_yaw_rad * rng.standard_normal(len(tk))
     late = offset_s(t[tk]) if callable(offset_s) else offset_s
     return SkidLog(name, t[wk], ang_r[wk], ang_l[wk], t[tk] + late, truth, group)
+
+
+def simulate_skid_gyro_log(
+    true: SkidSteerModel,
+    rng: np.random.Generator,
+    *,
+    imu_offset_s: float = 0.0,
+    bias_rad_s: float = 0.005,
+    sigma_rate_rad_s: float = 0.02,
+    imu_hz: float = 100.0,
+    **kwargs: object,
+):
+    """The wheels of :func:`simulate_skid_log` and a gyro on the base's z axis at ``imu_hz``:
+    the true yaw rate (its slip included) plus ``bias_rad_s`` and white noise, stamped
+    ``imu_offset_s`` late, as a :class:`~odocal.io.bag_skid.SkidGyroLog`."""
+    from odocal.io.bag_skid import SkidGyroLog
+
+    log = simulate_skid_log(true, rng, truth_hz=imu_hz, sim_hz=imu_hz, sigma_xy_m=0.0,
+                            sigma_yaw_rad=0.0, **kwargs)  # type: ignore[arg-type]  # fmt: skip
+    t = np.asarray(log.truth_time_s)
+    rate = np.gradient(np.asarray(log.truth_pose)[:, 2], t)
+    rate = rate + bias_rad_s + sigma_rate_rad_s * rng.standard_normal(len(t))
+    w = np.column_stack([np.zeros_like(t), np.zeros_like(t), rate])
+    return SkidGyroLog(
+        log.name, log.time_s, log.angle_right_rad, log.angle_left_rad, t + imu_offset_s, w,
+        np.eye(3), "simulated", "joint_states", "/imu",
+    )  # fmt: skip

@@ -50,6 +50,7 @@ if TYPE_CHECKING:  # each route's module is imported when a fit takes that route
     from .fit_relative import RelativeFitResult
     from .fit_runs import FitResult, fit_recordings, fit_runs
     from .fit_skid import SkidFitResult
+    from .fit_skid_gyro import SkidGyroResult
 
 #: The names this module re-exports, and the route module each comes from (imported on first
 #: use: a bag that needs one route does not pay for the others' imports).
@@ -65,6 +66,7 @@ _LAZY = {
     "fit_recordings": "fit_runs",
     "fit_runs": "fit_runs",
     "SkidFitResult": "fit_skid",
+    "SkidGyroResult": "fit_skid_gyro",
 }
 
 
@@ -84,6 +86,7 @@ __all__ = [
     "GyroFitResult",
     "AutoFitResult",
     "SkidFitResult",
+    "SkidGyroResult",
     "choose_route",
     "fit",
     "fit_recordings",
@@ -243,7 +246,9 @@ def fit(
     robot_out: str | Path | None = None,
     force: bool = False,
     kinematics: Kinematics | None = None,
-) -> FitResult | RelativeFitResult | GyroFitResult | AutoFitResult | SkidFitResult:
+) -> (
+    FitResult | RelativeFitResult | GyroFitResult | AutoFitResult | SkidFitResult | SkidGyroResult
+):
     """Load the runs in ``paths`` and calibrate with ``method`` (None: the trajectory fit, or
     the relative-motion fit for ``.tuple`` files and ``truth_frames``); write PARAMS.yaml to
     ``out``, a ros2_control file to ``ros2``, the effective-wheelbase figure (trajectory fits)
@@ -313,21 +318,29 @@ def _fit_skid(
     plot: str | Path | None,
     robot_out: str | Path | None,
     force: bool,
-) -> SkidFitResult:
-    """The skid-steer route (:mod:`odocal.app.fit_skid`): bags with a truth pose track."""
-    from .fit_skid import fit_skid_bags
+) -> SkidFitResult | SkidGyroResult:
+    """The skid-steer routes: bags with a truth pose track (:mod:`odocal.app.fit_skid`), else,
+    or with ``--method gyro``, bags with an IMU (:mod:`odocal.app.fit_skid_gyro`)."""
+    from ..io.bag_skid import has_truth
+    from ..io.bags import IMU
+    from ..io.robot_file import load_robot
+    from .fit_skid import fit_skid_bags, read_skid_bags
+    from .fit_skid_gyro import fit_skid_gyro_bags
 
-    if method not in (None, "auto"):
+    if method not in (None, "auto", "gyro"):
         raise InputError(
-            f"--kinematics skid-steer fits the effective track of bags with a truth pose track; "
-            f"--method {method} is a differential-drive method",
+            f"--kinematics skid-steer fits the effective track of bags with a truth pose track "
+            f"or an IMU (--method gyro); --method {method} is a differential-drive method",
             field="method",
         )
     if robot_out is not None:
         raise InputError("--robot-out is not made by the skid-steer fit", field="robot-out")
-    for p in paths:
-        if not is_bag(p):
-            raise InputError("--kinematics skid-steer reads ROS bags (wheels and a truth pose)", p)
+    if not robot:
+        raise InputError(
+            "--kinematics skid-steer needs the robot file (--robot ROBOT.yaml): the nominal "
+            "wheel diameter and wheelbase the multipliers are relative to"
+        )
+    loaded_robot = load_robot(robot)
     exports = Exports(out, ros2, controller_name)
     plan = OutputPlan(input_paths(list(paths), robot))
     exports.register(plan)
@@ -337,7 +350,32 @@ def _fit_skid(
 
         require_matplotlib()
         plan.folder(plot, "--plot", files=(SKID_FIGURE,))
-    return fit_skid_bags(paths, plan, bag, robot=robot, ticks_per_rev=ticks_per_rev,
+    contents = read_skid_bags(paths, bag)
+    truth = [has_truth(c, bag) for c in contents]
+    if method == "gyro" or not any(truth):
+        for c in contents:
+            if not any(t.msgtype == IMU for t in c.topics):
+                raise InputError(
+                    "the skid-steer fit needs a truth pose track (a PoseStamped, or an Odometry "
+                    "in a world frame such as a lidar-ICP odometry in 'map'; --truth-topic) or "
+                    "an IMU (sensor_msgs/Imu: the gyro route); this bag has neither",
+                    c.path,
+                )
+        res = fit_skid_gyro_bags(contents, plan, bag, robot=loaded_robot,
+                                 ticks_per_rev=ticks_per_rev, exports=exports, force=force,
+                                 plot=plot)  # fmt: skip
+        if method == "gyro":
+            return res
+        why = "no truth pose track in the bags: the gyro route (--method gyro)"
+        return replace(res, notes=(why, *res.notes))
+    if not all(truth):
+        lacking = next(c.path for c, t in zip(contents, truth, strict=True) if not t)
+        raise InputError(
+            "this bag has no truth pose track while the others have one: fit them apart, or "
+            "all with --method gyro",
+            lacking,
+        )
+    return fit_skid_bags(contents, plan, bag, robot=loaded_robot, ticks_per_rev=ticks_per_rev,
                          exports=exports, force=force, plot=plot)  # fmt: skip
 
 

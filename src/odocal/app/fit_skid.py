@@ -57,6 +57,7 @@ from ..core.path_drift import PathDrift
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
 from ..io.bag_options import BagOptions
+from ..io.bags import BagContents
 from ..io.outputs import OutputPlan
 from .common import NO_EXPORTS, Exports, RobotSpec
 from .text import Presented, Text, verdict_lines, written_lines
@@ -399,33 +400,61 @@ def skid_fit(
     )  # fmt: skip
 
 
+def read_skid_bags(paths: Sequence[str | Path], bag: BagOptions) -> list[BagContents]:
+    """Each bag read once (every topic a skid-steer route may use), the same bag twice refused;
+    a path that is no bag is an InputError."""
+    from ..io.bags import is_bag, read_bag_once
+    from ..io.recordings import refuse_repeated
+
+    named = (bag.joint_topic, bag.truth_topic, bag.odom_topic, bag.imu_topic)
+    out = []
+    for p in refuse_repeated(paths):
+        if not is_bag(p):
+            raise InputError("--kinematics skid-steer reads ROS bags (wheels and a truth pose)", p)
+        out.append(read_bag_once(p, named))
+    return out
+
+
 def read_skid_logs(
-    paths: Sequence[str | Path],
+    paths: Sequence[str | Path] | Sequence[BagContents],
     bag: BagOptions,
     robot: Robot | None,
     ticks_per_rev: float | None = None,
 ) -> list[SkidLog]:
     """Each bag's wheels and truth (:func:`~odocal.io.bag_skid.read_skid_log`; the wheels from
-    the controller's odometry are inverted through ``robot``'s believed geometry), the same bag
-    twice refused; a path that is no bag is an InputError."""
+    the controller's odometry are inverted through ``robot``'s believed geometry); paths are
+    read by :func:`read_skid_bags`."""
     from ..io.bag_skid import read_skid_log
-    from ..io.bags import is_bag, read_bag_once
-    from ..io.recordings import refuse_repeated
 
-    named = (bag.joint_topic, bag.truth_topic, bag.odom_topic)
+    contents = [c for c in paths if isinstance(c, BagContents)]
+    if len(contents) != len(paths):
+        contents = read_skid_bags([p for p in paths if not isinstance(p, BagContents)], bag)
     ran_with = None if robot is None else robot.believed_geometry
-    logs = []
-    for p in refuse_repeated(paths):
-        if not is_bag(p):
-            raise InputError("--kinematics skid-steer reads ROS bags (wheels and a truth pose)", p)
-        logs.append(
-            read_skid_log(read_bag_once(p, named), bag, ran_with, ticks_per_rev=ticks_per_rev)
-        )
+    logs = [read_skid_log(c, bag, ran_with, ticks_per_rev=ticks_per_rev) for c in contents]
+    refuse_unstated_ran_with([(log.name, log.wheels) for log in logs], robot)
     return logs
 
 
+def refuse_unstated_ran_with(sources: Sequence[tuple[str, str]], robot: Robot | None) -> None:
+    """Wheels that are the controller's odometry, inverted through a geometry the robot file
+    does not state, would make a skid-steer answer of a guess (its controller runs with a
+    multiplier of 1.5-1.9, not the nominal 1): InputError saying how to state it."""
+    if robot is None or robot.ran_with_stated:
+        return
+    for name, source in sources:
+        if source != "joint_states":
+            raise InputError(
+                f"the wheels are the controller's odometry ({source}), and the robot file does "
+                "not say what the controller ran with: state its wheel_separation_multiplier "
+                "(and radius multipliers) or a 'believed' geometry in the robot file (a stock "
+                "Husky: wheel_separation_multiplier: 1.875), or record the joint states; the "
+                "nominal geometry is not guessed",
+                name,
+            )
+
+
 def fit_skid_bags(
-    paths: Sequence[str | Path],
+    paths: Sequence[str | Path] | Sequence[BagContents],
     plan: OutputPlan,
     bag: BagOptions,
     *,

@@ -143,6 +143,9 @@ class SkidLog:
         Truth poses (x_m, y_m, yaw_rad; any fixed frame), yaw unwrapped.
     group : str
         What the log belongs to for held-out checks (a day, a terrain, a robot).
+    wheels : str
+        Where the wheel angles came from: 'joint_states', or the controller's odometry inverted
+        through the geometry it ran with ('odometry', 'tf').
     """
 
     name: str
@@ -152,6 +155,7 @@ class SkidLog:
     truth_time_s: np.ndarray
     truth_pose: np.ndarray
     group: str = ""
+    wheels: str = "joint_states"
 
     def __post_init__(self) -> None:
         t = np.asarray(self.time_s, dtype=float)
@@ -178,7 +182,7 @@ class SkidLog:
         return SkidLog(
             f"{self.name}[{start_s:g}-{end_s:g} s]", t[w],
             np.asarray(self.angle_right_rad)[w], np.asarray(self.angle_left_rad)[w], tt[v],
-            np.asarray(self.truth_pose)[v], self.group if group is None else group,
+            np.asarray(self.truth_pose)[v], self.group if group is None else group, self.wheels,
         )  # fmt: skip
 
 

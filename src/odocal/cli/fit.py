@@ -210,7 +210,7 @@ def run(args: argparse.Namespace) -> int:
     """Run ``odocal fit``: calibrate, print (text or JSON), return the exit status."""
     if args.list_topics:
         return _list_topics(args.paths)
-    from ..app.fit import AutoFitResult, SkidFitResult, fit
+    from ..app.fit import AutoFitResult, SkidFitResult, SkidGyroResult, fit
     from ..calibration.fit_settings import SquareSettings, TrajectorySettings
 
     res = fit(
@@ -246,7 +246,9 @@ def run(args: argparse.Namespace) -> int:
         force=args.force,
         kinematics=args.kinematics,
     )
-    untrusted = isinstance(res, (AutoFitResult, SkidFitResult)) and not res.enough
+    untrusted = (
+        isinstance(res, (AutoFitResult, SkidFitResult, SkidGyroResult)) and not res.enough
+    )
     status = NOT_ENOUGH if untrusted else 0
     print_warnings(getattr(res, "load_warnings", ()))
     print_warnings(res.warnings)

@@ -7,6 +7,7 @@ PoseStamped, ...; else a SLAM pose on ``/tf`` at its update stamps), as a
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -20,17 +21,22 @@ from .bag_slam import read_slam_series
 from .bag_survey import slam_frames
 from .bag_wheels import choose_wheels, wheel_series
 from .bags import (
+    BASE_FRAMES,
+    IMU,
     POSE_TYPES,
     BagContents,
     TopicInfo,
     check_bag_path,
+    imu_series,
     list_topics,
     pick_topic,
     pose_series,
+    present,
     read_bag,
+    static_rotation,
 )
 
-__all__ = ["read_skid_log", "truth_topic"]
+__all__ = ["read_skid_log", "truth_topic", "has_truth", "SkidGyroLog", "read_skid_gyro_log"]
 
 
 def truth_topic(info: list[TopicInfo], options: BagOptions, path: Path) -> str:
@@ -51,6 +57,70 @@ def truth_topic(info: list[TopicInfo], options: BagOptions, path: Path) -> str:
         + (f" (several: {', '.join(world)})" if world else ""),
         path,
     )
+
+
+def has_truth(path: BagContents, options: BagOptions) -> bool:
+    """Whether the bag has a truth pose track the skid-steer fit can use (a named or the only
+    pose topic, a world-frame Odometry, a SLAM pose on /tf)."""
+    try:
+        truth_topic(path.topics, options, path.path)
+        return True
+    except InputError:
+        if options.truth_topic:
+            raise
+    return any(t.name == "/tf" for t in path.topics) and slam_frames(path) is not None
+
+
+@dataclass(frozen=True)
+class SkidGyroLog:
+    """The wheels and the IMU of one bag, each on its own clock, for the skid-steer gyro route.
+
+    ``time_s``, ``angle_right_rad``, ``angle_left_rad``: the wheels (cumulative rad);
+    ``imu_time_s`` and ``angular_velocity`` (rad/s, IMU frame, shape (K, 3)); ``mounting`` the
+    IMU's R_base_imu from /tf_static (None without a chain) and ``mounting_source`` saying so;
+    ``wheels`` where the wheels came from; ``imu_topic``."""
+
+    name: str
+    time_s: np.ndarray
+    angle_right_rad: np.ndarray
+    angle_left_rad: np.ndarray
+    imu_time_s: np.ndarray
+    angular_velocity: np.ndarray
+    mounting: np.ndarray | None
+    mounting_source: str | None
+    wheels: str
+    imu_topic: str
+
+
+def read_skid_gyro_log(
+    path: BagContents,
+    options: BagOptions,
+    ran_with: WheelGeometry | None,
+    *,
+    ticks_per_rev: float | None = None,
+) -> SkidGyroLog:
+    """The wheels (as :func:`read_skid_log` reads them) and the IMU's angular velocity and
+    mounting of one bag."""
+    p = check_bag_path(path)
+
+    def choose(info: list[TopicInfo]) -> dict[str, str | None]:
+        imu = pick_topic(info, options.imu_topic, (IMU,), "IMU", p, "--imu-topic")
+        return {**choose_wheels(info, options, p), "imu": imu,
+                "tf_static": present(info, "/tf_static")}  # fmt: skip
+
+    bag = read_bag(path, choose)
+    wheels = wheel_series(bag, options, ticks_per_rev, ran_with)
+    imu = imu_series(bag, str(bag.picked["imu"]))
+    rot, parent, source = None, None, None
+    if imu.frame_id:
+        rot, parent = static_rotation(bag, imu.frame_id, BASE_FRAMES)
+        if rot is not None:
+            source = f"tf_static ({parent} -> {imu.frame_id})"
+    return SkidGyroLog(
+        str(p), wheels.time_s, wheels.right, wheels.left, imu.time_s,
+        np.asarray(imu.values["angular_velocity"], dtype=float), rot, source, wheels.source,
+        imu.topic,
+    )  # fmt: skip
 
 
 def read_skid_log(
@@ -101,8 +171,9 @@ def read_skid_log(
         )
     pose = np.column_stack([truth.values["x"], truth.values["y"], truth.values["yaw"]])
     return SkidLog(
-        str(p), wheels.time_s, wheels.right, wheels.left, truth.time_s, pose, group or str(p)
-    )
+        str(p), wheels.time_s, wheels.right, wheels.left, truth.time_s, pose, group or str(p),
+        wheels.source,
+    )  # fmt: skip
 
 
 def _slam_log(
@@ -123,7 +194,8 @@ def _slam_log(
         pose = se2_compose(series.correction_pose, series.odometry_pose)
     pose = np.array(pose, dtype=float)
     pose[:, 2] = np.unwrap(pose[:, 2])
+    source = "odometry" if "inverted" in series.wheels else "joint_states"
     return SkidLog(
         series.path, series.wheel_time_s, series.wheel_right_rad, series.wheel_left_rad,
-        series.stamps_s, pose, group or series.path,
+        series.stamps_s, pose, group or series.path, source,
     )  # fmt: skip
