@@ -13,6 +13,7 @@ import warnings
 from collections.abc import Callable, Iterable
 from typing import Any, TypeVar
 
+from ..calibration.identifiability import degenerate_motions
 from ..errors import OdocalWarning
 
 __all__ = [
@@ -126,6 +127,8 @@ def check_text(out: Text, res: Any, indent: str = "") -> None:
     out(f"{indent}  motion: {_motion_line(d)}")
     for g in c.degeneracies:
         out(f"{indent}  {g.severity}: {g.message}")
+    for m in degenerate_motions(c):
+        out(f"{indent}  degenerate motion: {m['name']} [{m['code']}]: hides {m['hides']}")
     for s in c.suggestions:
         out(f"{indent}  suggestion: {s}")
     out(f"{indent}  noise: {res.noise_source}")

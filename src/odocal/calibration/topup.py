@@ -53,7 +53,7 @@ RUN_DURATIONS_S = (5, 10, 15, 20, 30, 40, 60, 90, 120, 180, 300, 600)
 REPEATS = (1, 2, 3, 4, 6, 8, 10, 15, 20, 30)
 
 #: The longest top-up tried, all runs together (s).
-MAX_TOTAL_S = 600.0
+MAX_TOTAL_S = 1800.0
 
 #: A spin rate never seen in the log is at most this (rad/s): a gentle spin.
 UNSEEN_SPIN_CAP_RAD_S = 1.0
