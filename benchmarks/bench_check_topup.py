@@ -11,7 +11,9 @@ against its prediction; and the top-ups ``odocal check`` recommends on OptiOdom 
    ``fit_trajectory``). Printed: the predicted standard error after the top-up, the standard
    deviation of the fits, their ratio (and, for the halving case, the realised spread of the
    log alone against its prediction).
-2. Real: the top-up ``odocal check`` gives for the Ivanjko straight runs, spins and the whole
+2. One long run against several short ones: the same 120 s of figure-eights added to the two
+   squares as one run and as 6 runs of 20 s, predicted and realised.
+3. Real: the top-up ``odocal check`` gives for the Ivanjko straight runs, spins and the whole
    data set 250620201738 (default noise).
 
 Usage::
@@ -121,6 +123,41 @@ def synthetic(m: int, seed: int) -> None:
                   + "; ratio " + ", ".join(f"{v:.3f}" for v in sd0 / pred0))  # fmt: skip
 
 
+def one_long_run(m: int, seed: int) -> None:
+    """The same 120 s of figure-eights added to the two squares as one run and as 6 runs of
+    20 s: predicted and realised spread of b and D_R (the fit weighs a run by its travel and
+    treats its pose samples as independent, so one long random-walk run can make it worse)."""
+    from odocal.core.topup_motion import Maneuver
+
+    tracks = [T.polygon(4, 1.0, "cw"), T.polygon(4, 1.0, "ccw")]
+    made = [recorded(t) for t in tracks]
+    recs = [r for r, _, _ in made]
+    info = log_information(recs, NOMINAL, noise=NOISE)
+    groups = [(t, n, ang, 1) for t, (_, n, ang) in zip(tracks, made, strict=True)]
+    rng = np.random.default_rng([seed, 99])
+    alone = simulated_fits(groups, m, rng).std(axis=0, ddof=1)
+    p0 = info.stderr()
+    print("\nthe two squares + 120 s of figure-eights (0.3 m/s, 1 m circles), um of b (D_R):")
+    b0, d0 = 1e6 * p0["wheelbase_m"], 1e6 * p0["wheel_diameter_right_m"]
+    print(f"  log alone: predicted {b0:.0f} ({d0:.0f}), "
+          f"realised {1e6 * alone[2]:.0f} ({1e6 * alone[0]:.0f})")  # fmt: skip
+    for length, runs in ((120.0, 1), (20.0, 6)):
+        man = [
+            Maneuver("arc", length / 2, speed_m_s=0.3, rate_rad_s=0.3),
+            Maneuver("arc", length / 2, speed_m_s=0.3, rate_rad_s=-0.3),
+        ]
+        rec, n = maneuver_recording(man, NOMINAL)
+        extra = log_information([rec], NOMINAL, noise=NOISE).times(runs)
+        p = (info + extra).stderr()
+        ang = np.column_stack([rec.wheel_angle_right_rad, rec.wheel_angle_left_rad])
+        sd = simulated_fits([*groups, (maneuver_track(man), n, ang, runs)], m, rng).std(
+            axis=0, ddof=1
+        )
+        print(f"  + {runs} x {length:.0f} s: predicted {1e6 * p['wheelbase_m']:.0f} "
+              f"({1e6 * p['wheel_diameter_right_m']:.0f}), realised {1e6 * sd[2]:.0f} "
+              f"({1e6 * sd[0]:.0f})")  # fmt: skip
+
+
 def real(data: Path) -> None:
     from odocal.app.check import check
 
@@ -150,6 +187,7 @@ def main() -> None:
     p.add_argument("--data", type=Path, default=Path("../shared/realdata/optiodom_diff"))
     a = p.parse_args()
     synthetic(a.replicates, a.seed)
+    one_long_run(a.replicates, a.seed)
     real(a.data)
 
 

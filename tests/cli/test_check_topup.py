@@ -71,5 +71,5 @@ def test_a_one_way_bag_is_flagged_and_an_enough_bag_gets_a_halving_top_up(tmp_pa
         assert se["after"][k] <= 0.5 * se["before"][k] * (1 + 1e-9)
         assert "halves" in top["sentence"]
     else:
-        assert "does not halve" in top["sentence"]
+        assert "no top-up of up to" in top["sentence"]
     assert math.isfinite(se["after"][k])

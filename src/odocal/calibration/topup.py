@@ -250,12 +250,13 @@ class TopUp:
 
         if self.goal == "halve" and self.weakest is not None:
             k = self.weakest
-            what = (
-                f"halves {_WORDS[k]}'s standard error"
-                if self.reached
-                else f"is the best tried for {_WORDS[k]}'s standard error (it does not halve it)"
+            change = f"{fmt(k, self.before)} -> {fmt(k, self.after)}"
+            if self.reached:
+                return f"{self.description} halves {_WORDS[k]}'s standard error: {change}"
+            return (
+                f"no top-up of up to {MAX_TOTAL_S:g} s tried halves {_WORDS[k]}'s standard "
+                f"error; the best tried, {self.description}, brings it {change}"
             )
-            return f"{self.description} {what}: {fmt(k, self.before)} -> {fmt(k, self.after)}"
         head = (
             f"adding {self.description} makes the log enough"
             if self.reached
