@@ -7,8 +7,11 @@ from __future__ import annotations
 import json
 import math
 
-from odocal.core.tracks import Track, polygon, straight
-from tests.support.bag_files import NOMINAL, make_run, write_bag
+import numpy as np
+import pytest
+
+from odocal.core.tracks import Track, arc, polygon, spot_turn, straight
+from tests.support.bag_files import NOMINAL, Run, make_run, write_bag
 
 ROBOT = "wheel_diameter_m: 0.2\nwheelbase_m: 0.5\n"  # the bags' NOMINAL
 
@@ -73,3 +76,31 @@ def test_a_one_way_bag_is_flagged_and_an_enough_bag_gets_a_halving_top_up(tmp_pa
     else:
         assert "no top-up of up to" in top["sentence"]
     assert math.isfinite(se["after"][k])
+
+
+ALONE = {
+    "pure-rotation": Track("spins", (spot_turn(0.2),) * 32 + (spot_turn(-0.2),) * 32),
+    "constant-velocity": Track("circle", (arc(0.5, 0.2),) * 63),
+}
+
+
+@pytest.mark.parametrize("code", list(ALONE))
+def test_a_bag_of_one_degenerate_motion_is_flagged_by_its_name(tmp_path, cli, code):
+    robot = tmp_path / "robot.yaml"
+    robot.write_text(ROBOT)
+    status, out, err = cli("check", _bag(tmp_path, ALONE[code], code), "--robot", robot, "--json")
+    assert status == 3, err
+    d = json.loads(out)
+    assert code in {m["code"] for m in d["degenerate_motions"]}
+    assert d["top_up"]["reached"] and d["top_up"]["ok_after"]
+
+
+def test_a_bag_without_motion_is_refused_naming_it(tmp_path, cli):
+    robot = tmp_path / "robot.yaml"
+    robot.write_text(ROBOT)
+    t = 5.0 + 0.02 * np.arange(200)
+    zero = np.zeros(len(t))
+    still = Run(t, zero, zero, np.zeros((len(t), 3)), np.zeros((len(t), 3)))
+    bag = write_bag(tmp_path / "still.bag", "ros1", still, imu=False)
+    status, out, err = cli("check", bag, "--robot", robot)
+    assert status == 2 and "never moves" in err and out == ""
