@@ -7,6 +7,7 @@ by the trajectory fit, shows the spread the check predicts."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -139,6 +140,11 @@ def test_the_top_up_uses_the_speeds_the_robot_drove():
     only = observed_rates([line], NOMINAL)
     assert only.rate_rad_s == pytest.approx(2 * 0.1 / NOMINAL.wheelbase_m, rel=0.02)
     assert "no spot turns seen" in only.source
+    # a log of arcs only: spins at the turn rate the arcs showed (0.3 rad/s)
+    circle, n = recorded(T.circle(0.5, "ccw"), dt=1.0)
+    circle = replace(circle, time_s=circle.time_s * (2 * math.pi / n) / 0.3)
+    arcs = observed_rates([line, circle], NOMINAL)
+    assert arcs.rate_rad_s == pytest.approx(0.3, rel=0.02) and "seen on arcs" in arcs.source
     info = log_information([line, line], NOMINAL, noise=NOISE)
     top = find_top_up(info, judge(info, [line, line]), [line, line])
     for m in top.maneuvers:

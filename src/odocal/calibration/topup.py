@@ -89,11 +89,11 @@ def observed_rates(
 ) -> RobotRates:
     """The 90th percentiles of the speeds the log shows over windows of ``window_s``: the
     wheels' speed, the axle centre's on straight windows (turning radius >= 12.5 b) and the turn
-    rate on turning windows (radius <= b). What is not seen is derived from the wheel speed: a
-    straight at the wheels' speed, a spin with the wheels at that speed but at most
-    :data:`UNSEEN_SPIN_CAP_RAD_S`."""
+    rate on turning windows (radius <= b). What is not seen is derived from what is: a straight
+    at the wheels' speed; a spin at the turn rate seen on arcs (at most the wheels' speed), else
+    with the wheels at their speed but at most :data:`UNSEEN_SPIN_CAP_RAD_S`."""
     b = float(geometry.wheelbase_m)
-    wheel, straight, turn = [], [], []
+    wheel, straight, turn, arcs = [], [], [], []
     for rec in recordings:
         t = np.asarray(rec.time_s, dtype=float)
         if len(t) < 2 or not t[-1] > t[0]:
@@ -112,7 +112,8 @@ def observed_rates(
         is_turn = moving & (np.abs(ds) <= b * np.abs(dth))
         straight.append((np.abs(ds) / dt)[is_straight])
         turn.append((np.abs(dth) / dt)[is_turn])
-    w, s, r = (np.concatenate(x) if x else np.zeros(0) for x in (wheel, straight, turn))
+        arcs.append((np.abs(dth) / dt)[moving & ~is_straight & ~is_turn])
+    w, s, r, a = (np.concatenate(x) if x else np.zeros(0) for x in (wheel, straight, turn, arcs))
     if w.size == 0:
         raise CalibrationError("check: no motion in the log to take speeds from")
     v_wheel = float(np.percentile(w, 90))
@@ -126,6 +127,9 @@ def observed_rates(
     if r.size >= 3:
         omega = float(np.percentile(r, 90))
         notes.append(f"turn rate {omega:.2g} rad/s seen")
+    elif a.size >= 3:
+        omega = min(2.0 * v_wheel / b, float(np.percentile(a, 90)))
+        notes.append(f"no spot turns seen: spins at the turn rate seen on arcs ({omega:.2g} rad/s)")
     else:
         omega = min(2.0 * v_wheel / b, UNSEEN_SPIN_CAP_RAD_S)
         notes.append(
