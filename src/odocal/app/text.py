@@ -13,7 +13,6 @@ import warnings
 from collections.abc import Callable, Iterable
 from typing import Any, TypeVar
 
-from ..calibration.identifiability import degenerate_motions
 from ..errors import OdocalWarning
 
 __all__ = [
@@ -106,6 +105,8 @@ def emits_warnings(command: F) -> F:
 def check_text(out: Text, res: Any, indent: str = "") -> None:
     """The human-readable check (``odocal check``; also the 'Is this log enough?' section of
     ``odocal fit``)."""
+    from ..calibration.identifiability import degenerate_motions  # only where a check is shown
+
     c = res.check
     d = c.motion.as_dict()
     out(
