@@ -28,7 +28,7 @@ from odocal.core.odometry import dead_reckon
 from odocal.core.recording import Recording
 from odocal.core.simulate import commanded_wheel_angles, drive
 from odocal.core.topup_motion import Maneuver, maneuver_recording, maneuver_track
-from odocal.errors import ModelError
+from odocal.errors import CalibrationError, ModelError
 
 NOMINAL = WheelGeometry(0.084, 0.084, 0.200)
 TRUE = WheelGeometry(0.0838, 0.0839, 0.2015)
@@ -117,6 +117,8 @@ def test_the_information_of_a_log_is_the_sum_over_its_runs_and_judges_as_the_che
     np.testing.assert_allclose(
         twice.fisher, log_information(b, NOMINAL, noise=NOISE).times(2).fisher, rtol=1e-10
     )
+    with pytest.raises(CalibrationError, match="different parameters or settings"):
+        _ = whole + log_information(a, NOMINAL, noise=NOISE, residual="segment")
     direct = check_recordings(a + b, NOMINAL, noise=NOISE)
     judged = judge(parts, a + b)
     for k in direct.stderr:

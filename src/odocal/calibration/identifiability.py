@@ -68,7 +68,6 @@ __all__ = [
     "describe_direction",
     "LogInformation",
     "log_information",
-    "settings_of",
     "judge",
     "DEGENERATE_MOTIONS",
     "degenerate_motions",
@@ -1001,7 +1000,11 @@ class LogInformation:
     residual_scale: float = 1.0
 
     def __add__(self, other: LogInformation) -> LogInformation:
-        if other.parameters != self.parameters or other.settings != self.settings:
+        if (other.parameters, other.settings, other.residual_scale) != (
+            self.parameters,
+            self.settings,
+            self.residual_scale,
+        ):
             raise CalibrationError("check: information of different parameters or settings")
         return replace(
             self,
@@ -1044,20 +1047,6 @@ def log_information(
         _checked_recordings(recordings, False), geometry, noise or NoiseModel(), fit,
         max_blocks_per_run,
     )  # fmt: skip
-
-
-def settings_of(check: LogCheck) -> dict:
-    """The keyword arguments of :func:`log_information` that ``check`` was computed with."""
-    s = check.settings
-    return {
-        "noise": check.noise,
-        "residual": s["residual"],
-        "segment_m": s["segment_m"] if s["segment_m"] is not None else 1.0,
-        "heading_weight_m": s["heading_weight_m"],
-        "samples_per_run": s["samples_per_run"],
-        "run_weight": s["run_weight"],
-        "mounting": s["mounting"],
-    }
 
 
 def _log_information(
