@@ -14,12 +14,14 @@ from ..calibration.identifiability import (
     MAX_BLOCKS_PER_RUN,
     LogCheck,
     NoiseModel,
-    check_recordings,
+    judge,
+    log_information,
     with_prediction,
 )
 from ..calibration.relative_motions import stack_motions
 from ..calibration.slam_bag import SlamBag
 from ..calibration.slam_noise import SLAM_POSE_NOISE, slam_noise_model
+from ..calibration.topup import TopUp, find_top_up
 from ..core.model import Kinematics, Robot, WheelGeometry
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
@@ -61,14 +63,17 @@ class CheckResult(Presented):
     load_warnings: tuple[str, ...] = ()
     kinematics: Kinematics = "differential"
     notes: tuple[str, ...] = ()
+    top_up: TopUp | None = None
 
     def as_dict(self) -> dict[str, Any]:
-        """The JSON of ``odocal check --json``: the check, the noise it assumed and its source."""
+        """The JSON of ``odocal check --json``: the check, the noise it assumed and its source,
+        and what to add (``top_up``, None where not computed)."""
         return self.check.as_dict() | {
             "noise_source": self.noise_source,
             "load_warnings": list(self.load_warnings),
             "kinematics": self.kinematics,
             "notes": list(self.notes),
+            "top_up": None if self.top_up is None else self.top_up.as_dict(),
         }
 
     def text(self) -> str:
@@ -82,6 +87,10 @@ class CheckResult(Presented):
         check_text(out, self)
         for note in self.notes:
             out(f"  {note}")
+        if self.top_up is not None:
+            t = self.top_up
+            out(f"  what to add: {t.sentence()}")
+            out(f"    (speeds from the log: {t.rates.source})")
         return str(out)
 
 
@@ -116,15 +125,18 @@ def check_loaded(
     mounting: bool = False,
     max_blocks_per_run: int = MAX_BLOCKS_PER_RUN,
     noise: tuple[NoiseModel, str] | None = None,
+    top_up: bool = False,
 ) -> CheckResult:
     """The check of loaded recordings, linearised at ``geometry``, with ``robot``'s noise (or
     ``noise``: a model and where it came from), for the trajectory fit of ``settings`` (its
-    residual, segment length, heading weight, samples and run weight). A run in which the robot
-    never moves is an InputError."""
+    residual, segment length, heading weight, samples and run weight); with ``top_up``, also
+    the shortest addition that makes the log enough (:func:`~odocal.calibration.topup.
+    find_top_up`). A run in which the robot never moves is an InputError."""
     refuse_still_runs(recordings)
     model, source = noise if noise is not None else noise_model(robot)
-    chk = check_recordings(
-        list(recordings),
+    recordings = list(recordings)
+    info = log_information(
+        recordings,
         geometry,
         noise=model,
         residual=settings.residual,
@@ -135,7 +147,9 @@ def check_loaded(
         mounting=mounting,
         max_blocks_per_run=max_blocks_per_run,
     )
-    return CheckResult(chk, source, len(recordings))
+    chk = judge(info, recordings)
+    more = find_top_up(info, chk, recordings) if top_up else None
+    return CheckResult(chk, source, len(recordings), top_up=more)
 
 
 @emits_warnings
@@ -196,7 +210,10 @@ def check(
     if truth_frames is not None:
         model, source, prediction = slam_noise(slam, r, geometry)
         noise = (model, source)
-    res = check_loaded(recordings, geometry, r, settings=settings, mounting=mounting, noise=noise)
+    res = check_loaded(
+        recordings, geometry, r, settings=settings, mounting=mounting, noise=noise,
+        top_up=truth_frames is None,
+    )  # fmt: skip
     if prediction is not None and np.all(np.isfinite(prediction)):
         what = "the SLAM route's relative-motion fit (intervals between updates)"
         res = replace(res, check=with_prediction(res.check, prediction, what))

@@ -105,6 +105,8 @@ def emits_warnings(command: F) -> F:
 def check_text(out: Text, res: Any, indent: str = "") -> None:
     """The human-readable check (``odocal check``; also the 'Is this log enough?' section of
     ``odocal fit``)."""
+    from ..calibration.identifiability import degenerate_motions  # only where a check is shown
+
     c = res.check
     d = c.motion.as_dict()
     out(
@@ -126,6 +128,8 @@ def check_text(out: Text, res: Any, indent: str = "") -> None:
     out(f"{indent}  motion: {_motion_line(d)}")
     for g in c.degeneracies:
         out(f"{indent}  {g.severity}: {g.message}")
+    for m in degenerate_motions(c):
+        out(f"{indent}  degenerate motion: {m['name']} [{m['code']}]: hides {m['hides']}")
     for s in c.suggestions:
         out(f"{indent}  suggestion: {s}")
     out(f"{indent}  noise: {res.noise_source}")

@@ -66,6 +66,11 @@ __all__ = [
     "GEOMETRY_PARAMETERS",
     "MOUNT_PARAMETERS",
     "describe_direction",
+    "LogInformation",
+    "log_information",
+    "judge",
+    "DEGENERATE_MOTIONS",
+    "degenerate_motions",
 ]
 
 # Residual blocks of one run at most (its dense covariance is 3 x 3 per block pair).
@@ -289,6 +294,7 @@ class LogCheck:
             "weakest_vector": jsonable(self.weakest_vector),
             "weakest_relative_stderr": jsonable(self.weakest_relative_stderr),
             "degeneracies": [d.as_dict() for d in self.degeneracies],
+            "degenerate_motions": degenerate_motions(self),
             "suggestions": list(self.suggestions),
             "motion": self.motion.as_dict(),
             "per_recording": [m.as_dict() for m in self.per_recording],
@@ -677,6 +683,48 @@ def _radius_hint(b: float) -> str:
 _Finding = tuple[Degeneracy, list[str]]
 
 
+#: The degenerate motions of wheel calibration named after Lee, Eckenhoff, Yang, Geneva & Huang,
+#: "Visual-Inertial-Wheel Odometry with Online Calibration", IROS 2020, whose abstract states that
+#: its observability analysis "identifies five commonly-seen degenerate motions for wheel
+#: calibration parameters". The list itself was NOT read (docs/check.md: RECONSTRUCTED): the five
+#: names below are the motion classes that make the information of D_R, D_L, b singular (or, the
+#: last, hide direction-dependent effects) in the wheel model, each with the check's flag that
+#: detects it. Stable code -> (name, flag of this check, what it hides for D_R, D_L, b).
+DEGENERATE_MOTIONS: dict[str, tuple[str, str, str]] = {
+    "no-motion": ("no motion", "no-motion", "everything"),
+    "pure-translation": (
+        "pure translation (straight lines only)",
+        "straight-only",
+        "the wheelbase b",
+    ),
+    "pure-rotation": (
+        "pure rotation (spot turns only)",
+        "spot-turns-only",
+        "the common scale of D_R, D_L and b",
+    ),
+    "constant-velocity": (
+        "constant angular and linear velocity (one circle)",
+        "constant-curvature",
+        "one combination of D_R, D_L and b",
+    ),
+    "one-axis-rotation": (
+        "rotation about one axis in one sense only",
+        "one-turning-direction",
+        "direction-dependent effects, absorbed into b and D_R/D_L",
+    ),
+}
+
+
+def degenerate_motions(check: LogCheck) -> list[dict]:
+    """The named degenerate motions (:data:`DEGENERATE_MOTIONS`) that ``check`` flags: code,
+    name, the check's flag and what it hides."""
+    return [
+        {"code": code, "name": name, "flag": flag, "hides": hides}
+        for code, (name, flag, hides) in DEGENERATE_MOTIONS.items()
+        if check.flagged(flag)
+    ]
+
+
 def _degeneracies(
     motion: MotionSummary,
     cond: float,
@@ -929,20 +977,117 @@ def check_recordings(
     fit.check()
     recordings = _checked_recordings(recordings, fit.empirical)
     noise = noise or NoiseModel()
-    th = thresholds or CheckThresholds()
+    info = _log_information(recordings, geometry, noise, fit, max_blocks_per_run)
+    return judge(info, recordings, thresholds)
+
+
+@dataclass(frozen=True)
+class LogInformation:
+    """What :func:`check_recordings` sums over the runs of a log, at one linearisation point,
+    noise and fit setting: the Fisher information ``fisher`` (J^T Sigma^-1 J, scaled), the fit's
+    ``hessian`` (J^T W J) and ``meat`` (J^T W Sigma W J), all additive over runs (the runs'
+    residuals are independent), so the information of a log and of a motion added to it is the
+    sum (``+``). ``residual_scale`` is 1 for the stated noise."""
+
+    parameters: tuple
+    values: np.ndarray
+    geometry: WheelGeometry
+    noise: NoiseModel
+    settings: _Settings
+    fisher: np.ndarray
+    hessian: np.ndarray
+    meat: np.ndarray
+    residual_scale: float = 1.0
+
+    def __add__(self, other: LogInformation) -> LogInformation:
+        if (other.parameters, other.settings, other.residual_scale) != (
+            self.parameters,
+            self.settings,
+            self.residual_scale,
+        ):
+            raise CalibrationError("check: information of different parameters or settings")
+        return replace(
+            self,
+            fisher=self.fisher + other.fisher,
+            hessian=self.hessian + other.hessian,
+            meat=self.meat + other.meat,
+        )
+
+    def times(self, runs: int) -> LogInformation:
+        """The information of ``runs`` independent repeats of this log."""
+        return replace(
+            self, fisher=runs * self.fisher, hessian=runs * self.hessian, meat=runs * self.meat
+        )
+
+    def stderr(self) -> dict:
+        """Predicted standard error of the fit as implemented (the sandwich), per parameter."""
+        return _stderr(self.parameters, _sandwich(self.hessian, self.meat))
+
+
+def log_information(
+    recordings: Iterable[Recording],
+    geometry: WheelGeometry,
+    *,
+    noise: NoiseModel | None = None,
+    residual: Residual = "pose",
+    segment_m: float = 1.0,
+    heading_weight_m: float = 0.1,
+    samples_per_run: int = 200,
+    run_weight: RunWeight = "travel",
+    mounting: bool = False,
+    max_blocks_per_run: int = MAX_BLOCKS_PER_RUN,
+) -> LogInformation:
+    """The additive information of ``recordings`` under the STATED noise (arguments as
+    :func:`check_recordings`); ground truth is not needed (a synthetic motion has none)."""
+    fit = _Settings(
+        residual, segment_m, heading_weight_m, samples_per_run, run_weight, mounting, "stated"
+    )
+    fit.check()
+    return _log_information(
+        _checked_recordings(recordings, False), geometry, noise or NoiseModel(), fit,
+        max_blocks_per_run,
+    )  # fmt: skip
+
+
+def _log_information(
+    recordings: Sequence[Recording],
+    geometry: WheelGeometry,
+    noise: NoiseModel,
+    fit: _Settings,
+    max_blocks_per_run: int,
+) -> LogInformation:
     b = float(geometry.wheelbase_m)
     p0 = np.array([geometry.diameter_right_m, geometry.diameter_left_m, b], dtype=float)
-    names = GEOMETRY_PARAMETERS + (MOUNT_PARAMETERS if mounting else ())
-    params = np.concatenate([p0, np.zeros(3)]) if mounting else p0
-    # relative parametrisation: lengths as fractions, mounting offsets in wheelbases, yaw in rad
-    rel = np.concatenate([p0, [b, b, 1.0]]) if mounting else p0
+    names = GEOMETRY_PARAMETERS + (MOUNT_PARAMETERS if fit.mounting else ())
+    params = np.concatenate([p0, np.zeros(3)]) if fit.mounting else p0
+    rel = _relative_units(params, b)
     steps = 1e-6 * rel
     info = _Information(len(params))
     for rec in recordings:
         info.add_run(rec, geometry, noise, params, steps, fit, max_blocks_per_run)
     F, Mw, scale = info.scaled(fit.empirical)
-    cov = _sandwich(info.hessian, Mw)
-    d = _Directions.of(F, rel, th)
+    return LogInformation(names, params, geometry, noise, fit, F, info.hessian, Mw, scale)
+
+
+def _relative_units(params: np.ndarray, b: float) -> np.ndarray:
+    """Units of the relative parametrisation: lengths as fractions, mounting offsets in
+    wheelbases, yaw in rad."""
+    return np.concatenate([params[:3], [b, b, 1.0]]) if len(params) > 3 else params[:3]
+
+
+def judge(
+    info: LogInformation,
+    recordings: Sequence[Recording],
+    thresholds: CheckThresholds | None = None,
+) -> LogCheck:
+    """The check of a log from its information (:func:`log_information`, possibly a sum) and
+    its recordings' motion: what :func:`check_recordings` returns."""
+    th = thresholds or CheckThresholds()
+    geometry, params, names = info.geometry, info.values, info.parameters
+    b = float(geometry.wheelbase_m)
+    F = info.fisher
+    cov = _sandwich(info.hessian, info.meat)
+    d = _Directions.of(F, _relative_units(params, b), th)
     if d.cond < _SINGULAR:
         cov_best = np.linalg.inv(F)
     else:
@@ -976,9 +1121,9 @@ def check_recordings(
         suggestions=tuple(tips),
         motion=motion,
         per_recording=per,
-        noise=noise,
-        residual_scale=scale,
-        settings=fit.as_dict(),
+        noise=info.noise,
+        residual_scale=info.residual_scale,
+        settings=info.settings.as_dict(),
     )
 
 

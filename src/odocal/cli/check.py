@@ -26,11 +26,14 @@ def add_parser(sub: Any) -> None:
         description="From the motion actually recorded (wheel angles; ground truth optional): "
         "the Fisher information of D_R, D_L and b for the trajectory fit, the predicted "
         "standard errors, the condition number, the degenerate motions present (only straight "
-        "lines, only spot turns, one turning direction, constant curvature, too little travel) "
-        "and what to drive to fix them. The noise is ROBOT.yaml's nonsystematic k and "
-        "measurement; else, with a SLAM truth (--truth-frames), the log's own residuals; else "
-        "stated defaults, named in the output (docs/check.md). Exit status: 0 when the log is "
-        "enough, 3 when it is NOT enough, 2 on an error.",
+        "lines, only spot turns, one turning direction, constant curvature, too little travel; "
+        "named after Lee et al. 2020: no motion, pure translation, pure rotation, constant "
+        "angular and linear velocity, one-axis rotation) and what to drive to fix them: the "
+        "shortest top-up (spins, straights, figure-eights at the log's own speeds) that makes "
+        "the log enough, or that halves its weakest standard error. The noise is ROBOT.yaml's "
+        "nonsystematic k and measurement; else, with a SLAM truth (--truth-frames), the log's "
+        "own residuals; else stated defaults, named in the output (docs/check.md). Exit "
+        "status: 0 when the log is enough, 3 when it is NOT enough, 2 on an error.",
     )
     add_recording_args(p)
     p.add_argument(
