@@ -45,3 +45,28 @@ def test_a_skid_steer_robot_in_a_fleet(realdata, tmp_path):
     assert exported.written and "wheel_separation: 1.08" in text
     m = float(text.split("wheel_separation_multiplier: ")[1].split()[0])
     assert m == pytest.approx(level / 1.08, rel=1e-9)
+
+
+def test_a_skid_steer_robot_with_an_imu_and_no_truth(realdata, tmp_path):
+    """The shared Husky bag (its controller's odometry and an IMU, no truth) in a fleet whose
+    robot.yaml states the stock multiplier: the gyro route's record, the diameters held, the
+    effective track the command's; without the stated multiplier, that bag fails with the
+    reason (no guess)."""
+    from odocal.app.fleet_task import _calibrate
+
+    husky = realdata / "husky" / "husky_test1.bag"
+    robot = tmp_path / "robot.yaml"
+    robot.write_text("wheel_diameter_m: 0.33\nwheelbase_m: 0.555\nkinematics: skid_steer\n"
+                     "wheel_separation_multiplier: 1.875\n")  # fmt: skip
+    record, report = _calibrate(husky, str(robot))
+    assert record.route == "gyro" and report["route"] == "gyro"
+    statuses = [p.status for p in record.parameters]
+    assert statuses == ["held", "held", "estimated"]
+    alone = fit([husky], robot=robot)
+    assert record.parameters[2].value == pytest.approx(alone.geometry.wheelbase_m, rel=1e-9)
+    bare = tmp_path / "bare.yaml"
+    bare.write_text("wheel_diameter_m: 0.33\nwheelbase_m: 0.555\nkinematics: skid_steer\n")
+    from odocal.errors import InputError
+
+    with pytest.raises(InputError, match="does not say what the controller ran with"):
+        _calibrate(husky, str(bare))

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from ..calibration.gyro import gyro_heading, integrate_rate
+from ..calibration.route_answer import RouteAnswer, route_answer
 from ..calibration.skid_gyro import (
     GyroGainFit,
     HeadingIntervals,
@@ -93,6 +94,15 @@ class SkidGyroResult(Presented):
         """The effective track over the nominal wheelbase (1 / gain) and its standard error."""
         g, se = float(self.fit.gain[0]), float(self.fit.gain_stderr[0])
         return 1.0 / g, se / g**2
+
+    def answer(self) -> RouteAnswer:
+        """The route's answer (route 'gyro', model 'heading-ratio'): the diameters held at the
+        nominal, the effective track estimated, the gain as the measured ratio."""
+        m, se = self.track_multiplier
+        b_se = float(self.nominal.wheelbase_m * se)
+        ratio = (float(self.fit.gain[0]), float(self.fit.gain_stderr[0]))
+        return route_answer("gyro", "heading-ratio", self.geometry, (None, None, b_se),
+                            ratio=ratio)  # fmt: skip
 
     @property
     def geometry(self) -> WheelGeometry:

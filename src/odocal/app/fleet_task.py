@@ -32,6 +32,7 @@ from ..io.fleet_record import (
 if TYPE_CHECKING:  # (the bag route's modules are imported where a bag is calibrated)
     from .fit_auto_result import AutoFitResult
     from .fit_skid import SkidFitResult
+    from .fit_skid_gyro import SkidGyroResult
 
 __all__ = [
     "BagTask",
@@ -109,10 +110,13 @@ def calibration_record(result: AutoFitResult, version: str = __version__) -> Cal
     )
 
 
-def skid_record(result: SkidFitResult, version: str = __version__) -> CalibrationRecord:
-    """What the fleet keeps of a skid-steer robot's bag (:mod:`odocal.app.fit_skid`): the
-    effective rolling diameters and the effective track, estimated (the drift alarms follow the
-    track multiplier), the verdict and the truth's clock offset."""
+def skid_record(
+    result: SkidFitResult | SkidGyroResult, version: str = __version__
+) -> CalibrationRecord:
+    """What the fleet keeps of a skid-steer robot's bag (:mod:`odocal.app.fit_skid`; without a
+    truth, :mod:`odocal.app.fit_skid_gyro`): the effective rolling diameters (held at the nominal
+    by the gyro) and the effective track, estimated (the drift alarms follow the track
+    multiplier), the verdict and the truth's or the IMU's clock offset."""
     answer = result.answer()
     n = result.nominal
     return CalibrationRecord(
@@ -138,12 +142,20 @@ def _calibrate(bag: Path, robot_file: str) -> tuple[CalibrationRecord, dict[str,
     robot = load_robot(robot_file)
     if robot.kinematics == "skid-steer":
         from ..io.bag_options import NO_BAG_OPTIONS
-        from ..io.bag_skid import read_skid_log
-        from ..io.bags import read_bag_once
-        from .fit_skid import skid_fit
+        from ..io.bag_skid import has_truth
+        from .fit_skid import read_skid_bags, read_skid_logs, skid_fit
 
-        log = read_skid_log(read_bag_once(bag), NO_BAG_OPTIONS, robot.believed_geometry)
-        skid = skid_fit([log], robot, force=True)
+        (contents,) = read_skid_bags([bag], NO_BAG_OPTIONS)
+        if not has_truth(contents, NO_BAG_OPTIONS):  # the IMU then (the gyro route)
+            from ..io.bag_skid import read_skid_gyro_log
+            from .fit_skid import refuse_unstated_ran_with
+            from .fit_skid_gyro import skid_gyro_fit
+
+            glog = read_skid_gyro_log(contents, NO_BAG_OPTIONS, robot.believed_geometry)
+            refuse_unstated_ran_with([(glog.name, glog.wheels)], robot)
+            gyro = skid_gyro_fit([glog], robot, NO_BAG_OPTIONS, force=True)
+            return skid_record(gyro), gyro.as_dict()
+        skid = skid_fit(read_skid_logs([contents], NO_BAG_OPTIONS, robot), robot, force=True)
         return skid_record(skid), skid.as_dict()
     from .fit_auto import fit_auto
 
