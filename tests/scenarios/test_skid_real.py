@@ -122,15 +122,29 @@ def test_a_recording_that_never_turns_cannot_show_the_track():
         skid_fit([log], robot)
 
 
-def test_a_slam_pose_on_tf_is_a_truth_track_too(realdata):
+def test_a_slam_pose_on_tf_is_a_truth_track_too_and_laser_scans_see_the_same_turning(realdata):
     # the MIT half: no truth topic, a SLAM pose (map -> odom -> base_link) at its updates; the
     # effective track agrees with the differential SLAM route's wheelbase (0.4868 +- 0.0043 m)
+    import numpy as np
+
     half = realdata / "mit_csail" / "csail_half1"
-    res = fit([half], robot=realdata / "mit_csail" / "robot_virtual.yaml",
-              kinematics="skid-steer")  # fmt: skip
+    robot = realdata / "mit_csail" / "robot_virtual.yaml"
+    res = fit([half], robot=robot, kinematics="skid-steer")
     m, se = res.track_multiplier
     slam_b, slam_se = 0.4868 / 0.5, 0.0043 / 0.5
     assert abs(m - slam_b) < 3 * (se**2 + slam_se**2) ** 0.5
+    # --method scan: the scan-matched laser's heading changes against the wheels' (a turning
+    # gain with the wheels held at nominal), against the SLAM fit's turning gain (mean wheel
+    # scale over the multiplier): within 3 combined errors
+    scan = fit([half], method="scan", robot=robot, kinematics="skid-steer")
+    g, g_se = float(scan.fit.gain[0]), float(scan.fit.gain_stderr[0])
+    i = [res.fit.names.index(n) for n in ("scale_right", "scale_left", "track_multiplier")]
+    v, cov = res.fit.values[i], res.fit.covariance[np.ix_(i, i)]
+    slam_g = 0.5 * (v[0] + v[1]) / v[2]
+    jac = np.array([0.5 / v[2], 0.5 / v[2], -slam_g / v[2]])
+    slam_g_se = float(np.sqrt(jac @ cov @ jac))
+    assert abs(g - slam_g) < 3 * np.hypot(g_se, slam_g_se), (g, g_se, slam_g, slam_g_se)
+    assert scan.as_dict()["route"] == "scan" and scan.answer().route == "scan"
 
 
 def test_validate_reads_a_skid_steer_bag_with_its_truth_on_the_wheels_clock(husky, skid):

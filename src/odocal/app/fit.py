@@ -281,7 +281,7 @@ def fit(
     paths = expand_folders([paths] if isinstance(paths, (str, Path)) else list(paths))
     if kinematics_of(kinematics, robot) == "skid-steer":
         return _fit_skid(paths, method, robot, bag, ticks_per_rev, out, ros2, controller_name,
-                         plot, robot_out, force)  # fmt: skip
+                         plot, robot_out, force, scan_interval_s)  # fmt: skip
     if _is_auto(paths, method, truth_frames, bag, settings, squares):
         from .fit_auto import fit_auto
 
@@ -318,19 +318,22 @@ def _fit_skid(
     plot: str | Path | None,
     robot_out: str | Path | None,
     force: bool,
+    scan_interval_s: float = 0.5,
 ) -> SkidFitResult | SkidGyroResult:
     """The skid-steer routes: bags with a truth pose track (:mod:`odocal.app.fit_skid`), else,
-    or with ``--method gyro``, bags with an IMU (:mod:`odocal.app.fit_skid_gyro`)."""
+    or with ``--method gyro``, bags with an IMU; with ``--method scan``, bags with laser scans
+    (:mod:`odocal.app.fit_skid_gyro`)."""
     from ..io.bag_skid import has_truth
     from ..io.bags import IMU
     from ..io.robot_file import load_robot
     from .fit_skid import fit_skid_bags, read_skid_bags
     from .fit_skid_gyro import fit_skid_gyro_bags
 
-    if method not in (None, "auto", "gyro"):
+    if method not in (None, "auto", "gyro", "scan"):
         raise InputError(
-            f"--kinematics skid-steer fits the effective track of bags with a truth pose track "
-            f"or an IMU (--method gyro); --method {method} is a differential-drive method",
+            f"--kinematics skid-steer fits the effective track of bags with a truth pose track, "
+            f"an IMU (--method gyro) or laser scans (--method scan); --method {method} is a "
+            "differential-drive method",
             field="method",
         )
     if robot_out is not None:
@@ -351,6 +354,12 @@ def _fit_skid(
         require_matplotlib()
         plan.folder(plot, "--plot", files=(SKID_FIGURE,))
     contents = read_skid_bags(paths, bag)
+    if method == "scan":
+        from .fit_skid_gyro import fit_skid_scan_bags
+
+        return fit_skid_scan_bags(contents, plan, bag, robot=loaded_robot,
+                                  ticks_per_rev=ticks_per_rev, scan_interval_s=scan_interval_s,
+                                  exports=exports, force=force, plot=plot)  # fmt: skip
     truth = [has_truth(c, bag) for c in contents]
     if method == "gyro" or not any(truth):
         for c in contents:

@@ -15,12 +15,13 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
 from ..calibration.gyro import gyro_heading, integrate_rate
 from ..calibration.route_answer import RouteAnswer, route_answer
+from ..calibration.scan_matching import scan_interval_motions
 from ..calibration.skid_gyro import (
     GyroGainFit,
     HeadingIntervals,
@@ -35,6 +36,7 @@ from ..calibration.time_offset import TimeOffset, estimate_time_offset, resolve_
 from ..core.model import Robot, WheelGeometry
 from ..errors import CalibrationError, InputError
 from ..io.bag_options import BagOptions
+from ..io.bag_scan import ScanBag
 from ..io.bag_skid import SkidGyroLog
 from ..io.bags import BagContents
 from ..io.outputs import OutputPlan
@@ -42,7 +44,15 @@ from .common import NO_EXPORTS, Exports
 from .fit_skid import MAX_Z, TRACK_MULTIPLIER_RANGE, refuse_unstated_ran_with
 from .text import Presented, Text, verdict_lines, written_lines
 
-__all__ = ["SkidGyroResult", "skid_gyro_fit", "fit_skid_gyro_bags", "NOT_ESTIMATED"]
+__all__ = [
+    "SkidGyroResult",
+    "skid_gyro_fit",
+    "skid_scan_fit",
+    "heading_fit",
+    "fit_skid_gyro_bags",
+    "fit_skid_scan_bags",
+    "NOT_ESTIMATED",
+]
 
 #: What the gyro route does not estimate, in the verdict's words.
 NOT_ESTIMATED = (
@@ -50,6 +60,12 @@ NOT_ESTIMATED = (
     "nominal: radius multipliers 1.0), and the gyro's own scale-factor error (0.1-1 % for a "
     "MEMS gyro, measured 1-5 % from the lidar ICP on the Warthog) is in the multiplier, not in "
     "its error"
+)
+#: The same for the scan route (the laser's heading changes only).
+NOT_ESTIMATED_SCAN = (
+    "the laser's heading changes only are used: the wheels' rolling scale is NOT estimated "
+    "(held at the nominal: radius multipliers 1.0), and a scan matcher's rotation bias is in "
+    "the multiplier, not in its error"
 )
 
 
@@ -83,6 +99,12 @@ class SkidGyroResult(Presented):
     reasons: tuple[str, ...]
     notes: tuple[str, ...]
     written: tuple[Path, ...] = ()
+    sensor: Literal["gyro", "scan"] = "gyro"
+
+    @property
+    def not_estimated(self) -> str:
+        """What this route does not estimate, in words."""
+        return NOT_ESTIMATED if self.sensor == "gyro" else NOT_ESTIMATED_SCAN
 
     @property
     def enough(self) -> bool:
@@ -101,7 +123,7 @@ class SkidGyroResult(Presented):
         m, se = self.track_multiplier
         b_se = float(self.nominal.wheelbase_m * se)
         ratio = (float(self.fit.gain[0]), float(self.fit.gain_stderr[0]))
-        return route_answer("gyro", "heading-ratio", self.geometry, (None, None, b_se),
+        return route_answer(self.sensor, "heading-ratio", self.geometry, (None, None, b_se),
                             ratio=ratio)  # fmt: skip
 
     @property
@@ -133,8 +155,10 @@ class SkidGyroResult(Presented):
         out = Text()
         m, se = self.track_multiplier
         n = self.nominal
-        out(f"skid-steer gyro fit of {len(self.names)} recording(s) (yaw rate over 1 s "
-            f"intervals, {self.fit.used} used, {self.fit.rejected} rejected)")  # fmt: skip
+        what = "gyro" if self.sensor == "gyro" else "scan-matched laser"
+        out(f"skid-steer {self.sensor} fit of {len(self.names)} recording(s) (the {what}'s "
+            f"heading change against the wheels' over short intervals, {self.fit.used} used, "
+            f"{self.fit.rejected} rejected)")  # fmt: skip
         out(f"  effective track {n.wheelbase_m * m:.4f} m = wheel_separation {n.wheelbase_m:g} m "
             f"x wheel_separation_multiplier {m:.4f} +- {se:.4f}")  # fmt: skip
         out("  right_wheel_radius_multiplier 1.0, left_wheel_radius_multiplier 1.0 (held)")
@@ -142,7 +166,7 @@ class SkidGyroResult(Presented):
             pm = "" if o.stderr_s is None else f" +- {o.stderr_s:.4f}"
             use = "applied" if o.applied else "not applied"
             out(f"clock offset of the {o.label}: {o.offset_s:+.4f}{pm} s ({o.how}; {use}); "
-                f"yaw axis: {mount}")  # fmt: skip
+                f"heading from: {mount}")  # fmt: skip
         if self.per_bag:
             out("per recording (its own multiplier; z against the others'):")
             rows: list[tuple[str, ...]] = [("", "multiplier", "std. error", "z")]
@@ -166,7 +190,7 @@ class SkidGyroResult(Presented):
                 tag = " (exported)" if label == "effective track" else ""
                 best = " (best)" if label == h.best else ""
                 out(f"  {label:<30} {v:7.3f}{tag}{best}")
-        out(f"not estimated: {NOT_ESTIMATED}")
+        out(f"not estimated: {self.not_estimated}")
         verdict_lines(out, self.enough, self.reasons)
         written_lines(out, self.written)
         return str(out)
@@ -176,7 +200,7 @@ class SkidGyroResult(Presented):
         m, se = self.track_multiplier
         return {
             "kinematics": "skid-steer",
-            "route": "gyro",
+            "route": self.sensor,
             "recordings": list(self.names),
             "nominal": self.nominal.as_dict(),
             "effective_track_m": self.nominal.wheelbase_m * m,
@@ -187,7 +211,7 @@ class SkidGyroResult(Presented):
                 "right_wheel_radius_multiplier": 1.0,
             },
             "held": ["left_wheel_radius_multiplier", "right_wheel_radius_multiplier"],
-            "not_estimated": NOT_ESTIMATED,
+            "not_estimated": self.not_estimated,
             "gain": float(self.fit.gain[0]),
             "gain_stderr": float(self.fit.gain_stderr[0]),
             "residual_bias_rad_s": self.fit.bias_rad_s,
@@ -309,13 +333,71 @@ def skid_gyro_fit(
     has is a CalibrationError unless ``force`` (then a reason)."""
     if not logs:
         raise InputError("no recording to fit")
-    nominal = robot.nominal
     parts, offsets, mounts = [], [], []
     for i, log in enumerate(logs):
-        iv, off, mount = _intervals(log, i, nominal, options)
+        iv, off, mount = _intervals(log, i, robot.nominal, options)
         parts.append(iv)
         offsets.append(off)
         mounts.append(mount)
+    names = tuple(log.name for log in logs)
+    return heading_fit(parts, names, tuple(offsets), tuple(mounts), robot, force=force)
+
+
+def skid_scan_fit(
+    loaded: Sequence[ScanBag],
+    robot: Robot,
+    options: BagOptions,
+    *,
+    interval_s: float = 0.5,
+    force: bool = False,
+) -> SkidGyroResult:
+    """The skid-steer scan route: each bag's scans matched over intervals (the differential
+    scan route's :func:`~odocal.calibration.scan_matching.scan_interval_motions`, the laser's
+    clock offset estimated), their heading changes taken as a gyro's (a laser's rotation is the
+    base's whatever its mounting), fitted by :func:`heading_fit`."""
+    if not loaded:
+        raise InputError("no recording to fit")
+    nominal = robot.nominal
+    parts, offsets, mounts = [], [], []
+    for i, one in enumerate(loaded):
+        joints, scans = one.joints, one.scans
+        try:
+            found = scan_interval_motions(
+                scans.time_s, scans.points_m, joints.time_s, joints.values["right"],
+                joints.values["left"], nominal, np.asarray(one.mount, dtype=float), interval_s,
+                options.time_offset("laser"),
+            )  # fmt: skip
+        except CalibrationError as exc:
+            raise InputError(str(exc), one.path, None, scans.topic) from None
+        m = found.motions
+        assert m.start_s is not None and m.end_s is not None
+        u = (0.5 * nominal.diameter_right_m * m.phi_right_rad
+             - 0.5 * nominal.diameter_left_m * m.phi_left_rad) / nominal.wheelbase_m  # fmt: skip
+        start = np.asarray(m.start_s, dtype=float)
+        parts.append(HeadingIntervals(
+            u, np.asarray(m.sensor_motion, dtype=float)[:, 2], np.asarray(m.end_s) - start,
+            start, np.floor((start - start[0]) / 15.0).astype(int), np.full(len(u), i),
+        ))  # fmt: skip
+        offsets.append(replace(found.time_offset, part=Path(one.path).name))
+        mounts.append(f"scans on {scans.topic} ({found.matched} of {found.intervals} matched)")
+    names = tuple(str(one.path) for one in loaded)
+    return heading_fit(parts, names, tuple(offsets), tuple(mounts), robot, force=force,
+                       sensor="scan")  # fmt: skip
+
+
+def heading_fit(
+    parts: Sequence[HeadingIntervals],
+    names: tuple[str, ...],
+    offsets: tuple[TimeOffset, ...],
+    mounts: tuple[str, ...],
+    robot: Robot,
+    *,
+    force: bool = False,
+    sensor: Literal["gyro", "scan"] = "gyro",
+) -> SkidGyroResult:
+    """The gain, the table, the per-recording multipliers and the held-out check of heading
+    intervals (one part per recording), and the verdict (module docstring)."""
+    nominal = robot.nominal
     pooled = HeadingIntervals.concatenate(parts)
     fit = fit_gyro_gain(pooled)
     reasons: list[str] = []
@@ -338,7 +420,7 @@ def skid_gyro_fit(
         notes.append(f"no turn-rate table: {exc}")
     per: tuple[PerBag, ...] = ()
     if len(parts) > 1:
-        per = tuple(replace(r, name=logs[int(r.name)].name) for r in _per_bag(parts))
+        per = tuple(replace(r, name=names[int(r.name)]) for r in _per_bag(parts))
         for r in per:
             if r.z is not None and abs(r.z) > MAX_Z:
                 reasons.append(
@@ -360,8 +442,8 @@ def skid_gyro_fit(
                 f"against {nom:.3g} deg with the nominal track: the calibration does not help"
             )
     return SkidGyroResult(
-        tuple(log.name for log in logs), nominal, fit, table, tuple(offsets), tuple(mounts),
-        heldout, per, tuple(reasons), tuple(notes),
+        names, nominal, fit, table, offsets, mounts, heldout, per, tuple(reasons), tuple(notes),
+        sensor=sensor,
     )  # fmt: skip
 
 
@@ -386,7 +468,43 @@ def fit_skid_gyro_bags(
         for c in contents
     ]
     refuse_unstated_ran_with([(log.name, log.wheels) for log in logs], robot)
-    res = skid_gyro_fit(logs, robot, bag, force=force)
+    return _write(skid_gyro_fit(logs, robot, bag, force=force), plan, exports, force, plot)
+
+
+def fit_skid_scan_bags(
+    contents: Sequence[BagContents],
+    plan: OutputPlan,
+    bag: BagOptions,
+    *,
+    robot: Robot,
+    ticks_per_rev: float | None = None,
+    scan_interval_s: float = 0.5,
+    exports: Exports = NO_EXPORTS,
+    force: bool = False,
+    plot: str | Path | None = None,
+) -> SkidGyroResult:
+    """``fit BAG... --kinematics skid-steer --method scan``: the bags' scans
+    (:func:`~odocal.io.bag_scan.read_scan_bag`) fitted (:func:`skid_scan_fit`) and the
+    ``exports`` written (not when the verdict has reasons, unless ``force``)."""
+    from ..io.bag_scan import read_scan_bag
+
+    loaded = [read_scan_bag(c, bag, ticks_per_rev, robot.believed_geometry) for c in contents]
+    sources = [(str(one.path), "odometry" if "inverted" in str(one.joints.meta.get("wheels"))
+                else "joint_states") for one in loaded]  # fmt: skip
+    refuse_unstated_ran_with(sources, robot)
+    res = skid_scan_fit(loaded, robot, bag, interval_s=scan_interval_s, force=force)
+    return _write(res, plan, exports, force, plot)
+
+
+def _write(
+    res: SkidGyroResult,
+    plan: OutputPlan,
+    exports: Exports,
+    force: bool,
+    plot: str | Path | None,
+) -> SkidGyroResult:
+    """The exports and the curve's figure, all or none (none when the verdict has reasons,
+    unless ``force``)."""
     if res.reasons and not force and (exports.out or exports.ros2):
         return res
     files: dict[Path, Any] = {}
@@ -399,10 +517,14 @@ def fit_skid_gyro_bags(
             )
         from ..plot.skid import skid_figures
 
-        title = f"Effective track against the turn rate, gyro ({len(res.names)} recording(s))"
+        title = (
+            f"Effective track against the turn rate, {res.sensor} ({len(res.names)} "
+            "recording(s))"
+        )
         files.update(skid_figures(plot, res.curve, res.track_multiplier, title))
     written = exports.write(
-        plan, res.geometry, res.nominal, files=files, record={"method": "skid-steer gyro"},
+        plan, res.geometry, res.nominal, files=files,
+        record={"method": f"skid-steer {res.sensor}"},
         doubts=res.reasons,
     )  # fmt: skip
     return replace(res, written=written)
