@@ -138,12 +138,79 @@ def mit() -> tuple[list[dict], dict]:
             "scale": math.sqrt(q / 3),
             "scale_ci95": [math.sqrt(q / chi2.ppf(0.975, 3)), math.sqrt(q / chi2.ppf(0.025, 3))],
         }
+    parts_rows, parts_info = mit_parts(robot, frames)
+    rows += parts_rows
     info = {
+        "parts": parts_info,
         "halves_m": v.tolist(),
         "difference_m": diff.tolist(),
         "noise": notes,
         "joint": joint,
     }
+    return rows, info
+
+
+def mit_parts(robot_path: Path, frames: tuple[str, str], counts=(4, 6)) -> tuple[list, dict]:
+    """The whole MIT log cut into ``counts`` contiguous parts of its SLAM intervals (the same
+    time offset, estimated once on the whole log): each part fitted alone by the SLAM route's
+    relative-motion fit (:func:`odocal.app.fit_relative.fit_relative`, its own covariance) and
+    checked (:func:`odocal.calibration.slam_noise.slam_noise_model`: the noise from the part's
+    own residuals and the covariance the fit would have, as ``odocal check --truth-frames``).
+    Besides the per-parameter rows, a joint scale: Q = sum over parts of the deviation from
+    the inverse-covariance mean in that part's predicted covariance, sqrt(Q / (3 (P - 1)))."""
+    import dataclasses
+
+    from odocal.app.fit_relative import fit_relative
+    from odocal.app.slam_bags import load_slam_bags
+    from odocal.calibration.slam_noise import slam_noise_model
+    from odocal.io.bag_options import NO_BAG_OPTIONS
+    from odocal.io.robot_file import load_robot
+
+    robot = load_robot(robot_path)
+    full = REAL / "mit_csail" / "csail_full"
+    bag = load_slam_bags([full], frames, NO_BAG_OPTIONS, ran_with=robot.believed_geometry)[0]
+    m = bag.relative_motions
+    n = len(m.phi_right_rad)
+
+    def part(lo: int, hi: int):
+        def cut(a):
+            return None if a is None else a[lo:hi]
+
+        inc = None if m.increments is None else (m.increments[0][lo:hi], m.increments[1][lo:hi])
+        return dataclasses.replace(
+            m, phi_right_rad=m.phi_right_rad[lo:hi], phi_left_rad=m.phi_left_rad[lo:hi],
+            sensor_motion=m.sensor_motion[lo:hi], increments=inc, start_s=cut(m.start_s),
+            end_s=cut(m.end_s),
+        )  # fmt: skip
+
+    rows, info = [], {"intervals": n, "time_offset_s": bag.time_offset.applied_s}
+    for count in counts:
+        edges = np.linspace(0, n, count + 1).round().astype(int)
+        vals, covs = [], {"check (log's own noise)": [], "fit's own": []}
+        for lo, hi in zip(edges[:-1], edges[1:], strict=True):
+            p = part(int(lo), int(hi))
+            res, _ = fit_relative([p], robot.nominal, sensor_pose=(0, 0, 0), force=True,
+                                  source="slam")  # fmt: skip
+            g = res.geometry
+            vals.append([g.diameter_right_m, g.diameter_left_m, g.wheelbase_m])
+            covs["fit's own"].append(np.asarray(res.covariance)[:3, :3])
+            covs["check (log's own noise)"].append(slam_noise_model(p, robot, g).covariance)
+        v = np.array(vals)
+        sd = v.std(axis=0, ddof=1)
+        label = f"MIT, {count} parts of the whole log"
+        joint = {}
+        for name, cs in covs.items():
+            se = np.sqrt(np.mean([np.diag(c) for c in cs], axis=0))
+            for i, q in enumerate(SHORT):
+                rows.append(row(label, q, name, float(se[i]), float(sd[i]), count - 1, "mm", 1e3))
+            inv = [np.linalg.inv(c) for c in cs]
+            mean = np.linalg.solve(sum(inv), sum(w @ x for w, x in zip(inv, v, strict=True)))
+            q = float(sum((x - mean) @ w @ (x - mean) for w, x in zip(inv, v, strict=True)))
+            dof = 3 * (count - 1)
+            joint[name] = {"q": q, "dof": dof, "scale": math.sqrt(q / dof),
+                           "scale_ci95": [math.sqrt(q / chi2.ppf(0.975, dof)),
+                                          math.sqrt(q / chi2.ppf(0.025, dof))]}  # fmt: skip
+        info[str(count)] = {"estimates_m": v.tolist(), "joint": joint}
     return rows, info
 
 
@@ -376,6 +443,15 @@ def main(argv=None) -> int:
                 f"(95 % {v['scale_ci95'][0]:.2f}-{v['scale_ci95'][1]:.2f})"
             )
         print(f"  noise: {info['mit']['noise']}")
+        for count, x in info["mit"]["parts"].items():
+            if not isinstance(x, dict):
+                continue
+            for k, v in x["joint"].items():
+                lo, hi = v["scale_ci95"]
+                print(
+                    f"  {count} parts, {k}: Q = {v['q']:.1f} on {v['dof']} dof, scale "
+                    f"{v['scale']:.2f} (95 % {lo:.2f}-{hi:.2f})"
+                )
     if "warthog" in info:
         w = info["warthog"]
         print(
