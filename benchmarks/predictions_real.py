@@ -99,6 +99,25 @@ def pooled_within(values: np.ndarray, groups: list[str]) -> tuple[np.ndarray, in
     return np.sqrt(ss / dof), dof
 
 
+def joint_scale(values: np.ndarray, covs: list[np.ndarray], groups: list[str]) -> dict:
+    """Realised / predicted as one number for all three parameters: Q = sum over parts of
+    (x - mean)^T C^-1 (x - mean), the mean the inverse-covariance mean of the part's group
+    (one group: all parts; sessions: each session its own mean), chi-square with
+    3 (parts - groups) dof if the predicted covariances C are right; scale sqrt(Q / dof)."""
+    q = 0.0
+    for g in sorted(set(groups)):
+        ix = [i for i, x in enumerate(groups) if x == g]
+        inv = [np.linalg.inv(covs[i]) for i in ix]
+        mean = np.linalg.solve(sum(inv), sum(w @ values[i] for w, i in zip(inv, ix, strict=True)))
+        q += float(
+            sum((values[i] - mean) @ w @ (values[i] - mean) for w, i in zip(inv, ix, strict=True))
+        )
+    dof = values.shape[1] * (len(values) - len(set(groups)))
+    return {"q": q, "dof": dof, "scale": math.sqrt(q / dof),
+            "scale_ci95": [math.sqrt(q / chi2.ppf(0.975, dof)),
+                           math.sqrt(q / chi2.ppf(0.025, dof))]}  # fmt: skip
+
+
 # ---------------------------------------------------------------------------------------------
 # A1. MIT halves
 
@@ -203,13 +222,7 @@ def mit_parts(robot_path: Path, frames: tuple[str, str], counts=(4, 6)) -> tuple
             se = np.sqrt(np.mean([np.diag(c) for c in cs], axis=0))
             for i, q in enumerate(SHORT):
                 rows.append(row(label, q, name, float(se[i]), float(sd[i]), count - 1, "mm", 1e3))
-            inv = [np.linalg.inv(c) for c in cs]
-            mean = np.linalg.solve(sum(inv), sum(w @ x for w, x in zip(inv, v, strict=True)))
-            q = float(sum((x - mean) @ w @ (x - mean) for w, x in zip(inv, v, strict=True)))
-            dof = 3 * (count - 1)
-            joint[name] = {"q": q, "dof": dof, "scale": math.sqrt(q / dof),
-                           "scale_ci95": [math.sqrt(q / chi2.ppf(0.975, dof)),
-                                          math.sqrt(q / chi2.ppf(0.025, dof))]}  # fmt: skip
+            joint[name] = joint_scale(v, cs, ["all"] * count)
         info[str(count)] = {"estimates_m": v.tolist(), "joint": joint}
     return rows, info
 
@@ -335,16 +348,27 @@ def optiodom() -> tuple[list[dict], dict]:
     rows, info = [], {"noise_measured": facts, "noise_default": default_source, "sets": {}}
     for cat, sets in (("square", squares), ("ivanjko", ivanjko)):
         est, p_meas, p_def, p_fit, sess = [], [], [], [], []
+        covs: dict[str, list] = {"check, measured noise": [], "check, default noise": [],
+                                 "fit's own": []}  # fmt: skip
         for name, recs in sets.items():
             f = fit_recordings(recs, "trajectory", nominal=NOMINAL)
             g = f.geometry
             est.append([g.diameter_right_m, g.diameter_left_m, g.wheelbase_m])
             p_fit.append([f.stderr[k] for k in KEYS])
-            p_meas.append([check_recordings(recs, g, noise=measured).stderr[k] for k in KEYS])
-            p_def.append([check_recordings(recs, g, noise=default).stderr[k] for k in KEYS])
+            c_meas = check_recordings(recs, g, noise=measured)
+            c_def = check_recordings(recs, g, noise=default)
+            p_meas.append([c_meas.stderr[k] for k in KEYS])
+            p_def.append([c_def.stderr[k] for k in KEYS])
+            covs["check, measured noise"].append(np.asarray(c_meas.covariance)[:3, :3])
+            covs["check, default noise"].append(np.asarray(c_def.covariance)[:3, :3])
+            covs["fit's own"].append(np.asarray(f.covariance)[:3, :3])
             sess.append(session(name))
         est_a = np.array(est)
-        info["sets"][cat] = {"names": list(sets), "estimates_m": est_a.tolist(), "sessions": sess}
+        info["sets"][cat] = {
+            "names": list(sets), "estimates_m": est_a.tolist(), "sessions": sess,
+            "joint": {k: joint_scale(est_a, c, ["all"] * len(est)) for k, c in covs.items()},
+            "joint_within_session": {k: joint_scale(est_a, c, sess) for k, c in covs.items()},
+        }  # fmt: skip
         observed = est_a.std(axis=0, ddof=1)
         within, dof_w = pooled_within(est_a, sess)
         for i, q in enumerate(SHORT):
@@ -471,6 +495,14 @@ def main(argv=None) -> int:
             f"{f['turn_rad']:.3g} rad, tracker {f['sigma_xy_mm']:.3f} mm / "
             f"{f['sigma_theta_deg']:.3f} deg; default: {info['optiodom']['noise_default']}"
         )
+        for cat, x in info["optiodom"]["sets"].items():
+            for key, what in (("joint", "all sets"), ("joint_within_session", "within session")):
+                for k, v in x[key].items():
+                    lo, hi = v["scale_ci95"]
+                    print(
+                        f"  {cat}, {what}, {k}: joint Q = {v['q']:.1f} on {v['dof']} dof, "
+                        f"scale {v['scale']:.2f} (95 % {lo:.2f}-{hi:.2f})"
+                    )
     if "design" in info:
         print()
         print(info["design"]["text"])
