@@ -169,7 +169,7 @@ def mit() -> tuple[list[dict], dict]:
     return rows, info
 
 
-def mit_parts(robot_path: Path, frames: tuple[str, str], counts=(4, 6)) -> tuple[list, dict]:
+def mit_parts(robot_path: Path, frames: tuple[str, str], counts=(2, 4, 6)) -> tuple[list, dict]:
     """The whole MIT log cut into ``counts`` contiguous parts of its SLAM intervals (the same
     time offset, estimated once on the whole log): each part fitted alone by the SLAM route's
     relative-motion fit (:func:`odocal.app.fit_relative.fit_relative`, its own covariance) and
