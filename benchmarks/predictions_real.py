@@ -661,6 +661,17 @@ def design_question(trials: int, seed: int) -> dict:
     out_models["turn-rate gain (systematic) + per-turn noise (RECONSTRUCTED)"], rate_fit = (
         _rate_model(by_side, iv, held, ref, robot, real, models, trials, rng, chunks)
     )
+    # the shortcut against the design's own simulator (today's model, the real run counts)
+    from odocal.design.real_prediction import predict
+
+    sim = predict(
+        robot, held, {s: real[s]["runs_cw"] for s in sides}, sides, real[sides[0]]["runs_cw"],
+        max(200, trials // 4), np.random.default_rng(seed + 1),
+    )  # fmt: skip
+    simulator = {
+        str(s): {"E_b_sd": c.E_b_std, "predicted_error_mm": 1e3 * c.post_error_mean_m}
+        for s, c in sim.real.items()
+    }
     # the systematic per-turn difference the data show, and what a turn-rate rule would pick
     s0, s1 = sides
     z = (real[s1]["alpha_deg"] - real[s0]["alpha_deg"]) / math.hypot(
@@ -679,6 +690,8 @@ def design_question(trials: int, seed: int) -> dict:
         "heldout_spot_turn_rate_rad_s": held_profile.spot_turn_rate_rad_s,
         "trials": trials,
         "turn_rate_gain": rate_fit,
+        "simulator_today": simulator,
+        "simulator_trials": max(200, trials // 4),
     }
     res["text"] = _design_text(res)
     return res
@@ -859,6 +872,15 @@ def _design_text(r: dict) -> str:
             f"{100 * m['share_second_better']:.0f} % | "
             f"{100 * m['share_second_significantly_better']:.1f} % |"
         )
+    sim = r["simulator_today"]
+    lines += [
+        "",
+        f"The design's simulator (today's model, {r['simulator_trials']} trials): E_b sd "
+        + " / ".join(f"{100 * sim[s]['E_b_sd']:.3f} %" for s in (s0, s1))
+        + ", predicted error "
+        + " / ".join(f"{sim[s]['predicted_error_mm']:.1f} mm" for s in (s0, s1))
+        + " (the shortcut's first row).",
+    ]
     f = r["turn_rate_gain"]
     hm, hf = np.array(f["heldout_model_gain"]), np.array(f["heldout_fitted_gain_CHECK"])
     lines += [
