@@ -661,6 +661,9 @@ def design_question(trials: int, seed: int) -> dict:
     out_models["turn-rate gain (systematic) + per-turn noise (RECONSTRUCTED)"], rate_fit = (
         _rate_model(by_side, iv, held, ref, robot, real, models, trials, rng, chunks)
     )
+    # corroboration from other runs: the Ivanjko spins' heading scatter per session (slow June,
+    # fast December turns), each data set at its own trajectory fit
+    spins = _spin_scatter(data)
     # the shortcut against the design's own simulator (today's model, the real run counts)
     from odocal.design.real_prediction import predict
 
@@ -691,10 +694,47 @@ def design_question(trials: int, seed: int) -> dict:
         "trials": trials,
         "turn_rate_gain": rate_fit,
         "simulator_today": simulator,
+        "ivanjko_spin_heading_sd": spins,
         "simulator_trials": max(200, trials // 4),
     }
     res["text"] = _design_text(res)
     return res
+
+
+def _spin_scatter(data: Path) -> dict:
+    """Final heading error sd (deg) of the Ivanjko spins, pooled within data set and direction,
+    per session, each data set at its own trajectory fit; with the dof and the turn rate."""
+    from bench_check import NOMINAL, data_sets, session
+
+    from odocal.calibration.trajectory import fit_trajectory
+    from odocal.core.odometry import dead_reckon
+    from odocal.design.real_motion import motion_profile
+
+    acc: dict[str, list] = {}
+    for name, recs in data_sets(data, "ivanjko").items():
+        g = fit_trajectory(recs, nominal=NOMINAL).geometry
+        groups: dict[str, list[float]] = {}
+        spins = [r for r in recs if r.label and r.label.startswith("spin")]
+        for r in spins:
+            odo = dead_reckon(r.wheel_angle_right_rad, r.wheel_angle_left_rad, g)
+            gt = r.ground_truth
+            groups.setdefault(r.label, []).append(
+                float((gt[-1, 2] - gt[0, 2]) - (odo[-1, 2] - odo[0, 2]))
+            )
+        a = acc.setdefault(session(name), [0.0, 0, []])
+        for v in groups.values():
+            x = np.array(v)
+            a[0] += float(np.sum((x - x.mean()) ** 2))
+            a[1] += len(x) - 1
+        a[2] += spins
+    return {
+        k: {
+            "sd_deg": math.degrees(math.sqrt(a[0] / a[1])),
+            "dof": a[1],
+            "spot_turn_rate_rad_s": motion_profile(a[2], NOMINAL).spot_turn_rate_rad_s,
+        }
+        for k, a in acc.items()
+    }
 
 
 def turn_rate(runs, ref) -> float:
@@ -872,6 +912,17 @@ def _design_text(r: dict) -> str:
             f"{100 * m['share_second_better']:.0f} % | "
             f"{100 * m['share_second_significantly_better']:.1f} % |"
         )
+    sp = r["ivanjko_spin_heading_sd"]
+    lines += [
+        "",
+        "Corroboration, the Ivanjko spins (half turns) per session: "
+        + "; ".join(
+            f"{k}: heading sd {v['sd_deg']:.2f} deg ({v['dof']} dof), turns at "
+            f"{v['spot_turn_rate_rad_s']:.2f} rad/s"
+            for k, v in sp.items()
+        )
+        + ".",
+    ]
     sim = r["simulator_today"]
     lines += [
         "",
