@@ -169,6 +169,52 @@ def mit() -> tuple[list[dict], dict]:
     return rows, info
 
 
+def shared_pose_covariance(m, geometry, model) -> np.ndarray:
+    """The covariance of (D_R, D_L, b) of the relative-motion fit of the intervals ``m``, as
+    ``check`` predicts it (weights S_i^-1, S_i = k C_i + the truth's noise, intervals taken as
+    independent), but with the SLAM pose's noise SHARED by neighbouring intervals: the pose
+    ending interval i starts interval i + 1, so its error enters both, with opposite signs
+    (first order: E_i = d m_i / d eps_end = diag(R(theta_i), 1), F_i+1 = d m_i+1 / d eps_start
+    = [[-I, -J t_i+1], [0, -1]]). The sandwich H^-1 (sum_ij J_i^T W_i Sigma_ij W_j J_j) H^-1.
+    ``model``: the check's NoiseModel (k, and the pose noise per SLAM pose)."""
+    from odocal.core.covariance import propagate_increments
+    from odocal.core.model import NonSystematicError, WheelGeometry
+    from odocal.core.odometry import dead_reckon_rows
+
+    r, lft = m.increments
+    p0 = np.array([geometry.diameter_right_m, geometry.diameter_left_m, geometry.wheelbase_m])
+    jac = np.empty((len(r), 3, 3))
+    for j in range(3):
+        h = 1e-6 * p0[j]
+        up, down = p0.copy(), p0.copy()
+        up[j] += h
+        down[j] -= h
+        plus = dead_reckon_rows(r, lft, WheelGeometry.unchecked(*up))[:, :, -1].T
+        minus = dead_reckon_rows(r, lft, WheelGeometry.unchecked(*down))[:, :, -1].T
+        jac[:, :, j] = (plus - minus) / (2 * h)
+    dr, dl = 0.5 * geometry.diameter_right_m * r, 0.5 * geometry.diameter_left_m * lft
+    _, c = propagate_increments(dr, dl, geometry.wheelbase_m, NonSystematicError(0.5, 0.5))
+    sxy, sth = model.measurement.sigma_xy_m, model.measurement.sigma_theta_rad
+    rp = np.diag([sxy**2, sxy**2, sth**2])
+    s_i = model.wheel.k_sum_m * c + 2 * rp[None]
+    w = np.linalg.inv(s_i)
+    wj = np.einsum("nij,njk->nik", w, jac)  # W_i J_i
+    h_mat = np.einsum("nji,njk->ik", jac, wj)
+    meat = h_mat.copy()  # the diagonal blocks: sum J^T W S W J = H
+    mot = np.asarray(m.sensor_motion, dtype=float)
+    adjacent = np.flatnonzero(np.abs(m.start_s[1:] - m.end_s[:-1]) < 1e-6)
+    for i in adjacent:
+        th = mot[i, 2]
+        e = np.array([[math.cos(th), -math.sin(th), 0], [math.sin(th), math.cos(th), 0], [0, 0, 1]])
+        t = mot[i + 1, :2]
+        f = np.array([[-1.0, 0, t[1]], [0, -1.0, -t[0]], [0, 0, -1.0]])
+        cross = e @ rp @ f.T  # Cov(dm_i, dm_i+1)
+        term = wj[i].T @ cross @ wj[i + 1]
+        meat += term + term.T
+    hinv = np.linalg.inv(h_mat)
+    return hinv @ meat @ hinv
+
+
 def mit_parts(robot_path: Path, frames: tuple[str, str], counts=(2, 4, 6)) -> tuple[list, dict]:
     """The whole MIT log cut into ``counts`` contiguous parts of its SLAM intervals (the same
     time offset, estimated once on the whole log): each part fitted alone by the SLAM route's
@@ -205,7 +251,8 @@ def mit_parts(robot_path: Path, frames: tuple[str, str], counts=(2, 4, 6)) -> tu
     rows, info = [], {"intervals": n, "time_offset_s": bag.time_offset.applied_s}
     for count in counts:
         edges = np.linspace(0, n, count + 1).round().astype(int)
-        vals, covs = [], {"check (log's own noise)": [], "fit's own": []}
+        shared = "check, pose noise shared by neighbouring intervals"
+        vals, covs = [], {"check (log's own noise)": [], shared: [], "fit's own": []}
         for lo, hi in zip(edges[:-1], edges[1:], strict=True):
             p = part(int(lo), int(hi))
             res, _ = fit_relative([p], robot.nominal, sensor_pose=(0, 0, 0), force=True,
@@ -213,7 +260,9 @@ def mit_parts(robot_path: Path, frames: tuple[str, str], counts=(2, 4, 6)) -> tu
             g = res.geometry
             vals.append([g.diameter_right_m, g.diameter_left_m, g.wheelbase_m])
             covs["fit's own"].append(np.asarray(res.covariance)[:3, :3])
-            covs["check (log's own noise)"].append(slam_noise_model(p, robot, g).covariance)
+            noise = slam_noise_model(p, robot, g)
+            covs["check (log's own noise)"].append(noise.covariance)
+            covs[shared].append(shared_pose_covariance(p, g, noise.model))
         v = np.array(vals)
         sd = v.std(axis=0, ddof=1)
         label = f"MIT, {count} parts of the whole log"
