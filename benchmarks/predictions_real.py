@@ -281,7 +281,7 @@ def mit_parts(robot_path: Path, frames: tuple[str, str], counts=(2, 4, 6)) -> tu
 
 
 def warthog() -> tuple[list[dict], dict]:
-    from odocal.app.fit_skid import EXPORTED, _offsets
+    from odocal.app.fit_skid import EXPORTED, truth_offsets
     from odocal.calibration.skid_steer import fit_skid_logs
     from odocal.io.bag_options import BagOptions
     from odocal.io.bag_skid import read_skid_log
@@ -292,7 +292,7 @@ def warthog() -> tuple[list[dict], dict]:
     bags = sorted(skid.glob("warthog_wheels_grass*/*_bag"), key=_start_ns)
     opts = BagOptions(truth_topic="/icp_odom")
     logs = [read_skid_log(b, opts, robot.believed_geometry) for b in bags]
-    offsets = _offsets(logs)
+    offsets = truth_offsets(logs)
     days = [_day(b) for b in bags]
     rows, info = [], {"recordings": [b.parent.name for b in bags], "days": days, "models": {}}
     for label, scales in (("left/right (exported)", EXPORTED[1]), ("common scale", "common")):
