@@ -35,6 +35,7 @@ from ..design.run_procedures import (
     choose,
     lodo_table,
     selection_corrected,
+    two_data_sets,
 )
 from ..errors import InputError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
@@ -159,6 +160,7 @@ def fit_runs_auto(
         raise InputError("--method auto: no runs given")
     require_ground_truth(recordings, "--method auto on runs")
     refuse_still_runs(recordings)
+    two_data_sets(recordings)
     nominal = nominal_geometry(robot, recordings)
     if nominal is None:
         raise InputError(

@@ -37,7 +37,7 @@ from typing import Literal, get_args
 import numpy as np
 
 from ..calibration.squares import fit_recorded_squares
-from ..calibration.trajectory import fit_trajectory
+from ..calibration.trajectory import fit_trajectory_geometry
 from ..core.model import WheelGeometry
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
@@ -54,6 +54,7 @@ __all__ = [
     "candidate_procedures",
     "fit_procedure",
     "lodo_table",
+    "two_data_sets",
     "choose",
     "selection_corrected",
 ]
@@ -155,15 +156,15 @@ def fit_procedure(
     ran_with: WheelGeometry | None = None,
 ) -> WheelGeometry:
     """Calibrate with ``procedure`` from its runs among ``recordings``: the trajectory fit
-    (:func:`~odocal.calibration.trajectory.fit_trajectory`, default settings) or the heading
-    method / UMBmark per data set, pooled
+    (:func:`~odocal.calibration.trajectory.fit_trajectory_geometry`, default settings) or the
+    heading method / UMBmark per data set, pooled
     (:func:`~odocal.calibration.squares.fit_recorded_squares`). CalibrationError when it has no
     runs or cannot fit them."""
     runs = procedure.runs(recordings)
     if not runs:
         raise CalibrationError(f"{procedure.label}: no runs")
     if procedure.method == "trajectory":
-        return fit_trajectory(runs, nominal=nominal).geometry
+        return fit_trajectory_geometry(runs, nominal)
     return fit_recorded_squares(runs, procedure.method, ran_with=ran_with, nominal=nominal).geometry
 
 
@@ -243,6 +244,19 @@ def _data_sets(recordings: Sequence[Recording]) -> list[str]:
     return out
 
 
+def two_data_sets(recordings: Sequence[Recording]) -> list[str]:
+    """The data sets of ``recordings`` in order of appearance; InputError for fewer than two
+    (nothing can be left out)."""
+    sets = _data_sets(recordings)
+    if len(sets) < 2:
+        raise InputError(
+            f"--method auto compares procedures by leaving one data set out, and the runs come "
+            f"from {len(sets)} data set ({', '.join(sets) or 'none'}): give runs of two or more "
+            "data sets (folders), or name the method"
+        )
+    return sets
+
+
 def lodo_table(
     recordings: Sequence[Recording],
     procedures: Sequence[Procedure],
@@ -254,13 +268,7 @@ def lodo_table(
     """Leave each data set of ``recordings`` out once, fit every procedure on the rest and
     dead-reckon the left-out runs (module docstring). ``fit(procedure, runs, nominal, ran_with)``
     is the calibration (default :func:`fit_procedure`). InputError for fewer than two data sets."""
-    sets = _data_sets(recordings)
-    if len(sets) < 2:
-        raise InputError(
-            f"--method auto compares procedures by leaving one data set out, and the runs come "
-            f"from {len(sets)} data set ({', '.join(sets) or 'none'}): give runs of two or more "
-            "data sets (folders), or name the method"
-        )
+    sets = two_data_sets(recordings)
     left_out = {d: [r for r in recordings if r.dataset == d] for d in sets}
     errors: dict[Procedure, list[float]] = {p: [] for p in procedures}
     failed: dict[Procedure, str] = {}
