@@ -21,6 +21,8 @@ Criteria (all from the LODO table):
 
 ``--nested`` also runs the whole choice (rule ``lowest``) inside each LODO fold: the honest
 estimate of the procedure "choose by LODO, then fit" on runs like the calibration runs.
+``--heading-metric`` also scores every candidate by LODO with the final HEADING error (deg) of
+the left-out runs instead of the position error (a check of the metric, not a rule).
 ``--only PREFIX`` keeps the data sets whose name starts with PREFIX (e.g. ``2312``: December).
 
 Usage::
@@ -40,12 +42,14 @@ import numpy as np
 
 from odocal.app.fit_runs import fit_runs
 from odocal.app.fit_runs_auto import fit_runs_auto
+from odocal.core.odometry import dead_reckon
 from odocal.design.real_experiment import heldout_errors
 from odocal.design.run_procedures import (
     LodoTable,
     Procedure,
     ScoredProcedure,
     choose,
+    fit_procedure,
     run_kind,
 )
 from odocal.io.recordings import load_recordings
@@ -84,10 +88,28 @@ def square_fold_scores(table: LodoTable) -> dict[Procedure, float]:
     }
 
 
+def heading_metric(table: LodoTable, recordings, nominal) -> dict[str, float]:
+    """Each candidate's LODO score by the mean absolute final heading error (deg)."""
+    out = {}
+    for c in table.scored():
+        folds = []
+        for d in table.data_sets:
+            g = fit_procedure(c.procedure, [r for r in recordings if r.dataset != d], nominal)
+            errs = []
+            for r in recordings:
+                if r.dataset == d:
+                    odo = dead_reckon(r.wheel_angle_right_rad, r.wheel_angle_left_rad, g)
+                    errs.append(abs(r.ground_truth[-1, 2] - odo[-1, 2]))
+            folds.append(np.mean(errs))
+        out[c.procedure.label] = float(np.degrees(np.mean(folds)))
+    return out
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=DEFAULT_DATA, help="optiodom_diff folder")
     ap.add_argument("--nested", action="store_true", help="nested LODO of rule 'lowest'")
+    ap.add_argument("--heading-metric", action="store_true", help="LODO by final heading error")
     ap.add_argument("--only", default="", help="keep data sets whose name starts with this")
     ap.add_argument("--json", action="store_true", help="print JSON instead of Markdown")
     args = ap.parse_args(argv)
@@ -138,7 +160,9 @@ def main(argv=None) -> int:
                   "stderr_m": float(np.std(errs, ddof=1) / math.sqrt(len(errs))),
                   "picks": picks}  # fmt: skip
 
+    heading = heading_metric(table, train, nominal) if args.heading_metric else None
     out = {
+        "heading_metric_deg": heading,
         "data_sets": list(table.data_sets),
         "kinds": list(table.kinds),
         "runs_per_set": list(table.runs_per_set),
@@ -195,6 +219,9 @@ def main(argv=None) -> int:
         picks = sorted(set(nested["picks"]))
         print(f"nested LODO of the choice: {mm * nested['mean_m']:.2f} +- "
               f"{mm * nested['stderr_m']:.2f} mm; picks: {picks}")  # fmt: skip
+    if heading:
+        print("\nLODO by final heading error (deg): " + ", ".join(
+            f"{k} {v:.3f}" for k, v in sorted(heading.items(), key=lambda kv: kv[1])))  # fmt: skip
     print("\nper fold (mm):")
     print("| data set | kind | runs | " + " | ".join(c["procedure"] for c in out["candidates"])
           + " |")  # fmt: skip
