@@ -12,6 +12,8 @@ umbmark, heading
 ``--truth-frames`` (a SLAM pose)                       :mod:`odocal.app.fit_slam`
 ``--method scan``                                      :mod:`odocal.app.fit_scan`
 ``--method gyro`` (one bag)                            :mod:`odocal.app.fit_gyro`
+``--method auto``: one bag                             :mod:`odocal.app.fit_auto`
+``--method auto``: runs with ground truth (folders)    :mod:`odocal.app.fit_runs_auto`
 =====================================================  ======================================
 
 The settings arrive typed and validated (:class:`~odocal.calibration.fit_settings.
@@ -49,6 +51,7 @@ if TYPE_CHECKING:  # each route's module is imported when a fit takes that route
     from .fit_gyro import GyroFitResult, fit_gyro, fit_gyro_bag, gyro_fit
     from .fit_relative import RelativeFitResult
     from .fit_runs import FitResult, fit_recordings, fit_runs
+    from .fit_runs_auto import RunsAutoResult
     from .fit_skid import SkidFitResult
     from .fit_skid_gyro import SkidGyroResult
 
@@ -67,6 +70,7 @@ _LAZY = {
     "fit_runs": "fit_runs",
     "SkidFitResult": "fit_skid",
     "SkidGyroResult": "fit_skid_gyro",
+    "RunsAutoResult": "fit_runs_auto",
 }
 
 
@@ -78,6 +82,7 @@ def __getattr__(name: str) -> object:
         return getattr(import_module(f".{_LAZY[name]}", __package__), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
+
 __all__ = [
     "METHODS",
     "Route",
@@ -87,6 +92,7 @@ __all__ = [
     "AutoFitResult",
     "SkidFitResult",
     "SkidGyroResult",
+    "RunsAutoResult",
     "choose_route",
     "fit",
     "fit_recordings",
@@ -247,7 +253,13 @@ def fit(
     force: bool = False,
     kinematics: Kinematics | None = None,
 ) -> (
-    FitResult | RelativeFitResult | GyroFitResult | AutoFitResult | SkidFitResult | SkidGyroResult
+    FitResult
+    | RelativeFitResult
+    | GyroFitResult
+    | AutoFitResult
+    | SkidFitResult
+    | SkidGyroResult
+    | RunsAutoResult
 ):
     """Load the runs in ``paths`` and calibrate with ``method`` (None: the trajectory fit, or
     the relative-motion fit for ``.tuple`` files and ``truth_frames``); write PARAMS.yaml to
@@ -277,11 +289,16 @@ def fit(
 
     One bag with no method and no truth named (or ``method='auto'``): every route the bag
     allows, cross-checked, one answer (:func:`odocal.app.fit_auto.fit_auto`; ``out`` is then a
-    folder for its report)."""
+    folder for its report). ``method='auto'`` on runs with ground truth (not bags): the
+    procedure (method and runs) with the lowest leave-one-data-set-out error, fitted
+    (:func:`odocal.app.fit_runs_auto.fit_runs_auto`)."""
     paths = expand_folders([paths] if isinstance(paths, (str, Path)) else list(paths))
     if kinematics_of(kinematics, robot) == "skid-steer":
         return _fit_skid(paths, method, robot, bag, ticks_per_rev, out, ros2, controller_name,
                          plot, robot_out, force, scan_interval_s)  # fmt: skip
+    if method == "auto" and paths and not all(is_bag(p) for p in paths):
+        return _fit_runs_auto(paths, robot, settings, squares, bag, ticks_per_rev, out, ros2,
+                              controller_name, plot, robot_out, force)  # fmt: skip
     if _is_auto(paths, method, truth_frames, bag, settings, squares):
         from .fit_auto import fit_auto
 
@@ -386,6 +403,41 @@ def _fit_skid(
         )
     return fit_skid_bags(contents, plan, bag, robot=loaded_robot, ticks_per_rev=ticks_per_rev,
                          exports=exports, force=force, plot=plot)  # fmt: skip
+
+
+def _fit_runs_auto(
+    paths: list[str | Path],
+    robot: RobotSpec,
+    settings: TrajectorySettings | None,
+    squares: SquareSettings | None,
+    bag: BagOptions,
+    ticks_per_rev: float | None,
+    out: str | Path | None,
+    ros2: str | Path | None,
+    controller_name: str,
+    plot: str | Path | None,
+    robot_out: str | Path | None,
+    force: bool,
+) -> RunsAutoResult:
+    """``--method auto`` on runs with ground truth (:mod:`odocal.app.fit_runs_auto`): the
+    procedures compare with their default settings; it writes the chosen geometry only."""
+    if settings not in (None, DEFAULT_TRAJECTORY) or squares not in (None, DEFAULT_SQUARES):
+        raise InputError(
+            "--method auto on runs compares the procedures with their default settings: name "
+            "the method to fit with other settings"
+        )
+    if plot is not None or robot_out is not None:
+        raise InputError(
+            "--method auto on runs writes the chosen geometry only (--out, --ros2): name the "
+            "method for --plot or --robot-out"
+        )
+    refuse_repeated(paths)
+    exports = Exports(out, ros2, controller_name)
+    plan = _output_plan(paths, robot, exports, None, None, "runs")
+    from .fit_runs_auto import fit_runs_auto_files
+
+    return fit_runs_auto_files(paths, plan, robot=robot, exports=exports, bag=bag,
+                               ticks_per_rev=ticks_per_rev, force=force)  # fmt: skip
 
 
 def _offset_sources(res: FitResult | RelativeFitResult) -> list[str]:

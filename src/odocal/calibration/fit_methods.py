@@ -61,7 +61,8 @@ METHOD_HELP: dict[FitMethod, str] = {
     "for .tuple files and --truth-frames",
     "scan": "bags with a 2D laser: scan matching, then relative; the laser's mounting too",
     "auto": "one bag: every route it allows, cross-checked, one answer (the default for a "
-    "bag when no method and no truth are named)",
+    "bag when no method and no truth are named); runs with ground truth (folders): the method "
+    "and runs with the lowest leave-one-data-set-out error",
 }
 
 #: Methods that fit recorded runs against their ground truth (or a gyro heading): one route.

@@ -72,6 +72,7 @@ from .trajectory_residuals import (
 __all__ = [
     "fit_trajectory_model",
     "fit_trajectory",
+    "fit_trajectory_geometry",
     "fit_trajectory_trials",
     "RESIDUALS",
     "RUN_WEIGHTS",
@@ -665,3 +666,17 @@ def fit_trajectory_trials(
     bad = ~np.all(np.isfinite(x) & (x > 0), axis=1) | ~np.isfinite(cost)
     x[bad] = np.nan
     return x
+
+
+def fit_trajectory_geometry(
+    recordings: Sequence[Recording],
+    nominal: WheelGeometry | None = None,
+    settings: TrajectorySettings = DEFAULT_TRAJECTORY,
+) -> WheelGeometry:
+    """The geometry of :func:`fit_trajectory` (the same starts, residual and optimum; no
+    outlier refit, covariance or consistency check): for procedures fitted many times, as the
+    folds of :mod:`odocal.design.run_procedures`."""
+    use, _ = _runs_to_fit(recordings, settings.exclude)
+    starts, _ = _starting_points(use, None, nominal)
+    _, sol = _best_fit(use, starts, starts[0], settings)
+    return WheelGeometry(*sol.x)
