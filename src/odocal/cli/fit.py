@@ -58,7 +58,8 @@ def add_parser(sub: Any) -> None:
         default=None,
         help="differential (a two-wheel differential drive) or skid-steer (a skid-steer or "
         "tracked robot: the effective track, the diff_drive_controller multipliers, the track "
-        "against the turn rate; bags with a truth pose track); default: the robot file's "
+        "against the turn rate; bags with a truth pose track, else with an IMU, or --method "
+        "gyro / scan for the gyro's or the laser's heading alone); default: the robot file's "
         "'kinematics', else differential",
     )
     add_export_args(p, "write the calibrated parameters")
