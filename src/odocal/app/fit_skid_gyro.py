@@ -217,7 +217,7 @@ class SkidGyroResult(Presented):
             "residual_bias_rad_s": self.fit.bias_rad_s,
             "intervals": {"used": self.fit.used, "rejected": self.fit.rejected},
             "time_offsets": [o.as_dict() for o in self.offsets],
-            "yaw_axis": list(self.mountings),
+            "heading_from": list(self.mountings),
             "turn_rate": [
                 {"true_rate_rad_s": r.true_rate_rad_s, "wheel_rate_rad_s": r.wheel_rate_rad_s,
                  "multiplier": r.multiplier, "stderr": r.stderr}
@@ -239,10 +239,11 @@ class SkidGyroResult(Presented):
         }
 
 
-def _wheel_yaw(log: SkidGyroLog, nominal: WheelGeometry) -> np.ndarray:
-    """The wheels' heading through the nominal geometry (rad)."""
-    r = 0.5 * np.asarray(log.angle_right_rad) * nominal.diameter_right_m
-    left = 0.5 * np.asarray(log.angle_left_rad) * nominal.diameter_left_m
+def _wheel_yaw(right_rad: Any, left_rad: Any, nominal: WheelGeometry) -> np.ndarray:
+    """The wheels' heading (or its change, from rotations) through the nominal geometry
+    (rad)."""
+    r = 0.5 * np.asarray(right_rad, dtype=float) * nominal.diameter_right_m
+    left = 0.5 * np.asarray(left_rad, dtype=float) * nominal.diameter_left_m
     return (r - left) / nominal.wheelbase_m
 
 
@@ -250,7 +251,7 @@ def _intervals(
     log: SkidGyroLog, part: int, nominal: WheelGeometry, options: BagOptions
 ) -> tuple[HeadingIntervals, TimeOffset, str]:
     """One bag's intervals, the IMU's clock offset and where its yaw axis came from."""
-    yaw_w = _wheel_yaw(log, nominal)
+    yaw_w = _wheel_yaw(log.angle_right_rad, log.angle_left_rad, nominal)
     travel = 0.5 * (np.asarray(log.angle_right_rad) + np.asarray(log.angle_left_rad))
     try:
         head = gyro_heading(
@@ -371,8 +372,7 @@ def skid_scan_fit(
             raise InputError(str(exc), one.path, None, scans.topic) from None
         m = found.motions
         assert m.start_s is not None and m.end_s is not None
-        u = (0.5 * nominal.diameter_right_m * m.phi_right_rad
-             - 0.5 * nominal.diameter_left_m * m.phi_left_rad) / nominal.wheelbase_m  # fmt: skip
+        u = _wheel_yaw(m.phi_right_rad, m.phi_left_rad, nominal)
         start = np.asarray(m.start_s, dtype=float)
         parts.append(HeadingIntervals(
             u, np.asarray(m.sensor_motion, dtype=float)[:, 2], np.asarray(m.end_s) - start,
