@@ -203,17 +203,25 @@ def _simulate(
     def batch(v: float | np.ndarray) -> np.ndarray:
         return np.broadcast_to(np.asarray(v, dtype=float), (runs,))
 
+    def value(v: float | np.ndarray) -> np.ndarray:
+        """``v`` as it is (one value, or one per run), once checked against the batch: the
+        arithmetic below runs on the distinct values only and is broadcast after."""
+        a = np.asarray(v, dtype=float)
+        np.broadcast_to(a, (runs,))
+        return a
+
     # per-wheel travel factor true/believed and true wheelbase, shape (runs,)
-    f_r = batch(true.diameter_right_m / believed.diameter_right_m)
-    f_l = batch(true.diameter_left_m / believed.diameter_left_m)
+    f_r = value(true.diameter_right_m / believed.diameter_right_m)
+    f_l = value(true.diameter_left_m / believed.diameter_left_m)
     b_true = batch(true.wheelbase_m)
-    b_hat = batch(believed.wheelbase_m)
+    b_hat = value(believed.wheelbase_m)
 
     segments = []  # true wheel travel over each segment (m), shape (runs,), and its increments
     for seg in track.segments:
         s_hat_r, s_hat_l = seg.wheel_travel(b_hat)
-        s_r, s_l = batch(s_hat_r * f_r), batch(s_hat_l * f_l)
-        segments.append((s_r, s_l, increments_per_segment(s_r, s_l, max_step_m, steps_per_segment)))
+        s_r, s_l = s_hat_r * f_r, s_hat_l * f_l
+        n = increments_per_segment(s_r, s_l, max_step_m, steps_per_segment)
+        segments.append((batch(s_r), batch(s_l), n))
     total = sum(n for _, _, n in segments)
     if runs * total > MAX_RUN_INCREMENTS:
         raise ModelError(
@@ -320,8 +328,12 @@ def _terms(largest: float, coefficients: np.ndarray) -> int:
 
 def _series(u: np.ndarray, coefficients: np.ndarray, out: np.ndarray) -> np.ndarray:
     """sum_k c_k u^k (Horner) into ``out``."""
-    out.fill(coefficients[-1])
-    for c in coefficients[-2::-1]:
+    if len(coefficients) == 1:
+        out.fill(coefficients[0])
+        return out
+    np.multiply(u, coefficients[-1], out=out)
+    out += coefficients[-2]
+    for c in coefficients[-3::-1]:
         out *= u
         out += c
     return out
@@ -342,15 +354,32 @@ def _accumulate(x: np.ndarray) -> np.ndarray:
 _ROW_LOOP = 32
 
 
+def _distinct(a: np.ndarray) -> np.ndarray:
+    """``a`` (shape (runs,)), or its one value (shape (1,)) where it is a broadcast scalar."""
+    return a[:1] if a.ndim == 1 and a.size > 1 and a.strides[0] == 0 else a
+
+
+def _rows(a: np.ndarray, rows: int) -> np.ndarray:
+    """``a`` (shape (rows,) or (1,)) as shape (rows,), broadcast where it has one value."""
+    return np.broadcast_to(a, (rows,))
+
+
 def _wheel_noise(
-    rng: np.random.Generator | None, k_m: float, scale: np.ndarray, n: int
+    rng: np.random.Generator | None,
+    k_m: float,
+    scale: np.ndarray,
+    n: int,
+    buffer: np.ndarray | None = None,
 ) -> np.ndarray | None:
     """The noise of one wheel's travel over ``n`` increments: ``scale`` (m, sqrt(k |a|) for a
-    mean travel a per increment; shape (runs,)) times standard normals, shape (n, runs); None
-    without noise."""
+    mean travel a per increment; shape (runs,)) times standard normals, shape (n, runs), drawn
+    into ``buffer`` where it has that shape (the same draws); None without noise."""
     if not (k_m > 0 and rng is not None):
         return None
-    z = rng.standard_normal((n, len(scale)))
+    if buffer is not None and buffer.shape == (n, len(scale)):
+        z = rng.standard_normal(out=buffer)
+    else:
+        z = rng.standard_normal((n, len(scale)))
     z *= scale
     return z
 
@@ -400,41 +429,59 @@ def _drive_block(
     This is the midpoint update of :mod:`odocal.core.odometry` (its one home), unrolled by
     segment for speed; tests/core/test_odometry.py equates the two.
     """
+    rows = len(b_true)
+    b_true = _distinct(b_true)
+    # the pose of the block as contiguous columns (a column of ``pose`` is strided), written back
+    # at the end; the same sums, in the same order
+    th = pose[:, 2].copy()
+    x = pose[:, 0].copy()
+    y = pose[:, 1].copy()
+    # halves of the wheelbase (exact halvings): the centre's travel is then u + v and the heading
+    # change (u - v) / (b / 2), with u, v the halves of the wheels' noise
+    half_b = _rows(0.5 * b_true, rows)
+    # the normals of a pass are drawn into these where its shape allows (the same draws)
+    buffers: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
     start = 0  # increments driven before the segment
     for s_r, s_l, n in segments:
         step = max(1, _CHUNK // n)
+        if (n, step) not in buffers:
+            buffers[n, step] = (np.empty((n, step)), np.empty((n, step)))
+        buf_r, buf_l = buffers[n, step]
         wanted = None
         if record is not None:
             inside = (record >= start + 1) & (record <= start + n)
             if inside.any():
                 wanted = (np.flatnonzero(inside), record[inside] - start - 1)
-        middle = np.arange(n) + 0.5  # increment k's middle, in increments
-        # per run: mean travel of each wheel and of the centre per increment, the noise's scale,
-        # the heading change per increment without noise
-        a_r, a_l = s_r / n, s_l / n
-        a_mean = 0.5 * (a_r + a_l)
-        # halves of the noise's scale sqrt(k |a|) and of the wheelbase (exact halvings): the
-        # centre's travel is then u + v and the heading change (u - v) / (b / 2)
-        scale_r = 0.5 * np.sqrt(noise.k_r_m * np.abs(a_r))
-        scale_l = 0.5 * np.sqrt(noise.k_l_m * np.abs(a_l))
-        half_b = 0.5 * b_true
-        delta_all = (a_r - a_l) / b_true
-        turn_all = n * delta_all
-        for lo in range(0, len(b_true), step):
-            hi = min(len(b_true), lo + step)
+        # per run: mean travel of each wheel per increment, the halves of the noise's scale
+        # sqrt(k |a|), the heading change per increment without noise (computed on the distinct
+        # values only where a value is the same for every run, then broadcast)
+        a_r, a_l = _distinct(s_r) / n, _distinct(s_l) / n
+        scale_r = _rows(0.5 * np.sqrt(noise.k_r_m * np.abs(a_r)), rows)
+        scale_l = _rows(0.5 * np.sqrt(noise.k_l_m * np.abs(a_l)), rows)
+        delta_one = (a_r - a_l) / _distinct(b_true)
+        delta_all = _rows(delta_one, rows)
+        turn_all = _rows(n * delta_one, rows)
+        if not heading_only:
+            middle = np.arange(n) + 0.5  # increment k's middle, in increments
+            a_mean = _rows(0.5 * (a_r + a_l), rows)
+        for lo in range(0, rows, step):
+            hi = min(rows, lo + step)
             b = half_b[lo:hi]
-            u = _wheel_noise(rng, noise.k_r_m, scale_r[lo:hi], n)
-            v = _wheel_noise(rng, noise.k_l_m, scale_l[lo:hi], n)
+            u = _wheel_noise(rng, noise.k_r_m, scale_r[lo:hi], n, buf_r)
+            v = _wheel_noise(rng, noise.k_l_m, scale_l[lo:hi], n, buf_l)
             delta = delta_all[lo:hi]
+            # the segment's heading change: n delta + (sum u - sum v) / (b / 2) (a sum over one
+            # increment is that increment)
             turn = turn_all[lo:hi].copy()
             if u is not None:
-                turn += u.sum(axis=0) / b
+                turn += (u[0] if n == 1 else u.sum(axis=0)) / b
             if v is not None:
-                turn -= v.sum(axis=0) / b
-            th0 = pose[lo:hi, 2].copy()
-            pose[lo:hi, 2] += turn
+                turn -= (v[0] if n == 1 else v.sum(axis=0)) / b
             if heading_only:
+                th[lo:hi] += turn
                 continue
+            th0 = th[lo:hi].copy()
+            th[lo:hi] += turn
             # ds (travel of the centre) and eta (noise part of the heading change)
             if u is None and v is None:
                 ds = np.empty((n, hi - lo))
@@ -466,8 +513,11 @@ def _drive_block(
             e = np.multiply(eta, -0.5, out=eta)
             e += noise_heading
             c0, s0 = np.cos(th0), np.sin(th0)
-            x0, y0 = pose[lo:hi, 0], pose[lo:hi, 1]
-            uniform = bool(delta.min() == delta.max())
+            x0, y0 = x[lo:hi], y[lo:hi]
+            if delta.strides[0] == 0:  # one value for every run
+                uniform = bool(delta[0] == delta[0])
+            else:
+                uniform = bool(delta.min() == delta.max())
             if uniform:
                 cos_m, sin_m = _cos_sin(e)
                 mbar = middle * float(delta[0])
@@ -498,9 +548,12 @@ def _drive_block(
                 heading = np.multiply.outer(at + 1.0, delta)
                 heading += noise_heading[at]
                 traj[lo:hi, cols, 2] = (th0 + heading).T
-            pose[lo:hi, 0] += c0 * sx - s0 * sy
-            pose[lo:hi, 1] += s0 * sx + c0 * sy
+            x[lo:hi] += c0 * sx - s0 * sy
+            y[lo:hi] += s0 * sx + c0 * sy
         start += n
+    pose[:, 0] = x
+    pose[:, 1] = y
+    pose[:, 2] = th
 
 
 def simulate(
