@@ -221,7 +221,7 @@ def _simulate(
         s_hat_r, s_hat_l = seg.wheel_travel(b_hat)
         s_r, s_l = s_hat_r * f_r, s_hat_l * f_l
         n = increments_per_segment(s_r, s_l, max_step_m, steps_per_segment)
-        segments.append((batch(s_r), batch(s_l), n))
+        segments.append((_rows(np.asarray(s_r), runs), _rows(np.asarray(s_l), runs), n))
     total = sum(n for _, _, n in segments)
     if runs * total > MAX_RUN_INCREMENTS:
         raise ModelError(
@@ -339,12 +339,16 @@ def _series(u: np.ndarray, coefficients: np.ndarray, out: np.ndarray) -> np.ndar
     return out
 
 
-def _accumulate(x: np.ndarray) -> np.ndarray:
-    """Cumulative sum along axis 0 (increments) of ``x`` (n, m), as a new array: row by row
-    where rows are long and few (numpy's cumsum does not vectorise across rows)."""
+def _accumulate(x: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """Cumulative sum along axis 0 (increments) of ``x`` (n, m), as a new array (or into
+    ``out``): row by row where rows are long and few (numpy's cumsum does not vectorise across
+    rows)."""
     if len(x) > _ROW_LOOP:
-        return np.cumsum(x, axis=0)
-    out = x.copy()
+        return np.cumsum(x, axis=0, out=out)
+    if out is None:
+        out = x.copy()
+    else:
+        np.copyto(out, x)
     for k in range(1, len(out)):
         out[k] += out[k - 1]
     return out
@@ -360,8 +364,16 @@ def _distinct(a: np.ndarray) -> np.ndarray:
 
 
 def _rows(a: np.ndarray, rows: int) -> np.ndarray:
-    """``a`` (shape (rows,) or (1,)) as shape (rows,), broadcast where it has one value."""
-    return np.broadcast_to(a, (rows,))
+    """``a`` (shape (rows,) or (1,)) as shape (rows,), a read-only broadcast view where it has
+    one value (made directly: ``np.broadcast_to`` costs more than the arithmetic here)."""
+    if a.shape == (rows,):
+        return a
+    a = np.ascontiguousarray(a, dtype=float).reshape(-1)
+    if a.shape != (1,):
+        raise ValueError(f"cannot broadcast shape {a.shape} to ({rows},)")
+    out = np.ndarray((rows,), dtype=float, buffer=a, strides=(0,))
+    out.flags.writeable = False
+    return out
 
 
 def _wheel_noise(
@@ -384,16 +396,34 @@ def _wheel_noise(
     return z
 
 
-def _cos_sin(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """cos x and sin x as new arrays: Taylor polynomials (accurate to the last bit) where every
-    |x| is at most _SMALL_ANGLE, else numpy's."""
+def _cos_sin(x: np.ndarray, scratch: _Scratch | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """cos x and sin x as new arrays (or arrays of ``scratch``): Taylor polynomials (accurate to
+    the last bit) where every |x| is at most _SMALL_ANGLE, else numpy's."""
     largest = max(float(x.max()), -float(x.min()))
+
+    def out(name: str) -> np.ndarray:
+        return np.empty_like(x) if scratch is None else scratch.get(name, x.shape)
+
     if largest > _SMALL_ANGLE:
-        return np.cos(x), np.sin(x)
-    u = np.multiply(x, x)
-    sin_x = _series(u, _SINC[: _terms(largest, _SINC)], np.empty_like(u))
+        return np.cos(x, out=out("cos")), np.sin(x, out=out("sin"))
+    u = np.multiply(x, x, out=out("square"))
+    sin_x = _series(u, _SINC[: _terms(largest, _SINC)], out("sin"))
     sin_x *= x
-    return _series(u, _COS[: _terms(largest, _COS)], np.empty_like(u)), sin_x
+    return _series(u, _COS[: _terms(largest, _COS)], out("cos")), sin_x
+
+
+class _Scratch:
+    """Arrays a block reuses from pass to pass, by name and shape (the same shapes recur; fresh
+    memory costs more than the arithmetic on it)."""
+
+    def __init__(self) -> None:
+        self._arrays: dict[tuple[str, tuple[int, ...]], np.ndarray] = {}
+
+    def get(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
+        key = (name, shape)
+        if key not in self._arrays:
+            self._arrays[key] = np.empty(shape)
+        return self._arrays[key]
 
 
 def _drive_block(
@@ -439,8 +469,10 @@ def _drive_block(
     # halves of the wheelbase (exact halvings): the centre's travel is then u + v and the heading
     # change (u - v) / (b / 2), with u, v the halves of the wheels' noise
     half_b = _rows(0.5 * b_true, rows)
-    # the normals of a pass are drawn into these where its shape allows (the same draws)
+    # the normals of a pass are drawn into these where its shape allows (the same draws), and
+    # the pass's other arrays are reused likewise
     buffers: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+    scratch = _Scratch()
     start = 0  # increments driven before the segment
     for s_r, s_l, n in segments:
         step = max(1, _CHUNK // n)
@@ -494,22 +526,24 @@ def _drive_block(
                 elif u is None:
                     ds, eta = v.copy(), np.negative(v, out=v)
                 else:
-                    ds = u + v
+                    ds = np.add(u, v, out=scratch.get("ds", u.shape))
                     eta = np.subtract(u, v, out=u)
                 ds += a_mean[lo:hi]
                 eta /= b
             if exact:
                 # chord of the arc: ds sin(dth/2) / (dth/2), dth = delta + eta
-                half = np.multiply(eta, 0.5)
+                half = np.multiply(eta, 0.5, out=scratch.get("half", eta.shape))
                 half += 0.5 * delta
                 largest = max(float(half.max()), -float(half.min()))
                 if largest <= _SMALL_ANGLE:
                     sq = np.multiply(half, half, out=half)
-                    ds *= _series(sq, _SINC[: _terms(largest, _SINC)], np.empty_like(sq))
+                    chord = scratch.get("chord", sq.shape)
+                    ds *= _series(sq, _SINC[: _terms(largest, _SINC)], chord)
                 else:
                     with np.errstate(invalid="ignore", divide="ignore"):
                         ds *= np.where(half == 0, 1.0, np.sin(half) / half)
-            noise_heading = _accumulate(eta)  # sum_{j<=k} eta_j
+            # sum_{j<=k} eta_j
+            noise_heading = _accumulate(eta, scratch.get("noise_heading", eta.shape))
             e = np.multiply(eta, -0.5, out=eta)
             e += noise_heading
             c0, s0 = np.cos(th0), np.sin(th0)
@@ -519,7 +553,7 @@ def _drive_block(
             else:
                 uniform = bool(delta.min() == delta.max())
             if uniform:
-                cos_m, sin_m = _cos_sin(e)
+                cos_m, sin_m = _cos_sin(e, scratch)
                 mbar = middle * float(delta[0])
                 col_c, col_s = np.cos(mbar), np.sin(mbar)
                 cos_m *= ds
@@ -533,9 +567,9 @@ def _drive_block(
                         sin_m * col_c[:, None] + cos_m * col_s[:, None],
                     )
             else:
-                mid = np.multiply.outer(middle, delta)
+                mid = np.multiply.outer(middle, delta, out=scratch.get("mid", e.shape))
                 mid += e
-                cos_m, sin_m = _cos_sin(mid)
+                cos_m, sin_m = _cos_sin(mid, scratch)
                 cos_m *= ds
                 sin_m *= ds
                 sx, sy = cos_m.sum(axis=0), sin_m.sum(axis=0)
