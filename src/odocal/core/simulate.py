@@ -413,17 +413,20 @@ def _cos_sin(x: np.ndarray, scratch: _Scratch | None = None) -> tuple[np.ndarray
 
 
 class _Scratch:
-    """Arrays a block reuses from pass to pass, by name and shape (the same shapes recur; fresh
-    memory costs more than the arithmetic on it)."""
+    """Arrays a block reuses from pass to pass, by name: views of one buffer per name, grown
+    when a pass needs more (fresh memory costs more than the arithmetic on it)."""
 
     def __init__(self) -> None:
-        self._arrays: dict[tuple[str, tuple[int, ...]], np.ndarray] = {}
+        self._buffers: dict[str, np.ndarray] = {}
 
     def get(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
-        key = (name, shape)
-        if key not in self._arrays:
-            self._arrays[key] = np.empty(shape)
-        return self._arrays[key]
+        """An uninitialised C-contiguous array of ``shape`` (float), valid until the next
+        ``get`` of ``name``."""
+        size = math.prod(shape)
+        flat = self._buffers.get(name)
+        if flat is None or flat.size < size:
+            flat = self._buffers[name] = np.empty(size)
+        return flat[:size].reshape(shape)
 
 
 def _drive_block(
@@ -469,16 +472,11 @@ def _drive_block(
     # halves of the wheelbase (exact halvings): the centre's travel is then u + v and the heading
     # change (u - v) / (b / 2), with u, v the halves of the wheels' noise
     half_b = _rows(0.5 * b_true, rows)
-    # the normals of a pass are drawn into these where its shape allows (the same draws), and
-    # the pass's other arrays are reused likewise
-    buffers: dict[tuple[int, int], tuple[np.ndarray, np.ndarray]] = {}
+    # the arrays of a pass, the normals included (drawn into it: the same draws), reused
     scratch = _Scratch()
     start = 0  # increments driven before the segment
     for s_r, s_l, n in segments:
         step = max(1, _CHUNK // n)
-        if (n, step) not in buffers:
-            buffers[n, step] = (np.empty((n, step)), np.empty((n, step)))
-        buf_r, buf_l = buffers[n, step]
         wanted = None
         if record is not None:
             inside = (record >= start + 1) & (record <= start + n)
@@ -499,8 +497,8 @@ def _drive_block(
         for lo in range(0, rows, step):
             hi = min(rows, lo + step)
             b = half_b[lo:hi]
-            u = _wheel_noise(rng, noise.k_r_m, scale_r[lo:hi], n, buf_r)
-            v = _wheel_noise(rng, noise.k_l_m, scale_l[lo:hi], n, buf_l)
+            u = _wheel_noise(rng, noise.k_r_m, scale_r[lo:hi], n, scratch.get("u", (n, hi - lo)))
+            v = _wheel_noise(rng, noise.k_l_m, scale_l[lo:hi], n, scratch.get("v", (n, hi - lo)))
             delta = delta_all[lo:hi]
             # the segment's heading change: n delta + (sum u - sum v) / (b / 2) (a sum over one
             # increment is that increment)
