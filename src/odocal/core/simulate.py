@@ -34,7 +34,7 @@ from .model import ModelError, NonSystematicError, Robot, WheelGeometry
 from .parallel import can_fork, run_tasks, shared_zeros
 from .parallel import workers as parallel_workers
 from .pose import compose
-from .tracks import Track
+from .tracks import Segment, Track
 
 __all__ = [
     "SimulationResult",
@@ -149,7 +149,8 @@ def drive(
         after those increments only.
     """
     options = (max_step_m, steps_per_segment, integration)
-    return _simulate(track, true, believed, noise, runs, rng, options, trajectory, False)
+    pose, traj = _simulate(track, true, believed, noise, runs, rng, options, trajectory, False)
+    return SimulationResult(pose, odometric_pose(track), traj)
 
 
 def final_headings(
@@ -168,8 +169,7 @@ def final_headings(
     makes with the same arguments: the same random draws and the same sums, without the
     positions (what the heading-error method reads, at a fraction of the work)."""
     options = (max_step_m, steps_per_segment, integration)
-    res = _simulate(track, true, believed, noise, runs, rng, options, False, True)
-    return res.true_final[:, 2]
+    return _simulate(track, true, believed, noise, runs, rng, options, False, True)[0]
 
 
 def _simulate(
@@ -182,8 +182,9 @@ def _simulate(
     options: tuple[float | None, int | None, str],
     trajectory: bool | Sequence[int] | np.ndarray,
     heading_only: bool,
-) -> SimulationResult:
-    """:func:`drive` (and, with ``heading_only``, :func:`final_headings`: the positions stay 0)."""
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """The true final poses (runs, 3) and the trajectory (or None) of :func:`drive`; with
+    ``heading_only``, the final headings (runs,) of :func:`final_headings`."""
     max_step_m, steps_per_segment, integration = options
     if runs < 1:
         raise ModelError(f"runs must be >= 1, got {runs}")
@@ -216,12 +217,16 @@ def _simulate(
     b_true = batch(true.wheelbase_m)
     b_hat = value(believed.wheelbase_m)
 
-    segments = []  # true wheel travel over each segment (m), shape (runs,), and its increments
+    # each segment's values (one, or one per run) and increments; its wheel travel is computed
+    # block by block (arrays of all the runs would cost more in fresh memory than in arithmetic)
+    segments = []
     for seg in track.segments:
-        s_hat_r, s_hat_l = seg.wheel_travel(b_hat)
-        s_r, s_l = s_hat_r * f_r, s_hat_l * f_l
-        n = increments_per_segment(s_r, s_l, max_step_m, steps_per_segment)
-        segments.append((_rows(np.asarray(s_r), runs), _rows(np.asarray(s_l), runs), n))
+        d, a = value(seg.distance_m), value(seg.angle_rad)
+        n = steps_per_segment
+        if n is None:
+            s_hat_r, s_hat_l = Segment(d, a).wheel_travel(b_hat)
+            n = increments_per_segment(s_hat_r * f_r, s_hat_l * f_l, max_step_m)
+        segments.append((d, a, int(n)))
     total = sum(n for _, _, n in segments)
     if runs * total > MAX_RUN_INCREMENTS:
         raise ModelError(
@@ -240,8 +245,22 @@ def _simulate(
     # Python's lock), writing into shared memory; smaller work on threads
     processes = workers > 1 and can_fork() and runs * total >= _PROCESS_INCREMENTS
     zeros = shared_zeros if processes else np.zeros
-    pose = zeros((runs, 3))
+    pose = zeros((runs,) if heading_only else (runs, 3))
     traj = None if record is None else zeros((runs, len(record), 3))
+
+    def travel(lo: int, hi: int) -> list[tuple[np.ndarray, np.ndarray, int]]:
+        """The true wheel travel (m) over each segment of runs lo..hi-1, and its increments."""
+
+        def cut(v: np.ndarray) -> np.ndarray:
+            return v[lo:hi] if v.ndim and v.shape[0] == runs else v
+
+        out = []
+        for d, a, n in segments:
+            s_hat_r, s_hat_l = Segment(cut(d), cut(a)).wheel_travel(cut(b_hat))
+            s_r = np.asarray(s_hat_r * cut(f_r), dtype=float)
+            s_l = np.asarray(s_hat_l * cut(f_l), dtype=float)
+            out.append((_rows(s_r, hi - lo), _rows(s_l, hi - lo), n))
+        return out
 
     def run_block(i: int) -> None:
         lo, hi = blocks[i]
@@ -250,7 +269,7 @@ def _simulate(
             seed = np.random.SeedSequence([int(keys[0]), int(keys[1]), i])
             stream = np.random.Generator(type(rng.bit_generator)(seed))
         _drive_block(
-            [(s_r[lo:hi], s_l[lo:hi], n) for s_r, s_l, n in segments],
+            travel(lo, hi),
             b_true[lo:hi],
             noise,
             stream,
@@ -277,14 +296,7 @@ def _simulate(
             list(pool.map(run_block, range(len(blocks))))
     else:
         run_group(range(len(blocks)))
-    # the commanded pose (only its heading where the positions were not driven)
-    if heading_only:
-        heading = np.asarray(sum(seg.angle_rad for seg in track.segments), dtype=float)
-        odometric = np.zeros((*heading.shape, 3))
-        odometric[..., 2] = heading
-    else:
-        odometric = odometric_pose(track)
-    return SimulationResult(pose, odometric, traj)
+    return pose, traj
 
 
 # Work of one block of runs (runs x increments) with its own random stream; and the elements of
@@ -466,9 +478,9 @@ def _drive_block(
     b_true = _distinct(b_true)
     # the pose of the block as contiguous columns (a column of ``pose`` is strided), written back
     # at the end; the same sums, in the same order
-    th = pose[:, 2].copy()
-    x = pose[:, 0].copy()
-    y = pose[:, 1].copy()
+    th = (pose if heading_only else pose[:, 2]).copy()
+    x = np.zeros(0) if heading_only else pose[:, 0].copy()
+    y = np.zeros(0) if heading_only else pose[:, 1].copy()
     # halves of the wheelbase (exact halvings): the centre's travel is then u + v and the heading
     # change (u - v) / (b / 2), with u, v the halves of the wheels' noise
     half_b = _rows(0.5 * b_true, rows)
@@ -583,9 +595,12 @@ def _drive_block(
             x[lo:hi] += c0 * sx - s0 * sy
             y[lo:hi] += s0 * sx + c0 * sy
         start += n
-    pose[:, 0] = x
-    pose[:, 1] = y
-    pose[:, 2] = th
+    if heading_only:
+        pose[:] = th
+    else:
+        pose[:, 0] = x
+        pose[:, 1] = y
+        pose[:, 2] = th
 
 
 def simulate(
