@@ -201,20 +201,18 @@ def _simulate(
             "simulation): use fewer runs"
         )
 
-    def batch(v: float | np.ndarray) -> np.ndarray:
-        return np.broadcast_to(np.asarray(v, dtype=float), (runs,))
-
     def value(v: float | np.ndarray) -> np.ndarray:
         """``v`` as it is (one value, or one per run), once checked against the batch: the
         arithmetic below runs on the distinct values only and is broadcast after."""
         a = np.asarray(v, dtype=float)
-        np.broadcast_to(a, (runs,))
+        if a.ndim > 1 or (a.ndim == 1 and a.shape[0] not in (1, runs)):
+            raise ValueError(f"a value of shape {a.shape} cannot be one per run of {runs} runs")
         return a
 
     # per-wheel travel factor true/believed and true wheelbase, shape (runs,)
     f_r = value(true.diameter_right_m / believed.diameter_right_m)
     f_l = value(true.diameter_left_m / believed.diameter_left_m)
-    b_true = batch(true.wheelbase_m)
+    b_true = _rows(value(true.wheelbase_m), runs)
     b_hat = value(believed.wheelbase_m)
 
     # each segment's values (one, or one per run) and increments; its wheel travel is computed
