@@ -17,6 +17,9 @@ Cases (the paper-fig5 robot):
 - ``mid1cm``: the same with the 1 cm midpoint update, 5 000 runs (``odocal simulate``);
 - ``heading1``: ``final_headings`` of squares, one increment per segment, 400 000 runs (the
   design's heading-method test runs);
+- ``exact10 x 800 runs`` and ``heading1 x 4000 runs``: the same in the sizes of the design's
+  own calls (800 validation drives; 5 test runs x 800 trials of one square), 100 calls each:
+  there the work of a call around its passes counts;
 - ``design``: ``run_design`` (20 squares x 800 trials, heading method) in process, and the plain
   numpy loop of ``reference_design.py`` on the same work (20 trials, scaled), as in
   ``bench_speed.py``.
@@ -99,19 +102,31 @@ def cases():
             )
         return runs * steps
 
-    def run(name, track, runs, opts):
+    def run(name, track, runs, opts, calls=1):
         def go(module, seed=0):
-            fn = module.final_headings if name == "heading1" else module.drive
-            out = fn(track, true, bel, noise, runs, np.random.default_rng(seed), **opts)
-            return out if name == "heading1" else out.true_final
+            heading = name.startswith("heading1")
+            fn = module.final_headings if heading else module.drive
+            rng = np.random.default_rng(seed)
+            for _ in range(calls):
+                out = fn(track, true, bel, noise, runs, rng, **opts)
+            return out if heading else out.true_final
 
-        return name, work(track, runs, opts), go
+        return name, calls * work(track, runs, opts), go
 
     exact = {"steps_per_segment": 10, "integration": "exact"}
     return [
         run("exact10", square, 100_000, exact),
         run("mid1cm", square, 5_000, {"max_step_m": 0.01}),
         run("heading1", polygon(4, sides, "ccw"), sides.size, {**exact, "steps_per_segment": 1}),
+        # the calls the design makes: 800 validation drives, 5 x 800 test runs of one square
+        run("exact10 x 800 runs", square, 800, exact, calls=100),
+        run(
+            "heading1 x 4000 runs",
+            polygon(4, np.full(4000, 2.0), "cw"),
+            4000,
+            {**exact, "steps_per_segment": 1},
+            calls=100,
+        ),
     ]
 
 

@@ -76,9 +76,22 @@ class SimulationResult:
 def odometric_pose(track: Track) -> np.ndarray:
     """The believed (commanded) final pose of ``track`` from the origin, shape (3,) or (runs, 3)
     when segment values are arrays."""
+    values = [(seg.distance_m, seg.angle_rad) for seg in track.segments]
+    if all(np.ndim(d) == 0 and np.ndim(a) == 0 for d, a in values):
+        # one pose for the track, remembered (the design drives one track many times over)
+        return _odometric_pose_of(tuple((float(d), float(a)) for d, a in values)).copy()
     pose = np.zeros(3)
-    for seg in track.segments:
-        pose = compose(pose, seg.distance_m, seg.angle_rad)
+    for d, a in values:
+        pose = compose(pose, d, a)
+    return pose
+
+
+@functools.lru_cache(maxsize=256)
+def _odometric_pose_of(values: tuple[tuple[float, float], ...]) -> np.ndarray:
+    """:func:`odometric_pose` of the segments (distance m, angle rad), all scalars."""
+    pose = np.zeros(3)
+    for d, a in values:
+        pose = compose(pose, d, a)
     return pose
 
 
