@@ -26,9 +26,10 @@ Cases (the paper-fig5 robot):
 
 With ``--baseline COMMIT`` that commit's ``src/odocal/core/simulate.py`` is loaded beside the
 current one (``git show``; the rest of the package is the current one) and every case is timed
-with both, alternately within each round; the design swaps the baseline's ``drive`` and
-``final_headings`` into the sweep. The two simulators' outputs on the same seed are compared
-too (the random stream is part of the contract: the same seed gives the same runs).
+with both, one after the other within each round (who goes first alternates from round to
+round); the design swaps the baseline's ``drive`` and ``final_headings`` into the sweep. The
+two simulators' outputs on the same seed are compared too (the random stream is part of the
+contract: the same seed gives the same runs).
 Each round measures the limit just before the simulators; the medians over the rounds and the
 round-by-round shares are printed.
 """
@@ -177,7 +178,8 @@ def main(argv=None) -> int:
         limit = limit_per_cpu_s() / 2.0
         line = []
         for name, work, go in all_cases:
-            t = {label: cpu_time(lambda m=m: go(m)) for label, m in modules.items()}  # noqa: B023
+            order = list(modules.items())[:: -1 if r % 2 else 1]  # who goes first alternates
+            t = {label: cpu_time(lambda m=m: go(m)) for label, m in order}  # noqa: B023
             for label, dt in t.items():
                 shares.setdefault((name, label), []).append(work / dt / limit)
             if "baseline" in t:
@@ -206,8 +208,8 @@ def main(argv=None) -> int:
 
     for m in modules.values():
         design(m)
-    for _ in range(args.rounds):
-        for label, m in modules.items():
+    for r in range(args.rounds):
+        for label, m in list(modules.items())[:: -1 if r % 2 else 1]:
             design_t.setdefault(label, []).append(cpu_time(lambda m=m: design(m)))  # noqa: B023
     t_ref = cpu_time(lambda: design_loop(robot, np.arange(1, 21) * 0.5, args.ref_trials, seed=1))
     t_ref *= 800 / args.ref_trials
