@@ -2,7 +2,7 @@
 
 Run from the project root (about 2 minutes on a loaded 2-core machine):
 
-    .venv/bin/python benchmarks/bench_sim_speed.py [--baseline COMMIT] [--rounds N]
+    .venv/bin/python benchmarks/bench_sim_speed.py [--baseline COMMIT] [--rounds N] [--split]
 
 Everything runs in this one process on one thread (``ODOCAL_THREADS=1``) and is timed in CPU
 seconds (``time.process_time``), so the load of a shared machine moves it much less than wall
@@ -31,7 +31,9 @@ round); the design swaps the baseline's ``drive`` and ``final_headings`` into th
 two simulators' outputs on the same seed are compared too (the random stream is part of the
 contract: the same seed gives the same runs).
 Each round measures the limit just before the simulators; the medians over the rounds and the
-round-by-round shares are printed.
+round-by-round shares are printed. ``--split`` adds where the current simulator's time goes:
+ns per trial-increment in all, with its generators handing back their buffers undrawn (its own
+work), and two normals drawn alone.
 """
 
 from __future__ import annotations
@@ -131,6 +133,40 @@ def cases():
     ]
 
 
+class _NoDraws:
+    """Stands in for the simulator's per-block generators: hands back its buffer undrawn (what
+    is left is the simulator's own work)."""
+
+    def __init__(self, *_args) -> None:
+        pass
+
+    def standard_normal(self, size=None, out=None):
+        return np.zeros(size) if out is None else out
+
+
+def split(all_cases, rounds: int) -> None:
+    """Where the time of the current simulator goes: ns per trial-increment in all, without the
+    drawing of the normals (the generators replaced by :class:`_NoDraws`), and two normals
+    drawn alone (the limit), medians over the rounds."""
+    import odocal.core.simulate as current
+
+    print("\nwhere the time goes (current simulator, ns per trial-increment, medians):")
+    print("| case | in all | without drawing the normals | two normals drawn alone |")
+    print("|---|---|---|---|")
+    for name, work, go in all_cases:
+        total, rest, rng = [], [], []
+        for _ in range(rounds):
+            rng.append(2e9 / limit_per_cpu_s(8))
+            total.append(cpu_time(lambda go=go: go(current)) / work * 1e9)
+            real = np.random.Generator
+            np.random.Generator = _NoDraws  # type: ignore[misc]
+            try:
+                rest.append(cpu_time(lambda go=go: go(current)) / work * 1e9)
+            finally:
+                np.random.Generator = real  # type: ignore[misc]
+        print(f"| {name} | {median(total):.1f} | {median(rest):.1f} | {median(rng):.1f} |")
+
+
 def cpu_time(fn) -> float:
     t = time.process_time()
     fn()
@@ -147,6 +183,9 @@ def main(argv=None) -> int:
     p.add_argument("--baseline", help="a commit whose simulator is timed beside the current one")
     p.add_argument("--rounds", type=int, default=5)
     p.add_argument("--ref-trials", type=int, default=10, help="reference design-loop trials")
+    p.add_argument(
+        "--split", action="store_true", help="also: the time without drawing the normals"
+    )
     args = p.parse_args(argv)
 
     import odocal.core.simulate as current
@@ -188,6 +227,9 @@ def main(argv=None) -> int:
                 f"{name} " + "/".join(f"{shares[name, label][-1]:.0%}" for label in modules)
             )
         print(f"  round {r + 1}: limit {limit / 1e6:.1f} M/CPU s; " + ", ".join(line), flush=True)
+
+    if args.split:
+        split(all_cases, args.rounds)
 
     # the design, against the plain numpy loop (and the baseline's simulator swapped in)
     from reference_design import design_loop
