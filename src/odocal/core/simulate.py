@@ -220,6 +220,12 @@ def _simulate(
         a = np.asarray(v, dtype=float)
         if a.ndim > 1 or (a.ndim == 1 and a.shape[0] not in (1, runs)):
             raise ValueError(f"a value of shape {a.shape} cannot be one per run of {runs} runs")
+        if a.ndim == 1 and a.shape[0] > 1:
+            # the same value for every run (bit for bit; e.g. one track size repeated): one
+            # value, so that the arithmetic on it is done once
+            bits = a.view(np.int64)
+            if bits[0] == bits[-1] and bool(np.all(bits == bits[0])):
+                return a[:1]
         return a
 
     # per-wheel travel factor true/believed and true wheelbase, shape (runs,)
