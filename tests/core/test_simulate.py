@@ -229,3 +229,50 @@ def test_noise_needs_a_generator():
     robot = Robot(NOMINAL, nonsystematic=NonSystematicError(1e-6, 1e-6))
     with pytest.raises(ModelError, match="Generator"):
         simulate(polygon(4, 1.0, "cw"), robot, 2, None)
+
+
+@pytest.mark.parametrize("integration", ["midpoint", "exact"])
+def test_noisy_runs_are_the_kernel_on_the_documented_draws(integration):
+    """The draws of the module docstring, rebuilt here (one stream per block of runs, seeded
+    from two integers of the caller's generator and the block's number; per segment and pass,
+    the right wheel's normals, then the left's; wheel travel a + sqrt(k |a|) z), integrated by
+    the odometry kernel, are the simulator's noisy runs: several blocks, passes of two shapes
+    and a short last pass, the arrays of one pass reused by the next."""
+    from odocal.core import simulate as sim
+    from odocal.core.odometry import body_increments, midpoint_end
+
+    true = WheelGeometry(0.1502, 0.1497, 0.39)
+    believed = WheelGeometry.symmetric(0.15, 0.385)
+    noise = NonSystematicError(4e-5, 1e-5)
+    track = Track("L", (straight(0.9), spot_turn(1.2), straight(0.25)))
+    factor = (true.diameter_right_m / 0.15, true.diameter_left_m / 0.15)
+    travel = [seg.wheel_travel(believed.wheelbase_m) for seg in track.segments]
+    steps = [sim.increments_per_segment(r * factor[0], lf * factor[1], 0.01) for r, lf in travel]
+    runs = 4000  # three blocks of runs, passes of several shapes, short last passes
+    assert steps == [91, 24, 26] and 2 < runs / (sim._BLOCK_INCREMENTS // sum(steps)) < 3
+    res = drive(
+        track, true, believed, noise, runs, np.random.default_rng(11), integration=integration
+    )
+    keys = np.random.default_rng(11).integers(0, 2**63, size=2)
+    rows = sim._BLOCK_INCREMENTS // sum(steps)
+    right = np.empty((runs, sum(steps)))
+    left = np.empty((runs, sum(steps)))
+    for block, lo in enumerate(range(0, runs, rows)):
+        hi = min(runs, lo + rows)
+        stream = np.random.default_rng(np.random.SeedSequence([int(keys[0]), int(keys[1]), block]))
+        start = 0
+        for (s_r, s_l), n in zip(travel, steps, strict=True):
+            a_r, a_l = s_r * factor[0] / n, s_l * factor[1] / n
+            for p in range(lo, hi, max(1, sim._CHUNK // n)):
+                q = min(hi, p + max(1, sim._CHUNK // n))
+                z_r = stream.standard_normal((n, q - p))
+                z_l = stream.standard_normal((n, q - p))
+                right[p:q, start : start + n] = (a_r + math.sqrt(noise.k_r_m * abs(a_r)) * z_r).T
+                left[p:q, start : start + n] = (a_l + math.sqrt(noise.k_l_m * abs(a_l)) * z_l).T
+            start += n
+    ds, dth = body_increments(right, left, true.wheelbase_m)
+    chord = "exact" if integration == "exact" else "none"
+    want = midpoint_end(ds, dth, chord=chord)
+    # the noise moves the ends by millimetres; the two computations agree to rounding
+    assert np.std(want[:, 0] - np.mean(want[:, 0])) > 1e-3
+    np.testing.assert_allclose(res.true_final, want, rtol=0, atol=1e-12)

@@ -34,7 +34,7 @@ from .model import ModelError, NonSystematicError, Robot, WheelGeometry
 from .parallel import can_fork, run_tasks, shared_zeros
 from .parallel import workers as parallel_workers
 from .pose import compose
-from .tracks import Track
+from .tracks import Segment, Track
 
 __all__ = [
     "SimulationResult",
@@ -76,9 +76,22 @@ class SimulationResult:
 def odometric_pose(track: Track) -> np.ndarray:
     """The believed (commanded) final pose of ``track`` from the origin, shape (3,) or (runs, 3)
     when segment values are arrays."""
+    values = [(seg.distance_m, seg.angle_rad) for seg in track.segments]
+    if all(np.ndim(d) == 0 and np.ndim(a) == 0 for d, a in values):
+        # one pose for the track, remembered (the design drives one track many times over)
+        return _odometric_pose_of(tuple((float(d), float(a)) for d, a in values)).copy()
     pose = np.zeros(3)
-    for seg in track.segments:
-        pose = compose(pose, seg.distance_m, seg.angle_rad)
+    for d, a in values:
+        pose = compose(pose, d, a)
+    return pose
+
+
+@functools.lru_cache(maxsize=256)
+def _odometric_pose_of(values: tuple[tuple[float, float], ...]) -> np.ndarray:
+    """:func:`odometric_pose` of the segments (distance m, angle rad), all scalars."""
+    pose = np.zeros(3)
+    for d, a in values:
+        pose = compose(pose, d, a)
     return pose
 
 
@@ -149,7 +162,8 @@ def drive(
         after those increments only.
     """
     options = (max_step_m, steps_per_segment, integration)
-    return _simulate(track, true, believed, noise, runs, rng, options, trajectory, False)
+    pose, traj = _simulate(track, true, believed, noise, runs, rng, options, trajectory, False)
+    return SimulationResult(pose, odometric_pose(track), traj)
 
 
 def final_headings(
@@ -168,8 +182,7 @@ def final_headings(
     makes with the same arguments: the same random draws and the same sums, without the
     positions (what the heading-error method reads, at a fraction of the work)."""
     options = (max_step_m, steps_per_segment, integration)
-    res = _simulate(track, true, believed, noise, runs, rng, options, False, True)
-    return res.true_final[:, 2]
+    return _simulate(track, true, believed, noise, runs, rng, options, False, True)[0]
 
 
 def _simulate(
@@ -182,8 +195,9 @@ def _simulate(
     options: tuple[float | None, int | None, str],
     trajectory: bool | Sequence[int] | np.ndarray,
     heading_only: bool,
-) -> SimulationResult:
-    """:func:`drive` (and, with ``heading_only``, :func:`final_headings`: the positions stay 0)."""
+) -> tuple[np.ndarray, np.ndarray | None]:
+    """The true final poses (runs, 3) and the trajectory (or None) of :func:`drive`; with
+    ``heading_only``, the final headings (runs,) of :func:`final_headings`."""
     max_step_m, steps_per_segment, integration = options
     if runs < 1:
         raise ModelError(f"runs must be >= 1, got {runs}")
@@ -200,20 +214,36 @@ def _simulate(
             "simulation): use fewer runs"
         )
 
-    def batch(v: float | np.ndarray) -> np.ndarray:
-        return np.broadcast_to(np.asarray(v, dtype=float), (runs,))
+    def value(v: float | np.ndarray) -> np.ndarray:
+        """``v`` as it is (one value, or one per run), once checked against the batch: the
+        arithmetic below runs on the distinct values only and is broadcast after."""
+        a = np.asarray(v, dtype=float)
+        if a.ndim > 1 or (a.ndim == 1 and a.shape[0] not in (1, runs)):
+            raise ValueError(f"a value of shape {a.shape} cannot be one per run of {runs} runs")
+        if a.ndim == 1 and a.shape[0] > 1:
+            # the same value for every run (bit for bit; e.g. one track size repeated): one
+            # value, so that the arithmetic on it is done once
+            bits = a.view(np.int64)
+            if bits[0] == bits[-1] and bool(np.all(bits == bits[0])):
+                return a[:1]
+        return a
 
     # per-wheel travel factor true/believed and true wheelbase, shape (runs,)
-    f_r = batch(true.diameter_right_m / believed.diameter_right_m)
-    f_l = batch(true.diameter_left_m / believed.diameter_left_m)
-    b_true = batch(true.wheelbase_m)
-    b_hat = batch(believed.wheelbase_m)
+    f_r = value(true.diameter_right_m / believed.diameter_right_m)
+    f_l = value(true.diameter_left_m / believed.diameter_left_m)
+    b_true = _rows(value(true.wheelbase_m), runs)
+    b_hat = value(believed.wheelbase_m)
 
-    segments = []  # true wheel travel over each segment (m), shape (runs,), and its increments
+    # each segment's values (one, or one per run) and increments; its wheel travel is computed
+    # block by block (arrays of all the runs would cost more in fresh memory than in arithmetic)
+    segments = []
     for seg in track.segments:
-        s_hat_r, s_hat_l = seg.wheel_travel(b_hat)
-        s_r, s_l = batch(s_hat_r * f_r), batch(s_hat_l * f_l)
-        segments.append((s_r, s_l, increments_per_segment(s_r, s_l, max_step_m, steps_per_segment)))
+        d, a = value(seg.distance_m), value(seg.angle_rad)
+        n = steps_per_segment
+        if n is None:
+            s_hat_r, s_hat_l = Segment(d, a).wheel_travel(b_hat)
+            n = increments_per_segment(s_hat_r * f_r, s_hat_l * f_l, max_step_m)
+        segments.append((d, a, int(n)))
     total = sum(n for _, _, n in segments)
     if runs * total > MAX_RUN_INCREMENTS:
         raise ModelError(
@@ -232,8 +262,22 @@ def _simulate(
     # Python's lock), writing into shared memory; smaller work on threads
     processes = workers > 1 and can_fork() and runs * total >= _PROCESS_INCREMENTS
     zeros = shared_zeros if processes else np.zeros
-    pose = zeros((runs, 3))
+    pose = zeros((runs,) if heading_only else (runs, 3))
     traj = None if record is None else zeros((runs, len(record), 3))
+
+    def travel(lo: int, hi: int) -> list[tuple[np.ndarray, np.ndarray, int]]:
+        """The true wheel travel (m) over each segment of runs lo..hi-1, and its increments."""
+
+        def cut(v: np.ndarray) -> np.ndarray:
+            return v[lo:hi] if v.ndim and v.shape[0] == runs else v
+
+        out = []
+        for d, a, n in segments:
+            s_hat_r, s_hat_l = Segment(cut(d), cut(a)).wheel_travel(cut(b_hat))
+            s_r = np.asarray(s_hat_r * cut(f_r), dtype=float)
+            s_l = np.asarray(s_hat_l * cut(f_l), dtype=float)
+            out.append((_rows(s_r, hi - lo), _rows(s_l, hi - lo), n))
+        return out
 
     def run_block(i: int) -> None:
         lo, hi = blocks[i]
@@ -242,7 +286,7 @@ def _simulate(
             seed = np.random.SeedSequence([int(keys[0]), int(keys[1]), i])
             stream = np.random.Generator(type(rng.bit_generator)(seed))
         _drive_block(
-            [(s_r[lo:hi], s_l[lo:hi], n) for s_r, s_l, n in segments],
+            travel(lo, hi),
             b_true[lo:hi],
             noise,
             stream,
@@ -269,14 +313,7 @@ def _simulate(
             list(pool.map(run_block, range(len(blocks))))
     else:
         run_group(range(len(blocks)))
-    # the commanded pose (only its heading where the positions were not driven)
-    if heading_only:
-        heading = np.asarray(sum(seg.angle_rad for seg in track.segments), dtype=float)
-        odometric = np.zeros((*heading.shape, 3))
-        odometric[..., 2] = heading
-    else:
-        odometric = odometric_pose(track)
-    return SimulationResult(pose, odometric, traj)
+    return pose, traj
 
 
 # Work of one block of runs (runs x increments) with its own random stream; and the elements of
@@ -320,19 +357,27 @@ def _terms(largest: float, coefficients: np.ndarray) -> int:
 
 def _series(u: np.ndarray, coefficients: np.ndarray, out: np.ndarray) -> np.ndarray:
     """sum_k c_k u^k (Horner) into ``out``."""
-    out.fill(coefficients[-1])
-    for c in coefficients[-2::-1]:
+    if len(coefficients) == 1:
+        out.fill(coefficients[0])
+        return out
+    np.multiply(u, coefficients[-1], out=out)
+    out += coefficients[-2]
+    for c in coefficients[-3::-1]:
         out *= u
         out += c
     return out
 
 
-def _accumulate(x: np.ndarray) -> np.ndarray:
-    """Cumulative sum along axis 0 (increments) of ``x`` (n, m), as a new array: row by row
-    where rows are long and few (numpy's cumsum does not vectorise across rows)."""
+def _accumulate(x: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """Cumulative sum along axis 0 (increments) of ``x`` (n, m), as a new array (or into
+    ``out``): row by row where rows are long and few (numpy's cumsum does not vectorise across
+    rows)."""
     if len(x) > _ROW_LOOP:
-        return np.cumsum(x, axis=0)
-    out = x.copy()
+        return np.cumsum(x, axis=0, out=out)
+    if out is None:
+        out = x.copy()
+    else:
+        np.copyto(out, x)
     for k in range(1, len(out)):
         out[k] += out[k - 1]
     return out
@@ -342,29 +387,75 @@ def _accumulate(x: np.ndarray) -> np.ndarray:
 _ROW_LOOP = 32
 
 
+def _distinct(a: np.ndarray) -> np.ndarray:
+    """``a`` (shape (runs,)), or its one value (shape (1,)) where it is a broadcast scalar."""
+    return a[:1] if a.ndim == 1 and a.size > 1 and a.strides[0] == 0 else a
+
+
+def _rows(a: np.ndarray, rows: int) -> np.ndarray:
+    """``a`` (shape (rows,) or (1,)) as shape (rows,), a read-only broadcast view where it has
+    one value (made directly: ``np.broadcast_to`` costs more than the arithmetic here)."""
+    if a.shape == (rows,):
+        return a
+    a = np.ascontiguousarray(a, dtype=float).reshape(-1)
+    if a.shape != (1,):
+        raise ValueError(f"cannot broadcast shape {a.shape} to ({rows},)")
+    out = np.ndarray((rows,), dtype=float, buffer=a, strides=(0,))
+    out.flags.writeable = False
+    return out
+
+
 def _wheel_noise(
-    rng: np.random.Generator | None, k_m: float, scale: np.ndarray, n: int
+    rng: np.random.Generator | None,
+    k_m: float,
+    scale: np.ndarray,
+    n: int,
+    buffer: np.ndarray | None = None,
 ) -> np.ndarray | None:
     """The noise of one wheel's travel over ``n`` increments: ``scale`` (m, sqrt(k |a|) for a
-    mean travel a per increment; shape (runs,)) times standard normals, shape (n, runs); None
-    without noise."""
+    mean travel a per increment; shape (runs,)) times standard normals, shape (n, runs), drawn
+    into ``buffer`` where it has that shape (the same draws); None without noise."""
     if not (k_m > 0 and rng is not None):
         return None
-    z = rng.standard_normal((n, len(scale)))
+    if buffer is not None and buffer.shape == (n, len(scale)):
+        z = rng.standard_normal(out=buffer)
+    else:
+        z = rng.standard_normal((n, len(scale)))
     z *= scale
     return z
 
 
-def _cos_sin(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """cos x and sin x as new arrays: Taylor polynomials (accurate to the last bit) where every
-    |x| is at most _SMALL_ANGLE, else numpy's."""
+def _cos_sin(x: np.ndarray, scratch: _Scratch | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """cos x and sin x as new arrays (or arrays of ``scratch``): Taylor polynomials (accurate to
+    the last bit) where every |x| is at most _SMALL_ANGLE, else numpy's."""
     largest = max(float(x.max()), -float(x.min()))
+
+    def out(name: str) -> np.ndarray:
+        return np.empty_like(x) if scratch is None else scratch.get(name, x.shape)
+
     if largest > _SMALL_ANGLE:
-        return np.cos(x), np.sin(x)
-    u = np.multiply(x, x)
-    sin_x = _series(u, _SINC[: _terms(largest, _SINC)], np.empty_like(u))
+        return np.cos(x, out=out("cos")), np.sin(x, out=out("sin"))
+    u = np.multiply(x, x, out=out("square"))
+    sin_x = _series(u, _SINC[: _terms(largest, _SINC)], out("sin"))
     sin_x *= x
-    return _series(u, _COS[: _terms(largest, _COS)], np.empty_like(u)), sin_x
+    return _series(u, _COS[: _terms(largest, _COS)], out("cos")), sin_x
+
+
+class _Scratch:
+    """Arrays a block reuses from pass to pass, by name: views of one buffer per name, grown
+    when a pass needs more (fresh memory costs more than the arithmetic on it)."""
+
+    def __init__(self) -> None:
+        self._buffers: dict[str, np.ndarray] = {}
+
+    def get(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
+        """An uninitialised C-contiguous array of ``shape`` (float), valid until the next
+        ``get`` of ``name``."""
+        size = math.prod(shape)
+        flat = self._buffers.get(name)
+        if flat is None or flat.size < size:
+            flat = self._buffers[name] = np.empty(size)
+        return flat[:size].reshape(shape)
 
 
 def _drive_block(
@@ -400,6 +491,18 @@ def _drive_block(
     This is the midpoint update of :mod:`odocal.core.odometry` (its one home), unrolled by
     segment for speed; tests/core/test_odometry.py equates the two.
     """
+    rows = len(b_true)
+    b_true = _distinct(b_true)
+    # the pose of the block as contiguous columns (a column of ``pose`` is strided), written back
+    # at the end; the same sums, in the same order
+    th = (pose if heading_only else pose[:, 2]).copy()
+    x = np.zeros(0) if heading_only else pose[:, 0].copy()
+    y = np.zeros(0) if heading_only else pose[:, 1].copy()
+    # halves of the wheelbase (exact halvings): the centre's travel is then u + v and the heading
+    # change (u - v) / (b / 2), with u, v the halves of the wheels' noise
+    half_b = _rows(0.5 * b_true, rows)
+    # the arrays of a pass, the normals included (drawn into it: the same draws), reused
+    scratch = _Scratch()
     start = 0  # increments driven before the segment
     for s_r, s_l, n in segments:
         step = max(1, _CHUNK // n)
@@ -408,33 +511,36 @@ def _drive_block(
             inside = (record >= start + 1) & (record <= start + n)
             if inside.any():
                 wanted = (np.flatnonzero(inside), record[inside] - start - 1)
-        middle = np.arange(n) + 0.5  # increment k's middle, in increments
-        # per run: mean travel of each wheel and of the centre per increment, the noise's scale,
-        # the heading change per increment without noise
-        a_r, a_l = s_r / n, s_l / n
-        a_mean = 0.5 * (a_r + a_l)
-        # halves of the noise's scale sqrt(k |a|) and of the wheelbase (exact halvings): the
-        # centre's travel is then u + v and the heading change (u - v) / (b / 2)
-        scale_r = 0.5 * np.sqrt(noise.k_r_m * np.abs(a_r))
-        scale_l = 0.5 * np.sqrt(noise.k_l_m * np.abs(a_l))
-        half_b = 0.5 * b_true
-        delta_all = (a_r - a_l) / b_true
-        turn_all = n * delta_all
-        for lo in range(0, len(b_true), step):
-            hi = min(len(b_true), lo + step)
+        # per run: mean travel of each wheel per increment, the halves of the noise's scale
+        # sqrt(k |a|), the heading change per increment without noise (computed on the distinct
+        # values only where a value is the same for every run, then broadcast)
+        a_r, a_l = _distinct(s_r) / n, _distinct(s_l) / n
+        scale_r = _rows(0.5 * np.sqrt(noise.k_r_m * np.abs(a_r)), rows)
+        scale_l = _rows(0.5 * np.sqrt(noise.k_l_m * np.abs(a_l)), rows)
+        delta_one = (a_r - a_l) / _distinct(b_true)
+        delta_all = _rows(delta_one, rows)
+        turn_all = _rows(n * delta_one, rows)
+        if not heading_only:
+            middle = np.arange(n) + 0.5  # increment k's middle, in increments
+            a_mean = _rows(0.5 * (a_r + a_l), rows)
+        for lo in range(0, rows, step):
+            hi = min(rows, lo + step)
             b = half_b[lo:hi]
-            u = _wheel_noise(rng, noise.k_r_m, scale_r[lo:hi], n)
-            v = _wheel_noise(rng, noise.k_l_m, scale_l[lo:hi], n)
+            u = _wheel_noise(rng, noise.k_r_m, scale_r[lo:hi], n, scratch.get("u", (n, hi - lo)))
+            v = _wheel_noise(rng, noise.k_l_m, scale_l[lo:hi], n, scratch.get("v", (n, hi - lo)))
             delta = delta_all[lo:hi]
+            # the segment's heading change: n delta + (sum u - sum v) / (b / 2) (a sum over one
+            # increment is that increment)
             turn = turn_all[lo:hi].copy()
             if u is not None:
-                turn += u.sum(axis=0) / b
+                turn += (u[0] if n == 1 else u.sum(axis=0)) / b
             if v is not None:
-                turn -= v.sum(axis=0) / b
-            th0 = pose[lo:hi, 2].copy()
-            pose[lo:hi, 2] += turn
+                turn -= (v[0] if n == 1 else v.sum(axis=0)) / b
             if heading_only:
+                th[lo:hi] += turn
                 continue
+            th0 = th[lo:hi].copy()
+            th[lo:hi] += turn
             # ds (travel of the centre) and eta (noise part of the heading change)
             if u is None and v is None:
                 ds = np.empty((n, hi - lo))
@@ -447,29 +553,34 @@ def _drive_block(
                 elif u is None:
                     ds, eta = v.copy(), np.negative(v, out=v)
                 else:
-                    ds = u + v
+                    ds = np.add(u, v, out=scratch.get("ds", u.shape))
                     eta = np.subtract(u, v, out=u)
                 ds += a_mean[lo:hi]
                 eta /= b
             if exact:
                 # chord of the arc: ds sin(dth/2) / (dth/2), dth = delta + eta
-                half = np.multiply(eta, 0.5)
+                half = np.multiply(eta, 0.5, out=scratch.get("half", eta.shape))
                 half += 0.5 * delta
                 largest = max(float(half.max()), -float(half.min()))
                 if largest <= _SMALL_ANGLE:
                     sq = np.multiply(half, half, out=half)
-                    ds *= _series(sq, _SINC[: _terms(largest, _SINC)], np.empty_like(sq))
+                    chord = scratch.get("chord", sq.shape)
+                    ds *= _series(sq, _SINC[: _terms(largest, _SINC)], chord)
                 else:
                     with np.errstate(invalid="ignore", divide="ignore"):
                         ds *= np.where(half == 0, 1.0, np.sin(half) / half)
-            noise_heading = _accumulate(eta)  # sum_{j<=k} eta_j
+            # sum_{j<=k} eta_j
+            noise_heading = _accumulate(eta, scratch.get("noise_heading", eta.shape))
             e = np.multiply(eta, -0.5, out=eta)
             e += noise_heading
             c0, s0 = np.cos(th0), np.sin(th0)
-            x0, y0 = pose[lo:hi, 0], pose[lo:hi, 1]
-            uniform = bool(delta.min() == delta.max())
+            x0, y0 = x[lo:hi], y[lo:hi]
+            if delta.strides[0] == 0:  # one value for every run
+                uniform = bool(delta[0] == delta[0])
+            else:
+                uniform = bool(delta.min() == delta.max())
             if uniform:
-                cos_m, sin_m = _cos_sin(e)
+                cos_m, sin_m = _cos_sin(e, scratch)
                 mbar = middle * float(delta[0])
                 col_c, col_s = np.cos(mbar), np.sin(mbar)
                 cos_m *= ds
@@ -483,9 +594,9 @@ def _drive_block(
                         sin_m * col_c[:, None] + cos_m * col_s[:, None],
                     )
             else:
-                mid = np.multiply.outer(middle, delta)
+                mid = np.multiply.outer(middle, delta, out=scratch.get("mid", e.shape))
                 mid += e
-                cos_m, sin_m = _cos_sin(mid)
+                cos_m, sin_m = _cos_sin(mid, scratch)
                 cos_m *= ds
                 sin_m *= ds
                 sx, sy = cos_m.sum(axis=0), sin_m.sum(axis=0)
@@ -498,9 +609,15 @@ def _drive_block(
                 heading = np.multiply.outer(at + 1.0, delta)
                 heading += noise_heading[at]
                 traj[lo:hi, cols, 2] = (th0 + heading).T
-            pose[lo:hi, 0] += c0 * sx - s0 * sy
-            pose[lo:hi, 1] += s0 * sx + c0 * sy
+            x[lo:hi] += c0 * sx - s0 * sy
+            y[lo:hi] += s0 * sx + c0 * sy
         start += n
+    if heading_only:
+        pose[:] = th
+    else:
+        pose[:, 0] = x
+        pose[:, 1] = y
+        pose[:, 2] = th
 
 
 def simulate(
