@@ -135,9 +135,10 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--trials",
         type=trials_int,
-        default=2000,
+        default=None,
         metavar="M",
-        help="Monte-Carlo trials per candidate (default 2000; the paper used 800)",
+        help="Monte-Carlo trials per candidate (default 2000; the paper used 800; with --route: "
+        "per confirmed candidate, default 200)",
     )
     p.add_argument(
         "--method",
@@ -210,6 +211,7 @@ def add_parser(sub) -> None:
         metavar="S",
         help="the instrument's heading noise per measured final pose, deg (replaces the robot's)",
     )
+    _add_route_args(p)
     p.add_argument("--plot", metavar="DIR", help="write PNG figures into DIR")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument(
@@ -220,9 +222,85 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
+#: What ``--route`` designs over (as odocal.design.route.ROUTES; not imported: keeps --help fast).
+ROUTE_CHOICES = ("trajectory", "slam", "scan", "gyro")
+#: Flags of the polygon design that a route design does not use, and the route's own flags.
+_POLYGON_ONLY = (
+    ("sides", "--sides"),
+    ("side_lengths", "--side-lengths"),
+    ("robot_from", "--robot-from"),
+    ("analytic", "--analytic"),
+    ("reference_sim", "--reference-sim"),
+    ("known_errors", "--known-errors"),
+    ("sigma_xy_m", "--sigma-xy-m"),
+    ("sigma_theta_deg", "--sigma-theta-deg"),
+)
+_ROUTE_ONLY = (
+    ("kinematics", "--kinematics"),
+    ("noise_from", "--noise-from"),
+    ("target_std_error", "--target-std-error"),
+    ("duration", "--duration"),
+)
+
+
+def _add_route_args(p: argparse.ArgumentParser) -> None:
+    """The flags of ``odocal design --route R``."""
+    p.add_argument(
+        "--route",
+        choices=ROUTE_CHOICES,
+        default=None,
+        help="design a recording for a bag route instead of a polygon test track: which "
+        "maneuvers (straights, spins, arcs, figure-eights, squares), how long; the "
+        "predicted standard errors checked by Monte Carlo (docs/design.md)",
+    )
+    p.add_argument(
+        "--kinematics",
+        choices=("differential", "skid-steer"),
+        default=None,
+        help="with --route: the robot's kinematics (default: the robot file's); skid-steer "
+        "designs for the effective track",
+    )
+    p.add_argument(
+        "--noise-from",
+        metavar="BAG",
+        default=None,
+        help="with --route: measure the noise from a bag (or run file) with ground truth of this "
+        "robot (the check's residual scale of a trajectory fit); a bag of another robot is "
+        "refused",
+    )
+    p.add_argument(
+        "--target-std-error",
+        action="append",
+        metavar="NAME=VALUE",
+        default=None,
+        help="with --route: a target standard error, e.g. wheelbase=0.2%%, "
+        "wheel_diameter=0.05%%, wheelbase=0.5mm, diameter_ratio=0.0005 (repeatable); the "
+        "recommendation is the shortest recording reaching every target",
+    )
+    p.add_argument(
+        "--duration",
+        type=float,
+        default=None,
+        metavar="S",
+        help="with --route: the longest recording allowed (s); without targets the recording "
+        "with the least predicted drift on the --validate driving within it",
+    )
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``odocal design`` on the parsed ``args`` and print the result (text or ``--json``);
     returns 0 (errors are raised: :func:`~odocal.cli.main.main` reports them)."""
+    from ..errors import InputError
+
+    given = lambda name: getattr(args, name, None) not in (None, False)  # noqa: E731
+    if args.route is not None:
+        wrong = [flag for name, flag in _POLYGON_ONLY if given(name)]
+        if wrong:
+            raise InputError(f"{', '.join(wrong)}: only without --route (a polygon design)")
+        return _run_route(args)
+    wrong = [flag for name, flag in _ROUTE_ONLY if given(name)]
+    if wrong:
+        raise InputError(f"{', '.join(wrong)}: only with --route")
     from ..app.design import design
     from ..design.spec import DesignSpec
 
@@ -232,7 +310,7 @@ def run(args: argparse.Namespace) -> int:
         if args.side_lengths is None
         else tuple(float(v) for v in args.side_lengths),
         runs_per_direction=args.runs_per_direction,
-        trials=args.trials,
+        trials=2000 if args.trials is None else args.trials,
         method=args.method,
         validation=args.validate,
         alpha=args.alpha,
@@ -253,6 +331,40 @@ def run(args: argparse.Namespace) -> int:
             error_range=False if args.known_errors else None,
             robot_from=args.robot_from,
             measurement=_instrument(args),
+        )
+    finally:
+        bar.close()
+    print_warnings(res.warnings)
+    if args.json:
+        print_json(res.as_dict())
+        return 0
+    print(res.text())
+    return 0
+
+
+def _run_route(args: argparse.Namespace) -> int:
+    """``odocal design --route R``."""
+    from ..app.design_route import design_for_route
+
+    validate = None
+    if args.validate is not None:
+        v = args.validate
+        validate = (v.sides, v.side_m, v.direction)
+    bar = ProgressBar("odocal design --route", enabled=not (args.quiet or args.json))
+    try:
+        res = design_for_route(
+            args.route,
+            args.robot,
+            params=args.params,
+            kinematics=args.kinematics,
+            noise_from=args.noise_from,
+            targets=tuple(args.target_std_error or ()),
+            duration_s=args.duration,
+            validate=validate,
+            trials=200 if args.trials is None else args.trials,
+            seed=args.seed,
+            plot=args.plot,
+            progress=bar,
         )
     finally:
         bar.close()

@@ -391,6 +391,7 @@ class RouteDesign:
     validation: tuple[Maneuver, ...]
     not_estimated: tuple[str, ...]
     warnings: tuple[str, ...] = ()
+    targets: tuple[Target, ...] = ()
 
     def as_dict(self) -> dict:
         """JSON-ready: ``recommended`` (maneuvers, duration_s, predicted_std_error,
@@ -404,6 +405,7 @@ class RouteDesign:
             "validation": [m.label for m in self.validation],
             "not_estimated": list(self.not_estimated),
             "warnings": list(self.warnings),
+            "targets": [t.label for t in self.targets],
         }
 
 
@@ -610,7 +612,7 @@ def design_route(
     noise: RouteNoise,
     rng: np.random.Generator,
     *,
-    progress: Callable[[float], None] | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> RouteDesign:
     """The design of a recording for ``spec.route`` (module docstring). CalibrationError when a
     target cannot be reached within the allowed duration (its message names the best reachable
@@ -657,7 +659,7 @@ def design_route(
             RouteCandidate(mix, tuple(man), series.duration_s, absolute, relative, drift)
         )
         if progress is not None:
-            progress((n + 1) / (len(jobs) + spec.confirm))
+            progress(n + 1, len(jobs) + spec.confirm)
     allowed = [c for c in all_cands if limit is None or c.duration_s <= limit * 1.05]
     if not allowed:
         allowed = [min(all_cands, key=lambda c: c.duration_s)]
@@ -699,7 +701,7 @@ def design_route(
                     f"{real:.3g} in {k}, the prediction says {pred:.3g}"
                 )
         if progress is not None:
-            progress((len(jobs) + n + 1) / (len(jobs) + spec.confirm))
+            progress(len(jobs) + n + 1, len(jobs) + spec.confirm)
     cands = tuple(checked.get(id(c), c) for c in allowed)
     best = checked[id(best)]
     not_estimated = [
@@ -718,7 +720,7 @@ def design_route(
         )
     return RouteDesign(
         spec.route, cands, best, reason, noise, tuple(validation), tuple(not_estimated),
-        tuple(warnings),
+        tuple(warnings), spec.targets,
     )  # fmt: skip
 
 

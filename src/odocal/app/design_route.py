@@ -1,0 +1,329 @@
+"""``odocal design --route R``: what to record for a bag route (docs/design.md, "Designing a
+recording for a bag route")."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..calibration.identifiability import NoiseModel, check_recordings
+from ..calibration.trajectory import fit_trajectory
+from ..core.checks import check_seed
+from ..core.maneuvers import Maneuver, spin, straight
+from ..core.model import KINEMATICS, Kinematics, Robot
+from ..core.plausibility import track_size_problem
+from ..design.route import (
+    ROUTES,
+    TARGET_PARAMETERS,
+    Route,
+    RouteDesign,
+    RouteNoise,
+    RouteSpec,
+    Target,
+    default_noise,
+    design_route,
+    target_problem,
+)
+from ..errors import CalibrationError, InputError, ModelError
+from ..io.outputs import OutputPlan
+from .common import RobotSpec, input_paths, resolve_robot, robot_label
+from .text import Presented, Text, emits_warnings, written_lines
+
+__all__ = ["RouteDesignRun", "design_for_route", "parse_target", "polygon_validation"]
+
+#: A noise bag whose fitted wheel diameters or wheelbase differ from the robot file's by more
+#: than this fraction is of another robot (or the robot file is wrong).
+OTHER_ROBOT_FRACTION = 0.15
+
+_TARGET = re.compile(r"^\s*([a-z_]+)\s*=\s*([0-9.eE+-]+)\s*(%|mm|m)?\s*$")
+
+
+def parse_target(text: str) -> Target:
+    """'wheelbase=0.2%' (relative), 'wheel_diameter=0.05mm' or 'wheelbase=0.001m' (absolute,
+    m), 'diameter_ratio=0.0005' (unitless). InputError on anything else."""
+    m = _TARGET.match(text)
+    hint = (
+        f"--target-std-error expects NAME=VALUE with NAME one of {', '.join(TARGET_PARAMETERS)} "
+        f"and VALUE a percentage (0.2%) or a length (0.5mm, 0.001m), got {text!r}"
+    )
+    if not m:
+        raise InputError(hint)
+    name, number, unit = m.groups()
+    try:
+        value = float(number)
+    except ValueError:
+        raise InputError(hint) from None
+    if name not in TARGET_PARAMETERS or not (math.isfinite(value) and value > 0):
+        raise InputError(hint)
+    if unit == "%":
+        return Target(name, value / 100.0, True)
+    if name == "diameter_ratio":
+        if unit is not None:
+            raise InputError(f"diameter_ratio has no unit: give a fraction or a %, got {text!r}")
+        return Target(name, value, False)
+    if unit is None:
+        raise InputError(f"{hint} (a length needs its unit)")
+    return Target(name, value / 1000.0 if unit == "mm" else value, False)
+
+
+def polygon_validation(
+    sides: int, side_m: float, direction: str, speed: float, rate: float
+) -> tuple[Maneuver, ...]:
+    """A polygon validation driving (``--validate SIDES:LENGTH:DIRECTION``) as maneuvers: each
+    side a straight, each corner a spin on the spot of the exterior angle."""
+    turn = (1 if direction.lower() == "ccw" else -1) * 2 * math.pi / sides
+    return tuple(m for _ in range(sides) for m in (straight(side_m, speed), spin(turn, rate)))
+
+
+@dataclass(frozen=True)
+class RouteDesignRun(Presented):
+    """A route design, how it was made (seed, robot, kinematics) and the figures written."""
+
+    design: RouteDesign
+    seed: int
+    robot: str
+    kinematics: Kinematics
+    seconds: float = math.nan
+    written: tuple[Path, ...] = ()
+    notes: tuple[str, ...] = ()
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """The design's warnings."""
+        return tuple(self.design.warnings)
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON of ``odocal design --route R --json``."""
+        return self.design.as_dict() | {
+            "seed": self.seed,
+            "robot": self.robot,
+            "kinematics": self.kinematics,
+            "notes": list(self.notes),
+            "written": [str(p) for p in self.written],
+        }
+
+    def text(self) -> str:
+        """The text of ``odocal design --route R``."""
+        d = self.design
+        rec = d.recommended
+        out = Text()
+        out(f"What to record for the {d.route} route ({self.robot}, seed {self.seed})")
+        out(f"  noise: {_noise_words(d.noise, d.route)}")
+        for note in self.notes:
+            out(f"  note: {note}")
+        out()
+        out(f"Recommended: {rec.mix}, {rec.duration_s:.0f} s ({d.reason})")
+        for i, m in enumerate(rec.maneuvers, start=1):
+            out(f"  {i:3d}. {m.label}")
+        out()
+        rows: list[tuple] = [("parameter", "predicted SE", "relative", "Monte Carlo SE")]
+        mc = rec.monte_carlo
+        for k, v in rec.predicted_std_error.items():
+            real = None if mc is None else mc.realised_std_error.get(k)
+            unit = "" if k == "diameter_ratio" else " m"
+            rows.append(
+                (
+                    _NAMES.get(k, k) if self.kinematics == "differential" else _SKID.get(k, k),
+                    f"{v:.3g}{unit}",
+                    f"{100 * rec.relative_std_error[k]:.3g} %",
+                    "-" if real is None else f"{real:.3g}{unit}",
+                )
+            )
+        out.table(rows)
+        out(
+            f"  predicted post-calibration drift on the validation driving: "
+            f"{rec.drift_percent_per_10m:.3g} % of distance"
+        )
+        if mc is not None:
+            out(f"  (Monte Carlo: {mc.trials} simulated recordings, {mc.simulated})")
+        out()
+        out("Candidates (predicted):")
+        rows = [("mix", "duration_s", *(f"SE {k} %" for k in rec.relative_std_error), "drift %")]
+        for c in d.candidates:
+            rows.append(
+                (
+                    c.mix,
+                    f"{c.duration_s:.0f}",
+                    *(f"{100 * v:.3g}" for v in c.relative_std_error.values()),
+                    f"{c.drift_percent_per_10m:.3g}",
+                )
+            )
+        out.table(rows)
+        out()
+        out("Not simulated: " + "; ".join(d.not_estimated))
+        if math.isfinite(self.seconds):
+            out(f"({self.seconds:.1f} s)")
+        written_lines(out, self.written)
+        out(f"Next: odocal plan --route {d.route} ... writes the command file and the protocol")
+        return str(out)
+
+
+_NAMES = {"wheelbase": "wheelbase", "wheel_diameter": "wheel diameter", "diameter_ratio": "D_R/D_L"}
+_SKID = _NAMES | {"wheelbase": "effective track"}
+
+
+def _noise_words(n: RouteNoise, route: Route) -> str:
+    parts = [f"k {n.wheel.k_r_m:.3g}/{n.wheel.k_l_m:.3g} m"]
+    if route == "gyro":
+        parts.append(f"gyro {n.gyro.arw_rad_sqrt_s:.3g} rad/sqrt(s)")
+    else:
+        parts.append(
+            f"{route} pose {1000 * n.pose.sigma_xy_m:.3g} mm, "
+            f"{math.degrees(n.pose.sigma_theta_rad):.3g} deg"
+        )
+    return ", ".join(parts) + f" ({n.source})"
+
+
+def _noise_from_bag(path: str | Path, robot: Robot, route: Route) -> tuple[RouteNoise, list[str]]:
+    """The route's noise measured from a bag (or run file) the user has: the trajectory fit of
+    its truth gives the geometry; the check's empirical scale s of its residuals scales the
+    stated noise (k by s^2, the pose noise by s). A bag whose fitted geometry is not the
+    robot file's is refused by name."""
+    from ..io.recordings import load_recordings  # files only here
+
+    notes: list[str] = []
+    try:
+        recs = load_recordings([path], ran_with=robot.believed_geometry, warnings=notes)
+    except (CalibrationError, ModelError) as e:
+        raise InputError(f"--noise-from {path}: {e}") from None
+    recs = [r for r in recs if r.ground_truth is not None]
+    if not recs:
+        raise InputError(
+            f"--noise-from {path}: no ground truth (a tracker, SLAM or scan pose) to measure the "
+            "noise against; nothing written"
+        )
+    try:
+        fit = fit_trajectory(recs, nominal=robot.nominal)
+    except CalibrationError as e:
+        raise InputError(f"--noise-from {path}: the trajectory fit failed: {e}") from None
+    g, n = fit.geometry, robot.nominal
+    pairs = (
+        ("wheel diameter right", g.diameter_right_m, n.diameter_right_m),
+        ("wheel diameter left", g.diameter_left_m, n.diameter_left_m),
+        ("wheelbase", g.wheelbase_m, n.wheelbase_m),
+    )
+    off = [(k, a, b) for k, a, b in pairs if abs(a / b - 1) > OTHER_ROBOT_FRACTION]
+    if off:
+        said = ", ".join(f"{k} {a:.4g} m (robot file {b:.4g} m)" for k, a, b in off)
+        raise InputError(
+            f"--noise-from {path}: a bag of another robot? its wheels and truth give {said}, "
+            f"more than {100 * OTHER_ROBOT_FRACTION:.0f} % from the robot file; nothing written"
+        )
+    base = default_noise(route, robot)
+    stated = NoiseModel(base.wheel, base.pose if route != "gyro" else NoiseModel().measurement)
+    chk = check_recordings(recs, g, noise=stated, residual_scale="empirical")
+    s = float(chk.residual_scale)
+    wheel = dataclasses.replace(
+        base.wheel, k_r_m=base.wheel.k_r_m * s**2, k_l_m=base.wheel.k_l_m * s**2
+    )
+    pose = dataclasses.replace(
+        stated.measurement,
+        sigma_xy_m=stated.measurement.sigma_xy_m * s,
+        sigma_theta_rad=stated.measurement.sigma_theta_rad * s,
+    )
+    source = (
+        f"measured from {Path(path).name}: the stated noise x {s:.3g} (the check's residual scale)"
+    )
+    if route == "gyro":
+        notes.append("--noise-from measures the wheel noise; the gyro's noise stays the default")
+        pose = base.pose
+    return dataclasses.replace(base, wheel=wheel, pose=pose, source=source), notes
+
+
+@emits_warnings
+def design_for_route(
+    route: Route,
+    robot: RobotSpec = None,
+    *,
+    params: str | Path | None = None,
+    kinematics: Kinematics | None = None,
+    noise_from: str | Path | None = None,
+    targets: Sequence[str | Target] = (),
+    duration_s: float | None = None,
+    validate: tuple[int, float, str] | None = None,
+    trials: int = 200,
+    seed: int = 0,
+    plot: str | Path | None = None,
+    progress: Any = None,
+) -> RouteDesignRun:
+    """Design the recording for ``route`` (:func:`odocal.design.route.design_route`) for
+    ``robot``: noise from ROBOT.yaml and the route's defaults or measured from ``noise_from``;
+    ``targets`` ('wheelbase=0.2%' ...); at most ``duration_s`` of driving; ``validate`` a polygon
+    (sides, side_m, direction) the calibrated robot should drive well; ``trials`` Monte Carlo
+    trials per confirmed candidate; figures into the folder ``plot``. InputError (nothing
+    written) for a target the route cannot see or no allowed recording reaches, a validation
+    driving the model cannot simulate, a noise bag of another robot."""
+    import time
+
+    start = time.perf_counter()
+    if route not in ROUTES:
+        raise InputError(f"--route must be one of {', '.join(ROUTES)}, got {route!r}")
+    seed = check_seed("seed", seed)
+    parsed = tuple(t if isinstance(t, Target) else parse_target(t) for t in targets)
+    problem = target_problem(route, parsed)
+    if problem:
+        raise InputError(problem)
+    if duration_s is not None and not (math.isfinite(duration_s) and 0 < duration_s <= 3600):
+        raise InputError(f"--duration must be > 0 and at most 3600 s, got {duration_s!r}")
+    plan = OutputPlan(input_paths(robot, params, *([noise_from] if noise_from else [])))
+    if plot is not None:
+        from ..plot._figure import require_matplotlib
+
+        require_matplotlib()
+        plan.folder(plot, "--plot")
+    r = resolve_robot(robot, params)
+    kin = kinematics or r.kinematics
+    if kin not in KINEMATICS:
+        raise InputError(f"--kinematics must be one of {', '.join(KINEMATICS)}, got {kin!r}")
+    notes: list[str] = []
+    if kin == "skid-steer":
+        notes.append(
+            "skid-steer: designed for the effective track (the robot file's track x its "
+            "multiplier) as a differential drive's wheelbase; the track's dependence on the "
+            "turn rate and the lateral slip are not simulated: spin at the rates the robot "
+            "will use"
+        )
+    if r.systematic == type(r.systematic)():
+        notes.append(
+            "ROBOT.yaml gives no systematic errors: the design linearises at the nominal "
+            "geometry (the standard errors hardly depend on the errors)"
+        )
+    spec_speed, spec_rate = RouteSpec().speed_m_s, RouteSpec().turn_rate_rad_s
+    validation = None
+    b = float(r.believed_geometry.wheelbase_m)
+    if validate is not None:
+        sides, side, direction = validate
+        problem = track_size_problem(b, float(side), "validation")
+        if problem:
+            raise InputError(f"--validate: the model cannot simulate this driving: {problem}")
+        validation = polygon_validation(sides, float(side), direction, spec_speed, spec_rate)
+    if noise_from is not None:
+        noise, more = _noise_from_bag(noise_from, r, route)
+        notes += more
+    else:
+        noise = default_noise(route, r)
+    try:
+        spec = RouteSpec(
+            route=route, max_duration_s=duration_s, targets=parsed, validation=validation,
+            trials=trials,
+        )  # fmt: skip
+        result = design_route(r, spec, noise, np.random.default_rng(seed), progress=progress)
+    except (CalibrationError, ModelError) as e:
+        raise InputError(f"design --route {route}: {e}; nothing written") from None
+    written: tuple[Path, ...] = ()
+    if plot is not None:
+        from ..plot.route import route_figures
+
+        figs = route_figures(result)
+        written = tuple(plan.commit({Path(plot) / k: v for k, v in figs.items()}))
+    label = robot_label(robot, params)
+    return RouteDesignRun(
+        result, seed, label, kin, time.perf_counter() - start, written, tuple(notes)
+    )
