@@ -686,13 +686,19 @@ def design_route(
             absolute, relative = _std_errors(p, cov)
             drift = _drift_percent(val, p_true, cov)
         all_cands.append(
-            RouteCandidate(mix, tuple(man), series.duration_s, absolute, relative, drift)
+            RouteCandidate(
+                mix, tuple(man), sum(m.duration_s for m in man), absolute, relative, drift
+            )
         )
         if progress is not None:
             progress(n + 1, len(jobs) + spec.confirm)
-    allowed = [c for c in all_cands if limit is None or c.duration_s <= limit * 1.05]
+    allowed = [c for c in all_cands if limit is None or c.duration_s <= limit * 1.01]
     if not allowed:
-        allowed = [min(all_cands, key=lambda c: c.duration_s)]
+        short = min(all_cands, key=lambda c: c.duration_s)
+        raise CalibrationError(
+            f"no candidate recording fits in {limit:g} s: the shortest, one cycle of "
+            f"{short.mix}, takes {short.duration_s:.0f} s"
+        )
     warnings: list[str] = []
     if spec.targets:
         reach = [c for c in allowed if c.reaches(spec.targets)]
@@ -767,7 +773,7 @@ def _unreachable(
         shown = f"{100 * best:.3g}%" if tt.relative else f"{best:.3g}"
         parts.append(f"{tt.parameter} {shown}")
     need = [c for c in everything if c.reaches(spec.targets)]
-    longest = max(c.duration_s for c in allowed)
+    longest = spec.max_duration_s or max(c.duration_s for c in allowed)
     if need:
         c = min(need, key=lambda c: c.duration_s)
         hint = f"; {c.mix} for about {c.duration_s:.0f} s would reach it"
