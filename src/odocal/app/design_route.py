@@ -19,6 +19,7 @@ from ..core.checks import check_seed
 from ..core.maneuvers import Maneuver, spin, straight
 from ..core.model import KINEMATICS, Kinematics, Robot
 from ..core.plausibility import track_size_problem
+from ..core.skid_steer import SkidSteerModel
 from ..design.route import (
     ROUTES,
     TARGET_PARAMETERS,
@@ -169,6 +170,29 @@ _NAMES = {"wheelbase": "wheelbase", "wheel_diameter": "wheel diameter", "diamete
 _SKID = _NAMES | {"wheelbase": "effective track"}
 
 
+def _effective_track_robot(r: Robot) -> tuple[Robot, list[str]]:
+    """A skid-steer robot as the differential drive of its effective track
+    (:class:`~odocal.core.skid_steer.SkidSteerModel`: the robot file's track x the
+    wheel_separation_multiplier it runs with), and what that assumes."""
+    nominal, ran = r.nominal, r.believed_geometry
+    multiplier = float(ran.wheelbase_m / nominal.wheelbase_m)
+    model = SkidSteerModel.from_geometry(nominal, multiplier)
+    effective = dataclasses.replace(nominal, wheelbase_m=model.track_m)
+    notes = [
+        f"skid-steer: designed for the effective track {model.track_m:.4g} m (track "
+        f"{float(nominal.wheelbase_m):.4g} m x multiplier {multiplier:.4g}) as a differential "
+        "drive's wheelbase ('wheelbase' below is the effective track); its dependence on the "
+        "turn rate and the lateral slip are not simulated: spin at the rates the robot will use"
+    ]
+    if not r.ran_with_stated or multiplier == 1.0:
+        notes.append(
+            "skid-steer without a wheel_separation_multiplier: the effective track is taken as "
+            "the physical one; skid-steer robots typically turn as if 1.5 to 2 times wider "
+            "(docs/skid-steer.md), which lengthens the spins' wheel travel"
+        )
+    return dataclasses.replace(r, nominal=effective, believed=None, kinematics="skid-steer"), notes
+
+
 def _noise_words(n: RouteNoise, route: Route) -> str:
     parts = [f"k {n.wheel.k_r_m:.3g}/{n.wheel.k_l_m:.3g} m"]
     if route == "gyro":
@@ -284,12 +308,8 @@ def design_for_route(
         raise InputError(f"--kinematics must be one of {', '.join(KINEMATICS)}, got {kin!r}")
     notes: list[str] = []
     if kin == "skid-steer":
-        notes.append(
-            "skid-steer: designed for the effective track (the robot file's track x its "
-            "multiplier) as a differential drive's wheelbase; the track's dependence on the "
-            "turn rate and the lateral slip are not simulated: spin at the rates the robot "
-            "will use"
-        )
+        r, more = _effective_track_robot(r)
+        notes += more
     if r.systematic == type(r.systematic)():
         notes.append(
             "ROBOT.yaml gives no systematic errors: the design linearises at the nominal "
