@@ -140,7 +140,8 @@ class RouteDesignRun(Presented):
         out.table(rows)
         out(
             f"  predicted post-calibration drift on the validation driving: "
-            f"{rec.drift_percent_per_10m:.3g} % of distance"
+            f"{rec.drift_percent_per_10m:.3g} % of distance (uncalibrated: "
+            f"{d.uncalibrated_drift_percent:.3g} %)"
         )
         if mc is not None:
             out(f"  (Monte Carlo: {mc.trials} simulated recordings, {mc.simulated})")

@@ -399,6 +399,7 @@ class RouteDesign:
     not_estimated: tuple[str, ...]
     warnings: tuple[str, ...] = ()
     targets: tuple[Target, ...] = ()
+    uncalibrated_drift_percent: float = math.nan
 
     def as_dict(self) -> dict:
         """JSON-ready: ``recommended`` (maneuvers, duration_s, predicted_std_error,
@@ -406,7 +407,9 @@ class RouteDesign:
         rec = self.recommended
         return {
             "route": self.route,
-            "recommended": rec.as_dict() | {"reason": self.reason},
+            "recommended": rec.as_dict()
+            | {"maneuvers": [m.as_dict() for m in rec.maneuvers], "reason": self.reason},
+            "uncalibrated_drift_percent_per_10m": self.uncalibrated_drift_percent,
             "candidates": [c.as_dict() for c in self.candidates],
             "noise": self.noise.as_dict(),
             "validation": [m.label for m in self.validation],
@@ -654,6 +657,9 @@ def design_route(
     speed, rate = spec.speed_m_s, spec.turn_rate_rad_s
     validation = spec.validation or default_validation(b, speed, rate)
     val = _validation(validation, robot, noise, 64, rng)
+    bel = robot.believed_geometry
+    p_bel = np.array([bel.diameter_right_m, bel.diameter_left_m, bel.wheelbase_m], float)
+    uncalibrated = _drift_percent(val, p_bel, np.zeros((3, 3)))
     durations = sorted(set(spec.durations_s))
     limit = spec.max_duration_s
     if limit is not None:
@@ -756,7 +762,7 @@ def design_route(
         )
     return RouteDesign(
         spec.route, cands, best, reason, noise, tuple(validation), tuple(not_estimated),
-        tuple(warnings), spec.targets,
+        tuple(warnings), spec.targets, uncalibrated,
     )  # fmt: skip
 
 
