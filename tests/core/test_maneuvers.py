@@ -75,19 +75,19 @@ def test_noise_has_the_stated_variance():
     s = command_series([straight(4.0, 0.5)], 5.0)  # the variance does not depend on the rate
     k = 1e-5
     _, truth, _ = simulate_recordings(
-        s, NOMINAL, NOMINAL, NonSystematicError(k, k), EXACT, 20000, rng
+        s, NOMINAL, NOMINAL, NonSystematicError(k, k), EXACT, 10000, rng
     )
     # the heading is linear in the wheel noise: var(theta_end) = (k_R + k_L) |s| / b^2;
-    # 20000 trials: the variance is known to 1 % (one sigma), so 5 % cannot fail by chance
+    # 10000 trials: the variance is known to 1.4 % (one sigma), so 7 % cannot fail by chance
     var = float(np.var(truth[:, -1, 2]))
-    assert var == pytest.approx(2 * k * 4.0 / 0.4**2, rel=0.05)
+    assert var == pytest.approx(2 * k * 4.0 / 0.4**2, rel=0.07)
     s = command_series([pause(100.0)], 1.0)
     _, _, gyro = simulate_recordings(
-        s, NOMINAL, NOMINAL, QUIET, EXACT, 20000, rng, gyro=GyroNoise(1e-3, 0.0)
+        s, NOMINAL, NOMINAL, QUIET, EXACT, 10000, rng, gyro=GyroNoise(1e-3, 0.0)
     )
     assert gyro is not None
     # angle random walk: var = arw^2 T
-    assert float(np.var(gyro[:, -1])) == pytest.approx(1e-6 * 100.0, rel=0.05)
+    assert float(np.var(gyro[:, -1])) == pytest.approx(1e-6 * 100.0, rel=0.07)
 
 
 def test_time_offset_shifts_the_truth():

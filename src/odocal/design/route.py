@@ -664,38 +664,37 @@ def design_route(
     limit = spec.max_duration_s
     if limit is not None:
         durations = [d for d in durations if d < limit] + [limit]
-    # longer durations than allowed are still predicted, to say what a target needs
-    extended = durations if limit is None else durations + [2 * limit, 4 * limit, 8 * limit]
     true = robot.true_geometry
     p_true = np.array([true.diameter_right_m, true.diameter_left_m, true.wheelbase_m], float)
-    all_cands: list[RouteCandidate] = []
-    jobs = [(mix, d) for mix in mixes(spec.route) for d in extended]
-    seen = set()
-    for n, (mix, d) in enumerate(jobs):
+    seen: set[tuple[str, int]] = set()
+
+    def predict(mix: str, d: float) -> RouteCandidate | None:
+        """The prediction of ``mix`` for about ``d`` s (None: the same cycles as before)."""
         man = candidate_maneuvers(spec.route, mix, d, b, speed, rate)
         if (mix, len(man)) in seen:  # two durations rounded to the same cycles
-            continue
+            return None
         seen.add((mix, len(man)))
         series = command_series(man, SIM_RATE_HZ)
         if spec.route == "gyro":
             var = _gyro_variance(series, robot, noise)
-            cov = np.diag([math.inf, math.inf, b**2 * var])
             absolute = {"wheelbase": b * math.sqrt(var)}
             relative = {"wheelbase": math.sqrt(var)}
             cov_drift = np.diag([0.0, 0.0, b**2 * var])  # the diameters stay as they were
-            p_drift = p_true.copy()
-            bel = robot.believed_geometry
-            p_drift[:2] = [bel.diameter_right_m, bel.diameter_left_m]
+            p_drift = np.concatenate([p_bel[:2], p_true[2:]])
             drift = _drift_percent(val, p_drift, cov_drift)
         else:
             p, cov = _trajectory_prediction(spec.route, series, robot, noise)
             absolute, relative = _std_errors(p, cov)
             drift = _drift_percent(val, p_true, cov)
-        all_cands.append(
-            RouteCandidate(
-                mix, tuple(man), sum(m.duration_s for m in man), absolute, relative, drift
-            )
-        )
+        duration = sum(m.duration_s for m in man)
+        return RouteCandidate(mix, tuple(man), duration, absolute, relative, drift)
+
+    jobs = [(mix, d) for mix in mixes(spec.route) for d in durations]
+    all_cands: list[RouteCandidate] = []
+    for n, (mix, d) in enumerate(jobs):
+        c = predict(mix, d)
+        if c is not None:
+            all_cands.append(c)
         if progress is not None:
             progress(n + 1, len(jobs) + spec.confirm)
     allowed = [c for c in all_cands if limit is None or c.duration_s <= limit * 1.01]
@@ -705,6 +704,13 @@ def design_route(
             f"no candidate recording fits in {limit:g} s: the shortest, one cycle of "
             f"{short.mix}, takes {short.duration_s:.0f} s"
         )
+    if spec.targets and limit is not None and not any(c.reaches(spec.targets) for c in allowed):
+        # longer recordings than allowed, to say what the targets need
+        for mix in mixes(spec.route):
+            for d in (2 * limit, 4 * limit, 8 * limit):
+                c = predict(mix, d)
+                if c is not None:
+                    all_cands.append(c)
     warnings: list[str] = []
     if spec.targets:
         reach = [c for c in allowed if c.reaches(spec.targets)]
@@ -743,7 +749,7 @@ def design_route(
                     f"{real:.3g} in {k}, the prediction says {pred:.3g}"
                 )
         if progress is not None:
-            progress(len(jobs) + n + 1, len(jobs) + spec.confirm)
+            progress(len(jobs) + n + 1, len(jobs) + len(to_check))
     cands = tuple(checked.get(id(c), c) for c in allowed)
     best = checked[id(best)]
     not_estimated = [
