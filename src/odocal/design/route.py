@@ -732,9 +732,10 @@ def design_route(
         )
     # Monte Carlo: the recommended candidate and the next best of other mixes
     ranked = sorted(allowed, key=lambda c: c.drift_percent_per_10m)
-    to_check = [best] + [c for c in ranked if c is not best and c.mix != best.mix][
-        : spec.confirm - 1
-    ]
+    to_check = [best]
+    for c in ranked:  # the best candidate of each other mix, best first
+        if len(to_check) < spec.confirm and c.mix not in {x.mix for x in to_check}:
+            to_check.append(c)
     checked = {}
     for n, c in enumerate(to_check):
         mc = _monte_carlo(
