@@ -140,3 +140,21 @@ def test_plan_route_bad_input_writes_nothing(cli, tmp_path):
     cli("plan", "--route", "gyro", *FAST, "--out", keep).expect_error("not a command file")
     assert keep.read_text() == "a,b\n1,2\n"
     cli("plan", "--duration", "30").expect_error("only with --route")
+
+
+def _commands(path):
+    return np.array([r.split(",") for r in path.read_text().splitlines()[1:]], float).T
+
+
+def test_plan_route_drives_at_the_stated_speed_and_turn_rate(cli, tmp_path):
+    # whole samples: a command's speed is scaled by at most half a 50 Hz sample per command
+    out = tmp_path / "cmd.csv"
+    status, _, err = cli("plan", "--route", "trajectory", *FAST, "--speed", "0.45", "--out", out)
+    assert status == 0, err
+    _, v, _ = _commands(out)
+    assert np.max(np.abs(v)) == pytest.approx(0.45, rel=0.01)
+    status, text, err = cli("design", "--route", "gyro", *FAST, "--turn-rate", "0.8", "--json")
+    assert status == 0, err
+    spins = [m for c in json.loads(text)["candidates"] for m in c["maneuvers"] if "spin" in m]
+    assert spins and all(m.endswith("at 0.8 rad/s") for m in spins)
+    cli("design", "--route", "gyro", "--speed", "0").expect_error("--speed")

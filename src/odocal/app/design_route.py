@@ -277,10 +277,13 @@ def design_for_route(
     seed: int = 0,
     plot: str | Path | None = None,
     progress: Any = None,
+    speed_m_s: float | None = None,
+    turn_rate_rad_s: float | None = None,
 ) -> RouteDesignRun:
     """Design the recording for ``route`` (:func:`odocal.design.route.design_route`) for
     ``robot``: noise from ROBOT.yaml and the route's defaults or measured from ``noise_from``;
-    ``targets`` ('wheelbase=0.2%' ...); at most ``duration_s`` of driving; ``validate`` a polygon
+    ``targets`` ('wheelbase=0.2%' ...); at most ``duration_s`` of driving at ``speed_m_s`` and
+    spins at ``turn_rate_rad_s`` (what is safe for the robot); ``validate`` a polygon
     (sides, side_m, direction) the calibrated robot should drive well; ``trials`` Monte Carlo
     trials per confirmed candidate; figures into the folder ``plot``. InputError (nothing
     written) for a target the route cannot see or no allowed recording reaches, a validation
@@ -316,7 +319,12 @@ def design_for_route(
             "ROBOT.yaml gives no systematic errors: the design linearises at the nominal "
             "geometry (the standard errors hardly depend on the errors)"
         )
-    spec_speed, spec_rate = RouteSpec().speed_m_s, RouteSpec().turn_rate_rad_s
+    spec_speed = RouteSpec().speed_m_s if speed_m_s is None else float(speed_m_s)
+    spec_rate = RouteSpec().turn_rate_rad_s if turn_rate_rad_s is None else float(turn_rate_rad_s)
+    if not (math.isfinite(spec_speed) and 0.01 <= spec_speed <= 5.0):
+        raise InputError(f"--speed must be between 0.01 and 5 m/s, got {spec_speed!r}")
+    if not (math.isfinite(spec_rate) and 0.05 <= spec_rate <= 5.0):
+        raise InputError(f"--turn-rate must be between 0.05 and 5 rad/s, got {spec_rate!r}")
     validation = None
     b = float(r.believed_geometry.wheelbase_m)
     if validate is not None:
@@ -333,7 +341,7 @@ def design_for_route(
     try:
         spec = RouteSpec(
             route=route, max_duration_s=duration_s, targets=parsed, validation=validation,
-            trials=trials,
+            trials=trials, speed_m_s=spec_speed, turn_rate_rad_s=spec_rate,
         )  # fmt: skip
         result = design_route(r, spec, noise, np.random.default_rng(seed), progress=progress)
     except (CalibrationError, ModelError) as e:

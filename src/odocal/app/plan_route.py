@@ -150,6 +150,8 @@ def plan_route(
     rate_hz: float = DEFAULT_RATE_HZ,
     force: bool = False,
     progress: Any = None,
+    speed_m_s: float | None = None,
+    turn_rate_rad_s: float | None = None,
 ) -> RoutePlan:
     """Design the recording (:func:`~odocal.app.design_route.design_for_route`, the same
     arguments) and write its command file ``out`` (all or nothing: nothing is written when the
@@ -173,7 +175,7 @@ def plan_route(
     run = design_for_route(
         route, robot, params=params, kinematics=kinematics, noise_from=noise_from,
         targets=targets, duration_s=duration_s, validate=validate, trials=trials, seed=seed,
-        progress=progress,
+        progress=progress, speed_m_s=speed_m_s, turn_rate_rad_s=turn_rate_rad_s,
     )  # fmt: skip
     rec = run.design.recommended
     series = command_series(rec.maneuvers, rate_hz)

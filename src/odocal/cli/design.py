@@ -240,6 +240,8 @@ _ROUTE_ONLY = (
     ("noise_from", "--noise-from"),
     ("target_std_error", "--target-std-error"),
     ("duration", "--duration"),
+    ("speed", "--speed"),
+    ("turn_rate", "--turn-rate"),
 )
 
 
@@ -276,6 +278,21 @@ def _add_route_args(p: argparse.ArgumentParser) -> None:
         help="with --route: a target standard error, e.g. wheelbase=0.2%%, "
         "wheel_diameter=0.05%%, wheelbase=0.5mm, diameter_ratio=0.0005 (repeatable); the "
         "recommendation is the shortest recording reaching every target",
+    )
+    p.add_argument(
+        "--speed",
+        type=float,
+        default=None,
+        metavar="M/S",
+        help="with --route: forward speed of the maneuvers (default 0.3 m/s; what is safe "
+        "for the robot and the room)",
+    )
+    p.add_argument(
+        "--turn-rate",
+        type=float,
+        default=None,
+        metavar="RAD/S",
+        help="with --route: turn rate of the spins (default 0.5 rad/s)",
     )
     p.add_argument(
         "--duration",
@@ -365,6 +382,8 @@ def _run_route(args: argparse.Namespace) -> int:
             seed=args.seed,
             plot=args.plot,
             progress=bar,
+            speed_m_s=args.speed,
+            turn_rate_rad_s=args.turn_rate,
         )
     finally:
         bar.close()

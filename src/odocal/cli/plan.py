@@ -85,6 +85,8 @@ def add_parser(sub) -> None:
         ("--validate", {"type": parse_validation, "metavar": "SIDES:LENGTH:DIRECTION"}),
         ("--trials", {"type": trials_int, "metavar": "M"}),
         ("--seed", {"type": seed_int, "metavar": "S"}),
+        ("--speed", {"type": float, "metavar": "M/S"}),
+        ("--turn-rate", {"type": float, "metavar": "RAD/S"}),
     ):
         p.add_argument(
             flag, default=None, help="with --route: as for 'odocal design --route'", **kw
@@ -106,7 +108,7 @@ def add_parser(sub) -> None:
 
 
 _ROUTE_ONLY = ("kinematics", "noise_from", "target_std_error", "duration", "validate", "trials",
-               "seed", "rate")  # fmt: skip
+               "seed", "rate", "speed", "turn_rate")  # fmt: skip
 
 
 def _run_route(args) -> int:
@@ -134,6 +136,8 @@ def _run_route(args) -> int:
             rate_hz=50.0 if args.rate is None else args.rate,
             force=args.force,
             progress=bar,
+            speed_m_s=args.speed,
+            turn_rate_rad_s=args.turn_rate,
         )
     finally:
         bar.close()
