@@ -158,3 +158,31 @@ def test_plan_route_drives_at_the_stated_speed_and_turn_rate(cli, tmp_path):
     spins = [m for c in json.loads(text)["candidates"] for m in c["maneuvers"] if "spin" in m]
     assert spins and all(m.endswith("at 0.8 rad/s") for m in spins)
     cli("design", "--route", "gyro", "--speed", "0").expect_error("--speed")
+
+
+def test_a_planned_command_file_is_a_validation_driving(cli, tmp_path):
+    drive = tmp_path / "drive.csv"
+    assert cli("plan", "--route", "trajectory", *FAST, "--out", drive)[0] == 0
+    status, out, err = cli("design", "--route", "gyro", *FAST, "--validate", drive, "--json")
+    assert status == 0, err
+    assert json.loads(out)["validation"] == ["the commands of drive.csv"]
+
+
+@pytest.mark.parametrize(
+    ("body", "needles"),
+    [
+        ("t,v,omega\n0,0.3,0\n2,0.3,0.1\n1,0,0\n", ("line 4", "do not increase")),
+        ("t,v,omega\n0,30,0\n2,0,0\n", ("line 2", "implausibly large")),
+        ("t,v,omega\n0,nan,0\n2,0,0\n", ("line 2", "cannot simulate")),
+        ("t,v\n0,0.3\n2,0\n", ("omega",)),
+        ("t,v,omega\n0,0,0\n2,0,0\n", ("never move",)),
+        ("t,v,omega\n0,0.1,0\n4000,0,0\n", ("more than the model simulates",)),
+    ],
+)  # fmt: skip
+def test_a_validation_the_model_cannot_simulate_is_refused(cli, tmp_path, body, needles):
+    f = tmp_path / "drive.csv"
+    f.write_text(body)
+    plot = tmp_path / "plot"
+    cli("design", "--route", "trajectory", "--validate", f, "--plot", plot).expect_error(*needles)
+    assert not plot.exists()
+    cli("design", "--validate", f).expect_error("only with --route")

@@ -272,7 +272,7 @@ def design_for_route(
     noise_from: str | Path | None = None,
     targets: Sequence[str | Target] = (),
     duration_s: float | None = None,
-    validate: tuple[int, float, str] | None = None,
+    validate: tuple[int, float, str] | str | Path | None = None,
     trials: int = 200,
     seed: int = 0,
     plot: str | Path | None = None,
@@ -284,7 +284,8 @@ def design_for_route(
     ``robot``: noise from ROBOT.yaml and the route's defaults or measured from ``noise_from``;
     ``targets`` ('wheelbase=0.2%' ...); at most ``duration_s`` of driving at ``speed_m_s`` and
     spins at ``turn_rate_rad_s`` (what is safe for the robot); ``validate`` a polygon
-    (sides, side_m, direction) the calibrated robot should drive well; ``trials`` Monte Carlo
+    (sides, side_m, direction) or a command file (t,v,omega) the calibrated robot should drive
+    well; ``trials`` Monte Carlo
     trials per confirmed candidate; figures into the folder ``plot``. InputError (nothing
     written) for a target the route cannot see or no allowed recording reaches, a validation
     driving the model cannot simulate, a noise bag of another robot."""
@@ -300,7 +301,10 @@ def design_for_route(
         raise InputError(problem)
     if duration_s is not None and not (math.isfinite(duration_s) and 0 < duration_s <= 3600):
         raise InputError(f"--duration must be > 0 and at most 3600 s, got {duration_s!r}")
-    plan = OutputPlan(input_paths(robot, params, *([noise_from] if noise_from else [])))
+    read = [noise_from] if noise_from else []
+    if isinstance(validate, (str, Path)):
+        read.append(validate)
+    plan = OutputPlan(input_paths(robot, params, *read))
     if plot is not None:
         from ..plot._figure import require_matplotlib
 
@@ -325,9 +329,13 @@ def design_for_route(
         raise InputError(f"--speed must be between 0.01 and 5 m/s, got {spec_speed!r}")
     if not (math.isfinite(spec_rate) and 0.05 <= spec_rate <= 5.0):
         raise InputError(f"--turn-rate must be between 0.05 and 5 rad/s, got {spec_rate!r}")
-    validation = None
+    validation: tuple[Maneuver, ...] | None = None
     b = float(r.believed_geometry.wheelbase_m)
-    if validate is not None:
+    if isinstance(validate, (str, Path)):
+        from ..io.commands import read_commands
+
+        validation = (read_commands(validate, "--validate"),)
+    elif validate is not None:
         sides, side, direction = validate
         problem = track_size_problem(b, float(side), "validation")
         if problem:

@@ -10,12 +10,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from ..core.maneuvers import DEFAULT_RATE_HZ, CommandSeries, Maneuver, command_series
+from ..core.maneuvers import DEFAULT_RATE_HZ, Maneuver, command_series
 from ..core.model import Kinematics
 from ..design.route import Route
 from ..errors import InputError
+from ..io.commands import COMMAND_HEADER, command_csv
 from ..io.outputs import OutputPlan
 from .common import RobotSpec, input_paths
 from .design_route import RouteDesignRun, design_for_route
@@ -24,21 +23,10 @@ from .text import Presented, Text, emits_warnings
 __all__ = ["RoutePlan", "plan_route", "DEFAULT_COMMANDS", "COMMAND_HEADER"]
 
 DEFAULT_COMMANDS = "route-commands.csv"
-COMMAND_HEADER = "t,v,omega"
 
 #: A maneuver's yaw or distance may differ from the plan by this fraction before the protocol
 #: calls it not as planned.
 AMOUNT_TOLERANCE = 0.05
-
-
-def command_csv(series: CommandSeries) -> str:
-    """The command file: a ``t,v,omega`` header (s, m/s, rad/s), then one row per command
-    change (the command holds until the next row's time; the last row stops the robot)."""
-    rows = series.rows()
-    keep = np.ones(len(rows), bool)
-    keep[1:-1] = np.any(np.diff(rows[:-1, 1:], axis=0) != 0, axis=1)
-    lines = [COMMAND_HEADER] + [f"{t:.3f},{v:.6g},{w:.6g}" for t, v, w in rows[keep]]
-    return "\n".join(lines) + "\n"
 
 
 def _checks(m: Maneuver, route: Route) -> list[str]:
@@ -143,7 +131,7 @@ def plan_route(
     noise_from: str | Path | None = None,
     targets: Sequence[str] = (),
     duration_s: float | None = None,
-    validate: tuple[int, float, str] | None = None,
+    validate: tuple[int, float, str] | str | Path | None = None,
     trials: int = 200,
     seed: int = 0,
     out: str | Path = DEFAULT_COMMANDS,

@@ -96,6 +96,14 @@ def parse_validation(text: str) -> ValidationTrack:
     return ValidationTrack(sides, length, direction)
 
 
+def validation_arg(text: str) -> ValidationTrack | str:
+    """A polygon 'SIDES:LENGTH:DIRECTION', or (a name ending in .csv) a command file's path,
+    which only ``--route`` reads."""
+    if text.strip().lower().endswith(".csv"):
+        return text
+    return parse_validation(text)
+
+
 def add_parser(sub) -> None:
     """Add ``odocal design``, its arguments and help, to ``sub`` (argparse's subparsers)."""
     p = sub.add_parser(
@@ -148,11 +156,12 @@ def add_parser(sub) -> None:
     )
     p.add_argument(
         "--validate",
-        type=parse_validation,
+        type=validation_arg,
         default=None,
         metavar="SIDES:LENGTH:DIRECTION",
         help="validation track driven with each calibration (default: a CCW square of about 10 "
-        "wheelbases, 4:4:ccw for the paper's robot)",
+        "wheelbases, 4:4:ccw for the paper's robot); with --route also a command file "
+        "FILE.csv (t,v,omega, as 'odocal plan --route' writes)",
     )
     p.add_argument(
         "--alpha",
@@ -316,6 +325,8 @@ def run(args: argparse.Namespace) -> int:
             raise InputError(f"{', '.join(wrong)}: only without --route (a polygon design)")
         return _run_route(args)
     wrong = [flag for name, flag in _ROUTE_ONLY if given(name)]
+    if isinstance(args.validate, str):
+        wrong.append("--validate FILE.csv")
     if wrong:
         raise InputError(f"{', '.join(wrong)}: only with --route")
     from ..app.design import design
@@ -363,10 +374,8 @@ def _run_route(args: argparse.Namespace) -> int:
     """``odocal design --route R``."""
     from ..app.design_route import design_for_route
 
-    validate = None
-    if args.validate is not None:
-        v = args.validate
-        validate = (v.sides, v.side_m, v.direction)
+    v = args.validate
+    validate = v if v is None or isinstance(v, str) else (v.sides, v.side_m, v.direction)
     bar = ProgressBar("odocal design --route", enabled=not (args.quiet or args.json))
     try:
         res = design_for_route(

@@ -17,7 +17,7 @@ from .common import (
     sides_int,
     trials_int,
 )
-from .design import ROUTE_CHOICES, parse_validation
+from .design import ROUTE_CHOICES, validation_arg
 
 DEFAULT_TEMPLATE = "runs-template.csv"  # as odocal.app.plan (not imported: keeps --help fast)
 DEFAULT_NOISE_RUNS = 20
@@ -82,7 +82,7 @@ def add_parser(sub) -> None:
         ("--noise-from", {"metavar": "BAG"}),
         ("--target-std-error", {"action": "append", "metavar": "NAME=VALUE"}),
         ("--duration", {"type": float, "metavar": "S"}),
-        ("--validate", {"type": parse_validation, "metavar": "SIDES:LENGTH:DIRECTION"}),
+        ("--validate", {"type": validation_arg, "metavar": "SIDES:LENGTH:DIRECTION|FILE.csv"}),
         ("--trials", {"type": trials_int, "metavar": "M"}),
         ("--seed", {"type": seed_int, "metavar": "S"}),
         ("--speed", {"type": float, "metavar": "M/S"}),
@@ -129,7 +129,7 @@ def _run_route(args) -> int:
             noise_from=args.noise_from,
             targets=tuple(args.target_std_error or ()),
             duration_s=args.duration,
-            validate=None if v is None else (v.sides, v.side_m, v.direction),
+            validate=v if v is None or isinstance(v, str) else (v.sides, v.side_m, v.direction),
             trials=200 if args.trials is None else args.trials,
             seed=0 if args.seed is None else args.seed,
             out=args.out or DEFAULT_COMMANDS,

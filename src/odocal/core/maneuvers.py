@@ -47,13 +47,14 @@ __all__ = [
     "square",
     "pause",
     "command_series",
+    "commanded",
     "simulate_recordings",
     "as_recording",
     "exact_arc_poses",
     "DEFAULT_RATE_HZ",
 ]
 
-ManeuverKind = Literal["straight", "spin", "arc", "figure-eight", "square", "pause"]
+ManeuverKind = Literal["straight", "spin", "arc", "figure-eight", "square", "pause", "commands"]
 MANEUVER_KINDS: tuple[ManeuverKind, ...] = (
     "straight",
     "spin",
@@ -61,6 +62,7 @@ MANEUVER_KINDS: tuple[ManeuverKind, ...] = (
     "figure-eight",
     "square",
     "pause",
+    "commands",
 )
 
 #: Default command rate (Hz) of a series.
@@ -185,6 +187,30 @@ def pause(duration_s: float) -> Maneuver:
     """Stand still for ``duration_s`` (s)."""
     d = _positive("duration_s", duration_s)
     return Maneuver("pause", f"stand still {d:g} s", ((d, 0.0, 0.0),))
+
+
+def commanded(
+    time_s: np.ndarray, v_m_s: np.ndarray, omega_rad_s: np.ndarray, label: str
+) -> Maneuver:
+    """A command file's driving as one maneuver: command i (m/s, rad/s) holds from
+    ``time_s[i]`` to ``time_s[i + 1]`` (s, strictly increasing; the last row's command is not
+    driven). Runs of equal commands are merged."""
+    t = np.asarray(time_s, float)
+    v = np.asarray(v_m_s, float)
+    w = np.asarray(omega_rad_s, float)
+    if t.ndim != 1 or len(t) < 2 or v.shape != t.shape or w.shape != t.shape:
+        raise ModelError("a command file needs at least two rows of t, v, omega")
+    if not (np.all(np.isfinite(t)) and np.all(np.isfinite(v)) and np.all(np.isfinite(w))):
+        raise ModelError("commands must be finite numbers")
+    if not np.all(np.diff(t) > 0):
+        raise ModelError("command times must increase strictly")
+    out: list[tuple[float, float, float]] = []
+    for dt, vi, wi in zip(np.diff(t), v[:-1], w[:-1], strict=True):
+        if out and out[-1][1] == vi and out[-1][2] == wi:
+            out[-1] = (out[-1][0] + float(dt), out[-1][1], out[-1][2])
+        else:
+            out.append((float(dt), float(vi), float(wi)))
+    return Maneuver("commands", label, tuple(out))
 
 
 @dataclass(frozen=True)
