@@ -102,9 +102,13 @@ def test_noise_from_another_robot_is_refused(cli, tmp_path):
     other = WheelGeometry(0.3, 0.3, 0.8)  # twice the preset's wheels and wheelbase
     path = _bag_of(tmp_path, other, "theirs")
     plot = tmp_path / "plot"
-    cli(
-        "design", "--route", "trajectory", *FAST, "--noise-from", path, "--plot", plot
-    ).expect_error("another robot", "wheelbase")
+    args = ("design", "--route", "trajectory", *FAST, "--noise-from", path, "--plot", plot)
+    cli(*args).expect_error("another robot", "ran with", "wheelbase 0.8 m")
+    assert not plot.exists()
+    # without the controller's parameters in the file: the fit of its truth tells
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join(x for x in lines if not x.startswith("# wheel")) + "\n")
+    cli(*args).expect_error("another robot", "wheels and truth give", "wheelbase")
     assert not plot.exists()
 
 

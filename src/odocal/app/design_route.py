@@ -17,7 +17,7 @@ from ..calibration.identifiability import NoiseModel, check_recordings
 from ..calibration.trajectory import fit_trajectory
 from ..core.checks import check_seed
 from ..core.maneuvers import Maneuver, spin, straight
-from ..core.model import KINEMATICS, Kinematics, Robot
+from ..core.model import KINEMATICS, Kinematics, Robot, WheelGeometry
 from ..core.plausibility import track_size_problem
 from ..core.skid_steer import SkidSteerModel
 from ..design.route import (
@@ -206,6 +206,23 @@ def _noise_words(n: RouteNoise, route: Route) -> str:
     return ", ".join(parts) + f" ({n.source})"
 
 
+def _other_robot(g: WheelGeometry, robot: WheelGeometry) -> str | None:
+    """The parameters of ``g`` more than :data:`OTHER_ROBOT_FRACTION` from the robot file's
+    ``robot``, in words, or None."""
+    pairs = (
+        ("wheel diameter right", g.diameter_right_m, robot.diameter_right_m),
+        ("wheel diameter left", g.diameter_left_m, robot.diameter_left_m),
+        ("wheelbase", g.wheelbase_m, robot.wheelbase_m),
+    )
+    off = [(k, a, b) for k, a, b in pairs if abs(a / b - 1) > OTHER_ROBOT_FRACTION]
+    if not off:
+        return None
+    return (
+        ", ".join(f"{k} {a:.4g} m (robot file {b:.4g} m)" for k, a, b in off)
+        + f", more than {100 * OTHER_ROBOT_FRACTION:.0f} % from the robot file"
+    )
+
+
 def _noise_from_bag(path: str | Path, robot: Robot, route: Route) -> tuple[RouteNoise, list[str]]:
     """The route's noise measured from a bag (or run file) the user has: the trajectory fit of
     its truth gives the geometry; the check's empirical scale s of its residuals scales the
@@ -218,6 +235,16 @@ def _noise_from_bag(path: str | Path, robot: Robot, route: Route) -> tuple[Route
         recs = load_recordings([path], ran_with=robot.believed_geometry, warnings=notes)
     except (CalibrationError, ModelError) as e:
         raise InputError(f"--noise-from {path}: {e}") from None
+    for rec in recs:  # the parameters its controller ran with, where the run says them
+        ran = rec.ran_with
+        if ran is None or ran == robot.believed_geometry:
+            continue
+        said = _other_robot(ran, robot.believed_geometry)
+        if said:
+            raise InputError(
+                f"--noise-from {path}: a run of another robot? its controller ran with {said}; "
+                "nothing written"
+            )
     recs = [r for r in recs if r.ground_truth is not None]
     if not recs:
         raise InputError(
@@ -228,22 +255,15 @@ def _noise_from_bag(path: str | Path, robot: Robot, route: Route) -> tuple[Route
         fit = fit_trajectory(recs, nominal=robot.nominal)
     except CalibrationError as e:
         raise InputError(f"--noise-from {path}: the trajectory fit failed: {e}") from None
-    g, n = fit.geometry, robot.nominal
-    pairs = (
-        ("wheel diameter right", g.diameter_right_m, n.diameter_right_m),
-        ("wheel diameter left", g.diameter_left_m, n.diameter_left_m),
-        ("wheelbase", g.wheelbase_m, n.wheelbase_m),
-    )
-    off = [(k, a, b) for k, a, b in pairs if abs(a / b - 1) > OTHER_ROBOT_FRACTION]
-    if off:
-        said = ", ".join(f"{k} {a:.4g} m (robot file {b:.4g} m)" for k, a, b in off)
+    said = _other_robot(fit.geometry, robot.nominal)
+    if said:
         raise InputError(
-            f"--noise-from {path}: a bag of another robot? its wheels and truth give {said}, "
-            f"more than {100 * OTHER_ROBOT_FRACTION:.0f} % from the robot file; nothing written"
+            f"--noise-from {path}: a bag of another robot? its wheels and truth give {said}; "
+            "nothing written"
         )
     base = default_noise(route, robot)
     stated = NoiseModel(base.wheel, base.pose if route != "gyro" else NoiseModel().measurement)
-    chk = check_recordings(recs, g, noise=stated, residual_scale="empirical")
+    chk = check_recordings(recs, fit.geometry, noise=stated, residual_scale="empirical")
     s = float(chk.residual_scale)
     wheel = dataclasses.replace(
         base.wheel, k_r_m=base.wheel.k_r_m * s**2, k_l_m=base.wheel.k_l_m * s**2
