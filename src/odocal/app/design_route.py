@@ -144,7 +144,11 @@ class RouteDesignRun(Presented):
             f"{d.uncalibrated_drift_percent:.3g} %)"
         )
         if mc is not None:
-            out(f"  (Monte Carlo: {mc.trials} simulated recordings, {mc.simulated})")
+            out(
+                f"  (Monte Carlo: {mc.trials} simulated recordings, {mc.simulated}; their "
+                f"calibrations drift {mc.realised_drift_percent_per_10m:.3g} % on the validation "
+                "driving)"
+            )
         out()
         out("Candidates (predicted):")
         rows = [("mix", "duration_s", *(f"SE {k} %" for k in rec.relative_std_error), "drift %")]
