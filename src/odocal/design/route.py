@@ -167,7 +167,7 @@ _DEFAULT_POSE = {
 def default_noise(route: Route, robot: Robot) -> RouteNoise:
     """The route's noise: the robot's k (else 1e-6 m per wheel), the robot's measurement noise
     for the trajectory route (else 1 mm and 0.2 deg), the SLAM's 2 cm and 1 deg, a scan
-    matcher's 5 mm and 0.3 deg per pose, a MEMS gyro's 0.3 deg/sqrt(h)."""
+    matcher's 5 mm and 0.3 deg per pose, a MEMS gyro (:data:`DEFAULT_GYRO`)."""
     wheel = (
         robot.nonsystematic if not robot.nonsystematic.is_zero else NonSystematicError(1e-6, 1e-6)
     )
@@ -179,8 +179,14 @@ def default_noise(route: Route, robot: Robot) -> RouteNoise:
     elif route != "gyro":
         parts.append(f"default {route} pose noise")
     else:
-        parts.append("default gyro 0.3 deg/sqrt(h)")
+        parts.append("default gyro 0.3 deg/sqrt(h), bias 0.1 deg/s")
+        return RouteNoise(wheel, pose, DEFAULT_GYRO, source=", ".join(parts))
     return RouteNoise(wheel, pose, source=", ".join(parts))
+
+
+#: A MEMS gyro: 0.3 deg/sqrt(h) angle random walk and a 0.1 deg/s constant bias (the gyro route
+#: removes it with the still periods' estimate; the Monte Carlo simulates it).
+DEFAULT_GYRO = GyroNoise(math.radians(0.3) / 60.0, math.radians(0.1))
 
 
 @dataclass(frozen=True)
