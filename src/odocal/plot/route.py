@@ -28,7 +28,7 @@ def route_figures(design: Any) -> dict[str, Any]:
     some = FuncFormatter(lambda v, _: f"{v:g}" if f"{v:.0e}"[0] in "25" else "")
     cands = design.candidates
     params = [p for p in _LABELS if any(p in c.relative_std_error for c in cands)]
-    fig = new_figure(4.2 * len(params) + 0.6, 5.2)
+    fig = new_figure(max(7.0, 4.2 * len(params) + 0.6), 5.4)
     axes = fig.subplots(1, len(params), squeeze=False)[0]
     mixes = list(dict.fromkeys(c.mix for c in cands))
     colours = [f"C{i}" for i in range(len(mixes))]
@@ -60,6 +60,7 @@ def route_figures(design: Any) -> dict[str, Any]:
                     color=colour,
                     markersize=10,
                     markeredgewidth=2,
+                    zorder=4,
                     label=f"{mix} (Monte Carlo)",
                 )
         for t in design_targets(design, p):
@@ -69,7 +70,9 @@ def route_figures(design: Any) -> dict[str, Any]:
             [100 * rec.relative_std_error[p]],
             "*",
             color="k",
-            markersize=14,
+            markerfacecolor="none",
+            markersize=18,
+            zorder=3,
             label="recommended",
         )
         ax.set_xscale("log")
@@ -85,9 +88,11 @@ def route_figures(design: Any) -> dict[str, Any]:
         ax.grid(True, which="both", alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()
     unique = dict(zip(labels, handles, strict=True))
-    fig.legend(unique.values(), unique.keys(), fontsize=8, loc="outside lower center", ncol=4)
+    ncol = 4 if len(params) > 1 else 2
+    fig.legend(unique.values(), unique.keys(), fontsize=8, loc="outside lower center", ncol=ncol)
     fig.suptitle(
-        f"{design.route} route: predicted standard error after calibration against duration"
+        f"{design.route} route: standard error after calibration against recording duration"
+        + ("" if len(params) > 1 else "\n(the gyro sees the wheelbase only)")
     )
     return {"route_design.png": fig}
 
