@@ -13,12 +13,14 @@ from typing import Any
 
 import numpy as np
 
-from ..calibration.identifiability import NoiseModel, check_recordings
+from ..calibration.relative_motions import RelativeMotions, stack_motions, wheel_increments
+from ..calibration.slam_noise import slam_noise_model
 from ..calibration.trajectory import fit_trajectory
 from ..core.checks import check_seed
 from ..core.maneuvers import Maneuver, spin, straight
-from ..core.model import KINEMATICS, Kinematics, Robot, WheelGeometry
+from ..core.model import KINEMATICS, Kinematics, Robot, SystematicError, WheelGeometry
 from ..core.plausibility import track_size_problem
+from ..core.recording import Recording
 from ..core.skid_steer import SkidSteerModel
 from ..design.route import (
     ROUTES,
@@ -42,6 +44,8 @@ __all__ = ["RouteDesignRun", "design_for_route", "parse_target", "polygon_valida
 #: A noise bag whose fitted wheel diameters or wheelbase differ from the robot file's by more
 #: than this fraction is of another robot (or the robot file is wrong).
 OTHER_ROBOT_FRACTION = 0.15
+#: A skid-steer robot's wheels slip: its fitted diameters may be this fraction off.
+SKID_DIAMETER_FRACTION = 0.35
 
 _TARGET = re.compile(r"^\s*([a-z_]+)\s*=\s*([0-9.eE+-]+)\s*(%|mm|m)?\s*$")
 
@@ -85,7 +89,9 @@ def polygon_validation(
 
 @dataclass(frozen=True)
 class RouteDesignRun(Presented):
-    """A route design, how it was made (seed, robot, kinematics) and the figures written."""
+    """A route design, how it was made (seed, robot, kinematics), the figures written and the
+    geometry it assumed (``true``: what the robot drives with; ``believed``: what its
+    controller runs with)."""
 
     design: RouteDesign
     seed: int
@@ -94,6 +100,8 @@ class RouteDesignRun(Presented):
     seconds: float = math.nan
     written: tuple[Path, ...] = ()
     notes: tuple[str, ...] = ()
+    true: WheelGeometry | None = None
+    believed: WheelGeometry | None = None
 
     @property
     def warnings(self) -> tuple[str, ...]:
@@ -107,6 +115,10 @@ class RouteDesignRun(Presented):
             "robot": self.robot,
             "kinematics": self.kinematics,
             "notes": list(self.notes),
+            "geometry_assumed": {
+                "true": None if self.true is None else self.true.as_dict(),
+                "ran_with": None if self.believed is None else self.believed.as_dict(),
+            },
             "written": [str(p) for p in self.written],
         }
 
@@ -210,28 +222,69 @@ def _noise_words(n: RouteNoise, route: Route) -> str:
     return ", ".join(parts) + f" ({n.source})"
 
 
-def _other_robot(g: WheelGeometry, robot: WheelGeometry) -> str | None:
+def _other_robot(
+    g: WheelGeometry, robot: WheelGeometry, physical_track_m: float | None = None
+) -> str | None:
     """The parameters of ``g`` more than :data:`OTHER_ROBOT_FRACTION` from the robot file's
-    ``robot``, in words, or None."""
-    pairs = (
+    ``robot``, in words, or None. A skid-steer robot (``physical_track_m`` given) turns as if
+    wider and its wheels slip: its track may be :data:`~odocal.app.fit_skid.
+    TRACK_MULTIPLIER_RANGE` times the physical one, its diameters
+    :data:`SKID_DIAMETER_FRACTION` off."""
+    from .fit_skid import TRACK_MULTIPLIER_RANGE
+
+    frac = OTHER_ROBOT_FRACTION if physical_track_m is None else SKID_DIAMETER_FRACTION
+    pairs = [
         ("wheel diameter right", g.diameter_right_m, robot.diameter_right_m),
         ("wheel diameter left", g.diameter_left_m, robot.diameter_left_m),
-        ("wheelbase", g.wheelbase_m, robot.wheelbase_m),
-    )
-    off = [(k, a, b) for k, a, b in pairs if abs(a / b - 1) > OTHER_ROBOT_FRACTION]
-    if not off:
+    ]
+    off = [(k, a, b) for k, a, b in pairs if abs(a / b - 1) > frac]
+    words = [f"{k} {a:.4g} m (robot file {b:.4g} m)" for k, a, b in off]
+    if physical_track_m is None:
+        if abs(g.wheelbase_m / robot.wheelbase_m - 1) > frac:
+            words.append(f"wheelbase {g.wheelbase_m:.4g} m (robot file {robot.wheelbase_m:.4g} m)")
+    else:
+        lo, hi = TRACK_MULTIPLIER_RANGE
+        if not lo <= g.wheelbase_m / physical_track_m <= hi:
+            words.append(
+                f"effective track {g.wheelbase_m:.4g} m ({g.wheelbase_m / physical_track_m:.3g} x "
+                f"the robot file's {physical_track_m:.4g} m, outside {lo:g}-{hi:g})"
+            )
+    if not words:
         return None
-    return (
-        ", ".join(f"{k} {a:.4g} m (robot file {b:.4g} m)" for k, a, b in off)
-        + f", more than {100 * OTHER_ROBOT_FRACTION:.0f} % from the robot file"
-    )
+    return ", ".join(words) + f" (more than {100 * frac:.0f} % from the robot file)"
 
 
-def _noise_from_bag(path: str | Path, robot: Robot, route: Route) -> tuple[RouteNoise, list[str]]:
-    """The route's noise measured from a bag (or run file) the user has: the trajectory fit of
-    its truth gives the geometry; the check's empirical scale s of its residuals scales the
-    stated noise (k by s^2, the pose noise by s). A bag whose fitted geometry is not the
-    robot file's is refused by name."""
+#: The intervals (s) a noise run is cut into for the noise's estimate.
+INTERVAL_S = 1.0
+
+
+def _interval_motions(rec: Recording, every_s: float) -> RelativeMotions:
+    """A run with ground truth as relative motions over intervals of about ``every_s``: the
+    wheel rotations (totals and increments) and the truth's motion in its frame at each
+    interval's start."""
+    t = np.asarray(rec.time_s, float)
+    edges = np.unique(np.searchsorted(t, np.arange(t[0], t[-1], every_s)))
+    edges = np.append(edges, len(t) - 1) if edges[-1] != len(t) - 1 else edges
+    i, j = edges[:-1], edges[1:]
+    gt = np.asarray(rec.ground_truth, float)
+    c, s = np.cos(gt[i, 2]), np.sin(gt[i, 2])
+    dx, dy = gt[j, 0] - gt[i, 0], gt[j, 1] - gt[i, 1]
+    motion = np.column_stack([c * dx + s * dy, -s * dx + c * dy, gt[j, 2] - gt[i, 2]])
+    right, left = rec.wheel_angle_right_rad, rec.wheel_angle_left_rad
+    inc = wheel_increments(t, right, left, t[i], t[j])
+    return RelativeMotions(right[j] - right[i], left[j] - left[i], motion, inc, t[i], t[j])
+
+
+def _noise_from_bag(
+    path: str | Path, robot: Robot, route: Route, physical_track_m: float | None
+) -> tuple[RouteNoise, list[str], WheelGeometry]:
+    """The route's noise measured from a bag (or run file) the user has, and the geometry
+    fitted to it: the trajectory fit of its truth gives the geometry; the wheels' k and the
+    truth's pose noise are estimated apart from the residuals of 1 s intervals after a
+    relative-motion fit (:func:`~odocal.calibration.slam_noise.slam_noise_model`, what
+    ``check`` does for a SLAM truth). A bag
+    whose fitted geometry is not the robot file's is refused by name (``physical_track_m``: a
+    skid-steer robot's, :func:`_other_robot`)."""
     from ..io.recordings import load_recordings  # files only here
 
     notes: list[str] = []
@@ -243,7 +296,7 @@ def _noise_from_bag(path: str | Path, robot: Robot, route: Route) -> tuple[Route
         ran = rec.ran_with
         if ran is None or ran == robot.believed_geometry:
             continue
-        said = _other_robot(ran, robot.believed_geometry)
+        said = _other_robot(ran, robot.believed_geometry, None)
         if said:
             raise InputError(
                 f"--noise-from {path}: a run of another robot? its controller ran with {said}; "
@@ -259,31 +312,29 @@ def _noise_from_bag(path: str | Path, robot: Robot, route: Route) -> tuple[Route
         fit = fit_trajectory(recs, nominal=robot.nominal)
     except CalibrationError as e:
         raise InputError(f"--noise-from {path}: the trajectory fit failed: {e}") from None
-    said = _other_robot(fit.geometry, robot.nominal)
+    said = _other_robot(fit.geometry, robot.nominal, physical_track_m)
     if said:
         raise InputError(
             f"--noise-from {path}: a bag of another robot? its wheels and truth give {said}; "
             "nothing written"
         )
     base = default_noise(route, robot)
-    stated = NoiseModel(base.wheel, base.pose if route != "gyro" else NoiseModel().measurement)
-    chk = check_recordings(recs, fit.geometry, noise=stated, residual_scale="empirical")
-    s = float(chk.residual_scale)
-    wheel = dataclasses.replace(
-        base.wheel, k_r_m=base.wheel.k_r_m * s**2, k_l_m=base.wheel.k_l_m * s**2
-    )
-    pose = dataclasses.replace(
-        stated.measurement,
-        sigma_xy_m=stated.measurement.sigma_xy_m * s,
-        sigma_theta_rad=stated.measurement.sigma_theta_rad * s,
-    )
-    source = (
-        f"measured from {Path(path).name}: the stated noise x {s:.3g} (the check's residual scale)"
-    )
+    # the noise of the wheels and of the truth, separately, from the intervals' residuals after
+    # a relative-motion fit: what check estimates for a SLAM truth (calibration.slam_noise)
+    motions = stack_motions([_interval_motions(rec, INTERVAL_S) for rec in recs])
+    measured = slam_noise_model(motions, None)
+    words = measured.description.replace("SLAM pose", "truth pose")
+    words = words.replace("SLAM intervals", f"{INTERVAL_S:g} s intervals")
+    if "could not give it" in words:
+        notes.append(f"--noise-from {Path(path).name}: {words}")
+    wheel = measured.model.wheel
+    pose = measured.model.measurement
+    source = f"measured from {Path(path).name}: {words}"
     if route == "gyro":
         notes.append("--noise-from measures the wheel noise; the gyro's noise stays the default")
         pose = base.pose
-    return dataclasses.replace(base, wheel=wheel, pose=pose, source=source), notes
+    noise = dataclasses.replace(base, wheel=wheel, pose=pose, source=source)
+    return noise, notes, fit.geometry
 
 
 @emits_warnings
@@ -339,10 +390,18 @@ def design_for_route(
     if kin not in KINEMATICS:
         raise InputError(f"--kinematics must be one of {', '.join(KINEMATICS)}, got {kin!r}")
     notes: list[str] = []
+    physical = float(r.nominal.wheelbase_m)
     if kin == "skid-steer":
         r, more = _effective_track_robot(r)
-        notes += more
-    if r.systematic == type(r.systematic)():
+        if noise_from is None:
+            notes += more
+        else:  # the noise run measures the track (below)
+            notes.append(
+                "skid-steer: designed for the effective track the noise run shows, as a "
+                "differential drive's wheelbase ('wheelbase' below is the effective track); its "
+                "dependence on the turn rate and the lateral slip are not simulated"
+            )
+    if r.systematic == type(r.systematic)() and noise_from is None:
         notes.append(
             "ROBOT.yaml gives no systematic errors: the design linearises at the nominal "
             "geometry (the standard errors hardly depend on the errors)"
@@ -366,8 +425,28 @@ def design_for_route(
             raise InputError(f"--validate: the model cannot simulate this driving: {problem}")
         validation = polygon_validation(sides, float(side), direction, spec_speed, spec_rate)
     if noise_from is not None:
-        noise, more = _noise_from_bag(noise_from, r, route)
+        noise, more, fitted = _noise_from_bag(
+            noise_from, r, route, physical if kin == "skid-steer" else None
+        )
         notes += more
+        # the robot as the bag shows it: the fit is the truth, the controller's the belief
+        belief = r.believed_geometry
+        if _other_robot(fitted, belief, None):
+            notes.append(
+                "the robot file's parameters are far from what the noise run shows (more than "
+                f"{100 * OTHER_ROBOT_FRACTION:.0f} %): the design assumes the robot drives with "
+                "the fitted ones (odocal fit that run, or state the controller's multipliers)"
+            )
+            belief = fitted
+        # (E_d is the absolute diameter ratio: the fitted one, about the fit's mean diameter)
+        truth = SystematicError.between(fitted, fitted)
+        r = dataclasses.replace(r, nominal=fitted, systematic=truth, believed=belief)
+        g = fitted
+        notes.append(
+            f"the geometry fitted to {Path(noise_from).name} is the design's true geometry: "
+            f"wheel diameters {g.diameter_right_m:.4g} / {g.diameter_left_m:.4g} m, "
+            f"{'effective track' if kin == 'skid-steer' else 'wheelbase'} {g.wheelbase_m:.4g} m"
+        )
     else:
         noise = default_noise(route, r)
     try:
@@ -386,5 +465,6 @@ def design_for_route(
         written = tuple(plan.commit({Path(plot) / k: v for k, v in figs.items()}))
     label = robot_label(robot, params)
     return RouteDesignRun(
-        result, seed, label, kin, time.perf_counter() - start, written, tuple(notes)
-    )
+        result, seed, label, kin, time.perf_counter() - start, written, tuple(notes),
+        r.true_geometry, r.believed_geometry,
+    )  # fmt: skip
