@@ -65,6 +65,22 @@ def test_plan_route_writes_commands_that_drive_the_recommendation(cli, tmp_path)
     # each command is rounded to whole 50 Hz samples (0.01 s at most each)
     assert t[-1] == pytest.approx(d["recommended"]["duration_s"], abs=0.01 * len(t))
     assert all(m["checks"] for m in d["maneuvers"])
+    # the floor needed: the commands integrated as a unicycle (an independent integration, in
+    # 1 ms steps), its extent plus a wheelbase each side
+    x = y = th = 0.0
+    xs, ys = [0.0], [0.0]
+    for k in range(len(dt)):
+        n = max(1, int(round(dt[k] / 1e-3)))
+        for _ in range(n):
+            th += w[k] * dt[k] / n / 2
+            x += v[k] * dt[k] / n * math.cos(th)
+            y += v[k] * dt[k] / n * math.sin(th)
+            th += w[k] * dt[k] / n / 2
+            xs.append(x)
+            ys.append(y)
+    b = PRESETS[DEFAULT_ROBOT].nominal.wheelbase_m
+    assert d["totals"]["floor_x_m"] == pytest.approx(np.ptp(xs) + 2 * b, abs=0.05)
+    assert d["totals"]["floor_y_m"] == pytest.approx(np.ptp(ys) + 2 * b, abs=0.05)
 
 
 def test_plan_route_text_has_the_checks(cli, tmp_path):

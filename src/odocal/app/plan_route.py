@@ -10,8 +10,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..core.maneuvers import DEFAULT_RATE_HZ, Maneuver, command_series
-from ..core.model import Kinematics
+import numpy as np
+
+from ..core.maneuvers import DEFAULT_RATE_HZ, Maneuver, command_series, simulate_recordings
+from ..core.model import Kinematics, MeasurementNoise, NonSystematicError
 from ..design.route import Route
 from ..errors import InputError
 from ..io.commands import COMMAND_HEADER, command_csv
@@ -96,7 +98,12 @@ class RoutePlan(Presented):
             what = {"trajectory": "the tracker's poses", "slam": "the SLAM's poses on /tf",
                     "scan": "the laser scans"}[d.route]  # fmt: skip
             out(f"  - record the wheel joints (or the controller's odometry) and {what}")
-        out("  - a floor with room for the largest maneuver; the robot still at the start")
+        t = self.totals
+        out(
+            f"  - a clear floor of at least {t['floor_x_m']:.1f} m x {t['floor_y_m']:.1f} m "
+            "(the path's extent, forward x left of the start pose, plus a wheelbase each side); "
+            "the robot still at the start"
+        )
         out()
         out("Drive (each step: what to check while recording):")
         for i, m in enumerate(rec.maneuvers, start=1):
@@ -169,7 +176,16 @@ def plan_route(
     series = command_series(rec.maneuvers, rate_hz)
     ccw = sum(m.yaw_rad[0] for m in rec.maneuvers)
     cw = sum(m.yaw_rad[1] for m in rec.maneuvers)
+    believed = run.believed
+    assert believed is not None
+    _, path, _ = simulate_recordings(
+        series, believed, believed, NonSystematicError(), MeasurementNoise(), 1, None
+    )
+    b = float(believed.wheelbase_m)
+    extent = np.ptp(path[0, :, :2], axis=0) + 2 * b
     totals = {
+        "floor_x_m": float(extent[0]),
+        "floor_y_m": float(extent[1]),
         "duration_s": series.duration_s,
         "distance_m": sum(m.distance_m for m in rec.maneuvers),
         "yaw_ccw_deg": math.degrees(ccw),
