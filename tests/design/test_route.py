@@ -122,3 +122,26 @@ def test_candidates_cover_the_mixes_and_stay_within_the_duration():
             m = candidate_maneuvers(route, mix, 120.0, 0.4, 0.3, 0.5)
             total = sum(x.duration_s for x in m)
             assert 0.5 * 120 <= total <= 1.6 * 120, (route, mix, total)
+
+
+def test_several_runs_predicted_and_checked_by_their_monte_carlo():
+    # 240 s of figure-eights also as two runs of 120 s; the Monte Carlo of the split candidate
+    # simulates independent runs and fits them together (fit_trajectory_trials' run groups):
+    # 300 trials know a spread to about 4 %, so 20 % is a real agreement
+    spec = RouteSpec(route="trajectory", durations_s=(240.0,), trials=300, confirm=1)
+    noise = default_noise("trajectory", ROBOT)
+    from dataclasses import replace
+
+    # a target only the split candidates reach makes one of them the recommendation
+    d = design_route(ROBOT, replace(spec, trials=2), noise, np.random.default_rng(5))
+    split = [c for c in d.candidates if c.runs == 2]
+    single = {c.mix: c for c in d.candidates if c.runs == 1}
+    assert split and all(c.mix in single for c in split)
+    target = Target("wheelbase", min(c.relative_std_error["wheelbase"] for c in split) * 1.01, True)
+    d = design_route(ROBOT, replace(spec, targets=(target,)), noise, np.random.default_rng(5))
+    rec = d.recommended
+    assert rec.runs == 2 and rec.monte_carlo is not None
+    for name, realised in rec.monte_carlo.realised_std_error.items():
+        assert realised == pytest.approx(rec.predicted_std_error[name], rel=0.2), name
+    # cutting a 4-minute drive in two helps the fit (one run's poses are a random walk)
+    assert rec.relative_std_error["wheelbase"] < single[rec.mix].relative_std_error["wheelbase"]

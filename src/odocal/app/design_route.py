@@ -132,7 +132,9 @@ class RouteDesignRun(Presented):
         for note in self.notes:
             out(f"  note: {note}")
         out()
-        out(f"Recommended: {rec.mix}, {rec.duration_s:.0f} s ({d.reason})")
+        out(f"Recommended: {rec.label}, {rec.duration_s:.0f} s ({d.reason})")
+        if rec.runs > 1:
+            out(f"  {rec.runs} runs (a bag each, from a standstill), each of:")
         for i, m in enumerate(rec.maneuvers, start=1):
             out(f"  {i:3d}. {m.label}")
         out()
@@ -167,7 +169,7 @@ class RouteDesignRun(Presented):
         for c in d.candidates:
             rows.append(
                 (
-                    c.mix,
+                    c.label,
                     f"{c.duration_s:.0f}",
                     *(f"{100 * v:.3g}" for v in c.relative_std_error.values()),
                     f"{c.drift_percent_per_10m:.3g}",

@@ -72,6 +72,7 @@ class RoutePlan(Presented):
         return {
             "route": self.design.design.route,
             "commands": str(self.commands),
+            "runs": self.design.design.recommended.runs,
             "rate_hz": self.rate_hz,
             "maneuvers": [
                 m.as_dict() | {"checks": _checks(m, self.design.design.route)}
@@ -89,7 +90,7 @@ class RoutePlan(Presented):
         rec = d.recommended
         out = Text()
         out(f"Recording protocol for the {d.route} route ({self.design.robot})")
-        out(f"  {rec.mix}, {rec.duration_s:.0f} s: {d.reason}")
+        out(f"  {rec.label}, {rec.duration_s:.0f} s: {d.reason}")
         out()
         out("Before you start:")
         if d.route == "gyro":
@@ -105,6 +106,12 @@ class RoutePlan(Presented):
             "the robot still at the start"
         )
         out()
+        if rec.runs > 1:
+            out(
+                f"Record {rec.runs} runs, a bag each, every one from a standstill with the same "
+                f"commands ({self.commands}): the trajectory fit gains more from several runs "
+                "of two minutes than from one long one"
+            )
         out("Drive (each step: what to check while recording):")
         for i, m in enumerate(rec.maneuvers, start=1):
             out(f"  {i:3d}. {m.label}")
@@ -112,7 +119,8 @@ class RoutePlan(Presented):
         out()
         t = self.totals
         out(
-            f"When done: {t['duration_s']:.0f} s, {t['distance_m']:.1f} m driven, "
+            f"When done{' (each run)' if rec.runs > 1 else ''}: {t['duration_s']:.0f} s, "
+            f"{t['distance_m']:.1f} m driven, "
             f"{t['yaw_ccw_deg']:.0f} deg turned CCW and {t['yaw_cw_deg']:.0f} deg CW "
             f"(the odometry's totals should agree within {100 * AMOUNT_TOLERANCE:g} %; a spin "
             "that took much longer than planned did not reach its turn rate)"

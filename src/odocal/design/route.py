@@ -110,6 +110,11 @@ DRIFT_TOLERANCE = 0.05
 #: residual) runs trial by trial, about 0.1 s each.
 SCAN_TRIALS = 60
 
+#: A trajectory-family candidate of 2 RUN_S or more is also offered as runs of about RUN_S
+#: (s): the trajectory fit reads a fixed number of poses per run, and a long run's start-frame
+#: poses are dominated by the wheel-noise random walk, so one long run stops paying (docs).
+RUN_S = 120.0
+
 #: Default speeds.
 DEFAULT_SPEED_M_S = 0.3
 DEFAULT_TURN_RATE_RAD_S = 0.5
@@ -367,12 +372,18 @@ class RouteCandidate:
     post-calibration drift on the validation driving (%)."""
 
     mix: str
-    maneuvers: tuple[Maneuver, ...]
-    duration_s: float
+    maneuvers: tuple[Maneuver, ...]  # of one run
+    duration_s: float  # of all runs
     predicted_std_error: dict[str, float]
     relative_std_error: dict[str, float]
     drift_percent_per_10m: float
     monte_carlo: MonteCarloCheck | None = None
+    runs: int = 1
+
+    @property
+    def label(self) -> str:
+        """The mix, and the number of runs when there are several."""
+        return self.mix if self.runs == 1 else f"{self.mix} x {self.runs} runs"
 
     def reaches(self, targets: Sequence[Target]) -> bool:
         """Whether every target is reached (predicted)."""
@@ -387,6 +398,7 @@ class RouteCandidate:
         """JSON-ready."""
         return {
             "mix": self.mix,
+            "runs": self.runs,
             "maneuvers": [m.label for m in self.maneuvers],
             "duration_s": self.duration_s,
             "predicted_std_error": dict(self.predicted_std_error),
@@ -557,7 +569,7 @@ def _start_frame(truth: np.ndarray) -> np.ndarray:
 
 def _monte_carlo(
     route: Route, series: CommandSeries, robot: Robot, noise: RouteNoise, trials: int,
-    rng: np.random.Generator, val: _Validation,
+    rng: np.random.Generator, val: _Validation, runs: int = 1,
 ) -> MonteCarloCheck:  # fmt: skip
     true, believed = robot.true_geometry, robot.believed_geometry
     if route == "gyro":
@@ -565,13 +577,15 @@ def _monte_carlo(
     if route == "scan":
         trials = min(trials, SCAN_TRIALS)
     angles, truth, _ = simulate_recordings(
-        series, true, believed, noise.wheel, noise.pose, trials, rng,
+        series, true, believed, noise.wheel, noise.pose, trials * runs, rng,
         time_offset_s=noise.time_offset_s,
     )  # fmt: skip
+    truth = truth.reshape(trials, runs, *truth.shape[1:])  # independent runs of each trial
     if route == "scan":
         x = np.array([_segment_fit(series, angles, t, robot) for t in truth])
     else:
-        x = fit_trajectory_trials([angles], [_start_frame(truth)[:, None]], believed)
+        framed = _start_frame(truth.reshape(-1, *truth.shape[2:])).reshape(truth.shape)
+        x = fit_trajectory_trials([angles], [framed], believed)
     ok = np.all(np.isfinite(x), axis=1)
     if ok.sum() < 2:
         raise CalibrationError("the simulated calibrations did not converge")
@@ -590,11 +604,14 @@ def _monte_carlo(
 def _segment_fit(
     series: CommandSeries, angles: np.ndarray, truth: np.ndarray, robot: Robot
 ) -> np.ndarray:
-    """(D_R, D_L, b) of the trajectory fit with the 'segment' residual of one simulated
-    recording (NaN when it fails)."""
-    rec = as_recording(series, angles, truth, ran_with=robot.believed_geometry)
+    """(D_R, D_L, b) of the trajectory fit with the 'segment' residual of the simulated runs
+    ``truth`` (shape (runs, K, 3)) of one trial (NaN when it fails)."""
+    recs = [
+        as_recording(series, angles, t, ran_with=robot.believed_geometry, name=f"run {i}")
+        for i, t in enumerate(truth)
+    ]
     try:
-        fit = fit_trajectory([rec], nominal=robot.nominal, settings=_SEGMENT)
+        fit = fit_trajectory(recs, nominal=robot.nominal, settings=_SEGMENT)
     except CalibrationError:
         return np.full(3, np.nan)
     g = fit.geometry
@@ -693,14 +710,17 @@ def design_route(
         durations = [d for d in durations if d < limit] + [limit]
     true = robot.true_geometry
     p_true = np.array([true.diameter_right_m, true.diameter_left_m, true.wheelbase_m], float)
-    seen: set[tuple[str, int]] = set()
+    seen: set[tuple[str, int, int]] = set()
 
-    def predict(mix: str, d: float) -> RouteCandidate | None:
-        """The prediction of ``mix`` for about ``d`` s (None: the same cycles as before)."""
-        man = candidate_maneuvers(spec.route, mix, d, b, speed, rate)
-        if (mix, len(man)) in seen:  # two durations rounded to the same cycles
+    def predict(mix: str, d: float, runs: int = 1) -> RouteCandidate | None:
+        """The prediction of ``mix`` for about ``d`` s in all, in ``runs`` runs of equal
+        maneuvers (None: the same cycles as before). Independent runs add their information:
+        the covariance of ``runs`` runs is one run's over ``runs`` (the fit's weights are the
+        same in every run)."""
+        man = candidate_maneuvers(spec.route, mix, d / runs, b, speed, rate)
+        if (mix, len(man), runs) in seen:  # two durations rounded to the same cycles
             return None
-        seen.add((mix, len(man)))
+        seen.add((mix, len(man), runs))
         series = command_series(man, SIM_RATE_HZ)
         if spec.route == "gyro":
             var = _gyro_variance(series, robot, noise)
@@ -711,15 +731,20 @@ def design_route(
             drift = _drift_percent(val, p_drift, cov_drift)
         else:
             p, cov = _trajectory_prediction(spec.route, series, robot, noise)
+            cov = cov / runs
             absolute, relative = _std_errors(p, cov)
             drift = _drift_percent(val, p_true, cov)
-        duration = sum(m.duration_s for m in man)
-        return RouteCandidate(mix, tuple(man), duration, absolute, relative, drift)
+        duration = runs * sum(m.duration_s for m in man)
+        return RouteCandidate(mix, tuple(man), duration, absolute, relative, drift, runs=runs)
 
-    jobs = [(mix, d) for mix in mixes(spec.route) for d in durations]
+    def split(d: float) -> int:
+        """Runs of about :data:`RUN_S` a recording of ``d`` s is cut into (1: not cut)."""
+        return max(1, round(d / RUN_S)) if spec.route != "gyro" and d >= 2 * RUN_S else 1
+
+    jobs = [(mix, d, k) for mix in mixes(spec.route) for d in durations for k in {1, split(d)}]
     all_cands: list[RouteCandidate] = []
-    for n, (mix, d) in enumerate(jobs):
-        c = predict(mix, d)
+    for n, (mix, d, k) in enumerate(jobs):
+        c = predict(mix, d, k)
         if c is not None:
             all_cands.append(c)
         if progress is not None:
@@ -735,7 +760,7 @@ def design_route(
         # longer recordings than allowed, to say what the targets need
         for mix in mixes(spec.route):
             for d in (2 * limit, 4 * limit, 8 * limit):
-                c = predict(mix, d)
+                c = predict(mix, d, split(d))
                 if c is not None:
                     all_cands.append(c)
     warnings: list[str] = []
@@ -761,19 +786,19 @@ def design_route(
     ranked = sorted(allowed, key=lambda c: c.drift_percent_per_10m)
     to_check = [best]
     for c in ranked:  # the best candidate of each other mix, best first
-        if len(to_check) < spec.confirm and c.mix not in {x.mix for x in to_check}:
+        if len(to_check) < spec.confirm and c.label not in {x.label for x in to_check}:
             to_check.append(c)
     checked = {}
     for n, c in enumerate(to_check):
         series = command_series(c.maneuvers, SIM_RATE_HZ)
-        mc = _monte_carlo(spec.route, series, robot, noise, spec.trials, rng, val)
+        mc = _monte_carlo(spec.route, series, robot, noise, spec.trials, rng, val, c.runs)
         checked[id(c)] = replace(c, monte_carlo=mc)
-        for k, pred in c.predicted_std_error.items():
-            real = mc.realised_std_error.get(k)
+        for name, pred in c.predicted_std_error.items():
+            real = mc.realised_std_error.get(name)
             if real and math.isfinite(pred) and not 0.7 <= real / pred <= 1.4:
                 warnings.append(
-                    f"{c.mix} {c.duration_s:.0f} s: the simulated calibrations spread "
-                    f"{real:.3g} in {k}, the prediction says {pred:.3g}"
+                    f"{c.label} {c.duration_s:.0f} s: the simulated calibrations spread "
+                    f"{real:.3g} in {name}, the prediction says {pred:.3g}"
                 )
         if progress is not None:
             progress(len(jobs) + n + 1, len(jobs) + len(to_check))
@@ -815,7 +840,7 @@ def _unreachable(
     longest = spec.max_duration_s or max(c.duration_s for c in allowed)
     if need:
         c = min(need, key=lambda c: c.duration_s)
-        hint = f"; {c.mix} for about {c.duration_s:.0f} s would reach it"
+        hint = f"; {c.label} for about {c.duration_s:.0f} s would reach it"
     else:
         hint = f"; no candidate up to {max(c.duration_s for c in everything):.0f} s reaches it"
     del t

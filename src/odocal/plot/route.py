@@ -31,17 +31,24 @@ def route_figures(design: Any) -> dict[str, Any]:
     fig = new_figure(max(7.0, 4.2 * len(params) + 0.6), 5.4)
     axes = fig.subplots(1, len(params), squeeze=False)[0]
     mixes = list(dict.fromkeys(c.mix for c in cands))
-    colours = [f"C{i}" for i in range(len(mixes))]
+    colours = dict(zip(mixes, [f"C{i}" for i in range(len(mixes))], strict=True))
+    # one line per mix in one run, one per mix cut into runs of about two minutes (dashed)
+    series = list(dict.fromkeys((c.mix, c.runs > 1) for c in cands))
     rec = design.recommended
     for ax, p in zip(axes, params, strict=True):
-        for mix, colour in zip(mixes, colours, strict=True):
-            cs = sorted((c for c in cands if c.mix == mix), key=lambda c: c.duration_s)
+        for mix, several in series:
+            colour = colours[mix]
+            cs = sorted(
+                (c for c in cands if c.mix == mix and (c.runs > 1) == several),
+                key=lambda c: c.duration_s,
+            )
             ax.plot(
                 [c.duration_s for c in cs],
                 [100 * c.relative_std_error[p] for c in cs],
-                "o-",
+                "o--" if several else "o-",
                 color=colour,
-                label=f"{mix} (predicted)",
+                markerfacecolor="white" if several else colour,
+                label=f"{mix}{', runs of ~2 min' if several else ''} (predicted)",
             )
             mc = [
                 c for c in cs if c.monte_carlo is not None and p in c.monte_carlo.realised_std_error
@@ -61,7 +68,7 @@ def route_figures(design: Any) -> dict[str, Any]:
                     markersize=10,
                     markeredgewidth=2,
                     zorder=4,
-                    label=f"{mix} (Monte Carlo)",
+                    label=f"{mix}{', runs of ~2 min' if several else ''} (Monte Carlo)",
                 )
         for t in design_targets(design, p):
             ax.axhline(100 * t, color="0.4", linestyle="--", linewidth=1, label="target")
