@@ -19,7 +19,7 @@ ROBOT = Robot(
 
 
 def main() -> None:
-    print("route       duration_s  mix              parameter       predicted   realised  ratio")
+    print("route       duration_s  mix                     parameter       predicted   realised  ratio")
     for route in ("trajectory", "slam", "scan", "gyro"):
         for duration in (60.0, 240.0):
             spec = RouteSpec(route=route, durations_s=(duration,), trials=400, confirm=1)
@@ -29,7 +29,7 @@ def main() -> None:
             for k, real in rec.monte_carlo.realised_std_error.items():
                 pred = rec.predicted_std_error[k]
                 print(
-                    f"{route:11s} {rec.duration_s:10.0f}  {rec.mix:15s}  {k:14s}  "
+                    f"{route:11s} {rec.duration_s:10.0f}  {rec.label:22s}  {k:14s}  "
                     f"{pred:9.3g}  {real:9.3g}  {real / pred:5.2f}"
                 )
 
