@@ -19,7 +19,10 @@ ROBOT = Robot(
 
 
 def main() -> None:
-    print("route       duration_s  mix                     parameter       predicted   realised  ratio")
+    print(
+        "route       duration_s  mix                     parameter       predicted   realised"
+        "  ratio"
+    )
     for route in ("trajectory", "slam", "scan", "gyro"):
         for duration in (60.0, 240.0):
             spec = RouteSpec(route=route, durations_s=(duration,), trials=400, confirm=1)

@@ -236,3 +236,14 @@ def test_noise_run_geometry_is_the_designs_truth(cli, tmp_path):
     # 100 trials know a spread to about 7 %: 30 % is a real disagreement
     for k, real in rec["monte_carlo"]["realised_std_error"].items():
         assert real == pytest.approx(rec["predicted_std_error"][k], rel=0.3), k
+
+
+def test_plan_route_of_several_runs_says_so(cli, tmp_path):
+    # a target one run cannot reach but runs of two minutes can (docs/design.md)
+    out = tmp_path / "c.csv"
+    args = ("--trials", "20", "--quiet", "--target-std-error", "wheelbase=0.06%", "--out", out)
+    status, text, err = cli("plan", "--route", "trajectory", *args)
+    assert status == 0, err
+    assert "Record 4 runs, a bag each" in text and "(each run)" in text
+    t = _commands(out)[0]
+    assert 100 < t[-1] < 160  # the command file is one run of about two minutes
