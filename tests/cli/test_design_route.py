@@ -247,3 +247,24 @@ def test_plan_route_of_several_runs_says_so(cli, tmp_path):
     assert "Record 4 runs, a bag each" in text and "(each run)" in text
     t = _commands(out)[0]
     assert 100 < t[-1] < 160  # the command file is one run of about two minutes
+
+
+def test_noise_from_measures_the_gyro_for_the_gyro_route(cli, tmp_path):
+    from odocal.core.maneuvers import GyroNoise, arc, pause, spin
+
+    g = PRESETS[DEFAULT_ROBOT].nominal
+    s = command_series([pause(20), spin(6.0, 0.5), pause(20), arc(1.0, 3.0, 0.3), pause(20)], 50)
+    angles, truth, gyro = simulate_recordings(
+        s, g, g, NonSystematicError(2e-6, 2e-6), MeasurementNoise(1e-3, 0.003), 1,
+        np.random.default_rng(0), gyro=GyroNoise(3e-4, 0.003),
+    )  # fmt: skip
+    path = tmp_path / "imu.csv"
+    write_generic_csv(path, as_recording(s, angles, truth[0], gyro[0], ran_with=g, name="imu"))
+    status, out, err = cli("design", "--route", "gyro", *FAST, "--noise-from", path, "--json")
+    assert status == 0, err
+    noise = json.loads(out)["noise"]
+    # 60 s standing still: the bias to a few 1e-5 rad/s, the random walk (a batch-means
+    # standard error of about 120 half-second batches) to about 10 %: 35 % is a real miss
+    assert noise["gyro_bias_rad_s"] == pytest.approx(0.003, abs=2e-4)
+    assert noise["gyro_arw_rad_sqrt_s"] == pytest.approx(3e-4, rel=0.35)
+    assert "standing still" in noise["source"]

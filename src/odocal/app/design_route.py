@@ -17,7 +17,7 @@ from ..calibration.relative_motions import RelativeMotions, stack_motions, wheel
 from ..calibration.slam_noise import slam_noise_model
 from ..calibration.trajectory import fit_trajectory
 from ..core.checks import check_seed
-from ..core.maneuvers import Maneuver, spin, straight
+from ..core.maneuvers import GyroNoise, Maneuver, spin, straight
 from ..core.model import KINEMATICS, Kinematics, Robot, SystematicError, WheelGeometry
 from ..core.plausibility import track_size_problem
 from ..core.recording import Recording
@@ -277,6 +277,45 @@ def _interval_motions(rec: Recording, every_s: float) -> RelativeMotions:
     return RelativeMotions(right[j] - right[i], left[j] - left[i], motion, inc, t[i], t[j])
 
 
+def _gyro_noise(recs: Sequence[Recording], believed: WheelGeometry) -> tuple[GyroNoise, str] | None:
+    """The gyro's angle random walk and bias from the still periods of runs with a gyro heading
+    (wheels still for 2 s or more): the bias is the still rate's mean, the random walk its
+    batch-means standard error times the square root of the still time
+    (:func:`~odocal.calibration.gyro.still_bias`, what the gyro route uses); None without one."""
+    from ..calibration.gyro import still_bias, still_intervals
+    from ..core.odometry import dead_reckon
+
+    rates, times, spans = [], [], []
+    for rec in recs:
+        if rec.gyro_yaw_rad is None or len(rec.time_s) < 3:
+            continue
+        t = np.asarray(rec.time_s, float)
+        odo = dead_reckon(rec.wheel_angle_right_rad, rec.wheel_angle_left_rad, believed)
+        speed = np.hypot(*np.gradient(odo[:, :2], t, axis=0).T)
+        still = still_intervals(t, np.gradient(odo[:, 2], t), speed, min_duration_s=2.0)
+        if still:
+            rates.append(np.gradient(np.asarray(rec.gyro_yaw_rad, float), t))
+            times.append(t)
+            spans.append(still)
+    if not spans:
+        return None
+    est, se, n = [], [], 0
+    seconds = 0.0
+    for r, t, still in zip(rates, times, spans, strict=True):
+        e, s_e, k, sec = still_bias(t, r, still)
+        if e is not None and s_e is not None and math.isfinite(s_e):
+            est.append(e)
+            se.append(s_e**2 * sec)  # arw^2 from each run's still time
+            n += k
+            seconds += sec
+    if not se:
+        return None
+    arw = math.sqrt(float(np.mean(se)))
+    bias = float(np.mean(est))
+    words = f"{arw:.3g} rad/sqrt(s), bias {bias:+.3g} rad/s (from {seconds:.0f} s standing still)"
+    return GyroNoise(arw, bias), words
+
+
 def _noise_from_bag(
     path: str | Path, robot: Robot, route: Route, physical_track_m: float | None
 ) -> tuple[RouteNoise, list[str], WheelGeometry]:
@@ -332,10 +371,19 @@ def _noise_from_bag(
     wheel = measured.model.wheel
     pose = measured.model.measurement
     source = f"measured from {Path(path).name}: {words}"
+    gyro = base.gyro
     if route == "gyro":
-        notes.append("--noise-from measures the wheel noise; the gyro's noise stays the default")
         pose = base.pose
-    noise = dataclasses.replace(base, wheel=wheel, pose=pose, source=source)
+        measured_gyro = _gyro_noise(recs, robot.believed_geometry)
+        if measured_gyro is None:
+            notes.append(
+                f"--noise-from {Path(path).name}: no gyro heading with still periods of 2 s or "
+                "more; the gyro's noise stays the default"
+            )
+        else:
+            gyro, words_g = measured_gyro
+            source += f"; gyro {words_g}"
+    noise = dataclasses.replace(base, wheel=wheel, pose=pose, gyro=gyro, source=source)
     return noise, notes, fit.geometry
 
 
