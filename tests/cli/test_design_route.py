@@ -268,3 +268,24 @@ def test_noise_from_measures_the_gyro_for_the_gyro_route(cli, tmp_path):
     assert noise["gyro_bias_rad_s"] == pytest.approx(0.003, abs=2e-4)
     assert noise["gyro_arw_rad_sqrt_s"] == pytest.approx(3e-4, rel=0.35)
     assert "standing still" in noise["source"]
+
+
+def test_stated_noise_moves_the_prediction(cli):
+    def wheelbase_se(*args):
+        status, out, err = cli("design", *args, *FAST, "--json")
+        assert status == 0, err
+        d = json.loads(out)
+        return d["recommended"]["predicted_std_error"]["wheelbase"], d["noise"]
+
+    quiet, _ = wheelbase_se("--route", "slam", "--sigma-xy-m", "0.001", "--sigma-theta-deg", "0.1")
+    loud, noise = wheelbase_se("--route", "slam", "--sigma-xy-m", "0.05")
+    # a part not stated keeps the route's default (the SLAM's 1 deg)
+    assert noise["sigma_xy_m"] == 0.05 and noise["sigma_theta_deg"] == pytest.approx(1.0)
+    assert loud > 2 * quiet
+    a, _ = wheelbase_se("--route", "gyro", "--gyro-arw-deg-per-sqrt-h", "0.3")
+    b, _ = wheelbase_se("--route", "gyro", "--gyro-arw-deg-per-sqrt-h", "10")
+    # a MEMS gyro's 0.3 deg/sqrt(h) adds little to the wheels' noise over a spin; a poor
+    # gyro's 10 deg/sqrt(h) dominates the ratio's error
+    assert b > 2 * a
+    cli("design", "--route", "gyro", "--sigma-xy-m", "0.01").expect_error("measures no pose")
+    cli("design", "--route", "slam", "--gyro-arw-deg-per-sqrt-h", "1").expect_error("only with")

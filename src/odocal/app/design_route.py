@@ -18,7 +18,14 @@ from ..calibration.slam_noise import slam_noise_model
 from ..calibration.trajectory import fit_trajectory
 from ..core.checks import check_seed
 from ..core.maneuvers import GyroNoise, Maneuver, spin, straight
-from ..core.model import KINEMATICS, Kinematics, Robot, SystematicError, WheelGeometry
+from ..core.model import (
+    KINEMATICS,
+    Kinematics,
+    MeasurementNoise,
+    Robot,
+    SystematicError,
+    WheelGeometry,
+)
 from ..core.plausibility import track_size_problem
 from ..core.recording import Recording
 from ..core.skid_steer import SkidSteerModel
@@ -316,6 +323,37 @@ def _gyro_noise(recs: Sequence[Recording], believed: WheelGeometry) -> tuple[Gyr
     return GyroNoise(arw, bias), words
 
 
+def _stated(
+    noise: RouteNoise,
+    route: Route,
+    pose: MeasurementNoise | None,
+    arw: float | None,
+) -> RouteNoise:
+    """``noise`` with the parts the user stated (the route's pose noise, the gyro's random
+    walk) replacing the defaults or the measured ones."""
+    said = []
+    if pose is not None:
+        if route == "gyro":
+            raise InputError("--sigma-xy-m / --sigma-theta-deg: the gyro route measures no pose")
+        # a part left at zero (not given) keeps the default or the measured one
+        kept = MeasurementNoise(
+            pose.sigma_xy_m or noise.pose.sigma_xy_m,
+            pose.sigma_theta_rad or noise.pose.sigma_theta_rad,
+        )
+        noise = dataclasses.replace(noise, pose=kept)
+        said.append(f"{route} pose noise stated")
+    if arw is not None:
+        if route != "gyro":
+            raise InputError("--gyro-arw-deg-per-sqrt-h: only with --route gyro")
+        if not (math.isfinite(arw) and arw > 0):
+            raise InputError(f"--gyro-arw-deg-per-sqrt-h must be > 0, got {arw!r}")
+        noise = dataclasses.replace(noise, gyro=dataclasses.replace(noise.gyro, arw_rad_sqrt_s=arw))
+        said.append("gyro random walk stated")
+    if not said:
+        return noise
+    return dataclasses.replace(noise, source=f"{noise.source}; {', '.join(said)}")
+
+
 def _noise_from_bag(
     path: str | Path, robot: Robot, route: Route, physical_track_m: float | None
 ) -> tuple[RouteNoise, list[str], WheelGeometry]:
@@ -404,6 +442,8 @@ def design_for_route(
     progress: Any = None,
     speed_m_s: float | None = None,
     turn_rate_rad_s: float | None = None,
+    pose_noise: MeasurementNoise | None = None,
+    gyro_arw_rad_sqrt_s: float | None = None,
 ) -> RouteDesignRun:
     """Design the recording for ``route`` (:func:`odocal.design.route.design_route`) for
     ``robot``: noise from ROBOT.yaml and the route's defaults or measured from ``noise_from``;
@@ -499,6 +539,7 @@ def design_for_route(
         )
     else:
         noise = default_noise(route, r)
+    noise = _stated(noise, route, pose_noise, gyro_arw_rad_sqrt_s)
     try:
         spec = RouteSpec(
             route=route, max_duration_s=duration_s, targets=parsed, validation=validation,

@@ -212,7 +212,8 @@ def add_parser(sub) -> None:
         "--sigma-xy-m",
         type=sigma_xy_m,
         metavar="S",
-        help="the instrument's position noise per measured final pose, m (replaces the robot's)",
+        help="the instrument's position noise per measured final pose, m (replaces the robot's); "
+        "with --route: per measured pose (the tracker's, the SLAM's, the scan matcher's)",
     )
     p.add_argument(
         "--sigma-theta-deg",
@@ -241,8 +242,6 @@ _POLYGON_ONLY = (
     ("analytic", "--analytic"),
     ("reference_sim", "--reference-sim"),
     ("known_errors", "--known-errors"),
-    ("sigma_xy_m", "--sigma-xy-m"),
-    ("sigma_theta_deg", "--sigma-theta-deg"),
 )
 _ROUTE_ONLY = (
     ("kinematics", "--kinematics"),
@@ -251,6 +250,7 @@ _ROUTE_ONLY = (
     ("duration", "--duration"),
     ("speed", "--speed"),
     ("turn_rate", "--turn-rate"),
+    ("gyro_arw_deg_per_sqrt_h", "--gyro-arw-deg-per-sqrt-h"),
 )
 
 
@@ -302,6 +302,14 @@ def _add_route_args(p: argparse.ArgumentParser) -> None:
         default=None,
         metavar="RAD/S",
         help="with --route: turn rate of the spins (default 0.5 rad/s)",
+    )
+    p.add_argument(
+        "--gyro-arw-deg-per-sqrt-h",
+        type=float,
+        default=None,
+        metavar="A",
+        help="with --route gyro: the gyro's angle random walk, deg/sqrt(h) (default 0.3, a "
+        "MEMS gyro's datasheet figure)",
     )
     p.add_argument(
         "--duration",
@@ -393,6 +401,10 @@ def _run_route(args: argparse.Namespace) -> int:
             progress=bar,
             speed_m_s=args.speed,
             turn_rate_rad_s=args.turn_rate,
+            pose_noise=_instrument(args),
+            gyro_arw_rad_sqrt_s=None
+            if args.gyro_arw_deg_per_sqrt_h is None
+            else math.radians(args.gyro_arw_deg_per_sqrt_h) / 60.0,
         )
     finally:
         bar.close()
