@@ -4,6 +4,7 @@ the recommendation rules and the refusals."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -40,12 +41,18 @@ def _one(route, mix, duration, trials, seed, noise=None):
     return d, [c for c in d.candidates if c.mix == mix]
 
 
-@pytest.mark.parametrize("route", ["trajectory", "gyro"])
-def test_prediction_agrees_with_its_monte_carlo(route):
+@pytest.mark.parametrize(("route", "arw_deg_per_sqrt_h"), [("trajectory", None), ("gyro", 0.3),
+                                                       ("gyro", 10.0)])  # fmt: skip
+def test_prediction_agrees_with_its_monte_carlo(route, arw_deg_per_sqrt_h):
     # the recommended candidate is simulated 400 times and calibrated by the route's own code
     # (the batched trajectory fit; gyro_calibration): the spread of 400 estimates is known to
-    # about 1 / sqrt(2 x 400) = 3.5 %, so a prediction within 20 % of it is a real agreement
-    d, _ = _one(route, None, 60.0, 400, 11)
+    # about 1 / sqrt(2 x 400) = 3.5 %, so a prediction within 20 % of it is a real agreement.
+    # A MEMS gyro (0.3 deg/sqrt(h)) adds little to the wheels' noise; a poor one (10) dominates
+    noise = default_noise(route, ROBOT)
+    if arw_deg_per_sqrt_h is not None:
+        arw = math.radians(arw_deg_per_sqrt_h) / 60.0
+        noise = replace(noise, gyro=replace(noise.gyro, arw_rad_sqrt_s=arw))
+    d, _ = _one(route, None, 60.0, 400, 11, noise)
     rec = d.recommended
     assert rec.monte_carlo is not None and rec.monte_carlo.failed == 0
     for name, realised in rec.monte_carlo.realised_std_error.items():
@@ -85,8 +92,6 @@ def test_target_picks_the_shortest_candidate_that_reaches_it():
     # a target between the best and the worst wheelbase error of the candidates
     errs = sorted(c.relative_std_error["wheelbase"] for c in free.candidates)
     target = Target("wheelbase", 0.5 * (errs[0] + errs[-1]), True)
-    from dataclasses import replace
-
     d = design_route(ROBOT, replace(spec, targets=(target,)), noise, np.random.default_rng(2))
     rec = d.recommended
     assert rec.relative_std_error["wheelbase"] <= target.value
@@ -130,8 +135,6 @@ def test_several_runs_predicted_and_checked_by_their_monte_carlo():
     # 300 trials know a spread to about 4 %, so 20 % is a real agreement
     spec = RouteSpec(route="trajectory", durations_s=(240.0,), trials=300, confirm=1)
     noise = default_noise("trajectory", ROBOT)
-    from dataclasses import replace
-
     # a target only the split candidates reach makes one of them the recommendation
     d = design_route(ROBOT, replace(spec, trials=2), noise, np.random.default_rng(5))
     split = [c for c in d.candidates if c.runs == 2]

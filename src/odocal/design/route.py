@@ -19,9 +19,10 @@ steps, as the paper judges track sizes:
      scan-to-scan increments; the design treats them as relative motions over segments).
    - ``gyro``: the gyro route fits one number, the ratio of the gyro's rotation to the
      odometry's, which gives the wheelbase only; the wheel diameters are NOT observable. Its
-     variance is (arw^2 T + (k_R S_R + k_L S_L) / b^2) / O^2 plus the bias term
-     (T / O)^2 arw^2 / T_still (T the span, O the net rotation, S the wheel travel, T_still the
-     time standing still, where the bias is measured).
+     variance is (arw^2 (T - T_s) T / T_s + (k_R S_R + k_L S_L) / b^2) / O^2 (T the span, O the
+     net rotation, S the wheel travel, T_s the time standing still, where the bias is
+     measured): the gyro's rotation with the still mean removed, G - b_hat T, keeps the noise
+     of the moving time and (1 - T / T_s) times that of the still time.
 
 2. **Monte Carlo confirmation** (the best candidates): each recording simulated ``trials``
    times (explicit generator) and calibrated by the route's code: the trajectory, slam and scan
@@ -477,12 +478,12 @@ def _gyro_variance(series: CommandSeries, robot: Robot, noise: RouteNoise) -> fl
     span = series.duration_s
     still = float(np.sum(dt[(v == 0) & (w == 0)]))
     arw = noise.gyro.arw_rad_sqrt_s
-    var = (arw**2 * span + (noise.wheel.k_r_m * s_r + noise.wheel.k_l_m * s_l) / b**2) / o**2
-    if still > 0:
-        var += (span / o) ** 2 * arw**2 / still
-    else:
-        var = math.inf
-    return var
+    if not still > 0:
+        return math.inf
+    # noise of G - b_hat T, b_hat the still periods' mean rate: arw^2 [(T - T_s) + T_s (1 -
+    # T / T_s)^2] = arw^2 (T - T_s) T / T_s
+    gyro = arw**2 * (span - still) * span / still
+    return (gyro + (noise.wheel.k_r_m * s_r + noise.wheel.k_l_m * s_l) / b**2) / o**2
 
 
 def _std_errors(p: np.ndarray, cov: np.ndarray) -> tuple[dict[str, float], dict[str, float]]:
