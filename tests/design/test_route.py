@@ -41,8 +41,8 @@ def _one(route, mix, duration, trials, seed, noise=None):
     return d, [c for c in d.candidates if c.mix == mix]
 
 
-@pytest.mark.parametrize(("route", "arw_deg_per_sqrt_h"), [("trajectory", None), ("gyro", 0.3),
-                                                       ("gyro", 10.0)])  # fmt: skip
+@pytest.mark.parametrize(("route", "arw_deg_per_sqrt_h"), [("trajectory", None), ("slam", None),
+                                                       ("gyro", 0.3), ("gyro", 10.0)])  # fmt: skip
 def test_prediction_agrees_with_its_monte_carlo(route, arw_deg_per_sqrt_h):
     # the recommended candidate is simulated 400 times and calibrated by the route's own code
     # (the batched trajectory fit; gyro_calibration): the spread of 400 estimates is known to
