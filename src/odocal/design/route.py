@@ -33,11 +33,15 @@ steps, as the paper judges track sizes:
    against the prediction.
 
 The recommendation: the shortest candidate whose predicted standard errors reach every
-target; without targets, the candidate with the least predicted post-calibration drift on the
+target; without targets, the shortest candidate whose predicted post-calibration drift on the
 validation driving (% of distance, over 10 m pieces or 1 m ones for a short validation,
-:mod:`odocal.core.path_drift`) among those not longer than the allowed duration. The drift is
-predicted by drawing calibrated geometries from the predicted covariance and dead-reckoning the
-validation drive (with wheel noise) with each.
+:mod:`odocal.core.path_drift`) is within :data:`DRIFT_TOLERANCE` of the least among those not
+longer than the allowed duration. The drift is predicted by drawing calibrated geometries from
+the predicted covariance and dead-reckoning the validation drive (with wheel noise) with each;
+the Monte Carlo also drives it with its own calibrations.
+
+Long trajectory-family candidates are also offered as several runs of about :data:`RUN_S`
+(a bag each): independent runs add their information, one long run's stops growing.
 """
 
 from __future__ import annotations
@@ -446,10 +450,6 @@ class RouteDesign:
 # Predictions
 
 
-def _check_noise(route: Route, noise: RouteNoise, turn_rad: float = 0.0) -> NoiseModel:
-    return NoiseModel(noise.wheel, noise.pose, turn_rad)
-
-
 def _trajectory_prediction(
     route: Route, series: CommandSeries, robot: Robot, noise: RouteNoise
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -462,7 +462,7 @@ def _trajectory_prediction(
     chk = check_recordings(
         [rec],
         true,
-        noise=_check_noise(route, noise),
+        noise=NoiseModel(noise.wheel, noise.pose),
         residual="segment" if route == "scan" else "pose",
     )
     return np.asarray(chk.values[:3], float), np.asarray(chk.covariance[:3, :3], float)
