@@ -738,11 +738,15 @@ def design_route(
         duration = runs * sum(m.duration_s for m in man)
         return RouteCandidate(mix, tuple(man), duration, absolute, relative, drift, runs=runs)
 
-    def split(d: float) -> int:
-        """Runs of about :data:`RUN_S` a recording of ``d`` s is cut into (1: not cut)."""
-        return max(1, round(d / RUN_S)) if spec.route != "gyro" and d >= 2 * RUN_S else 1
+    def split(mix: str, d: float) -> int:
+        """Runs a recording of ``mix`` of ``d`` s is cut into (1: not cut): runs of about
+        :data:`RUN_S`, or of one cycle where a cycle is longer."""
+        if spec.route == "gyro":
+            return 1
+        cycle = sum(m.duration_s for m in _cycle(mix, b, speed, rate))
+        return max(1, round(d / max(RUN_S, cycle)))
 
-    jobs = [(mix, d, k) for mix in mixes(spec.route) for d in durations for k in {1, split(d)}]
+    jobs = [(mix, d, k) for mix in mixes(spec.route) for d in durations for k in {1, split(mix, d)}]
     all_cands: list[RouteCandidate] = []
     for n, (mix, d, k) in enumerate(jobs):
         c = predict(mix, d, k)
@@ -761,7 +765,7 @@ def design_route(
         # longer recordings than allowed, to say what the targets need
         for mix in mixes(spec.route):
             for d in (2 * limit, 4 * limit, 8 * limit):
-                c = predict(mix, d, split(d))
+                c = predict(mix, d, split(mix, d))
                 if c is not None:
                     all_cands.append(c)
     warnings: list[str] = []
