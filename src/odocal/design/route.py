@@ -120,6 +120,9 @@ SCAN_TRIALS = 60
 #: poses are dominated by the wheel-noise random walk, so one long run stops paying (docs).
 RUN_S = 120.0
 
+#: The longest recording predicted to say what an unreachable target needs (s).
+MAX_PREDICTED_S = 3600.0
+
 #: Default speeds.
 DEFAULT_SPEED_M_S = 0.3
 DEFAULT_TURN_RATE_RAD_S = 0.5
@@ -761,10 +764,12 @@ def design_route(
             f"no candidate recording fits in {limit:g} s: the shortest, one cycle of "
             f"{short.mix}, takes {short.duration_s:.0f} s"
         )
-    if spec.targets and limit is not None and not any(c.reaches(spec.targets) for c in allowed):
-        # longer recordings than allowed, to say what the targets need
+    if spec.targets and not any(c.reaches(spec.targets) for c in allowed):
+        # longer recordings than allowed (up to an hour), to say what the targets need
+        longest = limit if limit is not None else max(durations)
+        longer = sorted({min(f * longest, MAX_PREDICTED_S) for f in (2, 4, 8)} - {longest})
         for mix in mixes(spec.route):
-            for d in (2 * limit, 4 * limit, 8 * limit):
+            for d in longer:
                 c = predict(mix, d, split(mix, d))
                 if c is not None:
                     all_cands.append(c)
