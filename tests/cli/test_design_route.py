@@ -139,6 +139,8 @@ def test_noise_from_another_robot_is_refused(cli, tmp_path):
         (("--route", "trajectory", "--duration", "40", "--target-std-error", "wheelbase=0.001%"),
          ("no recording of up to", "best reachable", "wheelbase")),
         (("--route", "trajectory", "--duration", "10"), ("fits in 10 s", "takes")),
+        (("--route", "trajectory", "--target-std-error", "wheelbase=0.03%"),
+         ("best reachable is wheelbase", "runs for about", "would reach it")),
         (("--route", "gyro", "--target-std-error", "wheel_diameter=0.05%"),
          ("cannot see", "not observable")),
         (("--route", "trajectory", "--validate", "4:0.1:ccw"), ("--validate", "cannot simulate")),
