@@ -125,6 +125,12 @@ class RoutePlan(Presented):
             f"(the odometry's totals should agree within {100 * AMOUNT_TOLERANCE:g} %; a spin "
             "that took much longer than planned did not reach its turn rate)"
         )
+        if d.route == "gyro":
+            out(
+                "  The gyro's total yaw should agree with the odometry's within a few per cent "
+                "(the wheelbase error and the gyro's scale); a factor of about 57 is a gyro in "
+                "deg/s, an opposite sign a wrong IMU axis: the gyro route refuses both"
+            )
         se = ", ".join(
             f"{k} {100 * v:.3g} %" for k, v in rec.relative_std_error.items() if math.isfinite(v)
         )
