@@ -96,6 +96,14 @@ def parse_validation(text: str) -> ValidationTrack:
     return ValidationTrack(sides, length, direction)
 
 
+def validation_arg(text: str) -> ValidationTrack | str:
+    """A polygon 'SIDES:LENGTH:DIRECTION', or (a name ending in .csv) a command file's path,
+    which only ``--route`` reads."""
+    if text.strip().lower().endswith(".csv"):
+        return text
+    return parse_validation(text)
+
+
 def add_parser(sub) -> None:
     """Add ``odocal design``, its arguments and help, to ``sub`` (argparse's subparsers)."""
     p = sub.add_parser(
@@ -135,9 +143,10 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--trials",
         type=trials_int,
-        default=2000,
+        default=None,
         metavar="M",
-        help="Monte-Carlo trials per candidate (default 2000; the paper used 800)",
+        help="Monte-Carlo trials per candidate (default 2000; the paper used 800; with --route: "
+        "per confirmed candidate, default 200)",
     )
     p.add_argument(
         "--method",
@@ -147,11 +156,12 @@ def add_parser(sub) -> None:
     )
     p.add_argument(
         "--validate",
-        type=parse_validation,
+        type=validation_arg,
         default=None,
         metavar="SIDES:LENGTH:DIRECTION",
         help="validation track driven with each calibration (default: a CCW square of about 10 "
-        "wheelbases, 4:4:ccw for the paper's robot)",
+        "wheelbases, 4:4:ccw for the paper's robot); with --route also a command file "
+        "FILE.csv (t,v,omega, as 'odocal plan --route' writes)",
     )
     p.add_argument(
         "--alpha",
@@ -202,7 +212,8 @@ def add_parser(sub) -> None:
         "--sigma-xy-m",
         type=sigma_xy_m,
         metavar="S",
-        help="the instrument's position noise per measured final pose, m (replaces the robot's)",
+        help="the instrument's position noise per measured final pose, m (replaces the robot's); "
+        "with --route: per measured pose (the tracker's, the SLAM's, the scan matcher's)",
     )
     p.add_argument(
         "--sigma-theta-deg",
@@ -210,6 +221,7 @@ def add_parser(sub) -> None:
         metavar="S",
         help="the instrument's heading noise per measured final pose, deg (replaces the robot's)",
     )
+    _add_route_args(p)
     p.add_argument("--plot", metavar="DIR", help="write PNG figures into DIR")
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument(
@@ -220,9 +232,111 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
+#: What ``--route`` designs over (as odocal.design.route.ROUTES; not imported: keeps --help fast).
+ROUTE_CHOICES = ("trajectory", "slam", "scan", "gyro")
+#: Flags of the polygon design that a route design does not use, and the route's own flags.
+_POLYGON_ONLY = (
+    ("sides", "--sides"),
+    ("side_lengths", "--side-lengths"),
+    ("robot_from", "--robot-from"),
+    ("analytic", "--analytic"),
+    ("reference_sim", "--reference-sim"),
+    ("known_errors", "--known-errors"),
+)
+_ROUTE_ONLY = (
+    ("kinematics", "--kinematics"),
+    ("noise_from", "--noise-from"),
+    ("target_std_error", "--target-std-error"),
+    ("duration", "--duration"),
+    ("speed", "--speed"),
+    ("turn_rate", "--turn-rate"),
+    ("gyro_arw_deg_per_sqrt_h", "--gyro-arw-deg-per-sqrt-h"),
+)
+
+
+def _add_route_args(p: argparse.ArgumentParser) -> None:
+    """The flags of ``odocal design --route R``."""
+    p.add_argument(
+        "--route",
+        choices=ROUTE_CHOICES,
+        default=None,
+        help="design a recording for a bag route instead of a polygon test track: which "
+        "maneuvers (straights, spins, arcs, figure-eights, squares), how long; the "
+        "predicted standard errors checked by Monte Carlo (docs/design.md)",
+    )
+    p.add_argument(
+        "--kinematics",
+        choices=("differential", "skid-steer"),
+        default=None,
+        help="with --route: the robot's kinematics (default: the robot file's); skid-steer "
+        "designs for the effective track",
+    )
+    p.add_argument(
+        "--noise-from",
+        metavar="BAG",
+        default=None,
+        help="with --route: measure the noise from a bag (or run file) with ground truth of this "
+        "robot (the check's residual scale of a trajectory fit); a bag of another robot is "
+        "refused",
+    )
+    p.add_argument(
+        "--target-std-error",
+        action="append",
+        metavar="NAME=VALUE",
+        default=None,
+        help="with --route: a target standard error, e.g. wheelbase=0.2%%, "
+        "wheel_diameter=0.05%%, wheelbase=0.5mm, diameter_ratio=0.0005 (repeatable); the "
+        "recommendation is the shortest recording reaching every target",
+    )
+    p.add_argument(
+        "--speed",
+        type=float,
+        default=None,
+        metavar="M/S",
+        help="with --route: forward speed of the maneuvers (default 0.3 m/s; what is safe "
+        "for the robot and the room)",
+    )
+    p.add_argument(
+        "--turn-rate",
+        type=float,
+        default=None,
+        metavar="RAD/S",
+        help="with --route: turn rate of the spins (default 0.5 rad/s)",
+    )
+    p.add_argument(
+        "--gyro-arw-deg-per-sqrt-h",
+        type=float,
+        default=None,
+        metavar="A",
+        help="with --route gyro: the gyro's angle random walk, deg/sqrt(h) (default 0.3, a "
+        "MEMS gyro's datasheet figure)",
+    )
+    p.add_argument(
+        "--duration",
+        type=float,
+        default=None,
+        metavar="S",
+        help="with --route: the longest recording allowed (s); without targets the recording "
+        "with the least predicted drift on the --validate driving within it",
+    )
+
+
 def run(args: argparse.Namespace) -> int:
     """Run ``odocal design`` on the parsed ``args`` and print the result (text or ``--json``);
     returns 0 (errors are raised: :func:`~odocal.cli.main.main` reports them)."""
+    from ..errors import InputError
+
+    given = lambda name: getattr(args, name, None) not in (None, False)  # noqa: E731
+    if args.route is not None:
+        wrong = [flag for name, flag in _POLYGON_ONLY if given(name)]
+        if wrong:
+            raise InputError(f"{', '.join(wrong)}: only without --route (a polygon design)")
+        return _run_route(args)
+    wrong = [flag for name, flag in _ROUTE_ONLY if given(name)]
+    if isinstance(args.validate, str):
+        wrong.append("--validate FILE.csv")
+    if wrong:
+        raise InputError(f"{', '.join(wrong)}: only with --route")
     from ..app.design import design
     from ..design.spec import DesignSpec
 
@@ -232,7 +346,7 @@ def run(args: argparse.Namespace) -> int:
         if args.side_lengths is None
         else tuple(float(v) for v in args.side_lengths),
         runs_per_direction=args.runs_per_direction,
-        trials=args.trials,
+        trials=2000 if args.trials is None else args.trials,
         method=args.method,
         validation=args.validate,
         alpha=args.alpha,
@@ -253,6 +367,44 @@ def run(args: argparse.Namespace) -> int:
             error_range=False if args.known_errors else None,
             robot_from=args.robot_from,
             measurement=_instrument(args),
+        )
+    finally:
+        bar.close()
+    print_warnings(res.warnings)
+    if args.json:
+        print_json(res.as_dict())
+        return 0
+    print(res.text())
+    return 0
+
+
+def _run_route(args: argparse.Namespace) -> int:
+    """``odocal design --route R``."""
+    from ..app.design_route import design_for_route
+
+    v = args.validate
+    validate = v if v is None or isinstance(v, str) else (v.sides, v.side_m, v.direction)
+    bar = ProgressBar("odocal design --route", enabled=not (args.quiet or args.json))
+    try:
+        res = design_for_route(
+            args.route,
+            args.robot,
+            params=args.params,
+            kinematics=args.kinematics,
+            noise_from=args.noise_from,
+            targets=tuple(args.target_std_error or ()),
+            duration_s=args.duration,
+            validate=validate,
+            trials=200 if args.trials is None else args.trials,
+            seed=args.seed,
+            plot=args.plot,
+            progress=bar,
+            speed_m_s=args.speed,
+            turn_rate_rad_s=args.turn_rate,
+            pose_noise=_instrument(args),
+            gyro_arw_rad_sqrt_s=None
+            if args.gyro_arw_deg_per_sqrt_h is None
+            else math.radians(args.gyro_arw_deg_per_sqrt_h) / 60.0,
         )
     finally:
         bar.close()

@@ -13,11 +13,15 @@ from .common import (
     print_json,
     print_table,
     print_warnings,
+    seed_int,
     sides_int,
+    trials_int,
 )
+from .design import ROUTE_CHOICES, validation_arg
 
 DEFAULT_TEMPLATE = "runs-template.csv"  # as odocal.app.plan (not imported: keeps --help fast)
 DEFAULT_NOISE_RUNS = 20
+DEFAULT_COMMANDS = "route-commands.csv"  # as odocal.app.plan_route
 
 
 def add_parser(sub) -> None:
@@ -56,14 +60,43 @@ def add_parser(sub) -> None:
     p.add_argument(
         "--out",
         metavar="RUNS.csv",
-        default=DEFAULT_TEMPLATE,
-        help=f"blank run sheet to write (default {DEFAULT_TEMPLATE})",
+        default=None,
+        help=f"blank run sheet to write (default {DEFAULT_TEMPLATE}); with --route: the "
+        f"velocity-command file (default {DEFAULT_COMMANDS})",
     )
     p.add_argument(
         "--force",
         action="store_true",
         help="replace --out even if it already holds measured runs (never needed for a blank "
         "sheet)",
+    )
+    p.add_argument(
+        "--route",
+        choices=ROUTE_CHOICES,
+        default=None,
+        help="plan the recording 'odocal design --route R' recommends for a bag route: a "
+        "timed velocity-command file (t,v,omega) and the teleoperation protocol with its checks",
+    )
+    for flag, kw in (
+        ("--kinematics", {"choices": ("differential", "skid-steer")}),
+        ("--noise-from", {"metavar": "BAG"}),
+        ("--target-std-error", {"action": "append", "metavar": "NAME=VALUE"}),
+        ("--duration", {"type": float, "metavar": "S"}),
+        ("--validate", {"type": validation_arg, "metavar": "SIDES:LENGTH:DIRECTION|FILE.csv"}),
+        ("--trials", {"type": trials_int, "metavar": "M"}),
+        ("--seed", {"type": seed_int, "metavar": "S"}),
+        ("--speed", {"type": float, "metavar": "M/S"}),
+        ("--turn-rate", {"type": float, "metavar": "RAD/S"}),
+    ):
+        p.add_argument(
+            flag, default=None, help="with --route: as for 'odocal design --route'", **kw
+        )
+    p.add_argument(
+        "--rate",
+        type=float,
+        default=None,
+        metavar="HZ",
+        help="with --route: the command file's rate (default 50 Hz)",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.add_argument(
@@ -74,10 +107,63 @@ def add_parser(sub) -> None:
     p.set_defaults(run=run)
 
 
+_ROUTE_ONLY = ("kinematics", "noise_from", "target_std_error", "duration", "validate", "trials",
+               "seed", "rate", "speed", "turn_rate")  # fmt: skip
+
+
+def _run_route(args) -> int:
+    """``odocal plan --route R``."""
+    from ..app.plan_route import plan_route
+    from ..errors import InputError
+
+    if args.track is not None:
+        raise InputError("--track: only without --route")
+    v = args.validate
+    bar = ProgressBar("odocal plan --route", enabled=not (args.quiet or args.json))
+    try:
+        res = plan_route(
+            args.route,
+            args.robot,
+            params=args.params,
+            kinematics=args.kinematics,
+            noise_from=args.noise_from,
+            targets=tuple(args.target_std_error or ()),
+            duration_s=args.duration,
+            validate=v if v is None or isinstance(v, str) else (v.sides, v.side_m, v.direction),
+            trials=200 if args.trials is None else args.trials,
+            seed=0 if args.seed is None else args.seed,
+            out=args.out or DEFAULT_COMMANDS,
+            rate_hz=50.0 if args.rate is None else args.rate,
+            force=args.force,
+            progress=bar,
+            speed_m_s=args.speed,
+            turn_rate_rad_s=args.turn_rate,
+        )
+    finally:
+        bar.close()
+    print_warnings(res.warnings)
+    if args.json:
+        print_json(res.as_dict())
+        return 0
+    print(res.text())
+    print(f"wrote {res.commands}")
+    return 0
+
+
 def run(args) -> int:
     """Run ``odocal plan`` on the parsed ``args`` and print the result (text or ``--json``); returns
     0 (errors are raised: :func:`~odocal.cli.main.main` reports them)."""
     import numpy as np
+
+    if args.route is not None:
+        return _run_route(args)
+    wrong = [n for n in _ROUTE_ONLY if getattr(args, n, None) is not None]
+    if wrong:
+        from ..errors import InputError
+
+        flags = ", ".join("--" + n.replace("_", "-") for n in wrong)
+        raise InputError(f"{flags}: only with --route")
+    args.out = args.out or DEFAULT_TEMPLATE
 
     from ..app.plan import plan as make_plan
 
