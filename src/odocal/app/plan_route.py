@@ -137,7 +137,8 @@ class RoutePlan(Presented):
         out(f"Expected after calibration: standard errors {se}")
         out(
             f"Then: odocal check BAG (is it enough?) and odocal fit BAG --method auto. "
-            f"Command file: {self.commands} ({COMMAND_HEADER}, {self.rate_hz:g} Hz)"
+            f"Command file: {self.commands} ({COMMAND_HEADER}: one row per command change, each "
+            f"held until the next row's t; times on a {self.rate_hz:g} Hz grid)"
         )
         return str(out)
 
