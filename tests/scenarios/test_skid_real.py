@@ -202,7 +202,7 @@ def test_check_of_a_skid_steer_log_that_never_turns():
     error; the fit itself refuses it (above)."""
     import numpy as np
 
-    from odocal.app.check_skid import check_skid_logs
+    from odocal.app.check import check_skid_logs
     from odocal.calibration.skid_steer import SkidLog
     from odocal.core.model import Robot, WheelGeometry
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -40,6 +40,10 @@ from .common import (
 from .slam_bags import load_slam_bags
 from .text import Presented, Text, check_text, emits_warnings
 
+if TYPE_CHECKING:  # the skid-steer check's types (its modules are imported where it runs)
+    from ..calibration.skid_steer import SkidLog
+    from ..calibration.time_offset import TimeOffset
+
 __all__ = [
     "CheckResult",
     "check",
@@ -50,6 +54,9 @@ __all__ = [
     "refuse_blind",
     "slam_noise",
     "SLAM_POSE_NOISE",
+    "check_skid",
+    "check_skid_logs",
+    "SKID_NOISE",
 ]
 
 
@@ -170,14 +177,12 @@ def check(
     metadata). ``truth_frames``: bags whose truth is a SLAM pose on /tf (its stamps
     ``slam_stamp_offset_s`` late). ``kinematics`` (default: the robot file's, else
     differential): 'skid-steer' checks bags for the effective track
-    (:func:`~odocal.app.check_skid.check_skid`)."""
+    (:func:`check_skid`)."""
     if isinstance(paths, (str, Path)):
         paths = [paths]
     notes: list[str] = []
     r = optional_robot(robot)
     if kinematics_of(kinematics, r) == "skid-steer":
-        from .check_skid import check_skid
-
         if truth_frames is not None or mounting:
             flag = "--truth-frames" if truth_frames is not None else "--mounting"
             raise InputError(f"{flag} is not used by the skid-steer check", field=flag[2:])
@@ -273,3 +278,126 @@ def refuse_blind(log_check: CheckResult | None, force: bool) -> list[str]:
     if not force:
         raise CalibrationError(f"{problem}; nothing written (--force exports it anyway)")
     return [f"{problem} (exported anyway: --force)"]
+
+
+# ------------------------------------------------------------- skid-steer robots
+
+#: Where the check's standard errors come from, in words.
+SKID_NOISE = (
+    "the skid-steer fit's own errors (the delete-one-block jackknife over 15 s blocks of the "
+    "log's residuals: its slip; the truth's clock offset's share added), as D_R, D_L and the "
+    "effective track b"
+)
+
+
+def _skid_covariance(
+    logs: Sequence[SkidLog], nominal: WheelGeometry, offsets: Sequence[TimeOffset]
+) -> tuple[WheelGeometry | None, np.ndarray | None, str]:
+    """The exported model fitted to ``logs`` (effective track, a wheel scale per side) and the
+    covariance of (D_R, D_L, b) it implies; (None, None, why) when it cannot be fitted."""
+    from ..calibration.skid_steer import fit_skid_logs
+    from .fit_skid import EXPORTED
+
+    try:
+        fit, _ = fit_skid_logs(logs, nominal, EXPORTED[0], offsets=offsets,
+                               wheel_scales=EXPORTED[1])  # fmt: skip
+    except CalibrationError as exc:
+        return None, None, str(exc)
+    names = ("scale_right", "scale_left", "track_multiplier")
+    idx = [fit.names.index(n) for n in names]
+    jac = np.diag([nominal.diameter_right_m, nominal.diameter_left_m, nominal.wheelbase_m])
+    cov = jac @ fit.covariance[np.ix_(idx, idx)] @ jac.T
+    geometry = WheelGeometry(
+        nominal.diameter_right_m * fit.value("scale_right"),
+        nominal.diameter_left_m * fit.value("scale_left"),
+        nominal.wheelbase_m * fit.value("track_multiplier"),
+    )
+    return geometry, cov, ""
+
+
+def _curve_note(
+    logs: Sequence[SkidLog],
+    nominal: WheelGeometry,
+    offsets: Sequence[TimeOffset],
+    multiplier: float | None,
+) -> str:
+    """At which turn rates the multiplier's curve can be read (the turn-rate model's knots: the
+    nominal wheels' yaw rates; over ``multiplier``, about the robot's)."""
+    from ..calibration.skid_steer import (
+        SkidIntervals,
+        offset_at,
+        skid_intervals,
+        turn_rate_knots,
+    )
+
+    parts = [
+        skid_intervals(log, offset_s=offset_at(o, log))
+        for log, o in zip(logs, offsets, strict=True)
+    ]
+    try:
+        knots = turn_rate_knots(SkidIntervals.concatenate(parts), nominal)
+    except CalibrationError as exc:
+        return f"the multiplier against the turn rate cannot be read: {exc}"
+    rates = ", ".join(f"{k / (multiplier or 1.0):.2g}" for k in knots)
+    what = "yaw rates of about" if multiplier else "nominal wheel yaw rates"
+    return (
+        f"the multiplier against the turn rate can be read at {what} {rates} rad/s (each with "
+        "a full turn near it); a controller turning faster or slower is extrapolated"
+    )
+
+
+def check_skid_logs(logs: Sequence[SkidLog], robot: Robot) -> CheckResult:
+    """The check of skid-steer logs already read (``check BAG... --kinematics skid-steer``).
+
+    A skid-steer robot's random error is its slip, not its wheels' noise, and a stated ``k``
+    and tracker noise say nothing of it. So the standard errors are the skid-steer fit's own
+    (the delete-one-block jackknife over 15 s blocks of the log's residuals, the truth's clock
+    offset's share added: :func:`~odocal.calibration.skid_steer.fit_skid_logs`), mapped onto
+    D_R, D_L and b (the effective track), and judged by the differential-drive check's
+    thresholds; the motion, its degenerate motions and the blind directions are the
+    differential-drive check's of the same motion, linearised at the fitted effective
+    geometry. It also says at which turn rates the multiplier's curve can be read."""
+    from .fit_skid import skid_recordings
+
+    if not logs:
+        raise InputError("no recording to check")
+    nominal = robot.nominal
+    recordings, offsets = skid_recordings(logs)
+    geometry, cov, why = _skid_covariance(logs, nominal, offsets)
+    stated = "the motion's findings at the stated noise (a skid-steer log's own is its slip)"
+    res = check_loaded(
+        recordings, geometry or nominal, robot, noise=(NoiseModel(), stated)
+    )  # fmt: skip
+    if cov is not None:
+        chk = with_prediction(res.check, cov, "the skid-steer fit (its own residuals)")
+        res = replace(res, check=chk, noise_source=SKID_NOISE)
+    notes = []
+    for o in offsets:
+        pm = "" if o.stderr_s is None else f" +- {o.stderr_s:.4f}"
+        notes.append(f"clock offset of the {o.label}: {o.offset_s:+.4f}{pm} s ({o.how}; applied)")
+    if cov is None:
+        notes.append(f"no skid-steer fit of this log ({why}): the errors are the stated noise's")
+    mult = None if geometry is None else float(geometry.wheelbase_m / nominal.wheelbase_m)
+    notes.append(_curve_note(logs, nominal, offsets, mult))
+    return replace(
+        res, kinematics="skid-steer", notes=tuple(notes),
+        load_warnings=tuple(w for o in offsets for w in o.warnings),
+    )  # fmt: skip
+
+
+def check_skid(
+    paths: Sequence[str | Path],
+    robot: Robot | None,
+    bag: BagOptions,
+    ticks_per_rev: float | None = None,
+) -> CheckResult:
+    """``check BAG... --kinematics skid-steer``: the bags read as the skid-steer fit reads them,
+    checked (:func:`check_skid_logs`)."""
+    from .fit_skid import read_skid_logs
+
+    if robot is None:
+        raise InputError(
+            "--kinematics skid-steer needs the robot file (--robot ROBOT.yaml): the nominal "
+            "wheel diameter and wheelbase the effective track is relative to"
+        )
+    return check_skid_logs(read_skid_logs(paths, bag, robot, ticks_per_rev), robot)
