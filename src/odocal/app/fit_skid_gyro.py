@@ -41,7 +41,12 @@ from ..io.bag_skid import SkidGyroLog
 from ..io.bags import BagContents
 from ..io.outputs import OutputPlan
 from .common import NO_EXPORTS, Exports
-from .fit_skid import MAX_Z, TRACK_MULTIPLIER_RANGE, refuse_unstated_ran_with
+from .fit_skid import (
+    MAX_Z,
+    TRACK_MULTIPLIER_RANGE,
+    RecordingMultiplier,
+    refuse_unstated_ran_with,
+)
 from .text import Presented, Text, verdict_lines, written_lines
 
 __all__ = [
@@ -70,21 +75,6 @@ NOT_ESTIMATED_SCAN = (
 
 
 @dataclass(frozen=True)
-class PerBag:
-    """One bag's own multiplier and its distance from the others' (combined errors)."""
-
-    name: str
-    multiplier: float
-    stderr: float
-    z: float | None
-
-    def as_dict(self) -> dict[str, Any]:
-        """JSON-ready."""
-        return {"name": self.name, "multiplier": self.multiplier, "stderr": self.stderr,
-                "z": self.z}  # fmt: skip
-
-
-@dataclass(frozen=True)
 class SkidGyroResult(Presented):
     """The gyro route's answer for a skid-steer robot (module docstring)."""
 
@@ -95,7 +85,7 @@ class SkidGyroResult(Presented):
     offsets: tuple[TimeOffset, ...]
     mountings: tuple[str, ...]
     heldout: HeldOutHeading | None
-    per_bag: tuple[PerBag, ...]
+    per_bag: tuple[RecordingMultiplier, ...]
     reasons: tuple[str, ...]
     notes: tuple[str, ...]
     written: tuple[Path, ...] = ()
@@ -308,7 +298,7 @@ def _folds(parts: Sequence[HeadingIntervals]) -> list[tuple[HeadingIntervals, He
     ]
 
 
-def _per_bag(parts: Sequence[HeadingIntervals]) -> tuple[PerBag, ...]:
+def _per_bag(parts: Sequence[HeadingIntervals]) -> tuple[RecordingMultiplier, ...]:
     """Each bag's multiplier and its z against the others' pooled fit."""
     out = []
     for i, p in enumerate(parts):
@@ -319,7 +309,9 @@ def _per_bag(parts: Sequence[HeadingIntervals]) -> tuple[PerBag, ...]:
             continue
         g, se = float(own.gain[0]), float(own.gain_stderr[0])
         go, so = float(other.gain[0]), float(other.gain_stderr[0])
-        out.append(PerBag(str(i), 1 / g, se / g**2, z_score(1 / g, se / g**2, 1 / go, so / go**2)))
+        m, m_se = 1 / g, se / g**2
+        z = z_score(m, m_se, 1 / go, so / go**2)
+        out.append(RecordingMultiplier(str(i), m, m_se, z))
     return tuple(out)
 
 
@@ -418,7 +410,7 @@ def heading_fit(
         table = fit_gyro_gain(pooled, rate_knots(pooled))
     except CalibrationError as exc:
         notes.append(f"no turn-rate table: {exc}")
-    per: tuple[PerBag, ...] = ()
+    per: tuple[RecordingMultiplier, ...] = ()
     if len(parts) > 1:
         per = tuple(replace(r, name=names[int(r.name)]) for r in _per_bag(parts))
         for r in per:
