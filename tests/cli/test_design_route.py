@@ -291,3 +291,23 @@ def test_stated_noise_moves_the_prediction(cli):
     assert b > 2 * a
     cli("design", "--route", "gyro", "--sigma-xy-m", "0.01").expect_error("measures no pose")
     cli("design", "--route", "slam", "--gyro-arw-deg-per-sqrt-h", "1").expect_error("only with")
+
+
+def test_plan_route_designs_with_the_same_sensor_noise_as_design_route(cli, tmp_path):
+    """The sensors' noise flags reach plan --route's design: the recording it writes is the one
+    design --route recommends for that noise (its predicted errors the same), not the one for
+    the default noise."""
+    noisy = ("--sigma-xy-m", "0.05", "--sigma-theta-deg", "2", "--trials", "20", "--quiet",
+             "--json")  # fmt: skip
+    status, out, err = cli("design", "--route", "slam", *noisy)
+    assert status == 0, err
+    designed = json.loads(out)["recommended"]["predicted_std_error"]
+    status, out, err = cli("plan", "--route", "slam", *noisy, "--out", tmp_path / "a.csv")
+    assert status == 0, err
+    planned = json.loads(out)["recommended"]["predicted_std_error"]
+    assert planned == pytest.approx(designed, rel=1e-9)
+    status, out, err = cli("plan", "--route", "slam", "--trials", "20", "--quiet", "--json",
+                           "--out", tmp_path / "b.csv")  # fmt: skip
+    assert status == 0, err
+    default = json.loads(out)["recommended"]["predicted_std_error"]
+    assert default["wheelbase"] != pytest.approx(planned["wheelbase"], rel=0.05)

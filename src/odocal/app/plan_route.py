@@ -162,6 +162,8 @@ def plan_route(
     progress: Any = None,
     speed_m_s: float | None = None,
     turn_rate_rad_s: float | None = None,
+    pose_noise: MeasurementNoise | None = None,
+    gyro_arw_rad_sqrt_s: float | None = None,
 ) -> RoutePlan:
     """Design the recording (:func:`~odocal.app.design_route.design_for_route`, the same
     arguments) and write its command file ``out`` (all or nothing: nothing is written when the
@@ -186,6 +188,7 @@ def plan_route(
         route, robot, params=params, kinematics=kinematics, noise_from=noise_from,
         targets=targets, duration_s=duration_s, validate=validate, trials=trials, seed=seed,
         progress=progress, speed_m_s=speed_m_s, turn_rate_rad_s=turn_rate_rad_s,
+        pose_noise=pose_noise, gyro_arw_rad_sqrt_s=gyro_arw_rad_sqrt_s,
     )  # fmt: skip
     rec = run.design.recommended
     series = command_series(rec.maneuvers, rate_hz)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ..core.checks import parse_float, parse_int
 from .common import (
@@ -401,10 +401,7 @@ def _run_route(args: argparse.Namespace) -> int:
             progress=bar,
             speed_m_s=args.speed,
             turn_rate_rad_s=args.turn_rate,
-            pose_noise=_instrument(args),
-            gyro_arw_rad_sqrt_s=None
-            if args.gyro_arw_deg_per_sqrt_h is None
-            else math.radians(args.gyro_arw_deg_per_sqrt_h) / 60.0,
+            **route_sensor_noise(args),
         )
     finally:
         bar.close()
@@ -414,6 +411,16 @@ def _run_route(args: argparse.Namespace) -> int:
         return 0
     print(res.text())
     return 0
+
+
+def route_sensor_noise(args: argparse.Namespace) -> dict[str, Any]:
+    """The sensors' noise flags of a route design (``--sigma-xy-m``, ``--sigma-theta-deg``,
+    ``--gyro-arw-deg-per-sqrt-h``) as the app functions' keyword arguments."""
+    arw = getattr(args, "gyro_arw_deg_per_sqrt_h", None)
+    return {
+        "pose_noise": _instrument(args),
+        "gyro_arw_rad_sqrt_s": None if arw is None else math.radians(arw) / 60.0,
+    }
 
 
 def _instrument(args: argparse.Namespace) -> MeasurementNoise | None:

@@ -15,9 +15,11 @@ from .common import (
     print_warnings,
     seed_int,
     sides_int,
+    sigma_theta_deg,
+    sigma_xy_m,
     trials_int,
 )
-from .design import ROUTE_CHOICES, validation_arg
+from .design import ROUTE_CHOICES, route_sensor_noise, validation_arg
 
 DEFAULT_TEMPLATE = "runs-template.csv"  # as odocal.app.plan (not imported: keeps --help fast)
 DEFAULT_NOISE_RUNS = 20
@@ -87,6 +89,9 @@ def add_parser(sub) -> None:
         ("--seed", {"type": seed_int, "metavar": "S"}),
         ("--speed", {"type": float, "metavar": "M/S"}),
         ("--turn-rate", {"type": float, "metavar": "RAD/S"}),
+        ("--sigma-xy-m", {"type": sigma_xy_m, "metavar": "S"}),
+        ("--sigma-theta-deg", {"type": sigma_theta_deg, "metavar": "S"}),
+        ("--gyro-arw-deg-per-sqrt-h", {"type": float, "metavar": "A"}),
     ):
         p.add_argument(
             flag, default=None, help="with --route: as for 'odocal design --route'", **kw
@@ -108,7 +113,8 @@ def add_parser(sub) -> None:
 
 
 _ROUTE_ONLY = ("kinematics", "noise_from", "target_std_error", "duration", "validate", "trials",
-               "seed", "rate", "speed", "turn_rate")  # fmt: skip
+               "seed", "rate", "speed", "turn_rate", "sigma_xy_m", "sigma_theta_deg",
+               "gyro_arw_deg_per_sqrt_h")  # fmt: skip
 
 
 def _run_route(args) -> int:
@@ -138,6 +144,7 @@ def _run_route(args) -> int:
             progress=bar,
             speed_m_s=args.speed,
             turn_rate_rad_s=args.turn_rate,
+            **route_sensor_noise(args),
         )
     finally:
         bar.close()
