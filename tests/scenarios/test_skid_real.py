@@ -286,3 +286,25 @@ def test_the_shared_husky_bag_with_its_stock_multiplier_stated(skid, tmp_path, c
     held = d["heldout"]["rms_heading_error_deg"]
     assert held["effective track"] < held["ran with (multiplier 1.875)"] < held["nominal"]
     assert f"wheel_separation_multiplier: {m!r}" in ros2.read_text()
+
+
+def test_a_skid_steer_fit_of_a_bag_without_truth_or_imu(tmp_path, cli):
+    """Wheels only: no route can see the track (one line naming both ways); a truth and no
+    IMU with --method gyro: that the gyro route needs an IMU. Nothing written either way."""
+    import math
+
+    from odocal.core.tracks import Track, spot_turn, straight
+    from tests.support.bag_files import make_run, write_bag
+
+    run = make_run(Track("short", (straight(0.5), spot_turn(math.pi))))
+    robot = tmp_path / "r.yaml"
+    robot.write_text("wheel_diameter_m: 0.2\nwheelbase_m: 0.5\nkinematics: skid_steer\n")
+    bare = write_bag(tmp_path / "bare.bag", "ros1", run, imu=False, truth=False, tf=False)
+    status, out, err = cli("fit", bare, "--robot", robot, "--ros2", tmp_path / "x.yaml")
+    assert status == 2 and out == "" and err.count("\n") == 1
+    assert "truth pose track" in err and "or an IMU" in err and "has neither" in err
+    truth = write_bag(tmp_path / "truth.bag", "ros1", run, imu=False, truth=True, tf=False)
+    status, out, err = cli("fit", truth, "--robot", robot, "--method", "gyro",
+                           "--ros2", tmp_path / "x.yaml")  # fmt: skip
+    assert status == 2 and "--method gyro needs an IMU" in err
+    assert not (tmp_path / "x.yaml").exists()

@@ -382,9 +382,12 @@ def _fit_skid(
         for c in contents:
             if not any(t.msgtype == IMU for t in c.topics):
                 raise InputError(
-                    "the skid-steer fit needs a truth pose track (a PoseStamped, or an Odometry "
-                    "in a world frame such as a lidar-ICP odometry in 'map'; --truth-topic) or "
-                    "an IMU (sensor_msgs/Imu: the gyro route); this bag has neither",
+                    "--method gyro needs an IMU (sensor_msgs/Imu); this bag has none"
+                    if method == "gyro"
+                    else "the skid-steer fit needs a truth pose track (a PoseStamped, or an "
+                    "Odometry in a world frame such as a lidar-ICP odometry in 'map'; "
+                    "--truth-topic) or an IMU (sensor_msgs/Imu: the gyro route); this bag has "
+                    "neither",
                     c.path,
                 )
         res = fit_skid_gyro_bags(contents, plan, bag, robot=loaded_robot,
