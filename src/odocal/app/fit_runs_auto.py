@@ -241,11 +241,12 @@ def _text(res: RunsAutoResult) -> str:
     )
     out(f"chosen: {res.chosen.procedure.label}, rule '{res.rule}': {res.reason}")
     out(
-        f"honest estimate: {1e3 * res.corrected_m:.2f} mm (its LODO score "
+        f"estimate for runs like these: {1e3 * res.corrected_m:.2f} mm (its LODO score "
         f"{1e3 * res.chosen.mean_m:.2f} mm is optimistic, the lowest of "
-        f"{len(t.scored())} noisy scores; corrected by Tibshirani & Tibshirani 2009). It is "
-        "the error on runs like the given ones; runs of another kind or day can differ "
-        "(docs/real-experiment.md)"
+        f"{len(t.scored())} noisy scores; corrected by Tibshirani & Tibshirani 2009). It says "
+        "nothing of driving unlike the given runs: on OptiOdom the pick from squares and "
+        "Ivanjko runs erred 3.6 times its estimate on circles and free paths "
+        "(docs/real-experiment.md); validate on driving like the robot's own"
     )
     out()
     out(res.fit.text())
