@@ -245,7 +245,7 @@ def _text(res: RunsAutoResult) -> str:
         f"{1e3 * res.chosen.mean_m:.2f} mm is optimistic, the lowest of "
         f"{len(t.scored())} noisy scores; corrected by Tibshirani & Tibshirani 2009). It says "
         "nothing of driving unlike the given runs: on OptiOdom the pick from squares and "
-        "Ivanjko runs erred 3.6 times its estimate on circles and free paths "
+        "Ivanjko runs, estimated so at 10.1 mm, erred 31.5 mm on circles and free paths "
         "(docs/real-experiment.md); validate on driving like the robot's own"
     )
     out()
