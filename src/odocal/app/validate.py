@@ -174,9 +174,10 @@ DRIFT_ALIGNMENT = (
 #: clock by its estimated offset first.
 SKID_ALIGNMENT = (
     "each piece re-anchored to the truth at its start (SE(2), no scale); the truth shifted onto "
-    "the wheels' clock by its estimated offset (time_offsets: its stamp minus the offset); "
-    "evo_rpe tum truth.tum calibrated.tum --delta L --delta_unit m --pairs_from_reference "
-    "gives the same errors in metres (the TUM files carry the shifted stamps)"
+    "the wheels' clock by its estimated offset (time_offsets: its stamp minus the offset); no "
+    "piece spans a hole of over 2 s in the truth; evo_rpe tum truth.tum calibrated.tum --delta "
+    "L --delta_unit m --pairs_from_reference gives the same errors in metres on the pieces "
+    "without such a hole (the TUM files carry the shifted stamps; evo's pieces may span holes)"
 )
 
 
