@@ -48,8 +48,7 @@ __all__ = [
 RATE_LADDER: tuple[float, ...] = (0.05, 0.1, 0.2, 0.4, 0.8, 1.6, 3.2)
 #: A knot is kept when the intervals near it turn by this much in all (rad): one full turn.
 MIN_KNOT_TURN_RAD = 2 * math.pi
-#: Intervals whose wheels turn less than this (rad) are left out of the gain (they still hold the
-#: bias).
+#: Intervals whose residual is beyond this many robust standard deviations are dropped once.
 _OUTLIER_SIGMAS = 6.0
 
 
@@ -202,8 +201,8 @@ class GyroGainFit:
 
 def fit_gyro_gain(intervals: HeadingIntervals, knots: Sequence[float] = ()) -> GyroGainFit:
     """The gain and the residual bias (module docstring): least squares, one pass of rejection
-    beyond 6 robust standard deviations, cluster-robust covariance over the blocks (each part's
-    blocks its own)."""
+    beyond 6 robust standard deviations, the delete-one-block jackknife covariance over the
+    blocks (each part's blocks its own)."""
     if len(intervals) < 10:
         raise CalibrationError(f"{len(intervals)} gyro intervals: too few to fit")
     turned = float(np.abs(intervals.u).sum())
