@@ -311,3 +311,22 @@ def test_plan_route_designs_with_the_same_sensor_noise_as_design_route(cli, tmp_
     assert status == 0, err
     default = json.loads(out)["recommended"]["predicted_std_error"]
     assert default["wheelbase"] != pytest.approx(planned["wheelbase"], rel=0.05)
+
+
+def test_a_skid_steer_design_assumes_a_skid_steer_robot_s_slip(cli, tmp_path):
+    """A skid-steer robot's random error is its slip: without a stated k or --noise-from the
+    design takes the slip measured on the Norlab robots (k about 5e-4 m), not a differential
+    drive's 1e-6 m (which predicted a 20-30 times smaller error), and says so."""
+    robot = tmp_path / "r.yaml"
+    robot.write_text("wheel_diameter_m: 0.6\nwheelbase_m: 1.08\nkinematics: skid_steer\n")
+    args = ("--route", "gyro", "--robot", robot, "--trials", "20", "--quiet", "--json")
+    status, out, err = cli("design", *args)
+    assert status == 0, err
+    d = json.loads(out)
+    assert d["noise"]["k_r_m"] == pytest.approx(5e-4) and "skid-steer slip" in d["noise"]["source"]
+    skid_se = d["recommended"]["predicted_std_error"]["wheelbase"]
+    robot.write_text("wheel_diameter_m: 0.6\nwheelbase_m: 1.08\n")
+    status, out, err = cli("design", *args)
+    assert status == 0, err
+    diff_se = json.loads(out)["recommended"]["predicted_std_error"]["wheelbase"]
+    assert skid_se > 5 * diff_se

@@ -538,7 +538,7 @@ def design_for_route(
             f"{'effective track' if kin == 'skid-steer' else 'wheelbase'} {g.wheelbase_m:.4g} m"
         )
     else:
-        noise = default_noise(route, r)
+        noise = default_noise(route, r, kin)
     noise = _stated(noise, route, pose_noise, gyro_arw_rad_sqrt_s)
     try:
         spec = RouteSpec(

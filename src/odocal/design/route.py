@@ -87,6 +87,7 @@ __all__ = [
     "MonteCarloCheck",
     "RouteDesign",
     "default_noise",
+    "SKID_SLIP_K_M",
     "design_route",
     "candidate_maneuvers",
     "SCAN_TRIALS",
@@ -177,15 +178,29 @@ _DEFAULT_POSE = {
 }
 
 
-def default_noise(route: Route, robot: Robot) -> RouteNoise:
-    """The route's noise: the robot's k (else 1e-6 m per wheel), the robot's measurement noise
-    for the trajectory route (else 1 mm and 0.2 deg), the SLAM's 2 cm and 1 deg, a scan
-    matcher's 5 mm and 0.3 deg per pose, a MEMS gyro (:data:`DEFAULT_GYRO`)."""
-    wheel = (
-        robot.nonsystematic if not robot.nonsystematic.is_zero else NonSystematicError(1e-6, 1e-6)
-    )
+#: A skid-steer robot's slip as a wheel noise k (m): its heading residual over 1 s intervals
+#: against the gyro, k = var(e) B^2 / (|ds_R| + |ds_L|), on the Norlab recordings (Husky on tile
+#: 7.8e-4 m, Warthog on grass 3.3e-4 and 3.5e-4 m: docs/design.md); a differential drive's
+#: 1e-6 m would make a skid-steer design 20-30 times too optimistic.
+SKID_SLIP_K_M = 5e-4
+
+
+def default_noise(route: Route, robot: Robot, kinematics: str = "differential") -> RouteNoise:
+    """The route's noise: the robot's k (else 1e-6 m per wheel; a skid-steer robot's
+    :data:`SKID_SLIP_K_M`), the robot's measurement noise for the trajectory route (else 1 mm
+    and 0.2 deg), the SLAM's 2 cm and 1 deg, a scan matcher's 5 mm and 0.3 deg per pose, a MEMS
+    gyro (:data:`DEFAULT_GYRO`)."""
+    skid = kinematics == "skid-steer" or robot.kinematics == "skid-steer"
+    k = SKID_SLIP_K_M if skid else 1e-6
+    wheel = robot.nonsystematic if not robot.nonsystematic.is_zero else NonSystematicError(k, k)
     pose = _DEFAULT_POSE[route]
-    parts = ["ROBOT.yaml k" if wheel is robot.nonsystematic else "default k 1e-6 m"]
+    default_k = (
+        f"default skid-steer slip as k {k:g} m (measured on the Norlab Husky and Warthog; "
+        "--noise-from BAG measures yours)"
+        if skid
+        else f"default k {k:g} m"
+    )
+    parts = ["ROBOT.yaml k" if wheel is robot.nonsystematic else default_k]
     if route == "trajectory" and not robot.measurement.is_zero:
         pose = robot.measurement
         parts.append("ROBOT.yaml measurement")
