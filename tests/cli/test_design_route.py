@@ -204,6 +204,9 @@ def test_a_planned_command_file_is_a_validation_driving(cli, tmp_path):
         ("t,v\n0,0.3\n2,0\n", ("omega",)),
         ("t,v,omega\n0,0,0\n2,0,0\n", ("never move",)),
         ("t,v,omega\n0,0.1,0\n4000,0,0\n", ("more than the model simulates",)),
+        # a spin in place, a drive shorter than a piece: no drift per distance (was a traceback)
+        ("t,v,omega\n0,0,0.5\n100,0,0\n", ("drive 0 m", "per distance")),
+        ("t,v,omega\n0,0.3,0\n0.5,0,0\n", ("drive 0.15 m", "per distance")),
     ],
 )  # fmt: skip
 def test_a_validation_the_model_cannot_simulate_is_refused(cli, tmp_path, body, needles):

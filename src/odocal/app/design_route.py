@@ -53,6 +53,9 @@ __all__ = ["RouteDesignRun", "design_for_route", "parse_target", "polygon_valida
 OTHER_ROBOT_FRACTION = 0.15
 #: A skid-steer robot's wheels slip: its fitted diameters may be this fraction off.
 SKID_DIAMETER_FRACTION = 0.35
+#: A --validate command file must drive at least this far (m): the predicted drift is per
+#: distance, over pieces of 1 m of path at the least (a spin in place has no piece).
+MIN_VALIDATION_M = 2.0
 
 _TARGET = re.compile(r"^\s*([a-z_]+)\s*=\s*([0-9.eE+-]+)\s*(%|mm|m)?\s*$")
 
@@ -507,7 +510,14 @@ def design_for_route(
     if isinstance(validate, (str, Path)):
         from ..io.commands import read_commands
 
-        validation = (read_commands(validate, "--validate"),)
+        drive = read_commands(validate, "--validate")
+        if drive.distance_m < MIN_VALIDATION_M:
+            raise InputError(
+                f"--validate: the commands drive {drive.distance_m:.3g} m in all; the predicted "
+                f"drift is per distance and needs at least {MIN_VALIDATION_M:g} m of driving",
+                validate,
+            )
+        validation = (drive,)
     elif validate is not None:
         sides, side, direction = validate
         problem = track_size_problem(b, float(side), "validation")
