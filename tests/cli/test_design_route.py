@@ -169,6 +169,17 @@ def test_plan_route_bad_input_writes_nothing(cli, tmp_path):
     cli("plan", "--duration", "30").expect_error("only with --route")
 
 
+def test_plan_route_out_is_never_its_validation_file(cli, tmp_path):
+    # the command file driven as --validate was replaced by the new plan (exit 0)
+    drive = tmp_path / "drive.csv"
+    text = "t,v,omega\n0,0.3,0\n20,0,0\n"
+    drive.write_text(text)
+    for force in ((), ("--force",)):
+        cli("plan", "--route", "gyro", *FAST, "--validate", drive, "--out", drive, *force
+            ).expect_error("drive.csv", "overwrite an input")  # fmt: skip
+        assert drive.read_text() == text
+
+
 def _commands(path):
     return np.array([r.split(",") for r in path.read_text().splitlines()[1:]], float).T
 

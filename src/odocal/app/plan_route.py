@@ -170,7 +170,10 @@ def plan_route(
     design fails). An existing ``out`` that is not a command file is replaced only with
     ``force``."""
     out = Path(out)
-    outputs = OutputPlan(input_paths(robot, params, *([noise_from] if noise_from else [])))
+    read = [noise_from] if noise_from else []
+    if isinstance(validate, (str, Path)):
+        read.append(validate)  # a command file driven as the validation is an input too
+    outputs = OutputPlan(input_paths(robot, params, *read))
     outputs.file(out, "--out")
     if out.is_file() and not force:
         try:
