@@ -474,3 +474,20 @@ def test_tuples_in_millimetres_are_refused_with_their_units(cli, tmp_path):
         assert_error(cli("fit", tuples, "--out", out, *extra), "units", "sm in metres")
     assert_error(cli("fit", tuples), "not a plausible robot", "wheels larger than 5 m")
     assert not out.exists()
+
+
+def test_skid_steer_gyro_fit_of_driving_too_straight_or_too_short(cli, tmp_path):
+    """fit --kinematics skid-steer --method gyro: a bag that never turns said "N gyro intervals:
+    too few to fit" (the truth route says the track cannot be seen without turning); a bag of
+    one 15 s block said "a cluster jackknife needs at least 2 clusters". Nothing written."""
+    from odocal.core.tracks import Track, straight
+    from tests.support.bag_files import TRACK, make_run, write_bag
+
+    robot = write(tmp_path / "r.yaml", "wheel_diameter_m: 0.2\nwheelbase_m: 0.5\n")
+    ros2 = tmp_path / "ros2.yaml"
+    argv = ("--robot", robot, "--kinematics", "skid-steer", "--method", "gyro", "--ros2", ros2)
+    line = write_bag(tmp_path / "line.bag", "ros1", make_run(Track("line", (straight(3.0),))))
+    assert_error(cli("fit", line, *argv), "turn 0 deg", "without turning")
+    short = write_bag(tmp_path / "short.bag", "ros1", make_run(TRACK))
+    assert_error(cli("fit", short, *argv), "one time block", "record at least 30 s")
+    assert not ros2.exists() and leftovers(tmp_path) == []

@@ -57,6 +57,7 @@ from ..core.path_drift import PathDrift
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
 from ..io.bag_options import BagOptions
+from ..io.bag_skid import SkidGyroLog
 from ..io.bags import BagContents
 from ..io.outputs import OutputPlan
 from .common import NO_EXPORTS, Exports, RobotSpec
@@ -332,9 +333,12 @@ def _plausibility(res_fit: SkidSteerFit, nominal: WheelGeometry) -> list[str]:
 MIN_TURNING_RAD = 2 * math.pi
 
 
-def _refuse_no_turning(logs: Sequence[SkidLog], nominal: WheelGeometry) -> None:
+def _refuse_no_turning(
+    logs: Sequence[SkidLog] | Sequence[SkidGyroLog], nominal: WheelGeometry
+) -> None:
     """Recordings that do not turn cannot show the effective track (only straight driving sees
-    the wheels' scale): InputError saying so, before any fit."""
+    the wheels' scale): InputError saying so, before any fit (each route's: the truth's, the
+    gyro's)."""
     turned = 0.0
     for log in logs:
         dr = np.diff(np.asarray(log.angle_right_rad)) * 0.5 * float(nominal.diameter_right_m)
