@@ -491,3 +491,20 @@ def test_skid_steer_gyro_fit_of_driving_too_straight_or_too_short(cli, tmp_path)
     short = write_bag(tmp_path / "short.bag", "ros1", make_run(TRACK))
     assert_error(cli("fit", short, *argv), "one time block", "record at least 30 s")
     assert not ros2.exists() and leftovers(tmp_path) == []
+
+
+def test_skid_steer_check_of_a_log_the_fit_refuses_is_not_enough(cli, tmp_path):
+    """check --kinematics skid-steer said "enough" (exit 0) for a 15 s log that fit refuses
+    ("needs 20 intervals with motion"): the verdict must be NOT enough, with the fit's reason."""
+    from tests.support.bag_files import TRACK, make_run, write_bag
+
+    robot = write(tmp_path / "r.yaml", "wheel_diameter_m: 0.2\nwheelbase_m: 0.5\n")
+    short = write_bag(tmp_path / "short.bag", "ros1", make_run(TRACK))
+    argv = ("--robot", robot, "--kinematics", "skid-steer")
+    fit = cli("fit", short, *argv)
+    assert fit[0] == 2 and "intervals with motion" in fit[2]
+    status, out, _ = cli("check", short, *argv, "--json")
+    assert status == 3
+    refused = [g for g in json.loads(out)["degeneracies"] if g["code"] == "skid-fit-refused"]
+    assert refused and refused[0]["severity"] == "blind"
+    assert "intervals with motion" in refused[0]["message"]

@@ -12,6 +12,7 @@ import numpy as np
 from ..calibration.fit_settings import DEFAULT_TRAJECTORY, TrajectorySettings
 from ..calibration.identifiability import (
     MAX_BLOCKS_PER_RUN,
+    Degeneracy,
     LogCheck,
     NoiseModel,
     judge,
@@ -377,6 +378,14 @@ def check_skid_logs(logs: Sequence[SkidLog], robot: Robot) -> CheckResult:
         notes.append(f"clock offset of the {o.label}: {o.offset_s:+.4f}{pm} s ({o.how}; applied)")
     if cov is None:
         notes.append(f"no skid-steer fit of this log ({why}): the errors are the stated noise's")
+        # 'fit' refuses this log for the same reason: it is not enough, whatever its motion
+        refused = Degeneracy(
+            "skid-fit-refused", "blind", "the effective track and the wheel scales",
+            f"the skid-steer fit cannot use this log: {why}",
+        )  # fmt: skip
+        res = replace(
+            res, check=replace(res.check, degeneracies=(*res.check.degeneracies, refused))
+        )
     mult = None if geometry is None else float(geometry.wheelbase_m / nominal.wheelbase_m)
     notes.append(_curve_note(logs, nominal, offsets, mult))
     return replace(
