@@ -325,3 +325,34 @@ def test_plan_route_designs_with_the_same_sensor_noise_as_design_route(cli, tmp_
     assert status == 0, err
     default = json.loads(out)["recommended"]["predicted_std_error"]
     assert default["wheelbase"] != pytest.approx(planned["wheelbase"], rel=0.05)
+
+
+def test_noise_from_a_skid_steer_bag_is_fitted_as_fit_skid_steer_fits_it(cli, tmp_path):
+    """--kinematics skid-steer --noise-from BAG: the differential trajectory fit of a skidding
+    robot's truth stamped 0.3 s late said "non-physical result ... wheels may be swapped" (on the
+    real Warthog too, or wheels 50 % apart); the skid-steer fit recovers the robot."""
+    from odocal.core.skid_steer import SkidSteerModel
+    from tests.support.bag_files import BagWriter
+    from tests.support.skid_robot import simulate_skid_log
+
+    true = SkidSteerModel(0.3 * 0.96, 0.3 * 0.95, 1.08 * 1.65 / 2, -1.08 * 1.65 / 2)
+    log = simulate_skid_log(true, np.random.default_rng(3), duration_s=90.0,
+                            max_rate_rad_s=2.0, offset_s=0.3)  # fmt: skip
+    bag = tmp_path / "skid.bag"
+    with BagWriter(bag, "ros1") as w:
+        for t, r, left in zip(log.time_s, log.angle_right_rad, log.angle_left_rad, strict=True):
+            w.joints("/joint_states", 10 + t, ("left_wheel_joint", "right_wheel_joint"), [left, r])
+        for t, (x, y, yaw) in zip(log.truth_time_s, log.truth_pose, strict=True):
+            w.pose_stamped("/mocap/pose", 10 + t, x, y, yaw)
+    robot = tmp_path / "r.yaml"
+    robot.write_text("wheel_diameter_m: 0.6\nwheelbase_m: 1.08\nkinematics: skid_steer\n")
+    args = ("--duration", "150", "--trials", "20", "--quiet", "--robot", robot, "--json")
+    status, out, err = cli("design", "--route", "trajectory", *args, "--noise-from", bag)
+    assert status == 0, err
+    d = json.loads(out)
+    g = d["geometry_assumed"]["true"]
+    assert g["wheelbase_m"] == pytest.approx(1.08 * 1.65, rel=0.01)
+    assert g["wheel_diameter_right_m"] == pytest.approx(0.6 * 0.96, rel=0.01)
+    assert g["wheel_diameter_left_m"] == pytest.approx(0.6 * 0.95, rel=0.01)
+    offset = [n for n in d["notes"] if "clock offset of the truth" in n]
+    assert offset and re.search(r"\+0\.[23]\d* s", offset[0])

@@ -275,10 +275,15 @@ def _interval_motions(rec: Recording, every_s: float) -> RelativeMotions:
     wheel rotations (totals and increments) and the truth's motion in its frame at each
     interval's start."""
     t = np.asarray(rec.time_s, float)
-    edges = np.unique(np.searchsorted(t, np.arange(t[0], t[-1], every_s)))
-    edges = np.append(edges, len(t) - 1) if edges[-1] != len(t) - 1 else edges
-    i, j = edges[:-1], edges[1:]
     gt = np.asarray(rec.ground_truth, float)
+    # the edges at samples with a truth (a truth stamped at its own instants, e.g. a skid-steer
+    # log's ICP, is NaN between them)
+    ok = np.flatnonzero(np.all(np.isfinite(gt), axis=1))
+    tv = t[ok]
+    edges = ok[np.unique(np.minimum(np.searchsorted(tv, np.arange(tv[0], tv[-1], every_s)),
+                                    len(ok) - 1))]  # fmt: skip
+    edges = np.append(edges, ok[-1]) if edges[-1] != ok[-1] else edges
+    i, j = edges[:-1], edges[1:]
     c, s = np.cos(gt[i, 2]), np.sin(gt[i, 2])
     dx, dy = gt[j, 0] - gt[i, 0], gt[j, 1] - gt[i, 1]
     motion = np.column_stack([c * dx + s * dy, -s * dx + c * dy, gt[j, 2] - gt[i, 2]])
@@ -370,6 +375,8 @@ def _noise_from_bag(
     from ..io.recordings import load_recordings  # files only here
 
     notes: list[str] = []
+    if physical_track_m is not None:
+        return _noise_from_skid_bag(path, robot, route, physical_track_m)
     try:
         recs = load_recordings([path], ran_with=robot.believed_geometry, warnings=notes)
     except (CalibrationError, ModelError) as e:
@@ -394,7 +401,52 @@ def _noise_from_bag(
         fit = fit_trajectory(recs, nominal=robot.nominal)
     except CalibrationError as e:
         raise InputError(f"--noise-from {path}: the trajectory fit failed: {e}") from None
-    said = _other_robot(fit.geometry, robot.nominal, physical_track_m)
+    return _measured_noise(path, recs, fit.geometry, robot, route, physical_track_m, notes)
+
+
+def _noise_from_skid_bag(
+    path: str | Path, robot: Robot, route: Route, physical_track_m: float
+) -> tuple[RouteNoise, list[str], WheelGeometry]:
+    """:func:`_noise_from_bag` of a skid-steer robot: the bag read and fitted as ``fit
+    --kinematics skid-steer`` reads and fits it (its truth's clock offset estimated and applied;
+    the effective track and a wheel scale per side), not by the differential trajectory fit (an
+    ICP truth stamped late and the skid made that 'non-physical', or wheels 50 % apart)."""
+    from ..io.bag_options import NO_BAG_OPTIONS
+    from ..io.bags import is_bag
+    from .check import _skid_covariance
+    from .fit_skid import _refuse_no_turning, read_skid_logs, skid_recordings
+
+    if not is_bag(path):
+        raise InputError("--noise-from: a skid-steer robot's noise is measured from a bag", path)
+    try:
+        logs = read_skid_logs([path], NO_BAG_OPTIONS, robot)
+        _refuse_no_turning(logs, robot.nominal)
+        recs, offsets = skid_recordings(logs)
+    except (CalibrationError, ModelError, InputError) as e:
+        raise InputError(f"--noise-from {path}: {e}") from None
+    geometry, _, why = _skid_covariance(logs, robot.nominal, offsets)
+    if geometry is None:
+        raise InputError(f"--noise-from {path}: the skid-steer fit failed: {why}")
+    notes = [
+        f"--noise-from {Path(path).name}: clock offset of the {o.label}: {o.offset_s:+.4f} s "
+        f"({o.how}; applied)"
+        for o in offsets
+    ]
+    return _measured_noise(path, recs, geometry, robot, route, physical_track_m, notes)
+
+
+def _measured_noise(
+    path: str | Path,
+    recs: Sequence[Recording],
+    geometry: WheelGeometry,
+    robot: Robot,
+    route: Route,
+    physical_track_m: float | None,
+    notes: list[str],
+) -> tuple[RouteNoise, list[str], WheelGeometry]:
+    """The rest of :func:`_noise_from_bag`: a fitted ``geometry`` of another robot refused, the
+    noise measured from the runs ``recs``."""
+    said = _other_robot(geometry, robot.nominal, physical_track_m)
     if said:
         raise InputError(
             f"--noise-from {path}: a bag of another robot? its wheels and truth give {said}; "
@@ -425,7 +477,7 @@ def _noise_from_bag(
             gyro, words_g = measured_gyro
             source += f"; gyro {words_g}"
     noise = dataclasses.replace(base, wheel=wheel, pose=pose, gyro=gyro, source=source)
-    return noise, notes, fit.geometry
+    return noise, notes, geometry
 
 
 @emits_warnings
