@@ -432,7 +432,17 @@ def _noise_from_skid_bag(
         f"({o.how}; applied)"
         for o in offsets
     ]
-    return _measured_noise(path, recs, geometry, robot, route, physical_track_m, notes)
+    gyro_recs: Sequence[Recording] = ()
+    if route == "gyro":  # the gyro heading of the bag's runs as the differential route reads them
+        from ..io.recordings import load_recordings
+
+        try:
+            gyro_recs = load_recordings([path], ran_with=robot.believed_geometry)
+        except (CalibrationError, ModelError, InputError):
+            gyro_recs = ()
+    return _measured_noise(
+        path, recs, geometry, robot, route, physical_track_m, notes, gyro_recs=gyro_recs
+    )
 
 
 def _measured_noise(
@@ -443,9 +453,11 @@ def _measured_noise(
     route: Route,
     physical_track_m: float | None,
     notes: list[str],
+    *,
+    gyro_recs: Sequence[Recording] | None = None,
 ) -> tuple[RouteNoise, list[str], WheelGeometry]:
     """The rest of :func:`_noise_from_bag`: a fitted ``geometry`` of another robot refused, the
-    noise measured from the runs ``recs``."""
+    noise measured from the runs ``recs`` (the gyro's from ``gyro_recs``, default ``recs``)."""
     said = _other_robot(geometry, robot.nominal, physical_track_m)
     if said:
         raise InputError(
@@ -467,7 +479,9 @@ def _measured_noise(
     gyro = base.gyro
     if route == "gyro":
         pose = base.pose
-        measured_gyro = _gyro_noise(recs, robot.believed_geometry)
+        measured_gyro = _gyro_noise(
+            recs if gyro_recs is None else gyro_recs, robot.believed_geometry
+        )
         if measured_gyro is None:
             notes.append(
                 f"--noise-from {Path(path).name}: no gyro heading with still periods of 2 s or "
