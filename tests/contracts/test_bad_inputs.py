@@ -414,6 +414,9 @@ def test_a_run_in_which_the_robot_never_moves_is_refused_before_any_output(cli, 
         ["fit", still, "--method", "linear", "--out", out],
         ["check", still],
         ["noise", still, _still_run_csv(tmp_path / "still2.csv"), "--robot", robot],
+        # design took the fit of a still run (its start) as the robot, a RuntimeWarning leaking
+        ["design", "--route", "trajectory", "--duration", "40", "--noise-from", still],
+        ["plan", "--route", "trajectory", "--duration", "40", "--noise-from", still, "--out", out],
     ):
         assert_error(cli(*argv), "still", "never moves")
     assert not out.exists() and leftovers(tmp_path) == []
@@ -508,3 +511,20 @@ def test_skid_steer_check_of_a_log_the_fit_refuses_is_not_enough(cli, tmp_path):
     refused = [g for g in json.loads(out)["degeneracies"] if g["code"] == "skid-fit-refused"]
     assert refused and refused[0]["severity"] == "blind"
     assert "intervals with motion" in refused[0]["message"]
+
+
+def test_noise_from_a_run_that_never_turns_is_refused(cli, tmp_path):
+    """design --route --noise-from a straight-only run took its trajectory fit (b unseen; fit
+    refuses the run) as the design's true robot, exit 0."""
+    from odocal.core.tracks import Track, straight
+    from tests.support.bag_files import make_run, write_bag
+
+    line = write_bag(tmp_path / "line.bag", "ros1", make_run(Track("line", (straight(3.0),))))
+    robot = write(tmp_path / "r.yaml", "wheel_diameter_m: 0.2\nwheelbase_m: 0.5\n")
+    out = tmp_path / "cmd.csv"
+    for argv in (
+        ["design", "--route", "trajectory", "--duration", "40", "--robot", robot],
+        ["plan", "--route", "trajectory", "--duration", "40", "--robot", robot, "--out", out],
+    ):
+        assert_error(cli(*argv, "--noise-from", line), "line.bag", "never b")
+    assert not out.exists()

@@ -43,7 +43,7 @@ from ..design.route import (
 )
 from ..errors import CalibrationError, InputError, ModelError
 from ..io.outputs import OutputPlan
-from .common import RobotSpec, input_paths, resolve_robot, robot_label
+from .common import RobotSpec, input_paths, refuse_still_runs, resolve_robot, robot_label
 from .text import Presented, Text, emits_warnings, written_lines
 
 __all__ = ["RouteDesignRun", "design_for_route", "parse_target", "polygon_validation"]
@@ -392,6 +392,10 @@ def _noise_from_bag(
                 "nothing written"
             )
     recs = [r for r in recs if r.ground_truth is not None]
+    try:
+        refuse_still_runs(recs)  # a fit of it returns the start: no geometry, no noise
+    except InputError as e:
+        raise InputError(f"--noise-from {path}: {e}") from None
     if not recs:
         raise InputError(
             f"--noise-from {path}: no ground truth (a tracker, SLAM or scan pose) to measure the "
@@ -401,6 +405,16 @@ def _noise_from_bag(
         fit = fit_trajectory(recs, nominal=robot.nominal)
     except CalibrationError as e:
         raise InputError(f"--noise-from {path}: the trajectory fit failed: {e}") from None
+    from .check import check_loaded
+
+    # what 'fit' refuses (only straight lines: b anywhere) is no geometry for the design's truth
+    blind = check_loaded(recs, fit.geometry, robot).check.degeneracies
+    found = [g.message for g in blind if g.severity == "blind"]
+    if found:
+        raise InputError(
+            f"--noise-from {path}: the run cannot show the robot's geometry: {found[0]}; "
+            "nothing written"
+        )
     return _measured_noise(path, recs, fit.geometry, robot, route, physical_track_m, notes)
 
 
