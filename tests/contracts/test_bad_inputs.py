@@ -404,7 +404,7 @@ def _still_run_csv(path: Path) -> Path:
 def test_a_run_in_which_the_robot_never_moves_is_refused_before_any_output(cli, tmp_path):
     """Issue #20: check and fit printed a traceback (None * 100) and fit had already written
     PARAMS.yaml; noise divided by zero."""
-    from tests.support.boundary_files import ROBOT_YAML
+    from tests.support.boundary_files import PARAMS_YAML, ROBOT_YAML
 
     still = _still_run_csv(tmp_path / "still.csv")
     robot = write(tmp_path / "robot.yaml", ROBOT_YAML)
@@ -413,6 +413,7 @@ def test_a_run_in_which_the_robot_never_moves_is_refused_before_any_output(cli, 
         ["fit", still, "--out", out],
         ["fit", still, "--method", "linear", "--out", out],
         ["check", still],
+        ["validate", still, "--params", write(tmp_path / "p.yaml", PARAMS_YAML)],  # was 0 mm
         ["noise", still, _still_run_csv(tmp_path / "still2.csv"), "--robot", robot],
         # design took the fit of a still run (its start) as the robot, a RuntimeWarning leaking
         ["design", "--route", "trajectory", "--duration", "40", "--noise-from", still],
