@@ -147,6 +147,9 @@ def test_noise_from_another_robot_is_refused(cli, tmp_path):
         (("--route", "trajectory", "--target-std-error", "wheelbase=0.2"), ("a length needs",)),
         (("--route", "trajectory", "--target-std-error", "speed=1%"), ("NAME=VALUE",)),
         (("--route", "trajectory", "--duration", "-5"), ("--duration",)),
+        # the message quoted rad/sqrt(s) under the deg/sqrt(h) flag; 1e9 was designed for
+        (("--route", "gyro", "--gyro-arw-deg-per-sqrt-h", "-5"), ("got -5",)),
+        (("--route", "gyro", "--gyro-arw-deg-per-sqrt-h", "1e9"), ("at most 100", "got 1e+09")),
         (("--route", "trajectory", "--sides", "5"), ("--sides", "only without --route")),
         (("--target-std-error", "wheelbase=1%"), ("only with --route",)),
     ],

@@ -56,6 +56,8 @@ SKID_DIAMETER_FRACTION = 0.35
 #: A --validate command file must drive at least this far (m): the predicted drift is per
 #: distance, over pieces of 1 m of path at the least (a spin in place has no piece).
 MIN_VALIDATION_M = 2.0
+#: The largest angle random walk (deg/sqrt(h)) taken for a gyro: beyond it a unit slip.
+MAX_GYRO_ARW_DEG_SQRT_H = 100.0
 
 _TARGET = re.compile(r"^\s*([a-z_]+)\s*=\s*([0-9.eE+-]+)\s*(%|mm|m)?\s*$")
 
@@ -353,8 +355,13 @@ def _stated(
     if arw is not None:
         if route != "gyro":
             raise InputError("--gyro-arw-deg-per-sqrt-h: only with --route gyro")
-        if not (math.isfinite(arw) and arw > 0):
-            raise InputError(f"--gyro-arw-deg-per-sqrt-h must be > 0, got {arw!r}")
+        deg_h = math.degrees(arw) * 60.0  # the flag's unit, deg/sqrt(h)
+        if not (math.isfinite(arw) and arw > 0 and deg_h <= MAX_GYRO_ARW_DEG_SQRT_H):
+            raise InputError(
+                f"--gyro-arw-deg-per-sqrt-h must be > 0 and at most "
+                f"{MAX_GYRO_ARW_DEG_SQRT_H:g} deg/sqrt(h) (a MEMS gyro's is about 0.1-10), "
+                f"got {deg_h:.6g}"
+            )
         noise = dataclasses.replace(noise, gyro=dataclasses.replace(noise.gyro, arw_rad_sqrt_s=arw))
         said.append("gyro random walk stated")
     if not said:
