@@ -170,6 +170,12 @@ def test_plan_route_bad_input_writes_nothing(cli, tmp_path):
     cli("plan", "--route", "gyro", *FAST, "--out", keep).expect_error("not a command file")
     assert keep.read_text() == "a,b\n1,2\n"
     cli("plan", "--duration", "30").expect_error("only with --route")
+    # 1e8 trials: a MemoryError traceback after the candidates' predictions
+    cli("plan", "--route", "gyro", "--trials", "100000000", "--out", out).expect_error(
+        "--trials", "2 to 2000", "got 100000000"
+    )
+    cli("design", "--route", "trajectory", "--trials", "2001").expect_error("2 to 2000")
+    assert not out.exists()
 
 
 def test_plan_route_out_is_never_its_validation_file(cli, tmp_path):

@@ -58,6 +58,8 @@ SKID_DIAMETER_FRACTION = 0.35
 MIN_VALIDATION_M = 2.0
 #: The largest angle random walk (deg/sqrt(h)) taken for a gyro: beyond it a unit slip.
 MAX_GYRO_ARW_DEG_SQRT_H = 100.0
+#: The most Monte Carlo trials per confirmed candidate (more ran out of memory: a traceback).
+MAX_ROUTE_TRIALS = 2000
 
 _TARGET = re.compile(r"^\s*([a-z_]+)\s*=\s*([0-9.eE+-]+)\s*(%|mm|m)?\s*$")
 
@@ -556,6 +558,11 @@ def design_for_route(
         raise InputError(problem)
     if duration_s is not None and not (math.isfinite(duration_s) and 0 < duration_s <= 3600):
         raise InputError(f"--duration must be > 0 and at most 3600 s, got {duration_s!r}")
+    if not 2 <= trials <= MAX_ROUTE_TRIALS:
+        raise InputError(
+            f"--trials with --route must be 2 to {MAX_ROUTE_TRIALS} (each trial simulates and "
+            f"calibrates a whole recording: 5000 took 3.5 GB and 97 s), got {trials}"
+        )
     read = [noise_from] if noise_from else []
     if isinstance(validate, (str, Path)):
         read.append(validate)
