@@ -160,7 +160,7 @@ def test_design_route_bad_inputs(cli, tmp_path, args, needles):
     assert not plot.exists()
 
 
-def test_plan_route_bad_input_writes_nothing(cli, tmp_path):
+def test_plan_route_bad_input_writes_nothing(cli, tmp_path, monkeypatch):
     out = tmp_path / "cmd.csv"
     cli("plan", "--route", "gyro", "--target-std-error", "wheel_diameter=1%", "--out", out
         ).expect_error("not observable")  # fmt: skip
@@ -176,6 +176,10 @@ def test_plan_route_bad_input_writes_nothing(cli, tmp_path):
     )
     cli("design", "--route", "trajectory", "--trials", "2001").expect_error("2 to 2000")
     assert not out.exists()
+    # an empty --out wrote the default route-commands.csv into the working folder
+    monkeypatch.chdir(tmp_path)
+    cli("plan", "--route", "gyro", *FAST, "--out", "").expect_error("--out", "empty output name")
+    assert not (tmp_path / "route-commands.csv").exists()
 
 
 def test_plan_route_out_is_never_its_validation_file(cli, tmp_path):
