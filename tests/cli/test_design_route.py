@@ -151,6 +151,10 @@ def test_noise_from_another_robot_is_refused(cli, tmp_path):
         (("--route", "gyro", "--gyro-arw-deg-per-sqrt-h", "-5"), ("got -5",)),
         (("--route", "gyro", "--gyro-arw-deg-per-sqrt-h", "1e9"), ("at most 100", "got 1e+09")),
         (("--route", "trajectory", "--sides", "5"), ("--sides", "only without --route")),
+        # the polygon rule's flags with defaults were ignored without a word
+        (("--route", "trajectory", "--criterion", "residual", "--alpha", "0.5"),
+         ("--alpha, --criterion", "only without --route")),
+        (("--route", "gyro", "--method", "umbmark"), ("--method", "only without --route")),
         (("--target-std-error", "wheelbase=1%"), ("only with --route",)),
     ],
 )  # fmt: skip
@@ -176,6 +180,10 @@ def test_plan_route_bad_input_writes_nothing(cli, tmp_path, monkeypatch):
     )
     cli("design", "--route", "trajectory", "--trials", "2001").expect_error("2 to 2000")
     assert not out.exists()
+    for polygon in (("--sides", "5"), ("--side-length", "3"), ("--runs-per-direction", "3")):
+        cli("plan", "--route", "gyro", *polygon, "--out", out).expect_error(
+            polygon[0], "only without --route"
+        )  # were ignored without a word
     # an empty --out wrote the default route-commands.csv into the working folder
     monkeypatch.chdir(tmp_path)
     cli("plan", "--route", "gyro", *FAST, "--out", "").expect_error("--out", "empty output name")

@@ -124,6 +124,18 @@ def _run_route(args) -> int:
 
     if args.track is not None:
         raise InputError("--track: only without --route")
+    # the polygon's flags (were ignored without a word)
+    polygon = [
+        flag
+        for flag, given in (
+            ("--sides", args.sides != 4),
+            ("--side-length", args.side_length is not None),
+            ("--runs-per-direction", args.runs_per_direction is not None),
+        )
+        if given
+    ]
+    if polygon:
+        raise InputError(f"{', '.join(polygon)}: only without --route (a polygon plan)")
     v = args.validate
     bar = ProgressBar("odocal plan --route", enabled=not (args.quiet or args.json))
     try:
