@@ -529,3 +529,33 @@ def test_noise_from_a_run_that_never_turns_is_refused(cli, tmp_path):
     ):
         assert_error(cli(*argv, "--noise-from", line), "line.bag", "never b")
     assert not out.exists()
+
+
+def test_skid_steer_fit_uses_a_given_truth_offset_and_refuses_the_differential_settings(
+    cli, tmp_path
+):
+    """fit --kinematics skid-steer ignored --time-offset truth=S (it estimated its own) and the
+    trajectory fit's --exclude, --drop-outliers, --residual ... without a word."""
+    from odocal.core.skid_steer import SkidSteerModel
+    from tests.support.bag_files import BagWriter
+    from tests.support.skid_robot import simulate_skid_log
+
+    true = SkidSteerModel(0.3 * 0.96, 0.3 * 0.95, 1.08 * 1.65 / 2, -1.08 * 1.65 / 2)
+    log = simulate_skid_log(true, np.random.default_rng(3), duration_s=90.0,
+                            max_rate_rad_s=2.0, offset_s=0.3)  # fmt: skip
+    bag = tmp_path / "skid.bag"
+    with BagWriter(bag, "ros1") as w:
+        for t, r, left in zip(log.time_s, log.angle_right_rad, log.angle_left_rad, strict=True):
+            w.joints("/joint_states", 10 + t, ("left_wheel_joint", "right_wheel_joint"), [left, r])
+        for t, (x, y, yaw) in zip(log.truth_time_s, log.truth_pose, strict=True):
+            w.pose_stamped("/mocap/pose", 10 + t, x, y, yaw)
+    robot = write(tmp_path / "r.yaml", "wheel_diameter_m: 0.6\nwheelbase_m: 1.08\n")
+    argv = ("fit", bag, "--robot", robot, "--kinematics", "skid-steer", "--json")
+    status, out, err = cli(*argv, "--time-offset", "truth=0.25")
+    assert status == 0, err
+    (offset,) = json.loads(out)["time_offsets"]
+    assert offset["offset_s"] == 0.25 and offset["how"] == "given"
+    ros2 = tmp_path / "ros2.yaml"
+    for extra in (("--exclude", "x"), ("--drop-outliers",), ("--residual", "segment")):
+        assert_error(cli(*argv, *extra, "--ros2", ros2), "skid-steer", "not used")
+    assert not ros2.exists()

@@ -294,6 +294,14 @@ def fit(
     (:func:`odocal.app.fit_runs_auto.fit_runs_auto`)."""
     paths = expand_folders([paths] if isinstance(paths, (str, Path)) else list(paths))
     if kinematics_of(kinematics, robot) == "skid-steer":
+        if settings not in (None, DEFAULT_TRAJECTORY) or squares not in (None, DEFAULT_SQUARES):
+            # --residual, --exclude, --drop-outliers ... were ignored without a word
+            raise InputError(
+                "--kinematics skid-steer fits its own models: the differential fits' settings "
+                "(--residual, --exclude, --drop-outliers, --side-length ...) are not used by it"
+            )
+        if truth_frames is not None:
+            raise InputError("--truth-frames is not used by the skid-steer fit (a truth topic is)")
         return _fit_skid(paths, method, robot, bag, ticks_per_rev, out, ros2, controller_name,
                          plot, robot_out, force, scan_interval_s)  # fmt: skip
     if method == "auto" and paths and not all(is_bag(p) for p in paths):

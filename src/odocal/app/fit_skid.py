@@ -232,10 +232,14 @@ class SkidFitResult(Presented):
         }
 
 
-def truth_offsets(logs: Sequence[SkidLog]) -> tuple[TimeOffset, ...]:
-    """Each log's truth clock offset (0, with the reason, where it cannot be estimated)."""
+def truth_offsets(logs: Sequence[SkidLog], given_s: float | None = None) -> tuple[TimeOffset, ...]:
+    """Each log's truth clock offset (0, with the reason, where it cannot be estimated);
+    ``given_s`` (``--time-offset truth=S``): that one for every log, not estimated."""
     out = []
     for log in logs:
+        if given_s is not None:
+            out.append(replace(TimeOffset.given("truth", given_s), part=log.name))
+            continue
         try:
             out.append(truth_clock_offset(log))
         except CalibrationError as exc:
@@ -359,14 +363,16 @@ def skid_fit(
     *,
     force: bool = False,
     candidates: Sequence[Candidate] = CANDIDATES,
+    truth_offset_s: float | None = None,
 ) -> SkidFitResult:
     """The skid-steer route, I/O-free (module docstring). An answer that is no plausible
-    skid-steer robot is a CalibrationError unless ``force`` (then a reason)."""
+    skid-steer robot is a CalibrationError unless ``force`` (then a reason).
+    ``truth_offset_s``: the truth's clock offset as given (else estimated per log)."""
     if not logs:
         raise InputError("no recording to fit")
     nominal = robot.nominal
     _refuse_no_turning(logs, nominal)
-    offsets = truth_offsets(logs)
+    offsets = truth_offsets(logs, truth_offset_s)
     fit, _ = fit_skid_logs(logs, nominal, EXPORTED[0], offsets=offsets, wheel_scales=EXPORTED[1])
     reasons = _plausibility(fit, nominal)
     if reasons and not force:
@@ -480,7 +486,7 @@ def fit_skid_bags(
         )
     loaded_robot = load_robot(robot)
     logs = read_skid_logs(paths, bag, loaded_robot, ticks_per_rev)
-    res = skid_fit(logs, loaded_robot, force=force)
+    res = skid_fit(logs, loaded_robot, force=force, truth_offset_s=bag.time_offset("truth"))
     if res.reasons and not force and (exports.out or exports.ros2):
         return res
     files: dict[Path, Any] = {}
