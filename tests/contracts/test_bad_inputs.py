@@ -531,11 +531,12 @@ def test_noise_from_a_run_that_never_turns_is_refused(cli, tmp_path):
     assert not out.exists()
 
 
-def test_skid_steer_fit_uses_a_given_truth_offset_and_refuses_the_differential_settings(
+def test_skid_steer_routes_use_a_given_truth_offset_and_refuse_the_differential_settings(
     cli, tmp_path
 ):
-    """fit --kinematics skid-steer ignored --time-offset truth=S (it estimated its own) and the
-    trajectory fit's --exclude, --drop-outliers, --residual ... without a word."""
+    """fit, validate and check --kinematics skid-steer ignored --time-offset truth=S (each
+    estimated its own) and fit the trajectory fit's --exclude, --drop-outliers, --residual ...
+    without a word."""
     from odocal.core.skid_steer import SkidSteerModel
     from tests.support.bag_files import BagWriter
     from tests.support.skid_robot import simulate_skid_log
@@ -555,6 +556,17 @@ def test_skid_steer_fit_uses_a_given_truth_offset_and_refuses_the_differential_s
     assert status == 0, err
     (offset,) = json.loads(out)["time_offsets"]
     assert offset["offset_s"] == 0.25 and offset["how"] == "given"
+    # validate and check ignored it too
+    params = write(tmp_path / "p.yaml", "wheel_diameter_right_m: 0.576\n"
+                   "wheel_diameter_left_m: 0.57\nwheelbase_m: 1.78\n")  # fmt: skip
+    given = ("--robot", robot, "--kinematics", "skid-steer", "--time-offset", "truth=0.25")
+    status, out, err = cli("validate", bag, "--params", params, *given, "--json")
+    assert status == 0, err
+    (offset,) = json.loads(out)["time_offsets"]
+    assert offset["offset_s"] == 0.25 and offset["how"] == "given"
+    status, out, err = cli("check", bag, *given, "--json")
+    assert status in (0, 3), err
+    assert any("+0.2500 s (given" in n for n in json.loads(out)["notes"])
     ros2 = tmp_path / "ros2.yaml"
     for extra in (("--exclude", "x"), ("--drop-outliers",), ("--residual", "segment")):
         assert_error(cli(*argv, *extra, "--ros2", ros2), "skid-steer", "not used")

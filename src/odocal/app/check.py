@@ -347,7 +347,9 @@ def _curve_note(
     )
 
 
-def check_skid_logs(logs: Sequence[SkidLog], robot: Robot) -> CheckResult:
+def check_skid_logs(
+    logs: Sequence[SkidLog], robot: Robot, truth_offset_s: float | None = None
+) -> CheckResult:
     """The check of skid-steer logs already read (``check BAG... --kinematics skid-steer``).
 
     A skid-steer robot's random error is its slip, not its wheels' noise, and a stated ``k``
@@ -363,7 +365,7 @@ def check_skid_logs(logs: Sequence[SkidLog], robot: Robot) -> CheckResult:
     if not logs:
         raise InputError("no recording to check")
     nominal = robot.nominal
-    recordings, offsets = skid_recordings(logs)
+    recordings, offsets = skid_recordings(logs, truth_offset_s)
     geometry, cov, why = _skid_covariance(logs, nominal, offsets)
     stated = "the motion's findings at the stated noise (a skid-steer log's own is its slip)"
     res = check_loaded(
@@ -409,4 +411,5 @@ def check_skid(
             "--kinematics skid-steer needs the robot file (--robot ROBOT.yaml): the nominal "
             "wheel diameter and wheelbase the effective track is relative to"
         )
-    return check_skid_logs(read_skid_logs(paths, bag, robot, ticks_per_rev), robot)
+    logs = read_skid_logs(paths, bag, robot, ticks_per_rev)
+    return check_skid_logs(logs, robot, bag.time_offset("truth"))

@@ -247,13 +247,15 @@ def truth_offsets(logs: Sequence[SkidLog], given_s: float | None = None) -> tupl
     return tuple(out)
 
 
-def skid_recordings(logs: Sequence[SkidLog]) -> tuple[list[Recording], tuple[TimeOffset, ...]]:
+def skid_recordings(
+    logs: Sequence[SkidLog], truth_offset_s: float | None = None
+) -> tuple[list[Recording], tuple[TimeOffset, ...]]:
     """Each log as a wheel-rate recording with its truth on the wheels' clock
     (:func:`~odocal.calibration.skid_steer.skid_recording`, its offset estimated as the fit
     estimates it), and those offsets (named after their bags); a truth that no longer overlaps
     the wheels once shifted is an InputError."""
     recordings, offsets = [], []
-    for log, offset in zip(logs, truth_offsets(logs), strict=True):
+    for log, offset in zip(logs, truth_offsets(logs, truth_offset_s), strict=True):
         offset = replace(offset, part=Path(log.name).name)
         try:
             recordings.append(skid_recording(log, offset))

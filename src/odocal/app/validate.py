@@ -335,7 +335,7 @@ def _load_skid(
             field="truth-frames",
         )
     logs = read_skid_logs(paths, bag, load_robot(robot) if robot else None, ticks_per_rev)
-    return skid_recordings(logs)
+    return skid_recordings(logs, bag.time_offset("truth"))
 
 
 def _tum_files(
