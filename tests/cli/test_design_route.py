@@ -377,3 +377,18 @@ def test_noise_from_a_skid_steer_bag_is_fitted_as_fit_skid_steer_fits_it(cli, tm
     assert g["wheel_diameter_left_m"] == pytest.approx(0.6 * 0.95, rel=0.01)
     offset = [n for n in d["notes"] if "clock offset of the truth" in n]
     assert offset and re.search(r"\+0\.[23]\d* s", offset[0])
+
+
+def test_plan_route_says_what_the_design_assumed(cli, tmp_path):
+    """plan --route dropped the design's notes: a tracked robot without a multiplier was planned
+    for its physical track without a word (design says so)."""
+    robot = tmp_path / "tracked.yaml"
+    robot.write_text("wheel_diameter_m: 0.15\nwheelbase_m: 0.35\nkinematics: tracked\n")
+    out = tmp_path / "cmd.csv"
+    args = ("plan", "--route", "trajectory", *FAST, "--robot", robot, "--out", out)
+    status, text, err = cli(*args)
+    assert status == 0, err
+    assert "note: skid-steer without a wheel_separation_multiplier" in text
+    status, text, err = cli(*args, "--json")
+    assert status == 0, err
+    assert any("without a wheel_separation_multiplier" in n for n in json.loads(text)["notes"])

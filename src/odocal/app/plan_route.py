@@ -82,6 +82,7 @@ class RoutePlan(Presented):
             "recommended": self.design.as_dict()["recommended"],
             "seed": self.design.seed,
             "robot": self.design.robot,
+            "notes": list(self.design.notes),  # the design's caveats (were dropped)
         }
 
     def text(self) -> str:
@@ -91,6 +92,8 @@ class RoutePlan(Presented):
         out = Text()
         out(f"Recording protocol for the {d.route} route ({self.design.robot})")
         out(f"  {rec.label}, {rec.duration_s:.0f} s: {d.reason}")
+        for note in self.design.notes:  # the design's caveats: what it assumed of the robot
+            out(f"  note: {note}")
         out()
         out("Before you start:")
         if d.route == "gyro":
