@@ -109,6 +109,28 @@ def test_groups_that_agree_and_groups_that_do_not():
     assert group_consistency(jac, res, est, groups, subs2) is None
 
 
+@pytest.mark.filterwarnings("error::RuntimeWarning")
+def test_a_group_that_cannot_pin_a_parameter_is_left_out_of_the_own_covariance_check():
+    """pooled=False: a group whose two columns are equal to 1e-12 (its J^T J near singular) got
+    a negative variance, and numpy's "invalid value in sqrt" leaked onto design --route scan's
+    stderr; the group is left out as a singular one is."""
+    from odocal.calibration.robust_covariance import group_consistency
+
+    rng = np.random.default_rng(0)
+    good = rng.standard_normal((120, 3))  # groups 0 and 1: six subclusters each
+    a = rng.standard_normal(40)
+    bad = np.column_stack([a, a * (1 + 1e-12) + 1e-15 * rng.standard_normal(40),
+                           rng.standard_normal(40)])  # fmt: skip
+    jac = np.vstack([good, bad])
+    res = 0.1 * rng.standard_normal(160)
+    est = np.zeros(3)
+    groups = np.repeat([0, 1, 2], [60, 60, 40])
+    subs = np.concatenate([np.repeat(np.arange(12), 10), 100 + np.repeat(np.arange(4), 10)])
+    c = group_consistency(jac, res, est, groups, subs, pooled=False)
+    assert c is not None and c.groups == ("0", "1")
+    assert np.all(np.isfinite(c.stderr))
+
+
 def test_groups_far_apart_are_inconsistent_whatever_their_number_of_subclusters():
     # each group's variance from residuals at its own estimate: taken at the pooled ones (the
     # bug this catches) it grew with the disagreement and Q stayed below about 2 (G_s - 1), so

@@ -188,6 +188,19 @@ def test_a_log_that_is_enough_gets_the_top_up_that_halves_its_weakest_parameter(
     assert "halves the wheelbase b's standard error" in top.sentence()
 
 
+def test_a_log_that_is_enough_but_flagged_is_not_told_the_top_up_makes_it_enough():
+    """check printed "enough" and then "adding ... makes the log enough" for a log with a weak
+    finding only (turning one way): the sentence says what the addition does to such a log."""
+    one_way = [recorded(T.polygon(4, 1.0, "ccw"))[0]]
+    info = log_information(one_way, NOMINAL, noise=NOISE)
+    chk = judge(info, one_way)
+    assert chk.ok and chk.degeneracies  # enough, with something flagged
+    top = find_top_up(info, chk, one_way)
+    assert top.goal == "enough" and top.log_ok
+    assert "makes the log enough" not in top.sentence()
+    assert "enough already" in top.sentence()
+
+
 def _measured(gt: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """True poses (runs, K, 3) seen by the tracker (white noise) and re-expressed in each run's
     measured start frame."""

@@ -147,7 +147,14 @@ def test_noise_from_another_robot_is_refused(cli, tmp_path):
         (("--route", "trajectory", "--target-std-error", "wheelbase=0.2"), ("a length needs",)),
         (("--route", "trajectory", "--target-std-error", "speed=1%"), ("NAME=VALUE",)),
         (("--route", "trajectory", "--duration", "-5"), ("--duration",)),
+        # the message quoted rad/sqrt(s) under the deg/sqrt(h) flag; 1e9 was designed for
+        (("--route", "gyro", "--gyro-arw-deg-per-sqrt-h", "-5"), ("got -5",)),
+        (("--route", "gyro", "--gyro-arw-deg-per-sqrt-h", "1e9"), ("at most 100", "got 1e+09")),
         (("--route", "trajectory", "--sides", "5"), ("--sides", "only without --route")),
+        # the polygon rule's flags with defaults were ignored without a word
+        (("--route", "trajectory", "--criterion", "residual", "--alpha", "0.5"),
+         ("--alpha, --criterion", "only without --route")),
+        (("--route", "gyro", "--method", "umbmark"), ("--method", "only without --route")),
         (("--target-std-error", "wheelbase=1%"), ("only with --route",)),
     ],
 )  # fmt: skip
@@ -157,7 +164,7 @@ def test_design_route_bad_inputs(cli, tmp_path, args, needles):
     assert not plot.exists()
 
 
-def test_plan_route_bad_input_writes_nothing(cli, tmp_path):
+def test_plan_route_bad_input_writes_nothing(cli, tmp_path, monkeypatch):
     out = tmp_path / "cmd.csv"
     cli("plan", "--route", "gyro", "--target-std-error", "wheel_diameter=1%", "--out", out
         ).expect_error("not observable")  # fmt: skip
@@ -167,6 +174,31 @@ def test_plan_route_bad_input_writes_nothing(cli, tmp_path):
     cli("plan", "--route", "gyro", *FAST, "--out", keep).expect_error("not a command file")
     assert keep.read_text() == "a,b\n1,2\n"
     cli("plan", "--duration", "30").expect_error("only with --route")
+    # 1e8 trials: a MemoryError traceback after the candidates' predictions
+    cli("plan", "--route", "gyro", "--trials", "100000000", "--out", out).expect_error(
+        "--trials", "2 to 2000", "got 100000000"
+    )
+    cli("design", "--route", "trajectory", "--trials", "2001").expect_error("2 to 2000")
+    assert not out.exists()
+    for polygon in (("--sides", "5"), ("--side-length", "3"), ("--runs-per-direction", "3")):
+        cli("plan", "--route", "gyro", *polygon, "--out", out).expect_error(
+            polygon[0], "only without --route"
+        )  # were ignored without a word
+    # an empty --out wrote the default route-commands.csv into the working folder
+    monkeypatch.chdir(tmp_path)
+    cli("plan", "--route", "gyro", *FAST, "--out", "").expect_error("--out", "empty output name")
+    assert not (tmp_path / "route-commands.csv").exists()
+
+
+def test_plan_route_out_is_never_its_validation_file(cli, tmp_path):
+    # the command file driven as --validate was replaced by the new plan (exit 0)
+    drive = tmp_path / "drive.csv"
+    text = "t,v,omega\n0,0.3,0\n20,0,0\n"
+    drive.write_text(text)
+    for force in ((), ("--force",)):
+        cli("plan", "--route", "gyro", *FAST, "--validate", drive, "--out", drive, *force
+            ).expect_error("drive.csv", "overwrite an input")  # fmt: skip
+        assert drive.read_text() == text
 
 
 def _commands(path):
@@ -204,6 +236,9 @@ def test_a_planned_command_file_is_a_validation_driving(cli, tmp_path):
         ("t,v\n0,0.3\n2,0\n", ("omega",)),
         ("t,v,omega\n0,0,0\n2,0,0\n", ("never move",)),
         ("t,v,omega\n0,0.1,0\n4000,0,0\n", ("more than the model simulates",)),
+        # a spin in place, a drive shorter than a piece: no drift per distance (was a traceback)
+        ("t,v,omega\n0,0,0.5\n100,0,0\n", ("drive 0 m", "per distance")),
+        ("t,v,omega\n0,0.3,0\n0.5,0,0\n", ("drive 0.15 m", "per distance")),
     ],
 )  # fmt: skip
 def test_a_validation_the_model_cannot_simulate_is_refused(cli, tmp_path, body, needles):
@@ -330,3 +365,49 @@ def test_a_skid_steer_design_assumes_a_skid_steer_robot_s_slip(cli, tmp_path):
     assert status == 0, err
     diff_se = json.loads(out)["recommended"]["predicted_std_error"]["wheelbase"]
     assert skid_se > 5 * diff_se
+
+
+def test_noise_from_a_skid_steer_bag_is_fitted_as_fit_skid_steer_fits_it(cli, tmp_path):
+    """--kinematics skid-steer --noise-from BAG: the differential trajectory fit of a skidding
+    robot's truth stamped 0.3 s late said "non-physical result ... wheels may be swapped" (on the
+    real Warthog too, or wheels 50 % apart); the skid-steer fit recovers the robot."""
+    from odocal.core.skid_steer import SkidSteerModel
+    from tests.support.bag_files import BagWriter
+    from tests.support.skid_robot import simulate_skid_log
+
+    true = SkidSteerModel(0.3 * 0.96, 0.3 * 0.95, 1.08 * 1.65 / 2, -1.08 * 1.65 / 2)
+    log = simulate_skid_log(true, np.random.default_rng(3), duration_s=90.0,
+                            max_rate_rad_s=2.0, offset_s=0.3)  # fmt: skip
+    bag = tmp_path / "skid.bag"
+    with BagWriter(bag, "ros1") as w:
+        for t, r, left in zip(log.time_s, log.angle_right_rad, log.angle_left_rad, strict=True):
+            w.joints("/joint_states", 10 + t, ("left_wheel_joint", "right_wheel_joint"), [left, r])
+        for t, (x, y, yaw) in zip(log.truth_time_s, log.truth_pose, strict=True):
+            w.pose_stamped("/mocap/pose", 10 + t, x, y, yaw)
+    robot = tmp_path / "r.yaml"
+    robot.write_text("wheel_diameter_m: 0.6\nwheelbase_m: 1.08\nkinematics: skid_steer\n")
+    args = ("--duration", "150", "--trials", "20", "--quiet", "--robot", robot, "--json")
+    status, out, err = cli("design", "--route", "trajectory", *args, "--noise-from", bag)
+    assert status == 0, err
+    d = json.loads(out)
+    g = d["geometry_assumed"]["true"]
+    assert g["wheelbase_m"] == pytest.approx(1.08 * 1.65, rel=0.01)
+    assert g["wheel_diameter_right_m"] == pytest.approx(0.6 * 0.96, rel=0.01)
+    assert g["wheel_diameter_left_m"] == pytest.approx(0.6 * 0.95, rel=0.01)
+    offset = [n for n in d["notes"] if "clock offset of the truth" in n]
+    assert offset and re.search(r"\+0\.[23]\d* s", offset[0])
+
+
+def test_plan_route_says_what_the_design_assumed(cli, tmp_path):
+    """plan --route dropped the design's notes: a tracked robot without a multiplier was planned
+    for its physical track without a word (design says so)."""
+    robot = tmp_path / "tracked.yaml"
+    robot.write_text("wheel_diameter_m: 0.15\nwheelbase_m: 0.35\nkinematics: tracked\n")
+    out = tmp_path / "cmd.csv"
+    args = ("plan", "--route", "trajectory", *FAST, "--robot", robot, "--out", out)
+    status, text, err = cli(*args)
+    assert status == 0, err
+    assert "note: skid-steer without a wheel_separation_multiplier" in text
+    status, text, err = cli(*args, "--json")
+    assert status == 0, err
+    assert any("without a wheel_separation_multiplier" in n for n in json.loads(text)["notes"])

@@ -404,7 +404,7 @@ def _still_run_csv(path: Path) -> Path:
 def test_a_run_in_which_the_robot_never_moves_is_refused_before_any_output(cli, tmp_path):
     """Issue #20: check and fit printed a traceback (None * 100) and fit had already written
     PARAMS.yaml; noise divided by zero."""
-    from tests.support.boundary_files import ROBOT_YAML
+    from tests.support.boundary_files import PARAMS_YAML, ROBOT_YAML
 
     still = _still_run_csv(tmp_path / "still.csv")
     robot = write(tmp_path / "robot.yaml", ROBOT_YAML)
@@ -413,7 +413,11 @@ def test_a_run_in_which_the_robot_never_moves_is_refused_before_any_output(cli, 
         ["fit", still, "--out", out],
         ["fit", still, "--method", "linear", "--out", out],
         ["check", still],
+        ["validate", still, "--params", write(tmp_path / "p.yaml", PARAMS_YAML)],  # was 0 mm
         ["noise", still, _still_run_csv(tmp_path / "still2.csv"), "--robot", robot],
+        # design took the fit of a still run (its start) as the robot, a RuntimeWarning leaking
+        ["design", "--route", "trajectory", "--duration", "40", "--noise-from", still],
+        ["plan", "--route", "trajectory", "--duration", "40", "--noise-from", still, "--out", out],
     ):
         assert_error(cli(*argv), "still", "never moves")
     assert not out.exists() and leftovers(tmp_path) == []
@@ -474,3 +478,98 @@ def test_tuples_in_millimetres_are_refused_with_their_units(cli, tmp_path):
         assert_error(cli("fit", tuples, "--out", out, *extra), "units", "sm in metres")
     assert_error(cli("fit", tuples), "not a plausible robot", "wheels larger than 5 m")
     assert not out.exists()
+
+
+def test_skid_steer_gyro_fit_of_driving_too_straight_or_too_short(cli, tmp_path):
+    """fit --kinematics skid-steer --method gyro: a bag that never turns said "N gyro intervals:
+    too few to fit" (the truth route says the track cannot be seen without turning); a bag of
+    one 15 s block said "a cluster jackknife needs at least 2 clusters". Nothing written."""
+    from odocal.core.tracks import Track, straight
+    from tests.support.bag_files import TRACK, make_run, write_bag
+
+    robot = write(tmp_path / "r.yaml", "wheel_diameter_m: 0.2\nwheelbase_m: 0.5\n")
+    ros2 = tmp_path / "ros2.yaml"
+    argv = ("--robot", robot, "--kinematics", "skid-steer", "--method", "gyro", "--ros2", ros2)
+    line = write_bag(tmp_path / "line.bag", "ros1", make_run(Track("line", (straight(3.0),))))
+    assert_error(cli("fit", line, *argv), "turn 0 deg", "without turning")
+    short = write_bag(tmp_path / "short.bag", "ros1", make_run(TRACK))
+    assert_error(cli("fit", short, *argv), "one time block", "record at least 30 s")
+    assert not ros2.exists() and leftovers(tmp_path) == []
+
+
+def test_skid_steer_check_of_a_log_the_fit_refuses_is_not_enough(cli, tmp_path):
+    """check --kinematics skid-steer said "enough" (exit 0) for a 15 s log that fit refuses
+    ("needs 20 intervals with motion"): the verdict must be NOT enough, with the fit's reason."""
+    from tests.support.bag_files import TRACK, make_run, write_bag
+
+    robot = write(tmp_path / "r.yaml", "wheel_diameter_m: 0.2\nwheelbase_m: 0.5\n")
+    short = write_bag(tmp_path / "short.bag", "ros1", make_run(TRACK))
+    argv = ("--robot", robot, "--kinematics", "skid-steer")
+    fit = cli("fit", short, *argv)
+    assert fit[0] == 2 and "intervals with motion" in fit[2]
+    status, out, _ = cli("check", short, *argv, "--json")
+    assert status == 3
+    refused = [g for g in json.loads(out)["degeneracies"] if g["code"] == "skid-fit-refused"]
+    assert refused and refused[0]["severity"] == "blind"
+    assert "intervals with motion" in refused[0]["message"]
+
+
+def test_noise_from_a_run_that_never_turns_is_refused(cli, tmp_path):
+    """design --route --noise-from a straight-only run took its trajectory fit (b unseen; fit
+    refuses the run) as the design's true robot, exit 0."""
+    from odocal.core.tracks import Track, straight
+    from tests.support.bag_files import make_run, write_bag
+
+    line = write_bag(tmp_path / "line.bag", "ros1", make_run(Track("line", (straight(3.0),))))
+    robot = write(tmp_path / "r.yaml", "wheel_diameter_m: 0.2\nwheelbase_m: 0.5\n")
+    out = tmp_path / "cmd.csv"
+    for argv in (
+        ["design", "--route", "trajectory", "--duration", "40", "--robot", robot],
+        ["plan", "--route", "trajectory", "--duration", "40", "--robot", robot, "--out", out],
+    ):
+        assert_error(cli(*argv, "--noise-from", line), "line.bag", "never b")
+    assert not out.exists()
+
+
+def test_skid_steer_routes_use_a_given_truth_offset_and_refuse_the_differential_settings(
+    cli, tmp_path
+):
+    """fit, validate and check --kinematics skid-steer ignored --time-offset truth=S (each
+    estimated its own) and fit the trajectory fit's --exclude, --drop-outliers, --residual ...
+    without a word."""
+    from odocal.core.skid_steer import SkidSteerModel
+    from tests.support.bag_files import BagWriter
+    from tests.support.skid_robot import simulate_skid_log
+
+    true = SkidSteerModel(0.3 * 0.96, 0.3 * 0.95, 1.08 * 1.65 / 2, -1.08 * 1.65 / 2)
+    log = simulate_skid_log(true, np.random.default_rng(3), duration_s=90.0,
+                            max_rate_rad_s=2.0, offset_s=0.3)  # fmt: skip
+    bag = tmp_path / "skid.bag"
+    with BagWriter(bag, "ros1") as w:
+        for t, r, left in zip(log.time_s, log.angle_right_rad, log.angle_left_rad, strict=True):
+            w.joints("/joint_states", 10 + t, ("left_wheel_joint", "right_wheel_joint"), [left, r])
+        for t, (x, y, yaw) in zip(log.truth_time_s, log.truth_pose, strict=True):
+            w.pose_stamped("/mocap/pose", 10 + t, x, y, yaw)
+    robot = write(tmp_path / "r.yaml", "wheel_diameter_m: 0.6\nwheelbase_m: 1.08\n")
+    argv = ("fit", bag, "--robot", robot, "--kinematics", "skid-steer", "--json")
+    status, out, err = cli(*argv, "--time-offset", "truth=0.25")
+    assert status == 0, err
+    (offset,) = json.loads(out)["time_offsets"]
+    assert offset["offset_s"] == 0.25 and offset["how"] == "given"
+    # validate and check ignored it too
+    params = write(tmp_path / "p.yaml", "wheel_diameter_right_m: 0.576\n"
+                   "wheel_diameter_left_m: 0.57\nwheelbase_m: 1.78\n")  # fmt: skip
+    given = ("--robot", robot, "--kinematics", "skid-steer", "--time-offset", "truth=0.25")
+    status, out, err = cli("validate", bag, "--params", params, *given, "--json")
+    assert status == 0, err
+    (offset,) = json.loads(out)["time_offsets"]
+    assert offset["offset_s"] == 0.25 and offset["how"] == "given"
+    status, out, err = cli("check", bag, *given, "--json")
+    assert status in (0, 3), err
+    assert any("+0.2500 s (given" in n for n in json.loads(out)["notes"])
+    ros2 = tmp_path / "ros2.yaml"
+    for extra in (("--exclude", "x"), ("--drop-outliers",), ("--residual", "segment")):
+        assert_error(cli(*argv, *extra, "--ros2", ros2), "skid-steer", "not used")
+    # an offset of a clock this route does not align was ignored in silence
+    assert_error(cli(*argv, "--time-offset", "imu=0.1", "--ros2", ros2), "imu=0.1", "does not")
+    assert not ros2.exists()

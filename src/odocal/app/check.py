@@ -12,6 +12,7 @@ import numpy as np
 from ..calibration.fit_settings import DEFAULT_TRAJECTORY, TrajectorySettings
 from ..calibration.identifiability import (
     MAX_BLOCKS_PER_RUN,
+    Degeneracy,
     LogCheck,
     NoiseModel,
     judge,
@@ -346,7 +347,9 @@ def _curve_note(
     )
 
 
-def check_skid_logs(logs: Sequence[SkidLog], robot: Robot) -> CheckResult:
+def check_skid_logs(
+    logs: Sequence[SkidLog], robot: Robot, truth_offset_s: float | None = None
+) -> CheckResult:
     """The check of skid-steer logs already read (``check BAG... --kinematics skid-steer``).
 
     A skid-steer robot's random error is its slip, not its wheels' noise, and a stated ``k``
@@ -362,7 +365,7 @@ def check_skid_logs(logs: Sequence[SkidLog], robot: Robot) -> CheckResult:
     if not logs:
         raise InputError("no recording to check")
     nominal = robot.nominal
-    recordings, offsets = skid_recordings(logs)
+    recordings, offsets = skid_recordings(logs, truth_offset_s)
     geometry, cov, why = _skid_covariance(logs, nominal, offsets)
     stated = "the motion's findings at the stated noise (a skid-steer log's own is its slip)"
     res = check_loaded(
@@ -377,6 +380,14 @@ def check_skid_logs(logs: Sequence[SkidLog], robot: Robot) -> CheckResult:
         notes.append(f"clock offset of the {o.label}: {o.offset_s:+.4f}{pm} s ({o.how}; applied)")
     if cov is None:
         notes.append(f"no skid-steer fit of this log ({why}): the errors are the stated noise's")
+        # 'fit' refuses this log for the same reason: it is not enough, whatever its motion
+        refused = Degeneracy(
+            "skid-fit-refused", "blind", "the effective track and the wheel scales",
+            f"the skid-steer fit cannot use this log: {why}",
+        )  # fmt: skip
+        res = replace(
+            res, check=replace(res.check, degeneracies=(*res.check.degeneracies, refused))
+        )
     mult = None if geometry is None else float(geometry.wheelbase_m / nominal.wheelbase_m)
     notes.append(_curve_note(logs, nominal, offsets, mult))
     return replace(
@@ -400,4 +411,5 @@ def check_skid(
             "--kinematics skid-steer needs the robot file (--robot ROBOT.yaml): the nominal "
             "wheel diameter and wheelbase the effective track is relative to"
         )
-    return check_skid_logs(read_skid_logs(paths, bag, robot, ticks_per_rev), robot)
+    logs = read_skid_logs(paths, bag, robot, ticks_per_rev)
+    return check_skid_logs(logs, robot, bag.time_offset("truth"))

@@ -43,7 +43,7 @@ from ..design.route import (
 )
 from ..errors import CalibrationError, InputError, ModelError
 from ..io.outputs import OutputPlan
-from .common import RobotSpec, input_paths, resolve_robot, robot_label
+from .common import RobotSpec, input_paths, refuse_still_runs, resolve_robot, robot_label
 from .text import Presented, Text, emits_warnings, written_lines
 
 __all__ = ["RouteDesignRun", "design_for_route", "parse_target", "polygon_validation"]
@@ -53,6 +53,13 @@ __all__ = ["RouteDesignRun", "design_for_route", "parse_target", "polygon_valida
 OTHER_ROBOT_FRACTION = 0.15
 #: A skid-steer robot's wheels slip: its fitted diameters may be this fraction off.
 SKID_DIAMETER_FRACTION = 0.35
+#: A --validate command file must drive at least this far (m): the predicted drift is per
+#: distance, over pieces of 1 m of path at the least (a spin in place has no piece).
+MIN_VALIDATION_M = 2.0
+#: The largest angle random walk (deg/sqrt(h)) taken for a gyro: beyond it a unit slip.
+MAX_GYRO_ARW_DEG_SQRT_H = 100.0
+#: The most Monte Carlo trials per confirmed candidate (more ran out of memory: a traceback).
+MAX_ROUTE_TRIALS = 2000
 
 _TARGET = re.compile(r"^\s*([a-z_]+)\s*=\s*([0-9.eE+-]+)\s*(%|mm|m)?\s*$")
 
@@ -272,10 +279,15 @@ def _interval_motions(rec: Recording, every_s: float) -> RelativeMotions:
     wheel rotations (totals and increments) and the truth's motion in its frame at each
     interval's start."""
     t = np.asarray(rec.time_s, float)
-    edges = np.unique(np.searchsorted(t, np.arange(t[0], t[-1], every_s)))
-    edges = np.append(edges, len(t) - 1) if edges[-1] != len(t) - 1 else edges
-    i, j = edges[:-1], edges[1:]
     gt = np.asarray(rec.ground_truth, float)
+    # the edges at samples with a truth (a truth stamped at its own instants, e.g. a skid-steer
+    # log's ICP, is NaN between them)
+    ok = np.flatnonzero(np.all(np.isfinite(gt), axis=1))
+    tv = t[ok]
+    edges = ok[np.unique(np.minimum(np.searchsorted(tv, np.arange(tv[0], tv[-1], every_s)),
+                                    len(ok) - 1))]  # fmt: skip
+    edges = np.append(edges, ok[-1]) if edges[-1] != ok[-1] else edges
+    i, j = edges[:-1], edges[1:]
     c, s = np.cos(gt[i, 2]), np.sin(gt[i, 2])
     dx, dy = gt[j, 0] - gt[i, 0], gt[j, 1] - gt[i, 1]
     motion = np.column_stack([c * dx + s * dy, -s * dx + c * dy, gt[j, 2] - gt[i, 2]])
@@ -345,8 +357,13 @@ def _stated(
     if arw is not None:
         if route != "gyro":
             raise InputError("--gyro-arw-deg-per-sqrt-h: only with --route gyro")
-        if not (math.isfinite(arw) and arw > 0):
-            raise InputError(f"--gyro-arw-deg-per-sqrt-h must be > 0, got {arw!r}")
+        deg_h = math.degrees(arw) * 60.0  # the flag's unit, deg/sqrt(h)
+        if not (math.isfinite(arw) and arw > 0 and deg_h <= MAX_GYRO_ARW_DEG_SQRT_H):
+            raise InputError(
+                f"--gyro-arw-deg-per-sqrt-h must be > 0 and at most "
+                f"{MAX_GYRO_ARW_DEG_SQRT_H:g} deg/sqrt(h) (a MEMS gyro's is about 0.1-10), "
+                f"got {deg_h:.6g}"
+            )
         noise = dataclasses.replace(noise, gyro=dataclasses.replace(noise.gyro, arw_rad_sqrt_s=arw))
         said.append("gyro random walk stated")
     if not said:
@@ -367,6 +384,8 @@ def _noise_from_bag(
     from ..io.recordings import load_recordings  # files only here
 
     notes: list[str] = []
+    if physical_track_m is not None:
+        return _noise_from_skid_bag(path, robot, route, physical_track_m)
     try:
         recs = load_recordings([path], ran_with=robot.believed_geometry, warnings=notes)
     except (CalibrationError, ModelError) as e:
@@ -382,6 +401,10 @@ def _noise_from_bag(
                 "nothing written"
             )
     recs = [r for r in recs if r.ground_truth is not None]
+    try:
+        refuse_still_runs(recs)  # a fit of it returns the start: no geometry, no noise
+    except InputError as e:
+        raise InputError(f"--noise-from {path}: {e}") from None
     if not recs:
         raise InputError(
             f"--noise-from {path}: no ground truth (a tracker, SLAM or scan pose) to measure the "
@@ -391,7 +414,74 @@ def _noise_from_bag(
         fit = fit_trajectory(recs, nominal=robot.nominal)
     except CalibrationError as e:
         raise InputError(f"--noise-from {path}: the trajectory fit failed: {e}") from None
-    said = _other_robot(fit.geometry, robot.nominal, physical_track_m)
+    from .check import check_loaded
+
+    # what 'fit' refuses (only straight lines: b anywhere) is no geometry for the design's truth
+    blind = check_loaded(recs, fit.geometry, robot).check.degeneracies
+    found = [g.message for g in blind if g.severity == "blind"]
+    if found:
+        raise InputError(
+            f"--noise-from {path}: the run cannot show the robot's geometry: {found[0]}; "
+            "nothing written"
+        )
+    return _measured_noise(path, recs, fit.geometry, robot, route, physical_track_m, notes)
+
+
+def _noise_from_skid_bag(
+    path: str | Path, robot: Robot, route: Route, physical_track_m: float
+) -> tuple[RouteNoise, list[str], WheelGeometry]:
+    """:func:`_noise_from_bag` of a skid-steer robot: the bag read and fitted as ``fit
+    --kinematics skid-steer`` reads and fits it (its truth's clock offset estimated and applied;
+    the effective track and a wheel scale per side), not by the differential trajectory fit (an
+    ICP truth stamped late and the skid made that 'non-physical', or wheels 50 % apart)."""
+    from ..io.bag_options import NO_BAG_OPTIONS
+    from ..io.bags import is_bag
+    from .check import _skid_covariance
+    from .fit_skid import _refuse_no_turning, read_skid_logs, skid_recordings
+
+    if not is_bag(path):
+        raise InputError("--noise-from: a skid-steer robot's noise is measured from a bag", path)
+    try:
+        logs = read_skid_logs([path], NO_BAG_OPTIONS, robot)
+        _refuse_no_turning(logs, robot.nominal)
+        recs, offsets = skid_recordings(logs)
+    except (CalibrationError, ModelError, InputError) as e:
+        raise InputError(f"--noise-from {path}: {e}") from None
+    geometry, _, why = _skid_covariance(logs, robot.nominal, offsets)
+    if geometry is None:
+        raise InputError(f"--noise-from {path}: the skid-steer fit failed: {why}")
+    notes = [
+        f"--noise-from {Path(path).name}: clock offset of the {o.label}: {o.offset_s:+.4f} s "
+        f"({o.how}; applied)"
+        for o in offsets
+    ]
+    gyro_recs: Sequence[Recording] = ()
+    if route == "gyro":  # the gyro heading of the bag's runs as the differential route reads them
+        from ..io.recordings import load_recordings
+
+        try:
+            gyro_recs = load_recordings([path], ran_with=robot.believed_geometry)
+        except (CalibrationError, ModelError, InputError):
+            gyro_recs = ()
+    return _measured_noise(
+        path, recs, geometry, robot, route, physical_track_m, notes, gyro_recs=gyro_recs
+    )
+
+
+def _measured_noise(
+    path: str | Path,
+    recs: Sequence[Recording],
+    geometry: WheelGeometry,
+    robot: Robot,
+    route: Route,
+    physical_track_m: float | None,
+    notes: list[str],
+    *,
+    gyro_recs: Sequence[Recording] | None = None,
+) -> tuple[RouteNoise, list[str], WheelGeometry]:
+    """The rest of :func:`_noise_from_bag`: a fitted ``geometry`` of another robot refused, the
+    noise measured from the runs ``recs`` (the gyro's from ``gyro_recs``, default ``recs``)."""
+    said = _other_robot(geometry, robot.nominal, physical_track_m)
     if said:
         raise InputError(
             f"--noise-from {path}: a bag of another robot? its wheels and truth give {said}; "
@@ -412,7 +502,9 @@ def _noise_from_bag(
     gyro = base.gyro
     if route == "gyro":
         pose = base.pose
-        measured_gyro = _gyro_noise(recs, robot.believed_geometry)
+        measured_gyro = _gyro_noise(
+            recs if gyro_recs is None else gyro_recs, robot.believed_geometry
+        )
         if measured_gyro is None:
             notes.append(
                 f"--noise-from {Path(path).name}: no gyro heading with still periods of 2 s or "
@@ -422,7 +514,7 @@ def _noise_from_bag(
             gyro, words_g = measured_gyro
             source += f"; gyro {words_g}"
     noise = dataclasses.replace(base, wheel=wheel, pose=pose, gyro=gyro, source=source)
-    return noise, notes, fit.geometry
+    return noise, notes, geometry
 
 
 @emits_warnings
@@ -466,6 +558,11 @@ def design_for_route(
         raise InputError(problem)
     if duration_s is not None and not (math.isfinite(duration_s) and 0 < duration_s <= 3600):
         raise InputError(f"--duration must be > 0 and at most 3600 s, got {duration_s!r}")
+    if not 2 <= trials <= MAX_ROUTE_TRIALS:
+        raise InputError(
+            f"--trials with --route must be 2 to {MAX_ROUTE_TRIALS} (each trial simulates and "
+            f"calibrates a whole recording: 5000 took 3.5 GB and 97 s), got {trials}"
+        )
     read = [noise_from] if noise_from else []
     if isinstance(validate, (str, Path)):
         read.append(validate)
@@ -507,7 +604,14 @@ def design_for_route(
     if isinstance(validate, (str, Path)):
         from ..io.commands import read_commands
 
-        validation = (read_commands(validate, "--validate"),)
+        drive = read_commands(validate, "--validate")
+        if drive.distance_m < MIN_VALIDATION_M:
+            raise InputError(
+                f"--validate: the commands drive {drive.distance_m:.3g} m in all; the predicted "
+                f"drift is per distance and needs at least {MIN_VALIDATION_M:g} m of driving",
+                validate,
+            )
+        validation = (drive,)
     elif validate is not None:
         sides, side, direction = validate
         problem = track_size_problem(b, float(side), "validation")

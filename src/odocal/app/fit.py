@@ -294,6 +294,14 @@ def fit(
     (:func:`odocal.app.fit_runs_auto.fit_runs_auto`)."""
     paths = expand_folders([paths] if isinstance(paths, (str, Path)) else list(paths))
     if kinematics_of(kinematics, robot) == "skid-steer":
+        if settings not in (None, DEFAULT_TRAJECTORY) or squares not in (None, DEFAULT_SQUARES):
+            # --residual, --exclude, --drop-outliers ... were ignored without a word
+            raise InputError(
+                "--kinematics skid-steer fits its own models: the differential fits' settings "
+                "(--residual, --exclude, --drop-outliers, --side-length ...) are not used by it"
+            )
+        if truth_frames is not None:
+            raise InputError("--truth-frames is not used by the skid-steer fit (a truth topic is)")
         return _fit_skid(paths, method, robot, bag, ticks_per_rev, out, ros2, controller_name,
                          plot, robot_out, force, scan_interval_s)  # fmt: skip
     if method == "auto" and paths and not all(is_bag(p) for p in paths):
@@ -371,7 +379,18 @@ def _fit_skid(
         require_matplotlib()
         plan.folder(plot, "--plot", files=(SKID_FIGURE,))
     contents = read_skid_bags(paths, bag)
+
+    def only_offsets(used: str, route: str) -> None:
+        """A --time-offset of a source this route does not align (it was ignored in silence)."""
+        for source, value in bag.time_offsets:
+            if source != used:
+                raise InputError(
+                    f"--time-offset {source}={value:g}: the skid-steer {route} route does not "
+                    f"align the {source}'s clock (it aligns the {used}'s)"
+                )
+
     if method == "scan":
+        only_offsets("laser", "scan")
         from .fit_skid_gyro import fit_skid_scan_bags
 
         return fit_skid_scan_bags(contents, plan, bag, robot=loaded_robot,
@@ -379,6 +398,7 @@ def _fit_skid(
                                   exports=exports, force=force, plot=plot)  # fmt: skip
     truth = [has_truth(c, bag) for c in contents]
     if method == "gyro" or not any(truth):
+        only_offsets("imu", "gyro")
         for c in contents:
             if not any(t.msgtype == IMU for t in c.topics):
                 raise InputError(
@@ -404,6 +424,7 @@ def _fit_skid(
             "all with --method gyro",
             lacking,
         )
+    only_offsets("truth", "truth pose")
     return fit_skid_bags(contents, plan, bag, robot=loaded_robot, ticks_per_rev=ticks_per_rev,
                          exports=exports, force=force, plot=plot)  # fmt: skip
 

@@ -57,6 +57,7 @@ from ..core.path_drift import PathDrift
 from ..core.recording import Recording
 from ..errors import CalibrationError, InputError
 from ..io.bag_options import BagOptions
+from ..io.bag_skid import SkidGyroLog
 from ..io.bags import BagContents
 from ..io.outputs import OutputPlan
 from .common import NO_EXPORTS, Exports, RobotSpec
@@ -231,10 +232,14 @@ class SkidFitResult(Presented):
         }
 
 
-def truth_offsets(logs: Sequence[SkidLog]) -> tuple[TimeOffset, ...]:
-    """Each log's truth clock offset (0, with the reason, where it cannot be estimated)."""
+def truth_offsets(logs: Sequence[SkidLog], given_s: float | None = None) -> tuple[TimeOffset, ...]:
+    """Each log's truth clock offset (0, with the reason, where it cannot be estimated);
+    ``given_s`` (``--time-offset truth=S``): that one for every log, not estimated."""
     out = []
     for log in logs:
+        if given_s is not None:
+            out.append(replace(TimeOffset.given("truth", given_s), part=log.name))
+            continue
         try:
             out.append(truth_clock_offset(log))
         except CalibrationError as exc:
@@ -242,13 +247,15 @@ def truth_offsets(logs: Sequence[SkidLog]) -> tuple[TimeOffset, ...]:
     return tuple(out)
 
 
-def skid_recordings(logs: Sequence[SkidLog]) -> tuple[list[Recording], tuple[TimeOffset, ...]]:
+def skid_recordings(
+    logs: Sequence[SkidLog], truth_offset_s: float | None = None
+) -> tuple[list[Recording], tuple[TimeOffset, ...]]:
     """Each log as a wheel-rate recording with its truth on the wheels' clock
     (:func:`~odocal.calibration.skid_steer.skid_recording`, its offset estimated as the fit
     estimates it), and those offsets (named after their bags); a truth that no longer overlaps
     the wheels once shifted is an InputError."""
     recordings, offsets = [], []
-    for log, offset in zip(logs, truth_offsets(logs), strict=True):
+    for log, offset in zip(logs, truth_offsets(logs, truth_offset_s), strict=True):
         offset = replace(offset, part=Path(log.name).name)
         try:
             recordings.append(skid_recording(log, offset))
@@ -332,9 +339,12 @@ def _plausibility(res_fit: SkidSteerFit, nominal: WheelGeometry) -> list[str]:
 MIN_TURNING_RAD = 2 * math.pi
 
 
-def _refuse_no_turning(logs: Sequence[SkidLog], nominal: WheelGeometry) -> None:
+def _refuse_no_turning(
+    logs: Sequence[SkidLog] | Sequence[SkidGyroLog], nominal: WheelGeometry
+) -> None:
     """Recordings that do not turn cannot show the effective track (only straight driving sees
-    the wheels' scale): InputError saying so, before any fit."""
+    the wheels' scale): InputError saying so, before any fit (each route's: the truth's, the
+    gyro's)."""
     turned = 0.0
     for log in logs:
         dr = np.diff(np.asarray(log.angle_right_rad)) * 0.5 * float(nominal.diameter_right_m)
@@ -355,14 +365,16 @@ def skid_fit(
     *,
     force: bool = False,
     candidates: Sequence[Candidate] = CANDIDATES,
+    truth_offset_s: float | None = None,
 ) -> SkidFitResult:
     """The skid-steer route, I/O-free (module docstring). An answer that is no plausible
-    skid-steer robot is a CalibrationError unless ``force`` (then a reason)."""
+    skid-steer robot is a CalibrationError unless ``force`` (then a reason).
+    ``truth_offset_s``: the truth's clock offset as given (else estimated per log)."""
     if not logs:
         raise InputError("no recording to fit")
     nominal = robot.nominal
     _refuse_no_turning(logs, nominal)
-    offsets = truth_offsets(logs)
+    offsets = truth_offsets(logs, truth_offset_s)
     fit, _ = fit_skid_logs(logs, nominal, EXPORTED[0], offsets=offsets, wheel_scales=EXPORTED[1])
     reasons = _plausibility(fit, nominal)
     if reasons and not force:
@@ -476,7 +488,7 @@ def fit_skid_bags(
         )
     loaded_robot = load_robot(robot)
     logs = read_skid_logs(paths, bag, loaded_robot, ticks_per_rev)
-    res = skid_fit(logs, loaded_robot, force=force)
+    res = skid_fit(logs, loaded_robot, force=force, truth_offset_s=bag.time_offset("truth"))
     if res.reasons and not force and (exports.out or exports.ros2):
         return res
     files: dict[Path, Any] = {}

@@ -45,6 +45,7 @@ from .fit_skid import (
     MAX_Z,
     TRACK_MULTIPLIER_RANGE,
     RecordingMultiplier,
+    _refuse_no_turning,
     refuse_unstated_ran_with,
 )
 from .text import Presented, Text, verdict_lines, written_lines
@@ -209,8 +210,12 @@ class SkidGyroResult(Presented):
             "time_offsets": [o.as_dict() for o in self.offsets],
             "heading_from": list(self.mountings),
             "turn_rate": [
-                {"true_rate_rad_s": r.true_rate_rad_s, "wheel_rate_rad_s": r.wheel_rate_rad_s,
-                 "multiplier": r.multiplier, "stderr": r.stderr}
+                {
+                    "true_rate_rad_s": r.true_rate_rad_s,
+                    "wheel_rate_rad_s": r.wheel_rate_rad_s,
+                    "multiplier": r.multiplier,
+                    "stderr": r.stderr,
+                }
                 for r in self.curve
             ],  # fmt: skip
             "per_recording": [r.as_dict() for r in self.per_bag],
@@ -326,6 +331,7 @@ def skid_gyro_fit(
     has is a CalibrationError unless ``force`` (then a reason)."""
     if not logs:
         raise InputError("no recording to fit")
+    _refuse_no_turning(logs, robot.nominal)
     parts, offsets, mounts = [], [], []
     for i, log in enumerate(logs):
         iv, off, mount = _intervals(log, i, robot.nominal, options)
@@ -510,8 +516,7 @@ def _write(
         from ..plot.skid import skid_figures
 
         title = (
-            f"Effective track against the turn rate, {res.sensor} ({len(res.names)} "
-            "recording(s))"
+            f"Effective track against the turn rate, {res.sensor} ({len(res.names)} recording(s))"
         )
         files.update(skid_figures(plot, res.curve, res.track_multiplier, title))
     written = exports.write(

@@ -82,6 +82,7 @@ class RoutePlan(Presented):
             "recommended": self.design.as_dict()["recommended"],
             "seed": self.design.seed,
             "robot": self.design.robot,
+            "notes": list(self.design.notes),  # the design's caveats (were dropped)
         }
 
     def text(self) -> str:
@@ -91,6 +92,8 @@ class RoutePlan(Presented):
         out = Text()
         out(f"Recording protocol for the {d.route} route ({self.design.robot})")
         out(f"  {rec.label}, {rec.duration_s:.0f} s: {d.reason}")
+        for note in self.design.notes:  # the design's caveats: what it assumed of the robot
+            out(f"  note: {note}")
         out()
         out("Before you start:")
         if d.route == "gyro":
@@ -170,7 +173,10 @@ def plan_route(
     design fails). An existing ``out`` that is not a command file is replaced only with
     ``force``."""
     out = Path(out)
-    outputs = OutputPlan(input_paths(robot, params, *([noise_from] if noise_from else [])))
+    read = [noise_from] if noise_from else []
+    if isinstance(validate, (str, Path)):
+        read.append(validate)  # a command file driven as the validation is an input too
+    outputs = OutputPlan(input_paths(robot, params, *read))
     outputs.file(out, "--out")
     if out.is_file() and not force:
         try:

@@ -21,7 +21,7 @@ from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
 from ..io.outputs import OutputPlan
 from ..io.recordings import load_recordings, require_ground_truth
 from ..io.robot_file import load_params, load_robot
-from .common import RobotSpec, kinematics_of, load_warnings
+from .common import RobotSpec, kinematics_of, load_warnings, refuse_still_runs
 from .slam_bags import load_slam_bags
 from .text import Presented, Text, emits_warnings
 
@@ -336,7 +336,7 @@ def _load_skid(
             field="truth-frames",
         )
     logs = read_skid_logs(paths, bag, load_robot(robot) if robot else None, ticks_per_rev)
-    return skid_recordings(logs)
+    return skid_recordings(logs, bag.time_offset("truth"))
 
 
 def _tum_files(
@@ -443,6 +443,7 @@ def validate(
         recordings = _load(paths, bag, ticks_per_rev, truth_frames, slam_stamp_offset_s, notes)
     nominal_geometry = load_robot(robot).nominal if source == "robot" else None
     require_ground_truth(recordings, "validate")
+    refuse_still_runs(recordings)  # its errors are 0 mm: no validation at all
     if source == "firmware" and nominal is not None:
         _require_firmware(recordings)
     result = validate_recordings(recordings, geometry, nominal_geometry)

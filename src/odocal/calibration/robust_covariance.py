@@ -273,6 +273,8 @@ def _own_covariance_consistency(
             step = np.linalg.solve(j[sel].T @ j[sel], j[sel].T @ r[sel])
         except (CalibrationError, np.linalg.LinAlgError):
             continue
+        if not np.all(np.diag(cc.covariance) > 0):  # a group that cannot pin a parameter
+            continue
         rows.append(g)
         est.append(np.asarray(estimate, dtype=float) - step)
         err.append(cc.stderr)

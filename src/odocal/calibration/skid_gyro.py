@@ -219,6 +219,11 @@ def fit_gyro_gain(intervals: HeadingIntervals, knots: Sequence[float] = ()) -> G
     a, y = a[keep], intervals.y[keep]
     x, *_ = np.linalg.lstsq(a, y, rcond=None)
     clusters = intervals.part[keep] * 1_000_000 + intervals.block[keep]
+    if len(np.unique(clusters)) < 2:
+        raise CalibrationError(
+            "the driving fills one time block (blocks of 15 s, the units of the standard error): "
+            "too short to say how sure the gain is; record at least 30 s of turning"
+        )
     cov = cluster_jackknife_covariance(a, y - a @ x, clusters)
     p = a.shape[1] - 1
     return GyroGainFit(

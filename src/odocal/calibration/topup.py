@@ -236,6 +236,8 @@ class TopUp:
     weakest: str | None
     rates: RobotRates
     tried: int
+    log_ok: bool = False  # the log alone is enough (no blind direction): 'enough' then clears
+    # the check's other findings (weak motion, an imprecise parameter)
 
     @property
     def description(self) -> str:
@@ -261,12 +263,15 @@ class TopUp:
                 f"no top-up of up to {MAX_TOTAL_S:g} s tried halves {_WORDS[k]}'s standard "
                 f"error; the best tried, {self.description}, brings it {change}"
             )
+        does = "clears the check's other findings" if self.log_ok else "makes the log enough"
         head = (
-            f"adding {self.description} makes the log enough"
+            f"adding {self.description} {does}"
             if self.reached
-            else f"no top-up of up to {MAX_TOTAL_S:g} s tried makes the log enough; the best "
+            else f"no top-up of up to {MAX_TOTAL_S:g} s tried {does}; the best "
             f"tried is {self.description}"
         )
+        if self.log_ok:
+            head += " (the log is enough already)"
         parts = ", ".join(
             f"{_WORDS[k]} {fmt(k, self.before)} -> {fmt(k, self.after)}"
             for k in GEOMETRY_PARAMETERS
@@ -419,4 +424,5 @@ def find_top_up(
         weakest=weakest,
         rates=rates,
         tried=tried,
+        log_ok=check.ok,
     )

@@ -243,6 +243,13 @@ _POLYGON_ONLY = (
     ("reference_sim", "--reference-sim"),
     ("known_errors", "--known-errors"),
 )
+_POLYGON_DEFAULTED = (
+    ("runs_per_direction", "--runs-per-direction", 5),
+    ("method", "--method", "heading"),
+    ("alpha", "--alpha", 0.05),
+    ("tolerance", "--tolerance", 0.05),
+    ("criterion", "--criterion", "error"),
+)
 _ROUTE_ONLY = (
     ("kinematics", "--kinematics"),
     ("noise_from", "--noise-from"),
@@ -329,6 +336,9 @@ def run(args: argparse.Namespace) -> int:
     given = lambda name: getattr(args, name, None) not in (None, False)  # noqa: E731
     if args.route is not None:
         wrong = [flag for name, flag in _POLYGON_ONLY if given(name)]
+        # the polygon rule's flags with a default (a route design ignored them without a word)
+        wrong += [flag for name, flag, default in _POLYGON_DEFAULTED
+                  if getattr(args, name, default) != default]  # fmt: skip
         if wrong:
             raise InputError(f"{', '.join(wrong)}: only without --route (a polygon design)")
         return _run_route(args)

@@ -124,6 +124,18 @@ def _run_route(args) -> int:
 
     if args.track is not None:
         raise InputError("--track: only without --route")
+    # the polygon's flags (were ignored without a word)
+    polygon = [
+        flag
+        for flag, given in (
+            ("--sides", args.sides != 4),
+            ("--side-length", args.side_length is not None),
+            ("--runs-per-direction", args.runs_per_direction is not None),
+        )
+        if given
+    ]
+    if polygon:
+        raise InputError(f"{', '.join(polygon)}: only without --route (a polygon plan)")
     v = args.validate
     bar = ProgressBar("odocal plan --route", enabled=not (args.quiet or args.json))
     try:
@@ -138,7 +150,7 @@ def _run_route(args) -> int:
             validate=v if v is None or isinstance(v, str) else (v.sides, v.side_m, v.direction),
             trials=200 if args.trials is None else args.trials,
             seed=0 if args.seed is None else args.seed,
-            out=args.out or DEFAULT_COMMANDS,
+            out=DEFAULT_COMMANDS if args.out is None else args.out,
             rate_hz=50.0 if args.rate is None else args.rate,
             force=args.force,
             progress=bar,
@@ -170,7 +182,7 @@ def run(args) -> int:
 
         flags = ", ".join("--" + n.replace("_", "-") for n in wrong)
         raise InputError(f"{flags}: only with --route")
-    args.out = args.out or DEFAULT_TEMPLATE
+    args.out = DEFAULT_TEMPLATE if args.out is None else args.out
 
     from ..app.plan import plan as make_plan
 
