@@ -377,7 +377,7 @@ def check_skid_logs(
     notes = []
     for o in offsets:
         pm = "" if o.stderr_s is None else f" +- {o.stderr_s:.4f}"
-        notes.append(f"clock offset of the {o.label}: {o.offset_s:+.4f}{pm} s ({o.how}; applied)")
+        notes.append(f"clock offset of the {o.label}: {o.offset_s:+.4f}{pm} s ({o.found}; applied)")
     if cov is None:
         notes.append(f"no skid-steer fit of this log ({why}): the errors are the stated noise's")
         # 'fit' refuses this log for the same reason: it is not enough, whatever its motion

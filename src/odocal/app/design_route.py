@@ -452,7 +452,7 @@ def _noise_from_skid_bag(
         raise InputError(f"--noise-from {path}: the skid-steer fit failed: {why}")
     notes = [
         f"--noise-from {Path(path).name}: clock offset of the {o.label}: {o.offset_s:+.4f} s "
-        f"({o.how}; applied)"
+        f"({o.found}; applied)"
         for o in offsets
     ]
     gyro_recs: Sequence[Recording] = ()

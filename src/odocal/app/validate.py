@@ -147,7 +147,7 @@ class Validation(Presented):
             out("  skid-steer: the parameters' wheelbase is the effective track")
         for o in self.offsets:
             pm = "" if o.stderr_s is None else f" +- {o.stderr_s:.4f}"
-            out(f"  clock offset of the {o.label}: {o.offset_s:+.4f}{pm} s ({o.how}; applied)")
+            out(f"  clock offset of the {o.label}: {o.offset_s:+.4f}{pm} s ({o.found}; applied)")
         for what, drift in (("these parameters", self.drift), (col, self.nominal_drift)):
             if drift is not None and drift.pieces:
                 out(

@@ -146,6 +146,12 @@ class TimeOffset:
         return f"{self.source} ({self.part})" if self.part else self.source
 
     @property
+    def found(self) -> str:
+        """How it was found ('estimated', 'given', 'not estimated'), without what the
+        differential routes' rule does with it (for a route that always uses it)."""
+        return self.how.split(",")[0]
+
+    @property
     def applied_s(self) -> float:
         """The offset the routes use (s): this one when applied, else 0."""
         return self.offset_s if self.applied else 0.0
