@@ -411,3 +411,9 @@ def test_plan_route_says_what_the_design_assumed(cli, tmp_path):
     status, text, err = cli(*args, "--json")
     assert status == 0, err
     assert any("without a wheel_separation_multiplier" in n for n in json.loads(text)["notes"])
+
+
+def test_one_target_per_parameter(cli):
+    status, out, err = cli("design", "--route", "trajectory", "--target-std-error",
+                           "wheelbase=0.2%", "--target-std-error", "wheelbase=1mm")  # fmt: skip
+    assert status == 2 and out == "" and "wheelbase given more than once" in err

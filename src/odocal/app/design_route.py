@@ -553,6 +553,13 @@ def design_for_route(
         raise InputError(f"--route must be one of {', '.join(ROUTES)}, got {route!r}")
     seed = check_seed("seed", seed)
     parsed = tuple(t if isinstance(t, Target) else parse_target(t) for t in targets)
+    named = [t.parameter for t in parsed]
+    twice = sorted({n for n in named if named.count(n) > 1})
+    if twice:
+        raise InputError(
+            f"--target-std-error {', '.join(twice)} given more than once: give one target per "
+            "parameter"
+        )
     problem = target_problem(route, parsed)
     if problem:
         raise InputError(problem)
