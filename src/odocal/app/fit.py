@@ -351,7 +351,7 @@ def _fit_skid(
     from ..io.bag_skid import has_truth
     from ..io.bags import IMU
     from ..io.robot_file import load_robot
-    from .fit_skid import fit_skid_bags, read_skid_bags
+    from .fit_skid import fit_skid_bags, read_skid_bags, refuse_other_offsets
     from .fit_skid_gyro import fit_skid_gyro_bags
 
     if method not in (None, "auto", "gyro", "scan"):
@@ -380,17 +380,8 @@ def _fit_skid(
         plan.folder(plot, "--plot", files=(SKID_FIGURE,))
     contents = read_skid_bags(paths, bag)
 
-    def only_offsets(used: str, route: str) -> None:
-        """A --time-offset of a source this route does not align (it was ignored in silence)."""
-        for source, value in bag.time_offsets:
-            if source != used:
-                raise InputError(
-                    f"--time-offset {source}={value:g}: the skid-steer {route} route does not "
-                    f"align the {source}'s clock (it aligns the {used}'s)"
-                )
-
     if method == "scan":
-        only_offsets("laser", "scan")
+        refuse_other_offsets(bag, "laser", "scan")
         from .fit_skid_gyro import fit_skid_scan_bags
 
         return fit_skid_scan_bags(contents, plan, bag, robot=loaded_robot,
@@ -398,7 +389,7 @@ def _fit_skid(
                                   exports=exports, force=force, plot=plot)  # fmt: skip
     truth = [has_truth(c, bag) for c in contents]
     if method == "gyro" or not any(truth):
-        only_offsets("imu", "gyro")
+        refuse_other_offsets(bag, "imu", "gyro")
         for c in contents:
             if not any(t.msgtype == IMU for t in c.topics):
                 raise InputError(
@@ -424,7 +415,7 @@ def _fit_skid(
             "all with --method gyro",
             lacking,
         )
-    only_offsets("truth", "truth pose")
+    refuse_other_offsets(bag, "truth", "truth pose")
     return fit_skid_bags(contents, plan, bag, robot=loaded_robot, ticks_per_rev=ticks_per_rev,
                          exports=exports, force=force, plot=plot)  # fmt: skip
 

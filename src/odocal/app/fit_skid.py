@@ -447,6 +447,17 @@ def read_skid_logs(
     return logs
 
 
+def refuse_other_offsets(bag: BagOptions, used: str, route: str) -> None:
+    """A ``--time-offset`` of a clock the skid-steer ``route`` does not align (it aligns
+    ``used``'s) would be ignored in silence: InputError naming it."""
+    for source, value in bag.time_offsets:
+        if source != used:
+            raise InputError(
+                f"--time-offset {source}={value:g}: the skid-steer {route} route does not "
+                f"align the {source}'s clock (it aligns the {used}'s)"
+            )
+
+
 def refuse_unstated_ran_with(sources: Sequence[tuple[str, str]], robot: Robot | None) -> None:
     """Wheels that are the controller's odometry, inverted through a geometry the robot file
     does not state, would make a skid-steer answer of a guess (its controller runs with a

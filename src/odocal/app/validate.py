@@ -327,8 +327,9 @@ def _load_skid(
     """Skid-steer bags read as the skid-steer fit reads them (:func:`~odocal.io.bag_skid.
     read_skid_log`: a world-frame odometry or a SLAM /tf as the truth), each truth placed on the
     wheels' clock by its estimated offset."""
-    from .fit_skid import read_skid_logs, skid_recordings
+    from .fit_skid import read_skid_logs, refuse_other_offsets, skid_recordings
 
+    refuse_other_offsets(bag, "truth", "truth pose")
     if truth_frames is not None:
         raise InputError(
             "--truth-frames: with --kinematics skid-steer a SLAM /tf truth is found as the "
