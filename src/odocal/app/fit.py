@@ -302,8 +302,9 @@ def fit(
             )
         if truth_frames is not None:
             raise InputError("--truth-frames is not used by the skid-steer fit (a truth topic is)")
-        return _fit_skid(paths, method, robot, bag, ticks_per_rev, out, ros2, controller_name,
-                         plot, robot_out, force, scan_interval_s)  # fmt: skip
+        return _fit_skid(paths, method, robot, bag, ticks_per_rev,
+                         Exports(out, ros2, controller_name), plot, robot_out, force,
+                         scan_interval_s)  # fmt: skip
     if method == "auto" and paths and not all(is_bag(p) for p in paths):
         return _fit_runs_auto(paths, robot, settings, squares, bag, ticks_per_rev, out, ros2,
                               controller_name, plot, robot_out, force)  # fmt: skip
@@ -337,9 +338,7 @@ def _fit_skid(
     robot: RobotSpec,
     bag: BagOptions,
     ticks_per_rev: float | None,
-    out: str | Path | None,
-    ros2: str | Path | None,
-    controller_name: str,
+    exports: Exports,
     plot: str | Path | None,
     robot_out: str | Path | None,
     force: bool,
@@ -369,7 +368,6 @@ def _fit_skid(
             "wheel diameter and wheelbase the multipliers are relative to"
         )
     loaded_robot = load_robot(robot)
-    exports = Exports(out, ros2, controller_name)
     plan = OutputPlan(input_paths(list(paths), robot))
     exports.register(plan)
     if plot is not None:

@@ -60,7 +60,7 @@ from ..io.bag_options import BagOptions
 from ..io.bag_skid import SkidGyroLog
 from ..io.bags import BagContents
 from ..io.outputs import OutputPlan
-from .common import NO_EXPORTS, Exports, RobotSpec
+from .common import NO_EXPORTS, Exports
 from .text import Presented, Text, verdict_lines, written_lines
 
 __all__ = ["SkidFitResult", "RecordingMultiplier", "skid_fit", "fit_skid_bags", "EXPORTED"]
@@ -481,25 +481,27 @@ def fit_skid_bags(
     plan: OutputPlan,
     bag: BagOptions,
     *,
-    robot: RobotSpec,
+    robot: Robot,
     ticks_per_rev: float | None = None,
     exports: Exports = NO_EXPORTS,
     force: bool = False,
     plot: str | Path | None = None,
 ) -> SkidFitResult:
     """``fit BAG... --kinematics skid-steer``: every bag read (:func:`~odocal.io.bag_skid.
-    read_skid_log`), fitted (:func:`skid_fit`) and the ``exports`` written (the exported model's
-    multipliers; with ``force`` despite the reasons, which the files then carry)."""
-    from ..io.robot_file import load_robot
+    read_skid_log`), fitted (:func:`skid_fit`) and the ``exports`` written (:func:`write_skid`)."""
+    logs = read_skid_logs(paths, bag, robot, ticks_per_rev)
+    res = skid_fit(logs, robot, force=force, truth_offset_s=bag.time_offset("truth"))
+    return write_skid(res, plan, exports, force, plot, "skid-steer", "")
 
-    if not robot:
-        raise InputError(
-            "--kinematics skid-steer needs the robot file (--robot ROBOT.yaml): the nominal "
-            "wheel diameter and wheelbase the multipliers are relative to"
-        )
-    loaded_robot = load_robot(robot)
-    logs = read_skid_logs(paths, bag, loaded_robot, ticks_per_rev)
-    res = skid_fit(logs, loaded_robot, force=force, truth_offset_s=bag.time_offset("truth"))
+
+def write_skid(
+    res: Any, plan: OutputPlan, exports: Exports, force: bool, plot: str | Path | None,
+    method: str, sensor: str,
+) -> Any:  # fmt: skip
+    """A skid-steer route's exports (the effective geometry's multipliers, recorded as
+    ``method``) and the curve's figure (its title naming ``sensor`` if any), all or none; none
+    when the verdict has reasons, unless ``force`` (then the files carry them). ``res``: a
+    :class:`SkidFitResult` or a :class:`~odocal.app.fit_skid_gyro.SkidGyroResult`."""
     if res.reasons and not force and (exports.out or exports.ros2):
         return res
     files: dict[Path, Any] = {}
@@ -512,10 +514,11 @@ def fit_skid_bags(
             )
         from ..plot.skid import skid_figures
 
-        title = f"Effective track against the turn rate ({len(res.names)} recording(s))"
+        by = f", {sensor}" if sensor else ""
+        title = f"Effective track against the turn rate{by} ({len(res.names)} recording(s))"
         files.update(skid_figures(plot, res.curve, res.track_multiplier, title))
     written = exports.write(
-        plan, res.geometry, res.nominal, files=files, record={"method": "skid-steer"},
+        plan, res.geometry, res.nominal, files=files, record={"method": method},
         doubts=res.reasons,
     )  # fmt: skip
     return replace(res, written=written)

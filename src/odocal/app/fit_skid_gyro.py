@@ -47,6 +47,7 @@ from .fit_skid import (
     RecordingMultiplier,
     _refuse_no_turning,
     refuse_unstated_ran_with,
+    write_skid,
 )
 from .text import Presented, Text, verdict_lines, written_lines
 
@@ -466,7 +467,8 @@ def fit_skid_gyro_bags(
         for c in contents
     ]
     refuse_unstated_ran_with([(log.name, log.wheels) for log in logs], robot)
-    return _write(skid_gyro_fit(logs, robot, bag, force=force), plan, exports, force, plot)
+    res = skid_gyro_fit(logs, robot, bag, force=force)
+    return write_skid(res, plan, exports, force, plot, "skid-steer gyro", "gyro")
 
 
 def fit_skid_scan_bags(
@@ -491,37 +493,4 @@ def fit_skid_scan_bags(
                 else "joint_states") for one in loaded]  # fmt: skip
     refuse_unstated_ran_with(sources, robot)
     res = skid_scan_fit(loaded, robot, bag, interval_s=scan_interval_s, force=force)
-    return _write(res, plan, exports, force, plot)
-
-
-def _write(
-    res: SkidGyroResult,
-    plan: OutputPlan,
-    exports: Exports,
-    force: bool,
-    plot: str | Path | None,
-) -> SkidGyroResult:
-    """The exports and the curve's figure, all or none (none when the verdict has reasons,
-    unless ``force``)."""
-    if res.reasons and not force and (exports.out or exports.ros2):
-        return res
-    files: dict[Path, Any] = {}
-    if plot is not None:
-        if not res.curve:
-            raise InputError(
-                "--plot: the recordings cover too few turn rates for the multiplier's curve "
-                f"({'; '.join(res.notes) or 'no table'}); nothing written",
-                field="plot",
-            )
-        from ..plot.skid import skid_figures
-
-        title = (
-            f"Effective track against the turn rate, {res.sensor} ({len(res.names)} recording(s))"
-        )
-        files.update(skid_figures(plot, res.curve, res.track_multiplier, title))
-    written = exports.write(
-        plan, res.geometry, res.nominal, files=files,
-        record={"method": f"skid-steer {res.sensor}"},
-        doubts=res.reasons,
-    )  # fmt: skip
-    return replace(res, written=written)
+    return write_skid(res, plan, exports, force, plot, "skid-steer scan", "scan")
