@@ -392,27 +392,12 @@ def _run_route(args: argparse.Namespace) -> int:
     """``odocal design --route R``."""
     from ..app.design_route import design_for_route
 
-    v = args.validate
-    validate = v if v is None or isinstance(v, str) else (v.sides, v.side_m, v.direction)
     bar = ProgressBar("odocal design --route", enabled=not (args.quiet or args.json))
     try:
         res = design_for_route(
-            args.route,
-            args.robot,
-            params=args.params,
-            kinematics=args.kinematics,
-            noise_from=args.noise_from,
-            targets=tuple(args.target_std_error or ()),
-            duration_s=args.duration,
-            validate=validate,
-            trials=200 if args.trials is None else args.trials,
-            seed=args.seed,
-            plot=args.plot,
-            progress=bar,
-            speed_m_s=args.speed,
-            turn_rate_rad_s=args.turn_rate,
-            **route_sensor_noise(args),
-        )
+            args.route, args.robot, seed=args.seed, plot=args.plot, progress=bar,
+            **route_design_args(args),
+        )  # fmt: skip
     finally:
         bar.close()
     print_warnings(res.warnings)
@@ -423,11 +408,22 @@ def _run_route(args: argparse.Namespace) -> int:
     return 0
 
 
-def route_sensor_noise(args: argparse.Namespace) -> dict[str, Any]:
-    """The sensors' noise flags of a route design (``--sigma-xy-m``, ``--sigma-theta-deg``,
-    ``--gyro-arw-deg-per-sqrt-h``) as the app functions' keyword arguments."""
+def route_design_args(args: argparse.Namespace) -> dict[str, Any]:
+    """The flags a route design shares between ``design --route`` and ``plan --route`` (the
+    robot's parameters, kinematics, noise run, targets, duration, validation, trials, speeds and
+    the sensors' noise) as the app functions' keyword arguments."""
+    v = args.validate
     arw = getattr(args, "gyro_arw_deg_per_sqrt_h", None)
     return {
+        "params": args.params,
+        "kinematics": args.kinematics,
+        "noise_from": args.noise_from,
+        "targets": tuple(args.target_std_error or ()),
+        "duration_s": args.duration,
+        "validate": v if v is None or isinstance(v, str) else (v.sides, v.side_m, v.direction),
+        "trials": 200 if args.trials is None else args.trials,
+        "speed_m_s": args.speed,
+        "turn_rate_rad_s": args.turn_rate,
         "pose_noise": _instrument(args),
         "gyro_arw_rad_sqrt_s": None if arw is None else math.radians(arw) / 60.0,
     }

@@ -19,7 +19,7 @@ from .common import (
     sigma_xy_m,
     trials_int,
 )
-from .design import ROUTE_CHOICES, route_sensor_noise, validation_arg
+from .design import ROUTE_CHOICES, route_design_args, validation_arg
 
 DEFAULT_TEMPLATE = "runs-template.csv"  # as odocal.app.plan (not imported: keeps --help fast)
 DEFAULT_NOISE_RUNS = 20
@@ -136,27 +136,17 @@ def _run_route(args) -> int:
     ]
     if polygon:
         raise InputError(f"{', '.join(polygon)}: only without --route (a polygon plan)")
-    v = args.validate
     bar = ProgressBar("odocal plan --route", enabled=not (args.quiet or args.json))
     try:
         res = plan_route(
             args.route,
             args.robot,
-            params=args.params,
-            kinematics=args.kinematics,
-            noise_from=args.noise_from,
-            targets=tuple(args.target_std_error or ()),
-            duration_s=args.duration,
-            validate=v if v is None or isinstance(v, str) else (v.sides, v.side_m, v.direction),
-            trials=200 if args.trials is None else args.trials,
             seed=0 if args.seed is None else args.seed,
             out=DEFAULT_COMMANDS if args.out is None else args.out,
             rate_hz=50.0 if args.rate is None else args.rate,
             force=args.force,
             progress=bar,
-            speed_m_s=args.speed,
-            turn_rate_rad_s=args.turn_rate,
-            **route_sensor_noise(args),
+            **route_design_args(args),
         )
     finally:
         bar.close()
