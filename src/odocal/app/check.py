@@ -37,6 +37,7 @@ from .common import (
     nominal_geometry,
     optional_robot,
     refuse_still_runs,
+    unused_offsets,
 )
 from .slam_bags import load_slam_bags
 from .text import Presented, Text, check_text, emits_warnings
@@ -404,13 +405,15 @@ def check_skid(
 ) -> CheckResult:
     """``check BAG... --kinematics skid-steer``: the bags read as the skid-steer fit reads them,
     checked (:func:`check_skid_logs`)."""
-    from .fit_skid import read_skid_logs, refuse_other_offsets
+    from .fit_skid import read_skid_logs
 
     if robot is None:
         raise InputError(
             "--kinematics skid-steer needs the robot file (--robot ROBOT.yaml): the nominal "
             "wheel diameter and wheelbase the effective track is relative to"
         )
-    refuse_other_offsets(bag, "truth", "truth pose")
     logs = read_skid_logs(paths, bag, robot, ticks_per_rev)
-    return check_skid_logs(logs, robot, bag.time_offset("truth"))
+    res = check_skid_logs(logs, robot, bag.time_offset("truth"))
+    return replace(
+        res, load_warnings=res.load_warnings + unused_offsets(bag.time_offsets, ["truth"])
+    )

@@ -36,10 +36,10 @@ from ..calibration.fit_settings import (
     TrajectorySettings,
     check_heading_source,
 )
-from ..core.model import Kinematics
+from ..core.model import Kinematics, Robot
 from ..errors import InputError
 from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
-from ..io.bags import is_bag
+from ..io.bags import BagContents, is_bag
 from ..io.outputs import OutputPlan
 from ..io.recordings import expand_folders, refuse_repeated
 from ..io.ros2_export import DEFAULT_CONTROLLER
@@ -347,11 +347,8 @@ def _fit_skid(
     """The skid-steer routes: bags with a truth pose track (:mod:`odocal.app.fit_skid`), else,
     or with ``--method gyro``, bags with an IMU; with ``--method scan``, bags with laser scans
     (:mod:`odocal.app.fit_skid_gyro`)."""
-    from ..io.bag_skid import has_truth
-    from ..io.bags import IMU
     from ..io.robot_file import load_robot
-    from .fit_skid import fit_skid_bags, read_skid_bags, refuse_other_offsets
-    from .fit_skid_gyro import fit_skid_gyro_bags
+    from .fit_skid import read_skid_bags
 
     if method not in (None, "auto", "gyro", "scan"):
         raise InputError(
@@ -377,17 +374,37 @@ def _fit_skid(
         require_matplotlib()
         plan.folder(plot, "--plot", files=(SKID_FIGURE,))
     contents = read_skid_bags(paths, bag)
+    res = _skid_route(contents, method, loaded_robot, bag, ticks_per_rev, plan, exports, plot,
+                      force, scan_interval_s)  # fmt: skip
+    used = {"scan": "laser", "gyro": "imu"}.get(getattr(res, "sensor", ""), "truth")
+    return replace(res, load_warnings=unused_offsets(bag.time_offsets, [used]))
+
+
+def _skid_route(
+    contents: list[BagContents],
+    method: FitMethod | None,
+    robot: Robot,
+    bag: BagOptions,
+    ticks_per_rev: float | None,
+    plan: OutputPlan,
+    exports: Exports,
+    plot: str | Path | None,
+    force: bool,
+    scan_interval_s: float,
+) -> SkidFitResult | SkidGyroResult:
+    """The bags' skid-steer route: the scan route with ``--method scan``, the gyro route with
+    ``--method gyro`` or when no bag has a truth pose track, else the truth route."""
+    from ..io.bag_skid import has_truth
+    from ..io.bags import IMU
+    from .fit_skid import fit_skid_bags
+    from .fit_skid_gyro import fit_skid_gyro_bags, fit_skid_scan_bags
 
     if method == "scan":
-        refuse_other_offsets(bag, "laser", "scan")
-        from .fit_skid_gyro import fit_skid_scan_bags
-
-        return fit_skid_scan_bags(contents, plan, bag, robot=loaded_robot,
+        return fit_skid_scan_bags(contents, plan, bag, robot=robot,
                                   ticks_per_rev=ticks_per_rev, scan_interval_s=scan_interval_s,
                                   exports=exports, force=force, plot=plot)  # fmt: skip
     truth = [has_truth(c, bag) for c in contents]
     if method == "gyro" or not any(truth):
-        refuse_other_offsets(bag, "imu", "gyro")
         for c in contents:
             if not any(t.msgtype == IMU for t in c.topics):
                 raise InputError(
@@ -399,7 +416,7 @@ def _fit_skid(
                     "neither",
                     c.path,
                 )
-        res = fit_skid_gyro_bags(contents, plan, bag, robot=loaded_robot,
+        res = fit_skid_gyro_bags(contents, plan, bag, robot=robot,
                                  ticks_per_rev=ticks_per_rev, exports=exports, force=force,
                                  plot=plot)  # fmt: skip
         if method == "gyro":
@@ -413,8 +430,7 @@ def _fit_skid(
             "all with --method gyro",
             lacking,
         )
-    refuse_other_offsets(bag, "truth", "truth pose")
-    return fit_skid_bags(contents, plan, bag, robot=loaded_robot, ticks_per_rev=ticks_per_rev,
+    return fit_skid_bags(contents, plan, bag, robot=robot, ticks_per_rev=ticks_per_rev,
                          exports=exports, force=force, plot=plot)  # fmt: skip
 
 

@@ -130,6 +130,7 @@ class SkidFitResult(Presented):
     reasons: tuple[str, ...] = ()
     notes: tuple[str, ...] = ()
     written: tuple[Path, ...] = ()
+    load_warnings: tuple[str, ...] = ()
 
     method = "skid-steer"
 
@@ -445,17 +446,6 @@ def read_skid_logs(
     logs = [read_skid_log(c, bag, ran_with, ticks_per_rev=ticks_per_rev) for c in contents]
     refuse_unstated_ran_with([(log.name, log.wheels) for log in logs], robot)
     return logs
-
-
-def refuse_other_offsets(bag: BagOptions, used: str, route: str) -> None:
-    """A ``--time-offset`` of a clock the skid-steer ``route`` does not align (it aligns
-    ``used``'s) would be ignored in silence: InputError naming it."""
-    for source, value in bag.time_offsets:
-        if source != used:
-            raise InputError(
-                f"--time-offset {source}={value:g}: the skid-steer {route} route does not "
-                f"align the {source}'s clock (it aligns the {used}'s)"
-            )
 
 
 def refuse_unstated_ran_with(sources: Sequence[tuple[str, str]], robot: Robot | None) -> None:

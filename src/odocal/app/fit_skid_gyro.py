@@ -91,6 +91,7 @@ class SkidGyroResult(Presented):
     reasons: tuple[str, ...]
     notes: tuple[str, ...]
     written: tuple[Path, ...] = ()
+    load_warnings: tuple[str, ...] = ()
     sensor: Literal["gyro", "scan"] = "gyro"
 
     @property

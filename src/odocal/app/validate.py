@@ -21,7 +21,7 @@ from ..io.bag_options import NO_BAG_OPTIONS, BagOptions
 from ..io.outputs import OutputPlan
 from ..io.recordings import load_recordings, require_ground_truth
 from ..io.robot_file import load_params, load_robot
-from .common import RobotSpec, kinematics_of, load_warnings, refuse_still_runs
+from .common import RobotSpec, kinematics_of, load_warnings, refuse_still_runs, unused_offsets
 from .slam_bags import load_slam_bags
 from .text import Presented, Text, emits_warnings
 
@@ -327,9 +327,8 @@ def _load_skid(
     """Skid-steer bags read as the skid-steer fit reads them (:func:`~odocal.io.bag_skid.
     read_skid_log`: a world-frame odometry or a SLAM /tf as the truth), each truth placed on the
     wheels' clock by its estimated offset."""
-    from .fit_skid import read_skid_logs, refuse_other_offsets, skid_recordings
+    from .fit_skid import read_skid_logs, skid_recordings
 
-    refuse_other_offsets(bag, "truth", "truth pose")
     if truth_frames is not None:
         raise InputError(
             "--truth-frames: with --kinematics skid-steer a SLAM /tf truth is found as the "
@@ -440,6 +439,7 @@ def validate(
     if kind == "skid-steer":
         recordings, offsets = _load_skid(paths, bag, robot, ticks_per_rev, truth_frames)
         notes.extend(w for o in offsets for w in o.warnings)
+        notes.extend(unused_offsets(bag.time_offsets, ["truth"]))
     else:
         recordings = _load(paths, bag, ticks_per_rev, truth_frames, slam_stamp_offset_s, notes)
     nominal_geometry = load_robot(robot).nominal if source == "robot" else None
